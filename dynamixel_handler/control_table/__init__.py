@@ -1,0 +1,162 @@
+"""Control-table facts for Protocol 2.0 Dynamixel servos (X, P, PRO): addresses, sizes, signs,
+EEPROM flags and unit scales, by canonical snake_case item name.
+
+Addresses and sizes of X, P and PRO "-R(A)" models come from the control-table files shipped in
+the ``dynamixel-sdk`` wheel; the old PRO "-R" table, unit scales and the items those files omit
+are ours (``_facts.py``), taken from the ROBOTIS e-Manual. Nothing here talks to hardware.
+
+An item keeps its canonical name even where a series calls it differently: old PRO "Goal Torque"
+is ``goal_current``, "Torque Limit" is ``current_limit`` and "Goal Acceleration" is
+``profile_acceleration``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Dict, List, Mapping, Tuple
+
+from ._facts import EEPROM_END, MODEL_FACTS, OLD_PRO_ITEMS, SIGNED_ITEMS, ModelFacts
+from ._sdk_files import load_sdk_table
+
+__all__ = ["Item", "Model", "model_by_number", "known_models", "OPERATING_MODES", "SERIES"]
+
+SERIES: Tuple[str, ...] = ("X", "P", "PRO")
+
+OPERATING_MODES: Mapping[str, int] = MappingProxyType({
+    "current": 0, "velocity": 1, "position": 3, "ex_position": 4, "cur_position": 5, "pwm": 16,
+})
+
+
+@dataclass(frozen=True)
+class Item:
+    """One control-table entry: where it lives and how its bytes read."""
+
+    name: str
+    address: int
+    size: int
+    signed: bool
+    eeprom: bool
+
+    @property
+    def min_raw(self) -> int:
+        """Smallest value the item's bytes can hold."""
+        return -(1 << (8 * self.size - 1)) if self.signed else 0
+
+    @property
+    def max_raw(self) -> int:
+        """Largest value the item's bytes can hold."""
+        return (1 << (8 * self.size - 1)) - 1 if self.signed else (1 << (8 * self.size)) - 1
+
+
+@dataclass(frozen=True)
+class Model:
+    """A servo model: its items and the physical unit per pulse of each quantity.
+
+    Scales are NaN where the model lacks the quantity (no current sensor on XL430, no PWM on the
+    old PRO). Models compare and hash by number and name so they can key caches.
+    """
+
+    number: int
+    name: str
+    series: str
+    items: Mapping[str, Item] = field(repr=False)
+    position_deg_per_pulse: float = math.nan
+    position_zero_pulse: int = 0
+    velocity_deg_s_per_pulse: float = math.nan
+    acceleration_deg_ss_per_pulse: float = math.nan
+    current_ma_per_pulse: float = math.nan
+    pwm_percent_per_pulse: float = math.nan
+    voltage_v_per_pulse: float = 0.1
+    temperature_degc_per_pulse: float = 1.0
+    return_delay_us_per_pulse: float = 2.0
+    bus_watchdog_ms_per_pulse: float = 20.0
+    realtime_tick_s_per_pulse: float = 0.001
+    position_max_pulse: int = 0
+    position_min_pulse: int = 0
+    external_ports: Tuple[int, ...] = ()
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Model):
+            return NotImplemented
+        return self.number == other.number and self.name == other.name
+
+    def __hash__(self) -> int:
+        return hash((self.number, self.name))
+
+    def has(self, name: str) -> bool:
+        """True if this model's control table has the item."""
+        return name in self.items
+
+    def item(self, name: str) -> Item:
+        """The item by canonical name; KeyError naming the model if it has no such item."""
+        try:
+            return self.items[name]
+        except KeyError:
+            raise KeyError(f"{self.name} (model {self.number}) has no control-table item {name!r}") from None
+
+
+def _raw_items(facts: ModelFacts) -> Tuple[Dict[str, Tuple[int, int]], Dict[str, float]]:
+    if facts.old_pro:
+        return dict(OLD_PRO_ITEMS), {}
+    table = load_sdk_table(facts.sdk_file)
+    rows = dict(table.rows)
+    rows.update(facts.extra_items)
+    return rows, table.type_info
+
+
+def _layout(facts: ModelFacts) -> str:
+    if facts.old_pro:
+        return "OLD_PRO"
+    return "PRO_RA" if facts.series == "PRO" else facts.series
+
+
+def _build(number: int, facts: ModelFacts) -> Model:
+    rows, _type_info = _raw_items(facts)
+    eeprom_end = EEPROM_END[_layout(facts)]
+    items = {
+        name: Item(name, address, size, name in SIGNED_ITEMS, address < eeprom_end)
+        for name, (address, size) in sorted(rows.items(), key=lambda kv: kv[1][0])
+    }
+    if facts.series == "X":
+        position_scale = 360.0 / 4096.0
+        zero, pmin, pmax = 2048, 0, 4095
+    else:
+        position_scale = 180.0 / facts.half_turn_pulses
+        zero, pmin, pmax = 0, -facts.half_turn_pulses, facts.half_turn_pulses
+    ports = tuple(n for n in (1, 2, 3, 4) if f"external_port_data_{n}" in items)
+    return Model(
+        number=number,
+        name=facts.name,
+        series=facts.series,
+        items=MappingProxyType(items),
+        position_deg_per_pulse=position_scale,
+        position_zero_pulse=zero,
+        velocity_deg_s_per_pulse=facts.velocity_rpm * 6.0,          # rpm -> deg/s
+        acceleration_deg_ss_per_pulse=facts.acceleration_rpm2 / 10.0,  # rev/min^2 -> deg/s^2
+        current_ma_per_pulse=facts.current_ma,
+        pwm_percent_per_pulse=100.0 / facts.pwm_full_scale,
+        position_max_pulse=pmax,
+        position_min_pulse=pmin,
+        external_ports=ports,
+    )
+
+
+@functools.lru_cache(maxsize=None)
+def _registry() -> Mapping[int, Model]:
+    return MappingProxyType({number: _build(number, facts) for number, facts in sorted(MODEL_FACTS.items())})
+
+
+def model_by_number(number: int) -> Model:
+    """The model whose Model Number register reads ``number``; KeyError if we do not know it."""
+    try:
+        return _registry()[int(number)]
+    except KeyError:
+        raise KeyError(f"unknown Dynamixel model number {number}") from None
+
+
+def known_models() -> List[Model]:
+    """Every supported model, by model number."""
+    return list(_registry().values())
