@@ -70,9 +70,12 @@ def _old_pro(name: str, rpm: float, current_ma: float, half_turn: int) -> ModelF
                       NAN, half_turn, {}, old_pro=True)
 
 
-# X items the SDK files leave out but the e-Manual lists. Filled per model family below.
-_X430_540_EXTRA: Dict[str, Tuple[int, int]] = {}
-_X330_EXTRA: Dict[str, Tuple[int, int]] = {}
+# X items the SDK files leave out but the e-Manual lists: Startup Configuration (60, 1 byte) is
+# documented for X430/X540 from firmware v45 and X330 from v46 (older firmware leaves it
+# reserved). X330 PWM Slope (62) is already in the SDK files. The X "Acceleration Limit" (40) of
+# early e-Manual versions is no longer documented, so X models do not expose it.
+_X430_540_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1)}
+_X330_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1)}
 
 _CURRENT_X = 2.69
 _CURRENT_X330 = 1.0
