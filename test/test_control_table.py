@@ -1,0 +1,206 @@
+"""Control-table facts pinned against the ROBOTIS e-Manual."""
+
+import math
+
+import pytest
+
+from dynamixel_handler.control_table import (
+    OPERATING_MODES, SERIES, Item, Model, known_models, model_by_number)
+from dynamixel_handler.control_table._sdk_files import load_sdk_table, sdk_model_index
+
+OLD_PRO = (54024, 53768, 51200, 46352, 46096, 43288)
+PRO_RA = (54025, 53769, 51201, 46353, 46097, 43289)
+P_SERIES = (2000, 2010, 2020, 2100, 2110, 2120)
+
+
+def addr(number: int, name: str):
+    it = model_by_number(number).item(name)
+    return it.address, it.size
+
+
+def test_contract_constants():
+    assert SERIES == ("X", "P", "PRO")
+    assert dict(OPERATING_MODES) == {"current": 0, "velocity": 1, "position": 3,
+                                     "ex_position": 4, "cur_position": 5, "pwm": 16}
+
+
+def test_every_protocol2_servo_in_the_sdk_index_is_known():
+    ours = {m.number for m in known_models()}
+    for number, file_name in sdk_model_index().items():
+        if file_name.startswith(("x", "2x", "p", "h", "m")) and file_name not in (
+                "xl320.model", "mx_28.model", "mx_64.model", "mx_106.model"):
+            assert number in ours, (number, file_name)
+    assert 1280 in ours  # XW430-T200: table file exists but the SDK index omits it
+    for number in OLD_PRO + PRO_RA + P_SERIES:
+        assert number in ours
+
+
+def test_unknown_model_number_raises_clear_key_error():
+    with pytest.raises(KeyError, match="unknown Dynamixel model number 1234"):
+        model_by_number(1234)
+
+
+def test_missing_item_raises_key_error_naming_the_model():
+    with pytest.raises(KeyError, match="H54-200-S500-R.*goal_pwm"):
+        model_by_number(54024).item("goal_pwm")
+
+
+@pytest.mark.parametrize("number,name,expected", [
+    (1020, "model_number", (0, 2)), (1020, "operating_mode", (11, 1)),
+    (1020, "homing_offset", (20, 4)), (1020, "torque_enable", (64, 1)), (1020, "led", (65, 1)),
+    (1020, "hardware_error_status", (70, 1)), (1020, "bus_watchdog", (98, 1)),
+    (1020, "goal_current", (102, 2)), (1020, "goal_position", (116, 4)),
+    (1020, "present_current", (126, 2)), (1020, "present_position", (132, 4)),
+    (1020, "present_temperature", (146, 1)), (1020, "startup_configuration", (60, 1)),
+    (1120, "external_port_mode_3", (58, 1)), (1120, "external_port_data_1", (152, 2)),
+    (1200, "pwm_slope", (62, 1)), (1060, "present_load", (126, 2)),
+    (2020, "torque_enable", (512, 1)), (2020, "led_red", (513, 1)),
+    (2020, "present_position", (580, 4)), (2020, "goal_position", (564, 4)),
+    (2020, "acceleration_limit", (40, 4)), (2020, "external_port_data_4", (606, 2)),
+    (2020, "startup_configuration", (60, 1)),
+    (54025, "present_position", (580, 4)), (54025, "hardware_error_status", (518, 1)),
+    (54024, "homing_offset", (13, 4)), (54024, "current_limit", (30, 2)),
+    (54024, "acceleration_limit", (26, 4)), (54024, "velocity_limit", (32, 4)),
+    (54024, "shutdown", (48, 1)), (54024, "torque_enable", (562, 1)),
+    (54024, "position_p_gain", (594, 2)), (54024, "goal_position", (596, 4)),
+    (54024, "goal_velocity", (600, 4)), (54024, "goal_current", (604, 2)),
+    (54024, "profile_acceleration", (606, 4)), (54024, "moving", (610, 1)),
+    (54024, "present_position", (611, 4)), (54024, "present_velocity", (615, 4)),
+    (54024, "present_current", (621, 2)), (54024, "present_input_voltage", (623, 2)),
+    (54024, "external_port_data_1", (626, 2)), (54024, "hardware_error_status", (892, 1)),
+    (43288, "goal_position", (596, 4)), (51200, "present_current", (621, 2)),
+])
+def test_addresses_match_the_manual(number, name, expected):
+    assert addr(number, name) == expected
+
+
+@pytest.mark.parametrize("number", OLD_PRO)
+def test_old_pro_lacks_what_its_firmware_lacks(number):
+    model = model_by_number(number)
+    assert model.series == "PRO"
+    for name in ("drive_mode", "goal_pwm", "present_pwm", "pwm_limit", "profile_velocity",
+                 "position_d_gain", "position_i_gain", "feedforward_1st_gain", "bus_watchdog",
+                 "moving_status", "velocity_trajectory", "realtime_tick"):
+        assert not model.has(name), name
+    assert model.has("goal_current") and model.has("position_p_gain")
+    assert math.isnan(model.pwm_percent_per_pulse)
+
+
+def test_sensorless_x_models_expose_load_not_current():
+    for number in (1060, 1070, 1080, 1090, 1160):
+        model = model_by_number(number)
+        assert not model.has("present_current") and not model.has("goal_current")
+        assert model.has("present_load")
+        assert math.isnan(model.current_ma_per_pulse)
+
+
+@pytest.mark.parametrize("number,ma", [
+    (1020, 2.69), (1120, 2.69), (1040, 1.34), (1050, 1.34), (1200, 1.0), (1240, 1.0),
+    (2020, 1.0), (54025, 1.0), (54024, 33000 / 2048), (46352, 33000 / 2048),
+    (51200, 8250 / 2048), (43288, 8250 / 2048)])
+def test_current_scale(number, ma):
+    assert model_by_number(number).current_ma_per_pulse == pytest.approx(ma)
+
+
+@pytest.mark.parametrize("number,rpm", [
+    (1020, 0.229), (1200, 0.229), (2020, 0.01), (54025, 0.01), (54024, 0.00199234),
+    (53768, 0.00199234), (51200, 0.00329218), (46352, 0.00397746), (46096, 0.00397746),
+    (43288, 0.00389076)])
+def test_velocity_scale_is_rpm_times_six(number, rpm):
+    assert model_by_number(number).velocity_deg_s_per_pulse == pytest.approx(rpm * 6.0)
+
+
+def test_acceleration_scales():
+    assert model_by_number(1020).acceleration_deg_ss_per_pulse == pytest.approx(21.4577)
+    assert model_by_number(2020).acceleration_deg_ss_per_pulse == pytest.approx(0.1)
+    assert model_by_number(54025).acceleration_deg_ss_per_pulse == pytest.approx(0.1)
+    # Old PRO: 58,000 rev/min^2 at the motor per LSB, divided by the gear ratio (1 / rpm scale).
+    assert model_by_number(54024).acceleration_deg_ss_per_pulse == pytest.approx(
+        58000 * 0.00199234 / 10)
+
+
+def test_pwm_full_scale():
+    assert 885 * model_by_number(1020).pwm_percent_per_pulse == pytest.approx(100.0)
+    assert 2009 * model_by_number(2020).pwm_percent_per_pulse == pytest.approx(100.0)
+    assert 2009 * model_by_number(54025).pwm_percent_per_pulse == pytest.approx(100.0)
+
+
+@pytest.mark.parametrize("number,half_turn", [
+    (2000, 303750), (2010, 501923), (2020, 501923), (2100, 263187), (2110, 251417),
+    (2120, 251417), (54025, 501923), (51201, 303750), (46353, 251417), (43289, 263187),
+    (54024, 250961), (53768, 250961), (51200, 151875), (46352, 125708), (46096, 125708),
+    (43288, 131593)])
+def test_p_and_pro_position_range(number, half_turn):
+    model = model_by_number(number)
+    assert model.position_max_pulse == half_turn and model.position_min_pulse == -half_turn
+    assert model.position_zero_pulse == 0
+    assert half_turn * model.position_deg_per_pulse == pytest.approx(180.0)
+
+
+def test_our_half_turn_table_agrees_with_the_sdk_type_info():
+    index = sdk_model_index()
+    for model in known_models():
+        if model.series != "X" and model.number in index:
+            info = load_sdk_table(index[model.number]).type_info
+            assert info["value_of_max_radian_position"] == model.position_max_pulse, model.name
+
+
+def test_x_position_range():
+    model = model_by_number(1020)
+    assert (model.position_min_pulse, model.position_max_pulse, model.position_zero_pulse) == (0, 4095, 2048)
+    assert model.position_deg_per_pulse == pytest.approx(360 / 4096)
+
+
+def test_fixed_scales():
+    model = model_by_number(1020)
+    assert (model.voltage_v_per_pulse, model.temperature_degc_per_pulse,
+            model.return_delay_us_per_pulse, model.bus_watchdog_ms_per_pulse,
+            model.realtime_tick_s_per_pulse) == (0.1, 1.0, 2.0, 20.0, 0.001)
+
+
+def test_external_ports():
+    assert model_by_number(1120).external_ports == (1, 2, 3)   # XM540
+    assert model_by_number(1101).external_ports == (1, 2, 3)   # XD540
+    assert model_by_number(1170).external_ports == ()          # XW540 has none
+    assert model_by_number(1020).external_ports == ()
+    assert model_by_number(2020).external_ports == (1, 2, 3, 4)
+    assert model_by_number(54024).external_ports == (1, 2, 3, 4)
+
+
+@pytest.mark.parametrize("model", known_models(), ids=lambda m: m.name)
+def test_every_table_is_consistent(model: Model):
+    boundary = 64 if model.series == "X" else (562 if model.number in OLD_PRO else 512)
+    spans = []
+    for name, it in model.items.items():
+        assert isinstance(it, Item) and it.name == name
+        assert it.size in (1, 2, 4)
+        assert it.eeprom == (it.address < boundary), name
+        spans.append((it.address, it.address + it.size, name))
+    spans.sort()
+    for (a0, a1, n0), (b0, _, n1) in zip(spans, spans[1:]):
+        assert a1 <= b0, f"{model.name}: {n0} overlaps {n1}"
+    for name in ("model_number", "id", "operating_mode", "torque_enable", "goal_position",
+                 "present_position", "present_velocity", "hardware_error_status"):
+        assert model.has(name), name
+
+
+def test_signedness():
+    x = model_by_number(1020)
+    for name in ("goal_position", "present_position", "goal_velocity", "present_velocity",
+                 "goal_current", "present_current", "goal_pwm", "present_pwm", "homing_offset",
+                 "velocity_trajectory", "position_trajectory"):
+        assert x.item(name).signed, name
+    for name in ("velocity_limit", "profile_velocity", "profile_acceleration", "current_limit",
+                 "pwm_limit", "moving_threshold", "realtime_tick", "id"):
+        assert not x.item(name).signed, name
+    assert model_by_number(2020).item("min_position_limit").signed  # default -501,923
+    assert x.item("goal_position").min_raw == -(2 ** 31)
+    assert x.item("profile_velocity").max_raw == 2 ** 32 - 1
+
+
+def test_models_are_hashable_and_compare_by_number():
+    assert model_by_number(1020) == model_by_number(1020)
+    assert model_by_number(1020) != model_by_number(1030)
+    assert len({model_by_number(1020), model_by_number(1020)}) == 1
+    with pytest.raises(TypeError):
+        model_by_number(1020).items["id"] = None  # read-only mapping
