@@ -1,0 +1,30 @@
+"""ament_python package of the dynamixel_handler node (the messages live in dynamixel_handler_msgs/)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "dynamixel_handler"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/launch", glob("launch/*.py") + glob("launch/*.xml")),
+    ],
+    install_requires=["setuptools"],  # runtime deps: see requirements.txt (numpy, pyserial, dynamixel-sdk)
+    zip_safe=True,
+    maintainer="dynamixel_handler developers",
+    maintainer_email="dev@dynamixel-handler.example.com",
+    description="Drive Dynamixel servos (X, P, Pro) with ROS 2 topics in physical units.",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            f"dynamixel_handler = {PACKAGE}.ros.node:main",
+            f"dynamixel_handler_sim = {PACKAGE}.sim.cli:main",
+        ],
+    },
+)
