@@ -20,6 +20,19 @@ M54-60-S250-R, M54-40-S250-R and M42-10-S260-R:
 * Current: mA = value * 33,000 / 2,048 (54 class) or value * 8,250 / 2,048 (42 class); the same
   formula holds for Goal Torque (604), Torque Limit (30) and Present Current (621).
 * Position: H54 +-250,961, H42 +-151,875, M54 +-125,708, M42 +-131,593 pulses per half turn.
+* The table has no PWM, Drive Mode, Profile Velocity, Bus Watchdog, Moving Status, trajectory or
+  Realtime Tick items, and of the gains only Velocity I/P (586/588) and Position P (594).
+
+Other facts checked against the e-Manual:
+
+* X: 0.229 rev/min, 214.577 rev/min^2, PWM 885 = 100 % (0.113 %/LSB), 2.69 mA (1.34 mA on
+  XH430-V, 1 mA on XL330/XC330; XL430, XC430, 2XL430, 2XC430 report Present Load in 0.1 %
+  instead of a current).
+* P and PRO "-R(A)" share units: 0.01 rev/min, 1 rev/min^2, 1 mA, PWM 2009 = 100 %. Our shared
+  notes list PWM as "none" for PRO; that holds only for the old "-R" firmware, PRO(A) has PWM.
+* X Startup Configuration (60) exists from firmware v45 (X330: v46) although the SDK X files omit
+  it; the X Acceleration Limit (40) appears only in early e-Manual revisions (the notes call it
+  undocumented) and is not exposed.
 """
 
 from __future__ import annotations
