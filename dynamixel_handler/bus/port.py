@@ -1,0 +1,199 @@
+"""The serial port under the bus: open with clear errors, write, and wait for bytes without spinning.
+
+I/O goes through ``dynamixel_sdk.PortHandler`` (its pyserial handle), but two of its
+habits are replaced: it polls ``readPort`` in a tight loop (a CPU core at 100% while
+waiting for a silent servo) and it hard-codes a 16 ms latency timer in its timeouts.
+Here a read blocks in ``select()`` on the serial file descriptor until bytes arrive
+or the deadline passes, and deadlines come from the configured latency timer.
+"""
+from __future__ import annotations
+
+import errno
+import os
+import select
+import time
+
+import serial
+from dynamixel_sdk import PortHandler
+
+from .errors import BusError
+
+#: Baud rates Dynamixel servos can be set to (X, P and Pro series together).
+DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000,
+                       6000000, 10500000)
+
+
+class _SdkPort(PortHandler):
+    """PortHandler that locks the device, keeps one pyserial handle across baud changes,
+    and accepts every Dynamixel baud rate (the SDK refuses e.g. 4.5 Mbps)."""
+
+    def getCFlagBaud(self, baudrate: int) -> int:  # noqa: N802 (SDK name)
+        return baudrate if baudrate in DYNAMIXEL_BAUDRATES else -1
+
+    def setupPort(self, cflag_baud: int) -> bool:  # noqa: N802 (SDK name)
+        if self.is_open and self.ser is not None:
+            self.ser.baudrate = self.baudrate
+        else:
+            self.ser = serial.Serial(port=self.port_name, baudrate=self.baudrate,
+                                     bytesize=serial.EIGHTBITS, timeout=0, exclusive=True)
+            self.is_open = True
+            self.ser.reset_input_buffer()
+        self.tx_time_per_byte = (1000.0 / self.baudrate) * 10.0
+        return True
+
+
+def explain_open_error(device: str, exc: BaseException) -> str:
+    """One user-facing sentence for why ``device`` could not be opened, and what to do."""
+    code = getattr(exc, "errno", None)
+    text = str(exc)
+    if code == errno.ENOENT or "No such file" in text or not os.path.exists(device):
+        return (f"{device} does not exist: is the adapter plugged in and powered? "
+                f"Check `ls /dev/ttyUSB* /dev/ttyACM* /dev/serial/by-id/` and the device_name parameter.")
+    if code in (errno.EACCES, errno.EPERM) or "ermission denied" in text:
+        return (f"permission denied opening {device}: add your user to the 'dialout' group "
+                f"(sudo usermod -aG dialout $USER, then log out and in) or install a udev rule for the adapter.")
+    if code in (errno.EAGAIN, errno.EBUSY) or "exclusively lock" in text or "busy" in text.lower():
+        return (f"{device} is busy: another program holds it (another handler, Dynamixel Wizard, a "
+                f"serial console?). Close it; `fuser -v {device}` shows who.")
+    if code == errno.ENOTTY or "Inappropriate ioctl" in text or "configure port" in text:
+        return f"{device} is not a serial port: point device_name at the adapter's tty (e.g. /dev/ttyUSB0)."
+    return f"cannot open {device}: {text}"
+
+
+def _sysfs_latency_path(device: str) -> str | None:
+    name = os.path.basename(os.path.realpath(device))
+    path = f"/sys/bus/usb-serial/devices/{name}/latency_timer"
+    return path if os.path.exists(path) else None
+
+
+class SerialPort:
+    """A Dynamixel serial line: exclusive open, raw bytes out, bytes in with a deadline."""
+
+    def __init__(self, device: str, baudrate: int, latency_timer_ms: float, log=None) -> None:
+        self.device = device
+        self.baudrate = baudrate
+        self.latency_timer_ms = float(latency_timer_ms)
+        #: latency actually in effect: the adapter's if we can read it and it is longer.
+        self.effective_latency_ms = float(latency_timer_ms)
+        self._log = log
+        self._port: _SdkPort | None = None
+        self.lost = False
+
+    # -- lifecycle -----------------------------------------------------------------
+    @property
+    def is_open(self) -> bool:
+        return self._port is not None and self._port.is_open and not self.lost
+
+    def open(self) -> None:
+        check_baudrate(self.baudrate)
+        if self.is_open:
+            return
+        self.close()
+        if not os.path.exists(self.device):
+            raise BusError(explain_open_error(self.device, FileNotFoundError(errno.ENOENT, "No such file")))
+        port = _SdkPort(self.device)
+        port.baudrate = self.baudrate
+        try:
+            port.openPort()
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise BusError(explain_open_error(self.device, exc)) from exc
+        self._port = port
+        self.lost = False
+        self._apply_latency_timer()
+
+    def close(self) -> None:
+        port, self._port = self._port, None
+        if port is not None and port.ser is not None:
+            try:
+                port.closePort()
+            except (serial.SerialException, OSError):
+                pass
+
+    def set_baudrate(self, baudrate: int) -> None:
+        check_baudrate(baudrate)
+        self.baudrate = baudrate
+        if self.is_open:
+            try:
+                self._port.setBaudRate(baudrate)
+            except (serial.SerialException, OSError, ValueError) as exc:
+                raise BusError(f"cannot set {self.device} to {baudrate} bps: {exc}") from exc
+
+    def _apply_latency_timer(self) -> None:
+        """Make the adapter's latency timer (FTDI sysfs knob) match the configured one when we can.
+
+        If the adapter keeps a longer latency than configured, our reply timeouts would
+        be shorter than the adapter's buffering, so we use the adapter's value and say so.
+        """
+        self.effective_latency_ms = self.latency_timer_ms
+        path = _sysfs_latency_path(self.device)
+        if path is None:
+            return
+        try:
+            with open(path) as handle:
+                actual = float(handle.read().strip())
+        except (OSError, ValueError):
+            return
+        wanted = max(1, int(round(self.latency_timer_ms)))
+        if actual != wanted:
+            try:
+                with open(path, "w") as handle:
+                    handle.write(str(wanted))
+                actual = float(wanted)
+            except OSError:
+                pass
+        if actual > self.latency_timer_ms:
+            self.effective_latency_ms = actual
+            if self._log:
+                self._log("warning",
+                          f"{self.device}: adapter latency timer is {actual:g} ms but latency_timer is "
+                          f"{self.latency_timer_ms:g} ms; using {actual:g} ms. To lower it: "
+                          f"echo {wanted} | sudo tee {path}")
+
+    # -- I/O ------------------------------------------------------------------------
+    @property
+    def tx_ms_per_byte(self) -> float:
+        """Wire time of one byte (start + 8 data + stop bits)."""
+        return 10_000.0 / self.baudrate
+
+    def discard_input(self) -> int:
+        """Drop whatever is waiting (late replies of earlier transactions); returns the count."""
+        ser = self._port.ser
+        dropped = 0
+        while True:
+            waiting = ser.in_waiting
+            if not waiting:
+                return dropped
+            dropped += len(self._port.readPort(waiting))
+
+    def write(self, packet: bytes) -> None:
+        written = self._port.writePort(packet)
+        if written != len(packet):
+            raise serial.SerialException(f"wrote {written} of {len(packet)} bytes")
+
+    def read_until(self, deadline: float) -> bytes:
+        """Bytes available now, or block (no spinning) until some arrive or ``deadline`` passes.
+
+        Returns b"" at the deadline. Raises OSError/SerialException if the device vanished.
+        """
+        ser = self._port.ser
+        fd = ser.fileno()
+        while True:
+            waiting = ser.in_waiting
+            if waiting:
+                return bytes(self._port.readPort(waiting))
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return b""
+            readable, _, _ = select.select([fd], [], [], remaining)
+            if readable:
+                data = self._port.readPort(max(1, ser.in_waiting))
+                if data:
+                    return bytes(data)
+                # readable but empty: a hung-up device (pyserial raises on most systems)
+                raise serial.SerialException(f"{self.device} hung up")
+
+
+def check_baudrate(baudrate: int) -> None:
+    if baudrate not in DYNAMIXEL_BAUDRATES:
+        supported = ", ".join(str(b) for b in DYNAMIXEL_BAUDRATES)
+        raise BusError(f"baudrate {baudrate} is not a Dynamixel baud rate: use one of {supported}.")

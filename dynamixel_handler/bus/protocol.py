@@ -1,0 +1,343 @@
+"""Dynamixel Protocol 2.0 packets: building, byte stuffing, CRC and reply parsing.
+
+Pure functions and small parsers, no I/O, so every rule of the wire format can be
+tested byte for byte. We build and parse packets here instead of using
+``dynamixel_sdk``'s packet handler because that handler (4.1.0) sends instruction
+packets unstuffed, mis-parses fast bulk read replies and drops a whole sync read
+when one servo is silent (see ``DynamixelBus`` for the full list).
+
+Wire format (ROBOTIS e-Manual, Protocol 2.0):
+``FF FF FD 00 | ID | LEN_L LEN_H | INST | params... | CRC_L CRC_H`` where LEN counts
+instruction + (stuffed) params + CRC. A status packet is the same with INST 0x55
+followed by an error byte. Byte stuffing turns every ``FF FF FD`` inside
+instruction+params into ``FF FF FD FD``; LEN and CRC are computed on the stuffed
+bytes. Fast sync/bulk read replies are NOT stuffed and carry one segment per servo
+(``ERR ID data... CRC``), each segment's CRC being the running CRC of the packet so
+far; only the last one (the packet CRC) is mandatory to check.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+HEADER = b"\xff\xff\xfd\x00"
+BROADCAST_ID = 0xFE
+MAX_ID = 0xFC
+
+INST_PING = 0x01
+INST_READ = 0x02
+INST_WRITE = 0x03
+INST_REG_WRITE = 0x04
+INST_ACTION = 0x05
+INST_FACTORY_RESET = 0x06
+INST_REBOOT = 0x08
+INST_CLEAR = 0x10
+INST_STATUS = 0x55
+INST_SYNC_READ = 0x82
+INST_SYNC_WRITE = 0x83
+INST_FAST_SYNC_READ = 0x8A
+INST_BULK_READ = 0x92
+INST_BULK_WRITE = 0x93
+INST_FAST_BULK_READ = 0x9A
+
+#: Status error numbers (bits 0..6 of the error byte); bit 7 is the hardware alert.
+ERROR_ALERT = 0x80
+ERROR_NAMES = {
+    1: "result fail",
+    2: "instruction error",
+    3: "CRC error",
+    4: "data range error",
+    5: "data length error",
+    6: "data limit error",
+    7: "access error",
+}
+
+#: Bytes of a status packet without parameters: header(4) id len(2) inst err crc(2).
+STATUS_OVERHEAD = 11
+#: Longest packet we accept from the wire; anything longer is noise.
+MAX_PACKET_LENGTH = 4096
+
+
+def _make_crc_table() -> tuple[int, ...]:
+    table = []
+    for i in range(256):
+        crc = i << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else (crc << 1)
+        table.append(crc & 0xFFFF)
+    return tuple(table)
+
+
+_CRC_TABLE = _make_crc_table()
+
+
+def crc16(data: bytes | bytearray | memoryview, crc: int = 0) -> int:
+    """CRC-16 of Protocol 2.0 (polynomial 0x8005, init 0, not reflected)."""
+    table = _CRC_TABLE
+    for byte in data:
+        crc = ((crc << 8) ^ table[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
+    return crc
+
+
+def stuff(body: bytes) -> bytes:
+    """Insert 0xFD after every ``FF FF FD`` in instruction+params (e-Manual byte stuffing)."""
+    if b"\xff\xff\xfd" not in body:
+        return bytes(body)
+    out = bytearray()
+    for i, byte in enumerate(body):
+        out.append(byte)
+        if byte == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF:
+            out.append(0xFD)
+    return bytes(out)
+
+
+def unstuff(body: bytes) -> bytes:
+    """Inverse of :func:`stuff`: ``FF FF FD FD`` -> ``FF FF FD``."""
+    if b"\xff\xff\xfd\xfd" not in body:
+        return bytes(body)
+    out = bytearray()
+    i = 0
+    n = len(body)
+    while i < n:
+        out.append(body[i])
+        if body[i] == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF \
+                and i + 1 < n and body[i + 1] == 0xFD:
+            i += 1  # skip the stuffing byte
+        i += 1
+    return bytes(out)
+
+
+def build_instruction(dxl_id: int, instruction: int, params: bytes = b"") -> bytes:
+    """A complete, stuffed instruction packet ready for the wire."""
+    if not 0 <= dxl_id <= 0xFE or dxl_id == 0xFD:
+        raise ValueError(f"invalid Dynamixel ID {dxl_id} (use 0..252 or 254 for broadcast)")
+    body = stuff(bytes([instruction]) + bytes(params))
+    length = len(body) + 2
+    packet = bytearray(HEADER)
+    packet += bytes([dxl_id, length & 0xFF, length >> 8])
+    packet += body
+    crc = crc16(packet)
+    packet += bytes([crc & 0xFF, crc >> 8])
+    return bytes(packet)
+
+
+def build_status(dxl_id: int, error: int, params: bytes = b"") -> bytes:
+    """A stuffed status packet (what a servo sends back); used by tests and tools."""
+    body = stuff(bytes([INST_STATUS, error]) + bytes(params))
+    length = len(body) + 2
+    packet = bytearray(HEADER) + bytes([dxl_id, length & 0xFF, length >> 8]) + body
+    crc = crc16(packet)
+    return bytes(packet + bytes([crc & 0xFF, crc >> 8]))
+
+
+def u16(value: int) -> bytes:
+    return bytes([value & 0xFF, (value >> 8) & 0xFF])
+
+
+def error_text(error: int) -> str:
+    """Human text of a status error byte, e.g. ``'data limit error + hardware alert'``."""
+    parts = []
+    number = error & 0x7F
+    if number:
+        parts.append(ERROR_NAMES.get(number, f"error {number}"))
+    if error & ERROR_ALERT:
+        parts.append("hardware alert (read hardware_error_status)")
+    return " + ".join(parts) if parts else "ok"
+
+
+@dataclass(frozen=True)
+class Status:
+    """One decoded status packet (or one servo's segment of a fast read reply)."""
+
+    dxl_id: int
+    error: int
+    params: bytes
+
+    @property
+    def refused(self) -> bool:
+        """True when the servo rejected the instruction (error number set, not just the alert)."""
+        return bool(self.error & 0x7F)
+
+
+@dataclass
+class StatusStream:
+    """Incremental parser of a byte stream made of (stuffed) status packets.
+
+    ``feed()`` may be called with arbitrary chunks; complete packets with a valid
+    CRC come out in order. Noise before a header, bad CRCs and non-status packets
+    (e.g. an echoed instruction) are skipped and counted, never returned.
+    """
+
+    crc_errors: int = 0
+    discarded_bytes: int = 0
+    _buffer: bytearray = field(default_factory=bytearray)
+
+    def feed(self, data: bytes) -> list[Status]:
+        self._buffer += data
+        out: list[Status] = []
+        buf = self._buffer
+        while True:
+            start = buf.find(HEADER)
+            if start < 0:
+                # keep a possible partial header at the end
+                keep = 0
+                for k in (3, 2, 1):
+                    if len(buf) >= k and buf[-k:] == HEADER[:k]:
+                        keep = k
+                        break
+                self.discarded_bytes += len(buf) - keep
+                del buf[: len(buf) - keep]
+                break
+            if start:
+                self.discarded_bytes += start
+                del buf[:start]
+            if len(buf) < 7:
+                break
+            length = buf[5] | (buf[6] << 8)
+            if length < 4 or length > MAX_PACKET_LENGTH or buf[4] > BROADCAST_ID:
+                self.discarded_bytes += 1
+                del buf[:1]
+                continue
+            total = 7 + length
+            if len(buf) < total:
+                break
+            crc = buf[total - 2] | (buf[total - 1] << 8)
+            if crc16(memoryview(buf)[: total - 2]) != crc:
+                self.crc_errors += 1
+                self.discarded_bytes += 1
+                del buf[:1]  # resync: the real header may be inside
+                continue
+            if buf[7] != INST_STATUS:
+                self.discarded_bytes += total
+                del buf[:total]
+                continue
+            body = unstuff(bytes(buf[8: total - 2]))
+            out.append(Status(buf[4], body[0], body[1:]))
+            del buf[:total]
+        return out
+
+    @property
+    def pending_bytes(self) -> int:
+        """Bytes received but not yet part of a complete packet."""
+        return len(self._buffer)
+
+
+@dataclass
+class FastReply:
+    """Collector for the single, unstuffed reply of a fast sync/bulk read.
+
+    ``expected`` is the ordered list of ``(id, data_length)`` from the instruction.
+    The reply is parsed by position, one segment ``ERR ID data CRC`` per servo in
+    that order; the ID byte is checked against the expected ID at that position,
+    never searched for (data bytes can equal any ID). A servo that did not answer
+    is skipped when the next segment carries a later expected ID; every accepted
+    segment is covered by a checked CRC (the packet CRC when the reply is complete,
+    else the running CRC each servo appends to its own segment).
+    """
+
+    expected: Sequence[tuple[int, int]]
+    crc_errors: int = 0
+    discarded_bytes: int = 0
+    _buffer: bytearray = field(default_factory=bytearray)
+    _started: bool = False
+
+    def feed(self, data: bytes) -> None:
+        self._buffer += data
+        if self._started:
+            return
+        buf = self._buffer
+        while True:
+            start = buf.find(HEADER)
+            if start < 0:
+                drop = max(0, len(buf) - 3)
+                self.discarded_bytes += drop
+                del buf[:drop]
+                return
+            if start:
+                self.discarded_bytes += start
+                del buf[:start]
+            if len(buf) < 8:
+                return
+            if buf[4] == BROADCAST_ID and buf[7] == INST_STATUS:
+                self._started = True
+                return
+            self.discarded_bytes += 1
+            del buf[:1]
+
+    @property
+    def declared_length(self) -> int | None:
+        if not self._started:
+            return None
+        return self._buffer[5] | (self._buffer[6] << 8)
+
+    @property
+    def complete(self) -> bool:
+        """True once as many bytes as the header's length field announced have arrived."""
+        length = self.declared_length
+        return length is not None and len(self._buffer) >= 7 + length
+
+    @property
+    def received_bytes(self) -> int:
+        return len(self._buffer)
+
+    def segments(self) -> dict[int, Status]:
+        """Every servo segment that is positionally consistent and CRC-covered."""
+        if not self._started:
+            return {}
+        buf = bytes(self._buffer)
+        length = buf[5] | (buf[6] << 8)
+        end = min(len(buf), 7 + length)
+        complete = len(buf) >= 7 + length
+        packet_ok = complete and crc16(buf[: end - 2]) == (buf[end - 2] | (buf[end - 1] << 8))
+        if complete and not packet_ok:
+            self.crc_errors += 1
+        found: dict[int, Status] = {}
+        pos = 8  # first segment starts at the error byte after INST
+        index = 0
+        order = list(self.expected)
+        while pos + 2 <= end and index < len(order):
+            seg_id = buf[pos + 1]
+            # the servo at this position is the next expected one that answered
+            match = next((k for k in range(index, len(order)) if order[k][0] == seg_id), None)
+            if match is None:
+                break
+            crc_at = pos + 2 + order[match][1]
+            if crc_at + 2 > end:
+                break
+            if not packet_ok and crc16(buf[:crc_at]) != (buf[crc_at] | (buf[crc_at + 1] << 8)):
+                self.crc_errors += 1
+                break
+            found[seg_id] = Status(seg_id, buf[pos], buf[pos + 2: crc_at])
+            pos = crc_at + 2
+            index = match + 1
+        return found
+
+
+def sync_read_params(address: int, length: int, ids: Iterable[int]) -> bytes:
+    return u16(address) + u16(length) + bytes(ids)
+
+
+def sync_write_params(address: int, length: int, data: Iterable[tuple[int, bytes]]) -> bytes:
+    out = bytearray(u16(address) + u16(length))
+    for dxl_id, chunk in data:
+        if len(chunk) != length:
+            raise ValueError(f"sync write to ID {dxl_id}: {len(chunk)} bytes given, {length} expected")
+        out.append(dxl_id)
+        out += chunk
+    return bytes(out)
+
+
+def bulk_read_params(requests: Iterable[tuple[int, int, int]]) -> bytes:
+    out = bytearray()
+    for dxl_id, address, length in requests:
+        out.append(dxl_id)
+        out += u16(address) + u16(length)
+    return bytes(out)
+
+
+def bulk_write_params(requests: Iterable[tuple[int, int, bytes]]) -> bytes:
+    out = bytearray()
+    for dxl_id, address, data in requests:
+        out.append(dxl_id)
+        out += u16(address) + u16(len(data)) + bytes(data)
+    return bytes(out)
