@@ -46,9 +46,6 @@ def explain_open_error(device: str, exc: BaseException) -> str:
     """One user-facing sentence for why ``device`` could not be opened, and what to do."""
     code = getattr(exc, "errno", None)
     text = str(exc)
-    if code == errno.ENOENT or "No such file" in text or not os.path.exists(device):
-        return (f"{device} does not exist: is the adapter plugged in and powered? "
-                f"Check `ls /dev/ttyUSB* /dev/ttyACM* /dev/serial/by-id/` and the device_name parameter.")
     if code in (errno.EACCES, errno.EPERM) or "ermission denied" in text:
         return (f"permission denied opening {device}: add your user to the 'dialout' group "
                 f"(sudo usermod -aG dialout $USER, then log out and in) or install a udev rule for the adapter.")
@@ -57,6 +54,9 @@ def explain_open_error(device: str, exc: BaseException) -> str:
                 f"serial console?). Close it; `fuser -v {device}` shows who.")
     if code == errno.ENOTTY or "Inappropriate ioctl" in text or "configure port" in text:
         return f"{device} is not a serial port: point device_name at the adapter's tty (e.g. /dev/ttyUSB0)."
+    if code == errno.ENOENT or "No such file" in text or not os.path.exists(device):
+        return (f"{device} does not exist: is the adapter plugged in and powered? "
+                f"Check `ls /dev/ttyUSB* /dev/ttyACM* /dev/serial/by-id/` and the device_name parameter.")
     return f"cannot open {device}: {text}"
 
 
