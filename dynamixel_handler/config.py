@@ -1,0 +1,206 @@
+"""The node's parameter surface: names, types, defaults, meaning and validation (ROS-free).
+
+Names are the interface of the original handler: a YAML file written for it loads unchanged. In a
+ROS parameter file a nested map becomes a dotted name, so ``pub_ratio/present: {pwm: 2}`` is the
+parameter ``pub_ratio/present.pwm``. The ROS layer (``ros/params.py``) declares every entry of
+``SCHEMA`` with its type and reads the values back into a :class:`Config`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+# Parameter types, as ROS knows them.
+BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    type: str
+    default: Any
+    description: str
+
+
+def _p(name: str, type_: str, default: Any, description: str) -> Param:
+    return Param(name, type_, default, description)
+
+
+_PRESENT_ITEMS = {
+    "pwm": 2, "current": 2, "velocity": 2, "position": 2,
+    "velocity_trajectory": 0, "position_trajectory": 0, "input_voltage": 29, "temperature": 29,
+}
+_READ_GROUPS = ("status", "present", "goal", "gain", "limit", "extra")
+
+SCHEMA: tuple[Param, ...] = (
+    _p("device_name", STR, "/dev/ttyUSB0", "serial device of the bus (U2D2 / USB-RS485 adapter)"),
+    _p("baudrate", INT, 57600, "bus baud rate [bps]"),
+    _p("latency_timer", INT, 16, "USB adapter latency timer [ms]; sets the reply timeouts"),
+    _p("dyn_comm/retry_num", INT, 5, "retries of a failed bus transaction"),
+    _p("dyn_comm/inerval_msec", INT, 4, "wait between retries [ms] (name kept as in the original handler)"),
+    _p("dyn_comm/verbose", BOOL, False, "log every failed transaction"),
+    _p("init/dummy_servo_list", INT_ARRAY, [-1], "IDs handled as dummy servos without hardware (-1: none)"),
+    _p("init/baudrate_auto_set", BOOL, False, "at start-up, find servos at other baud rates and set them to `baudrate`"),
+    _p("init/used_servo_series.X", BOOL, True, "handle X series servos"),
+    _p("init/used_servo_series.P", BOOL, False, "handle P series servos"),
+    _p("init/used_servo_series.Pro", BOOL, False, "handle Pro series servos"),
+    _p("init/expected_servo_num", INT, 0, "servos the scan must find (0: at least one)"),
+    _p("init/servo_auto_search.min_id", INT, 0, "lowest ID scanned"),
+    _p("init/servo_auto_search.max_id", INT, 10, "highest ID scanned"),
+    _p("init/servo_auto_search.retry_times", INT, 0, "scan repetitions until expected_servo_num servos answer"),
+    _p("init/hardware_error_auto_clean", BOOL, True, "clear hardware errors (reboot) at start-up"),
+    _p("init/torque_auto_enable", BOOL, True, "enable torque (safely) at start-up"),
+    _p("term/torque_auto_disable", BOOL, True, "disable torque on shutdown"),
+    _p("term/servo_auto_stop", BOOL, True, "stop servos in pwm/current/velocity mode on shutdown"),
+    _p("default/profile_acc", FLOAT, 6008.0, "profile acceleration set at start-up [deg/s^2]"),
+    _p("default/profile_vel", FLOAT, 1000.0, "profile velocity set at start-up [deg/s]"),
+    _p("default/return_delay_time", FLOAT, 0.0, "return delay time set at start-up [us]"),
+    _p("default/bus_watchdog", FLOAT, 500.0, "bus watchdog used by servo_auto_stop [ms] (0: off)"),
+    _p("loop_rate", INT, 100, "main loop rate [Hz]"),
+    _p("verbose_ratio", INT, 300, "log loop statistics every this many loops (0: never)"),
+    _p("pub_outdated_present_value", BOOL, True, "publish present items not read in this loop with their last value"),
+    *(_p(f"pub_ratio/present.{k}", INT, v, f"read present {k} every this many loops (0: once at start)")
+      for k, v in _PRESENT_ITEMS.items()),
+    _p("pub_ratio/status", INT, 47, "read/publish status every this many loops (0: once at start)"),
+    _p("pub_ratio/goal", INT, 11, "read/publish goal values every this many loops (0: once at start)"),
+    _p("pub_ratio/gain", INT, 101, "read/publish gains every this many loops (0: once at start)"),
+    _p("pub_ratio/limit", INT, 307, "read/publish limits every this many loops (0: once at start)"),
+    _p("pub_ratio/error", INT, 53, "read/publish hardware errors every this many loops (0: once at start)"),
+    _p("pub_ratio/extra.dynamic_items", INT, 31, "read changing extra items every this many loops (0: once)"),
+    _p("pub_ratio/extra.static_items", INT, 407, "read fixed extra items every this many loops (0: once)"),
+    _p("method/fast_read", BOOL, False, "use Fast Sync Read (needs recent servo firmware)"),
+    _p("method/split_read", BOOL, False, "one sync read per item instead of one contiguous read"),
+    _p("method/split_write", BOOL, True, "one sync write per item instead of one contiguous write"),
+    _p("option/external_port.use", BOOL, False, "enable external port topics (X540, P, Pro)"),
+    _p("option/external_port.pub_ratio/data", INT, 10, "read external port data every this many loops"),
+    _p("option/external_port.pub_ratio/mode", INT, 100, "read external port modes every this many loops"),
+    _p("option/external_port.verbose/callback", BOOL, False, "log external port commands"),
+    _p("option/external_port.verbose/write", BOOL, False, "log external port writes"),
+    _p("option/external_port.verbose/read.raw", BOOL, False, "log external port reads"),
+    _p("option/external_port.verbose/read.err", BOOL, False, "log failed external port reads"),
+    _p("option/imu_opencr.use", BOOL, False, "OpenCR IMU (not supported by this handler; accepted for YAML compatibility)"),
+    _p("option/imu_opencr.pub_ratio", INT, 2, "OpenCR IMU read ratio (unused)"),
+    _p("option/imu_opencr.opencr_id", INT, 40, "OpenCR ID (unused)"),
+    _p("option/imu_opencr.model_number", INT, 0, "OpenCR model number (unused)"),
+    _p("option/imu_opencr.frame_id", STR, "base_link", "IMU frame (unused)"),
+    _p("option/imu_opencr.adjust/rpy_deg", FLOAT_ARRAY, [0.0, 0.0, 180.0], "IMU mounting rotation (unused)"),
+    _p("option/imu_opencr.adjust/flip_z_axis", BOOL, True, "IMU z flip (unused)"),
+    _p("max_log_width", INT, 6, "IDs per line in list-like logs"),
+    _p("verbose/callback", BOOL, False, "log every accepted command"),
+    *(_p(f"verbose/write_{g}", BOOL, False, f"log {g} writes") for g in ("status", "goal", "gain", "limit")),
+    *(_p(f"verbose/read_{g}.{k}", BOOL, False, f"log {g} reads ({'values' if k == 'raw' else 'failures'})")
+      for g in _READ_GROUPS for k in ("raw", "err")),
+    _p("verbose/read_hardware_error", BOOL, True, "log hardware errors when read"),
+    _p("debug", BOOL, False, "keep running without a device (topics only, for development)"),
+    _p("no_use_command_line", BOOL, False, "do not create the command-line topics (/dynamixel/state/*, /dynamixel/command/*)"),
+    _p("no_response_id_auto_remove_count", INT, 0, "remove a servo after this many loops without reply (0: never)"),
+    _p("mode_change_interval_sec", FLOAT, 1.0, "least time between two mode changes of one servo [s]"),
+    _p("clear_error_interval_sec", FLOAT, 1.0, "least time between two error clears of one servo [s]"),
+)
+SCHEMA_BY_NAME: dict[str, Param] = {p.name: p for p in SCHEMA}
+
+# Prefixes whose unknown keys are accepted silently: the original handler's OpenCR IMU option
+# has more keys than this handler reads.
+TOLERATED_PREFIXES = ("option/imu_opencr.",)
+
+BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000, 6000000, 10500000)
+
+
+class ConfigError(ValueError):
+    """A parameter value the node cannot start with; the message says which and why."""
+
+
+def coerce(param: Param, value: Any) -> Any:
+    """Return ``value`` as ``param``'s type, or raise ConfigError (ints pass as floats and back
+    when integral, so `loop_rate: 100.0` and `profile_vel: 1000` both load)."""
+    t = param.type
+    def bad() -> ConfigError:
+        return ConfigError(f"parameter '{param.name}' must be {t}, got {value!r} ({type(value).__name__})")
+    if t == BOOL:
+        if isinstance(value, bool):
+            return value
+        raise bad()
+    if t == INT:
+        if isinstance(value, bool):
+            raise bad()
+        if isinstance(value, int):
+            return value
+        if isinstance(value, float) and math.isfinite(value) and value.is_integer():
+            return int(value)
+        raise bad()
+    if t == FLOAT:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise bad()
+        return float(value)
+    if t == STR:
+        if isinstance(value, str):
+            return value
+        raise bad()
+    if t in (INT_ARRAY, FLOAT_ARRAY):
+        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+            raise bad()
+        elem = Param(param.name + "[]", INT if t == INT_ARRAY else FLOAT, None, "")
+        return [coerce(elem, v) for v in value]
+    raise bad()
+
+
+@dataclass(frozen=True)
+class Config:
+    """Validated parameter values, looked up by their parameter names."""
+
+    values: Mapping[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> Any:
+        return self.values[name]
+
+    @property
+    def used_series(self) -> tuple[str, ...]:
+        return tuple(s for s, key in (("X", "X"), ("P", "P"), ("PRO", "Pro"))
+                     if self.values[f"init/used_servo_series.{key}"])
+
+    @property
+    def dummy_ids(self) -> list[int]:
+        return [i for i in self.values["init/dummy_servo_list"] if 0 <= i <= 252]
+
+    def present_ratio(self, item: str) -> int:
+        return self.values[f"pub_ratio/present.{item}"]
+
+
+def validate(values: Mapping[str, Any]) -> Config:
+    """Check ranges and relations; raise ConfigError with one clear line for the first problem."""
+    v = dict(values)
+    def need(cond: bool, msg: str) -> None:
+        if not cond:
+            raise ConfigError(msg)
+    need(bool(v["device_name"]), "parameter 'device_name' is empty: give the serial device, e.g. /dev/ttyUSB0")
+    need(v["baudrate"] in BAUDRATES,
+         f"parameter 'baudrate' = {v['baudrate']} is not a Dynamixel baud rate; use one of {', '.join(map(str, BAUDRATES))}")
+    need(0 <= v["latency_timer"] <= 255, f"parameter 'latency_timer' = {v['latency_timer']} must be 0..255 ms")
+    need(v["dyn_comm/retry_num"] >= 0, "parameter 'dyn_comm/retry_num' must be >= 0")
+    need(v["dyn_comm/inerval_msec"] >= 0, "parameter 'dyn_comm/inerval_msec' must be >= 0")
+    lo, hi = v["init/servo_auto_search.min_id"], v["init/servo_auto_search.max_id"]
+    need(0 <= lo <= 252 and 0 <= hi <= 252,
+         f"parameters 'init/servo_auto_search.min_id/max_id' = {lo}/{hi} must be within 0..252")
+    need(lo <= hi, f"parameter 'init/servo_auto_search.max_id' ({hi}) is below min_id ({lo})")
+    need(v["init/servo_auto_search.retry_times"] >= 0, "parameter 'init/servo_auto_search.retry_times' must be >= 0")
+    need(v["init/expected_servo_num"] >= 0, "parameter 'init/expected_servo_num' must be >= 0")
+    need(any(v[f"init/used_servo_series.{s}"] for s in ("X", "P", "Pro")),
+         "parameters 'init/used_servo_series.{X,P,Pro}' are all false: enable at least one series")
+    need(0 < v["loop_rate"] <= 2000, f"parameter 'loop_rate' = {v['loop_rate']} must be 1..2000 Hz")
+    need(v["verbose_ratio"] >= 0, "parameter 'verbose_ratio' must be >= 0")
+    for name, value in v.items():
+        if name.startswith("pub_ratio/") or ".pub_ratio/" in name:
+            need(value >= 0, f"parameter '{name}' = {value} must be >= 0 (0 = read once at start)")
+    for name in ("default/profile_acc", "default/profile_vel", "default/return_delay_time", "default/bus_watchdog",
+                 "mode_change_interval_sec", "clear_error_interval_sec"):
+        need(math.isfinite(v[name]) and v[name] >= 0, f"parameter '{name}' = {v[name]} must be a finite value >= 0")
+    need(v["default/return_delay_time"] <= 508, "parameter 'default/return_delay_time' must be <= 508 us")
+    need(v["default/bus_watchdog"] <= 2540, "parameter 'default/bus_watchdog' must be <= 2540 ms (127 x 20 ms)")
+    need(v["no_response_id_auto_remove_count"] >= 0, "parameter 'no_response_id_auto_remove_count' must be >= 0")
+    need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
+    return Config(v)
+
+
+def defaults() -> dict[str, Any]:
+    return {p.name: p.default for p in SCHEMA}

@@ -1,0 +1,61 @@
+"""Declare the node's parameters (typed, with descriptions) and read them into a Config.
+
+The node is created with ``automatically_declare_parameters_from_overrides=True`` so that every
+name in the user's YAML is visible here: names we do not know get one error line (and are
+ignored), values of the wrong type or range stop start-up with one clear message.
+"""
+from __future__ import annotations
+
+import difflib
+from typing import Any
+
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+from rclpy.node import Node
+
+from ..config import (BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, TOLERATED_PREFIXES,
+                      Config, ConfigError, coerce, validate)
+
+_ROS_TYPES = {
+    BOOL: ParameterType.PARAMETER_BOOL, INT: ParameterType.PARAMETER_INTEGER,
+    FLOAT: ParameterType.PARAMETER_DOUBLE, STR: ParameterType.PARAMETER_STRING,
+    INT_ARRAY: ParameterType.PARAMETER_INTEGER_ARRAY, FLOAT_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
+}
+_ROS_OWN = {"use_sim_time", "start_type_description_service"}
+
+
+def declare_and_load(node: Node) -> Config:
+    """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
+    given: dict[str, Any] = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
+    for name in sorted(given):
+        if name in SCHEMA_BY_NAME or name in _ROS_OWN or name.startswith(TOLERATED_PREFIXES):
+            continue
+        hint = difflib.get_close_matches(name, SCHEMA_BY_NAME, n=1)
+        node.get_logger().error(
+            f"unknown parameter '{name}' ignored" + (f": did you mean '{hint[0]}'?" if hint else ""))
+    values: dict[str, Any] = {}
+    for param in SCHEMA:
+        if param.name in given:
+            value = coerce(param, given[param.name])  # ConfigError names the parameter and the type
+            node.undeclare_parameter(param.name)
+        else:
+            value = param.default
+        values[param.name] = value
+        descriptor = ParameterDescriptor(name=param.name, type=_ROS_TYPES[param.type],
+                                         description=param.description, read_only=True)
+        node.declare_parameter(param.name, list(value) if isinstance(value, list) else value,
+                               descriptor, ignore_override=True)
+    return validate(values)
+
+
+def describe(config: Config, width: int = 120) -> list[str]:
+    """Lines for the start-up log: the essentials, then every parameter that differs from its default."""
+    essentials = ("device_name", "baudrate", "latency_timer", "loop_rate")
+    lines = [", ".join(f"{n}={config[n]}" for n in essentials) + f", series={'/'.join(config.used_series)}"]
+    changed = [p for p in SCHEMA if config[p.name] != p.default and p.name not in essentials]
+    lines.append(f"{len(SCHEMA) - len(changed)} parameters at their defaults, {len(changed)} set:"
+                 if changed else f"all other {len(SCHEMA) - len(essentials)} parameters at their defaults")
+    lines += [f"  {p.name}: {config[p.name]!r} (default {p.default!r})"[:width] for p in changed]
+    return lines
+
+
+__all__ = ["ConfigError", "declare_and_load", "describe"]

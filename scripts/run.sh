@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The main job: the handler on the built-in virtual Dynamixel bus (no hardware needed).
+# Sets up .venv and builds first if needed, starts a virtual bus of X, P and Pro servos
+# (IDs 1-4) on a pseudo-terminal, then the node on it with config/config_dynamixel_handler.yaml.
+# Ctrl-C stops both. Extra args are passed to the node's --ros-args (e.g. -p loop_rate:=50).
+# With DXL_DEVICE=/dev/ttyUSB0 it skips the virtual bus and runs on that device instead.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$ROOT/scripts/setup.sh" >&2
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+# shellcheck disable=SC1091
+source "$ROOT/env.sh"
+
+SIM_PID=""
+cleanup() { [ -n "$SIM_PID" ] && kill "$SIM_PID" 2>/dev/null; wait 2>/dev/null || true; }
+trap cleanup EXIT INT TERM
+
+EXTRA=()
+if [ -n "${DXL_DEVICE:-}" ]; then
+  DEVICE="$DXL_DEVICE"
+else
+  FIFO="$(mktemp -u)"; mkfifo "$FIFO"
+  dynamixel_handler_sim > "$FIFO" &
+  SIM_PID=$!
+  read -r DEVICE < "$FIFO"; rm -f "$FIFO"
+  [ -n "$DEVICE" ] || { echo "[run] the virtual bus did not start" >&2; exit 1; }
+  echo "[run] virtual Dynamixel bus on $DEVICE (XM430-W350 #1, XM540-W270 #2, PH54-200-S500-R #3, H54-200-S500-R #4)" >&2
+  EXTRA=(--params-file "$ROOT/config/config_virtual_bus.yaml")
+fi
+echo "[run] try in another shell: source env.sh, then python examples or tests; Ctrl-C stops" >&2
+dynamixel_handler --ros-args --params-file "$ROOT/config/config_dynamixel_handler.yaml" "${EXTRA[@]}" \
+  -p "device_name:=$DEVICE" "$@"

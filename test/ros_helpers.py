@@ -1,0 +1,97 @@
+"""Helpers for tests that run the real node and talk to it through real rclpy topics."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Callable
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIG = ROOT / "config" / "config_dynamixel_handler.yaml"
+
+
+def node_command(*ros_args: str, params_file: Path | None = CONFIG) -> list[str]:
+    """The installed console script (as `ros2 run` would start it), with --ros-args."""
+    cmd = [sys.executable, "-m", "dynamixel_handler.ros.node"] if os.environ.get("DXL_TEST_MODULE") else ["dynamixel_handler"]
+    args = ["--ros-args"]
+    if params_file is not None:
+        args += ["--params-file", str(params_file)]
+    for a in ros_args:
+        args += ["-p", a]
+    return cmd + args
+
+
+class NodeProcess:
+    """A node started in its own process; output collected line by line."""
+
+    def __init__(self, cmd: list[str], env: dict[str, str] | None = None) -> None:
+        full_env = dict(os.environ)
+        full_env.update(env or {})
+        full_env["PYTHONUNBUFFERED"] = "1"
+        full_env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=full_env)
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line.rstrip("\n"))
+
+    @property
+    def output(self) -> str:
+        return "\n".join(self.lines)
+
+    def wait_for(self, predicate: Callable[[str], bool] | str, timeout: float = 20.0) -> str:
+        """Wait until a line matches (substring or predicate); fail with the output so far."""
+        test = (lambda s: predicate in s) if isinstance(predicate, str) else predicate
+        end = time.monotonic() + timeout
+        seen = 0
+        while time.monotonic() < end:
+            for line in self.lines[seen:]:
+                if test(line):
+                    return line
+            seen = max(seen, len(self.lines) - 1) if self.lines else 0
+            if self.proc.poll() is not None and seen >= len(self.lines) - 1:
+                time.sleep(0.1)
+                for line in self.lines:
+                    if test(line):
+                        return line
+                raise AssertionError(f"node exited ({self.proc.returncode}) before {predicate!r}:\n{self.output}")
+            time.sleep(0.05)
+        raise AssertionError(f"timed out waiting for {predicate!r}:\n{self.output}")
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+                raise AssertionError(f"node did not stop within {timeout}s after signal {sig}:\n{self.output}")
+        self._reader.join(2)
+        return self.proc.returncode
+
+    def wait_exit(self, timeout: float = 20.0) -> int:
+        try:
+            self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            raise AssertionError(f"node still running after {timeout}s:\n{self.output}")
+        self._reader.join(2)
+        return self.proc.returncode
+
+
+def spin_until(node, executor, predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.05)
+        if predicate():
+            return True
+    return predicate()
