@@ -54,6 +54,9 @@ class VirtualServo:
         self._pending: tuple[int, bytes] | None = None
         self._shutdown_latched = False
         self._profile_kind = 0
+        self._pinned: dict[str, int] = {}
+        self.supply_v = self.family.nominal_v
+        self.ambient_c = 30
         now = clock()
         self._t = now
         self._boot = now
@@ -78,6 +81,15 @@ class VirtualServo:
         self._poke(name, int(value))
         if name == "hardware_error_status":
             self._apply_hardware_error(int(value))
+
+    def pin(self, name: str, value: int | None) -> None:
+        """Hold a present-value item at ``value`` (None releases it), e.g. a sensor reading."""
+        self.model.item(name)
+        if value is None:
+            self._pinned.pop(name, None)
+        else:
+            self._pinned[name] = int(value)
+        self.refresh(self._clock())
 
     def read_raw(self, address: int, size: int) -> bytes:
         self.refresh(self._clock())
@@ -423,9 +435,9 @@ class VirtualServo:
         pwm = self._get("goal_pwm") if (mode == 16 and torque) else int(round((frac_v + 0.1 * frac_a) * full)) if torque else 0
         pwm_limit = self._get("pwm_limit", full)
         self._poke("present_pwm", max(-pwm_limit, min(pwm_limit, pwm)))
-        self._poke("present_input_voltage", int(round(self.family.nominal_v * 10)))
+        self._poke("present_input_voltage", int(round(self.supply_v * 10)))
         heat = abs(current) / limit if limit else 0.0
-        self._poke("present_temperature", 30 + (2 if torque else 0) + int(round(8 * heat)))
+        self._poke("present_temperature", self.ambient_c + (2 if torque else 0) + int(round(8 * heat)))
         self._poke("realtime_tick", int((now - self._boot) * 1000) % 32768)
         in_motion = abs(m.v) > self._threshold_pulses()
         ongoing = torque and cmd.target_p is not None and not m.at_target(cmd)
@@ -442,3 +454,5 @@ class VirtualServo:
             mode_p = self._get(f"external_port_mode_{port}")
             value = {0: _ANALOG_INPUT, 1: self._port_latch.get(port, 0), 2: 1, 3: 0}.get(mode_p, 0)
             self._poke(f"external_port_data_{port}", value)
+        for name, value in self._pinned.items():
+            self._poke(name, value)

@@ -1,0 +1,190 @@
+"""``dynamixel_handler_sim``: serve a virtual Dynamixel bus on a pseudo-terminal.
+
+The first line printed on stdout is the device path to open (flushed at once), so a script
+can do ``DEV=$(dynamixel_handler_sim | head -1)``-style plumbing or read one line from a pipe.
+Faults can be changed while it runs by typing commands on stdin (``help`` lists them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+
+from dynamixel_handler.control_table import known_models, model_by_number
+
+from . import DEFAULT_SERVOS
+from .bus import VirtualBus
+
+COMMANDS_HELP = """commands (one per line on stdin):
+  silent ID | answer ID        an ID stops answering / comes back
+  crc RATE                     probability of a corrupted reply CRC (0..1)
+  garbage N                    N noise bytes before the next reply
+  truncate [N]                 cut the next N replies short
+  hwerr ID BITS                set hardware error bits (torque drops per shutdown mask)
+  vanish | reappear            unplug / replug the adapter
+  add ID MODEL | remove ID     add or remove a servo
+  list | help | quit"""
+
+
+def parse_model(text: str) -> int:
+    """A model number or a model name such as XM430-W350 (case-insensitive)."""
+    text = text.strip()
+    if text.isdigit():
+        number = int(text)
+        model_by_number(number)
+        return number
+    for model in known_models():
+        if model.name.lower() == text.lower():
+            return model.number
+    raise argparse.ArgumentTypeError(f"unknown model {text!r} (see --list-models)")
+
+
+def _servo_arg(text: str) -> tuple[int, int]:
+    try:
+        sid, model = text.split(":", 1)
+        return int(sid), parse_model(model)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected ID:MODEL, got {text!r}") from None
+
+
+def _id_list(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        if "-" in part:
+            lo, hi = part.split("-", 1)
+            out += list(range(int(lo), int(hi) + 1))
+        elif part.strip():
+            out.append(int(part))
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="dynamixel_handler_sim",
+        description="Serve virtual Dynamixel servos (Protocol 2.0) on a pseudo-terminal. "
+                    "Prints the device path as the first line of stdout, then serves until "
+                    "SIGINT/SIGTERM. Default bus: 1 XM430-W350, 2 XM540-W270, "
+                    "3 PH54-200-S500-R, 4 H54-200-S500-R.",
+        epilog=COMMANDS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--servo", action="append", type=_servo_arg, metavar="ID:MODEL", default=[],
+                    help="add a servo (model number or name), repeatable")
+    ap.add_argument("--ids", type=_id_list, metavar="LIST", help="IDs, e.g. 1,2,5-8 (with --models)")
+    ap.add_argument("--models", metavar="LIST",
+                    help="models for --ids, comma separated; one model applies to all IDs")
+    ap.add_argument("--link", metavar="PATH", help="also expose the device as this symlink, e.g. /tmp/ttyDXL")
+    ap.add_argument("--baudrate", type=int, help="simulate wire time at this baud rate (default: no timing)")
+    ap.add_argument("--latency-ms", type=float, default=0.0, help="extra latency per transaction (ms)")
+    ap.add_argument("--silent", type=_id_list, default=[], metavar="LIST", help="IDs that do not answer")
+    ap.add_argument("--crc-error-rate", type=float, default=0.0, metavar="P",
+                    help="probability that a reply has a bad CRC")
+    ap.add_argument("--hardware-error", action="append", default=[], metavar="ID:BITS",
+                    help="start with hardware error bits set on a servo")
+    ap.add_argument("--seed", type=int, help="random seed for fault injection")
+    ap.add_argument("--list-models", action="store_true", help="print the supported models and exit")
+    ap.add_argument("--quiet", action="store_true", help="print only the device path")
+    return ap
+
+
+def _servos_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> dict[int, int]:
+    servos: dict[int, int] = {}
+    if args.ids:
+        models = [parse_model(m) for m in (args.models or "XM430-W350").split(",")]
+        if len(models) == 1:
+            models *= len(args.ids)
+        if len(models) != len(args.ids):
+            ap.error("--models needs one model or one per ID")
+        servos.update(zip(args.ids, models))
+    elif args.models:
+        ap.error("--models needs --ids")
+    servos.update(dict(args.servo))
+    for sid in servos:
+        if not 0 <= sid <= 252:
+            ap.error(f"ID {sid} out of range 0..252")
+    return servos or dict(DEFAULT_SERVOS)
+
+
+def run_command(bus: VirtualBus, line: str) -> str:
+    """Apply one run-time command; returns a short human answer."""
+    words = line.split()
+    if not words:
+        return ""
+    cmd, rest = words[0].lower(), words[1:]
+    try:
+        if cmd in ("silent", "answer"):
+            bus.set_silent(int(rest[0]), cmd == "silent")
+        elif cmd == "crc":
+            bus.crc_error_rate = float(rest[0])
+        elif cmd == "garbage":
+            bus.inject_garbage(int(rest[0]))
+        elif cmd == "truncate":
+            bus.truncate_next(int(rest[0]) if rest else 1)
+        elif cmd == "hwerr":
+            bus.set_hardware_error(int(rest[0]), int(rest[1], 0))
+        elif cmd == "vanish":
+            bus.vanish()
+        elif cmd == "reappear":
+            return f"device {bus.reappear()}"
+        elif cmd == "add":
+            bus.add_servo(int(rest[0]), parse_model(rest[1]))
+        elif cmd == "remove":
+            bus.remove_servo(int(rest[0]))
+        elif cmd == "list":
+            return "\n".join(f"ID {i}: {s.model.name} ({s.model.number})" + (" [silent]" if s.silent else "")
+                             for i, s in bus.servos.items())
+        elif cmd == "help":
+            return COMMANDS_HELP
+        else:
+            return f"unknown command {cmd!r}; try help"
+    except (IndexError, ValueError, KeyError, argparse.ArgumentTypeError) as exc:
+        return f"error: {exc}"
+    return "ok"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    if args.list_models:
+        for model in known_models():
+            print(f"{model.number:6d}  {model.name}  ({model.series})")
+        return 0
+    servos = _servos_from(args, ap)
+    bus = VirtualBus(servos, baudrate=args.baudrate, latency_s=args.latency_ms / 1000.0,
+                     link=args.link, seed=args.seed)
+    bus.crc_error_rate = args.crc_error_rate
+    for sid in args.silent:
+        bus.set_silent(sid)
+    for spec in args.hardware_error:
+        sid, bits = spec.split(":", 1)
+        bus.set_hardware_error(int(sid), int(bits, 0))
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    path = bus.start()
+    print(path, flush=True)
+    if not args.quiet:
+        for sid, servo in bus.servos.items():
+            print(f"ID {sid}: {servo.model.name} ({servo.model.number})", file=sys.stderr)
+        print("serving; Ctrl-C to stop", file=sys.stderr, flush=True)
+    threading.Thread(target=_console, args=(bus, stop, args.quiet), daemon=True).start()
+    try:
+        while not stop.wait(0.5):
+            pass
+    finally:
+        bus.close()
+    return 0
+
+
+def _console(bus: VirtualBus, stop: threading.Event, quiet: bool) -> None:
+    """Read run-time fault commands from stdin until EOF (EOF does not stop the bus)."""
+    try:
+        for line in sys.stdin:
+            if line.strip().lower() in ("quit", "exit"):
+                stop.set()
+                return
+            answer = run_command(bus, line)
+            if answer and not quiet:
+                print(answer, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        return
