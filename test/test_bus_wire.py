@@ -449,3 +449,16 @@ def test_device_vanishing_mid_run_then_reopen(peer, tmp_path):
     assert bus.is_open
     assert bus.read(1, 146, 1) == b"\x21"
     bus.close()
+
+
+def test_stats_delta_gives_the_rates_of_one_period(peer):
+    far = peer(lambda packet: [status(1, b"\x01")])  # only ID 1 exists
+    bus = open_bus(far.path, retry_num=0)
+    bus.read(1, 146, 1)
+    before = bus.stats.copy()
+    bus.read(1, 146, 1)
+    bus.sync_read(146, 1, [1, 2])
+    period = bus.stats.delta(before)
+    assert period.transactions == 2
+    assert period.success_rate == 1.0 and period.full_success_rate == 0.5
+    bus.close()

@@ -80,6 +80,11 @@ class BusStats:
     def copy(self) -> "BusStats":
         return dataclasses.replace(self)
 
+    def delta(self, earlier: "BusStats") -> "BusStats":
+        """Counters accumulated since the snapshot ``earlier`` (for a per-period log line)."""
+        return BusStats(**{f.name: getattr(self, f.name) - getattr(earlier, f.name)
+                           for f in dataclasses.fields(self)})
+
     def reset(self) -> None:
         for item in dataclasses.fields(self):
             setattr(self, item.name, item.default)
@@ -486,8 +491,8 @@ class DynamixelBus:
         got = reply.segments()
         for status in got.values():
             self._note_status(status)
-        if len(got) < len(expected):
-            self.stats.timeouts += 0 if reply.complete else 1
+        if not reply.complete:
+            self.stats.timeouts += 1
         self.stats.crc_errors += reply.crc_errors
         self.stats.discarded_bytes += reply.discarded_bytes
         return got
