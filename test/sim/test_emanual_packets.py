@@ -90,6 +90,7 @@ def test_sync_read(xm430_w210):
 def test_sync_write(xm430_w210):
     bus, raw = xm430_w210
     assert raw.exchange(h("FF FF FD 00 FE 11 00 83 74 00 04 00 01 96 00 00 00 02 AA 00 00 00 82 87"), 1, 0.1) == b""
+    raw.exchange(h("FF FF FD 00 01 03 00 01 19 4E"), 14)  # a round trip: the write was executed
     assert (bus.servo(1).read("goal_position"), bus.servo(2).read("goal_position")) == (150, 170)
 
 
@@ -104,6 +105,7 @@ def test_bulk_read(xm430_w210):
 def test_bulk_write(xm430_w210):
     bus, raw = xm430_w210
     assert raw.exchange(h("FF FF FD 00 FE 10 00 93 01 20 00 02 00 A0 00 02 1F 00 01 00 50 B7 68"), 1, 0.1) == b""
+    raw.exchange(h("FF FF FD 00 01 03 00 01 19 4E"), 14)
     assert bus.servo(1).read("max_voltage_limit") == 160
     assert bus.servo(2).read("temperature_limit") == 80
 
