@@ -241,7 +241,7 @@ class VirtualBus:
         Useful for tools and for inspecting replies without wire timing.
         """
         replies: list[bytes] = []
-        for packet in self._parser.feed(data):
+        for packet in p.PacketParser().feed(data):
             with self._lock:
                 replies += [reply for _, reply in self._execute(packet)]
         return replies

@@ -26,6 +26,11 @@ class ManualClock:
 
 
 @pytest.fixture
+def manual_clock() -> ManualClock:
+    return ManualClock()
+
+
+@pytest.fixture
 def make_bus():
     """Factory: make_bus({id: model}, **kwargs) -> started VirtualBus, closed at teardown."""
     buses: list[VirtualBus] = []
