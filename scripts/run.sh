@@ -9,7 +9,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/setup.sh" >&2
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 # shellcheck disable=SC1091
-source "$ROOT/env.sh"
+set +u; source "$ROOT/env.sh"; set -u
 
 SIM_PID=""
 cleanup() { [ -n "$SIM_PID" ] && kill "$SIM_PID" 2>/dev/null; wait 2>/dev/null || true; }
@@ -20,7 +20,8 @@ if [ -n "${DXL_DEVICE:-}" ]; then
   DEVICE="$DXL_DEVICE"
 else
   FIFO="$(mktemp -u)"; mkfifo "$FIFO"
-  dynamixel_handler_sim > "$FIFO" &
+  # own session: a Ctrl-C reaches the node, which stops the servos before the bus goes away
+  setsid dynamixel_handler_sim > "$FIFO" &
   SIM_PID=$!
   read -r DEVICE < "$FIFO"; rm -f "$FIFO"
   [ -n "$DEVICE" ] || { echo "[run] the virtual bus did not start" >&2; exit 1; }

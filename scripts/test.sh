@@ -7,6 +7,6 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((1 + $$ % 100))}"
 # shellcheck disable=SC1091
-source "$ROOT/env.sh"
+set +u; source "$ROOT/env.sh"; set -u
 cd "$ROOT"
 exec python -m pytest -q -p no:cacheprovider "$@" test

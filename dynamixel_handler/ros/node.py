@@ -1,42 +1,224 @@
-"""The dynamixel_handler node: parameters, then the handler, spun until SIGINT/SIGTERM."""
+"""The dynamixel_handler node: parameters, start-up on the bus, the loop thread, publishing.
+
+The bus loop runs on its own thread at ``loop_rate``; the executor thread only runs subscription
+callbacks, which validate and queue work for the loop (they never touch the bus). Publishing
+happens on the loop thread right after each read, so ``stamp`` is the read time.
+"""
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
+import time
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 
+from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
+                                        DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelShortcut,
+                                        DynamixelStatus)
+
+from ..bus import BusError, DynamixelBus
+from ..loop import Handler, StartupError, StepReport
+from . import convert
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
 
 
+class _LoggerAdapter:
+    """Lets ROS-free modules log through the node's rcutils logger (logging.Logger-like)."""
+
+    def __init__(self, ros_logger) -> None:
+        self._log = ros_logger
+
+    def debug(self, msg: str, *a) -> None:
+        self._log.debug(msg % a if a else msg)
+
+    def info(self, msg: str, *a) -> None:
+        self._log.info(msg % a if a else msg)
+
+    def warning(self, msg: str, *a) -> None:
+        self._log.warning(msg % a if a else msg)
+
+    warn = warning
+
+    def error(self, msg: str, *a) -> None:
+        self._log.error(msg % a if a else msg)
+
+    def log(self, level: int, msg: str, *a) -> None:
+        (self.error if level >= 40 else self.warning if level >= 30 else self.info if level >= 20 else self.debug)(msg, *a)
+
+    def isEnabledFor(self, level: int) -> bool:  # noqa: N802 (logging.Logger API)
+        return True
+
+
 class DynamixelHandlerNode(Node):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True)
-        self.config = declare_and_load(self)
+        self.config = cfg = declare_and_load(self)
         log = self.get_logger()
-        log.info("parameters:\n" + "\n".join(describe(self.config)))
+        log.info("parameters: " + "\n".join(describe(self.config)))
+        self.adapter = _LoggerAdapter(log)
+        self.bus = DynamixelBus(cfg["device_name"], cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
+                                cfg["dyn_comm/retry_num"], float(cfg["dyn_comm/inerval_msec"]),
+                                verbose=cfg["dyn_comm/verbose"], logger=self.adapter)
+        self.handler = Handler(self.bus, cfg, self.adapter)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._create_publishers()
+        self._create_subscriptions()
+
+    # ------------------------------------------------------------------ wiring
+    def _create_publishers(self) -> None:
+        qos = QoSProfile(depth=10)
+        self.pub_states = self.create_publisher(DxlStates, "dynamixel/states", qos)
+        self.pub_debug = self.create_publisher(DynamixelDebug, "dynamixel/debug", qos)
+        self.pub_state: dict[str, object] = {}
+        if not self.config["no_use_command_line"]:
+            for name, typ in (("status", DynamixelStatus), ("present", DynamixelPresent), ("goal", DynamixelGoal),
+                              ("gain", DynamixelGain), ("limit", DynamixelLimit), ("error", DynamixelError),
+                              ("extra", DynamixelExtra)):
+                self.pub_state[name] = self.create_publisher(typ, f"dynamixel/state/{name}", qos)
+
+    def _create_subscriptions(self) -> None:
+        self.create_subscription(DynamixelShortcut, "dynamixel/shortcut", self._on_shortcut, 10)
+
+    # ------------------------------------------------------------------ start-up
+    def start(self) -> None:
+        """Open the bus and set up the servos; StartupError/BusError when that cannot be done."""
+        try:
+            self.bus.open()
+        except BusError as err:
+            if not self.config["debug"]:
+                raise
+            self.get_logger().warning(f"{err} (debug: running without a bus)")
+            return
+        self.handler.start()
+        self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop the loop, make the servos safe as term/* say, close the port."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
+        try:
+            if self.bus.is_open:
+                self.handler.shutdown()
+        finally:
+            self.bus.close()
+
+    # ------------------------------------------------------------------ the loop thread
+    def _run(self) -> None:
+        period = 1.0 / self.config["loop_rate"]
+        verbose_ratio = self.config["verbose_ratio"]
+        next_t = time.monotonic()
+        window_start, window_loops, window_read = time.monotonic(), 0, 0.0
+        stats_before = self.bus.stats.copy()
+        while not self._stop.is_set():
+            try:
+                report = self.handler.step()
+                self._publish(report)
+            except Exception as exc:  # keep the loop alive; the context says where it broke
+                self.get_logger().error(f"loop {self.handler.loop_count}: {type(exc).__name__}: {exc}")
+                report = None
+            window_loops += 1
+            if report is not None:
+                window_read += report.read_s
+            if verbose_ratio and window_loops >= verbose_ratio:
+                elapsed = time.monotonic() - window_start
+                delta = self.bus.stats.delta(stats_before)
+                self.get_logger().info(
+                    f"time={1000 * elapsed / window_loops:.2f}ms/loop({1000 * window_read / window_loops:.2f}ms/read), "
+                    f"success={100 * delta.success_rate:.1f}%(full={100 * delta.full_success_rate:.1f}%)")
+                window_start, window_loops, window_read = time.monotonic(), 0, 0.0
+                stats_before = self.bus.stats.copy()
+            next_t += period
+            delay = next_t - time.monotonic()
+            if delay > 0:
+                self._stop.wait(delay)
+            else:
+                next_t = time.monotonic()  # overran: start the next loop now, don't try to catch up
+
+    def _publish(self, report: StepReport) -> None:
+        table = self.handler.table
+        groups, present_keys = report.groups, report.present
+        if not (groups or present_keys):
+            return
+        outdated = self.config["pub_outdated_present_value"]
+        self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, outdated))
+        if present_keys or "status" in groups:
+            self.pub_debug.publish(convert.debug(table))
+        if not self.pub_state:
+            return
+        if "status" in groups:
+            self.pub_state["status"].publish(convert.status(table))
+        if present_keys:
+            self.pub_state["present"].publish(convert.present(table, None if outdated else present_keys))
+        for name in ("goal", "gain", "limit", "error"):
+            if name in groups:
+                self.pub_state[name].publish(getattr(convert, name)(table))
+        if groups & {"extra_dynamic", "extra_static"}:
+            self.pub_state["extra"].publish(convert.extra(table))
+
+    # ------------------------------------------------------------------ commands
+    def _on_shortcut(self, msg: DynamixelShortcut) -> None:
+        command = msg.command
+        ids = list(msg.id_list)
+        handler = self.handler
+        if command in ("add_id", "ADID"):
+            for dxl_id in ids:
+                handler.queue(f"add_id {dxl_id}", lambda i=dxl_id: handler.add_id(i))
+        elif command in ("remove_id", "RMID"):
+            for dxl_id in ids:
+                handler.queue(f"remove_id {dxl_id}", lambda i=dxl_id: handler.remove_id(i))
+        else:
+            self.get_logger().warning(f"shortcut: unknown command '{command}'")
 
 
 def main(args: list[str] | None = None) -> int:
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    rclpy.init(args=args)
-    node = None
+    rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
+    log = rclpy.logging.get_logger(NODE_NAME)
+    node: DynamixelHandlerNode | None = None
+    executor = SingleThreadedExecutor()
+    stopping = threading.Event()
+
+    def on_signal(signum, _frame) -> None:
+        stopping.set()
+        executor.wake() if hasattr(executor, "wake") else None
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
     code = 0
     try:
         node = DynamixelHandlerNode()
-        rclpy.spin(node)
+        node.start()
+        executor.add_node(node)
+        while not stopping.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+        log.info("stopping: " + ", ".join(k for k in ("term/servo_auto_stop", "term/torque_auto_disable")
+                                          if node.config[k]) or "stopping")
     except ConfigError as err:
-        rclpy.logging.get_logger(NODE_NAME).fatal(f"bad parameter: {err}")
+        log.fatal(f"bad parameter: {err}")
         code = 2
+    except (BusError, StartupError) as err:
+        log.fatal(str(err))
+        code = 1
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
         if node is not None:
+            try:
+                node.stop()
+            except Exception as exc:
+                log.error(f"shutdown: {type(exc).__name__}: {exc}")
             node.destroy_node()
+        executor.shutdown(timeout_sec=1.0)
         if rclpy.ok():
             rclpy.try_shutdown()
     return code

@@ -1,0 +1,452 @@
+"""The handler's life on the bus: start-up, one loop step, shutdown. ROS-free.
+
+``Handler.step()`` runs queued operations (torque, mode, reboot...), writes pending values in
+grouped sync writes, reads what the ratios ask for this loop, and returns a ``StepReport`` that
+says which groups were read. The ROS layer turns the table into messages.
+"""
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Sequence
+
+import numpy as np
+
+from . import units
+from .bus import DynamixelBus
+from .config import Config
+from .control_table import OPERATING_MODES, Model, model_by_number
+from .groups import GROUP_ITEMS, GROUP_RATIO_PARAM, MODE_NAMES, PRESENT, due
+from .servos import PendingWrites, ServoTable
+
+#: items closer than this many bytes are read in one span when method/split_read is false
+SPAN_GAP = 24
+#: loops between pings of a servo that stopped answering
+RECHECK_LOOPS = 10
+#: time a servo needs after a reboot instruction before it answers again [s]
+REBOOT_WAIT_S = 0.6
+
+
+class StartupError(RuntimeError):
+    """Start-up cannot go on; the message says what, why and what to do."""
+
+
+@dataclass
+class StepReport:
+    loop: int
+    stamp: float = 0.0                       # wall-clock time of the reads (time.time())
+    groups: set[str] = field(default_factory=set)        # groups read: status, goal, gain, ...
+    present: set[str] = field(default_factory=set)       # present keys read: pwm, current, ...
+    read_s: float = 0.0
+    write_s: float = 0.0
+    removed: list[int] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class _Part:
+    item: str
+    offset: int
+    size: int
+    signed: bool
+
+
+@dataclass(frozen=True)
+class _Read:
+    address: int
+    length: int
+    positions: np.ndarray
+    ids: tuple[int, ...]
+    parts: tuple[_Part, ...]
+
+
+class Handler:
+    """Owns the servos of one bus."""
+
+    def __init__(self, bus: DynamixelBus, config: Config, logger: logging.Logger | None = None) -> None:
+        self.bus = bus
+        self.config = config
+        self.log = logger or logging.getLogger("dynamixel_handler")
+        self.table = ServoTable()
+        self.pending = PendingWrites()
+        self.loop_count = 0
+        self._ops: collections.deque[tuple[str, Callable[[], None]]] = collections.deque()
+        self._ops_lock = threading.Lock()
+        self._plans: dict[tuple, list[_Read]] = {}
+        self._plans_version = -1
+        self.fast_read = bool(config["method/fast_read"])
+        self.split_read = bool(config["method/split_read"])
+        self.split_write = bool(config["method/split_write"])
+        self.stats_reads = 0
+        self.stats_full_reads = 0
+
+    # ================================================================ start-up
+    def start(self) -> None:
+        """Scan, keep the servos of the used series, and set each up as the parameters say."""
+        cfg = self.config
+        lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
+        expected = cfg["init/expected_servo_num"]
+        attempts = cfg["init/servo_auto_search.retry_times"] + 1
+        found: dict[int, int] = {}
+        for attempt in range(attempts):
+            found.update(self.bus.scan(range(lo, hi + 1)))
+            enough = len(found) >= expected if expected > 0 else len(found) >= 1
+            self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} at {self.bus.baudrate} bps: "
+                          f"{len(found)} servo(s) {sorted(found)}")
+            if enough:
+                break
+        else:
+            want = f"{expected}" if expected > 0 else "at least 1"
+            raise StartupError(
+                f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected {want}: "
+                f"check power, wiring, IDs ({lo}..{hi}) and baudrate (init/baudrate_auto_set can find others)")
+        used = set(cfg.used_series)
+        for dxl_id, number in sorted(found.items()):
+            try:
+                model = model_by_number(number)
+            except KeyError:
+                self.log.warning(f"ID {dxl_id}: unknown model number {number}, not handled")
+                continue
+            if model.series not in used:
+                self.log.info(f"ID {dxl_id}: {model.name} is series {model.series}, which "
+                              f"init/used_servo_series does not enable: skipped")
+                continue
+            self.table.add(dxl_id, model)
+            self.log.info(f"ID {dxl_id}: {model.name} (model {number}, series {model.series}) handled")
+        if not len(self.table):
+            raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
+                               f"{sorted(found)}: enable their series in init/used_servo_series")
+        for dxl_id in list(self.table.ids):
+            self._setup_servo(dxl_id)
+
+    def _setup_servo(self, dxl_id: int) -> None:
+        cfg, model = self.config, self.table.model(dxl_id)
+        if cfg["init/hardware_error_auto_clean"]:
+            err = self._read_item(dxl_id, "hardware_error_status")
+            if err:
+                self.log.warning(f"ID {dxl_id}: hardware error 0x{err:02X} at start-up: clearing it by reboot")
+                self.reboot(dxl_id)
+        delay = int(units.unit_to_pulse([model], "return_delay_time", [cfg["default/return_delay_time"]])[0])
+        self.write_eeprom(dxl_id, "return_delay_time", delay)
+        for item, param in (("profile_acceleration", "default/profile_acc"), ("profile_velocity", "default/profile_vel")):
+            if model.has(item):
+                pulses = int(units.unit_to_pulse([model], item, [cfg[param]])[0])
+                self.write_item(dxl_id, item, pulses)
+        if cfg["init/torque_auto_enable"]:
+            self.torque_on(dxl_id)
+
+    # ================================================================ single-servo helpers
+    def _read_item(self, dxl_id: int, item: str) -> int | None:
+        model = self.table.model(dxl_id)
+        if not model.has(item):
+            return None
+        spec = model.item(item)
+        data = self.bus.read(dxl_id, spec.address, spec.size)
+        if data is None:
+            return None
+        value = int(units.decode(spec, data)[0])
+        self.table.set_value(item, dxl_id, value)
+        return value
+
+    def write_item(self, dxl_id: int, item: str, pulses: int) -> bool:
+        model = self.table.model(dxl_id)
+        if not model.has(item):
+            return False
+        spec = model.item(item)
+        ok = self.bus.write(dxl_id, spec.address, units.encode(spec, [pulses]))
+        if ok:
+            self.table.set_value(item, dxl_id, pulses)
+        return ok
+
+    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
+        """Write an EEPROM item: only if it differs, with torque off for the write and restored after."""
+        if not self.table.model(dxl_id).has(item):
+            return False
+        if self._read_item(dxl_id, item) == pulses:
+            return True
+        torque = self._read_item(dxl_id, "torque_enable")
+        if torque:
+            self.write_item(dxl_id, "torque_enable", 0)
+        ok = self.write_item(dxl_id, item, pulses)
+        if torque:
+            self.write_item(dxl_id, "torque_enable", 1)
+        if not ok:
+            self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {self.bus.last_failure}")
+        return ok
+
+    def reboot(self, dxl_id: int) -> bool:
+        ok = self.bus.reboot(dxl_id)
+        if ok:
+            time.sleep(REBOOT_WAIT_S)
+            for _ in range(10):
+                if self.bus.ping(dxl_id, retries=0) is not None:
+                    break
+                time.sleep(0.05)
+        return ok
+
+    def mode(self, dxl_id: int) -> str | None:
+        value = self.table.value("operating_mode", dxl_id)
+        if value is None:
+            value = self._read_item(dxl_id, "operating_mode")
+        return MODE_NAMES.get(value) if value is not None else None
+
+    def torque_on(self, dxl_id: int) -> bool:
+        """Enable torque without a jump: goals := present state (position) or neutral, then enable."""
+        mode = self.mode(dxl_id)
+        model = self.table.model(dxl_id)
+        if mode in ("position", "ex_position", "cur_position"):
+            present = self._read_item(dxl_id, "present_position")
+            if present is not None:
+                if mode == "position":
+                    present = self._clip_to_position_limits(dxl_id, present)
+                self.write_item(dxl_id, "goal_position", present)
+        elif mode == "velocity":
+            self.write_item(dxl_id, "goal_velocity", 0)
+        elif mode == "current":
+            self.write_item(dxl_id, "goal_current", 0)
+        elif mode == "pwm":
+            self.write_item(dxl_id, "goal_pwm", 0)
+        ok = self.write_item(dxl_id, "torque_enable", 1)
+        if not ok:
+            self.log.warning(f"ID {dxl_id} ({model.name}): torque on failed: {self.bus.last_failure}")
+        return ok
+
+    def torque_off(self, dxl_id: int) -> bool:
+        return self.write_item(dxl_id, "torque_enable", 0)
+
+    def _clip_to_position_limits(self, dxl_id: int, pulses: int) -> int:
+        lo = self.table.value("min_position_limit", dxl_id)
+        hi = self.table.value("max_position_limit", dxl_id)
+        if lo is None:
+            lo = self._read_item(dxl_id, "min_position_limit")
+        if hi is None:
+            hi = self._read_item(dxl_id, "max_position_limit")
+        if lo is not None and hi is not None and lo <= hi:
+            return min(max(pulses, lo), hi)
+        return pulses
+
+    # ================================================================ membership
+    def add_id(self, dxl_id: int) -> bool:
+        """Ping ``dxl_id`` and handle it if it answers with a model of a used series."""
+        number = self.bus.ping(dxl_id)
+        if number is None:
+            self.log.warning(f"ID {dxl_id}: no answer to ping, not added")
+            return False
+        try:
+            model = model_by_number(number)
+        except KeyError:
+            self.log.warning(f"ID {dxl_id}: unknown model number {number}, not added")
+            return False
+        if model.series not in self.config.used_series:
+            self.log.warning(f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in init/used_servo_series")
+            return False
+        self.table.add(dxl_id, model)
+        self.log.info(f"ID {dxl_id}: {model.name} added")
+        return True
+
+    def remove_id(self, dxl_id: int) -> None:
+        if dxl_id in self.table:
+            self.table.remove(dxl_id)
+            self.pending.drop_ids([dxl_id])
+            self.log.info(f"ID {dxl_id}: removed from the handled servos")
+
+    # ================================================================ operations from callbacks
+    def queue(self, what: str, op: Callable[[], None]) -> None:
+        """Run ``op`` in the loop thread at the start of the next step (callbacks never touch the bus)."""
+        with self._ops_lock:
+            self._ops.append((what, op))
+
+    def _run_ops(self) -> None:
+        while True:
+            with self._ops_lock:
+                if not self._ops:
+                    return
+                what, op = self._ops.popleft()
+            try:
+                op()
+            except Exception as exc:  # an operation must never stop the loop
+                self.log.error(f"{what} failed: {type(exc).__name__}: {exc}")
+
+    # ================================================================ the loop step
+    def step(self) -> StepReport:
+        report = StepReport(loop=self.loop_count)
+        self._run_ops()
+        t0 = time.perf_counter()
+        self._write_pending()
+        t1 = time.perf_counter()
+        report.write_s = t1 - t0
+        report.stamp = time.time()
+        self._read_due(report)
+        report.read_s = time.perf_counter() - t1
+        self.loop_count += 1
+        return report
+
+    # ---------------------------------------------------------------- writes
+    def _write_pending(self) -> None:
+        pending = self.pending.take()
+        if not pending or not len(self.table):
+            return
+        # (address, size) -> {item: {id: pulses}}: one sync write per item and layout
+        writes: dict[tuple[int, int], dict[int, bytes]] = {}
+        for item, values in pending.items():
+            for dxl_id, pulses in values.items():
+                if dxl_id not in self.table:
+                    continue
+                model = self.table.model(dxl_id)
+                if not model.has(item):
+                    continue
+                spec = model.item(item)
+                writes.setdefault((spec.address, spec.size), {})[dxl_id] = units.encode(spec, [pulses])
+                self.table.set_value(item, dxl_id, pulses)
+        if not self.split_write:
+            writes = _merge_adjacent_writes(writes)
+        for (address, size), data in sorted(writes.items()):
+            if not self.bus.sync_write(address, size, data):
+                self.log.warning(f"sync write @{address}x{size} to IDs {sorted(data)} failed: {self.bus.last_failure}")
+
+    # ---------------------------------------------------------------- reads
+    def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
+        cfg = self.config
+        present_keys = {k for k in PRESENT if due(cfg.present_ratio(k), loop)}
+        groups = {g for g, param in GROUP_RATIO_PARAM.items() if due(cfg[param], loop)}
+        items: list[str] = [PRESENT[k][0] for k in PRESENT if k in present_keys]
+        for g in groups:
+            items += [i for i in GROUP_ITEMS[g] if i not in items]
+        return items, present_keys, groups
+
+    def _read_due(self, report: StepReport) -> None:
+        if not len(self.table):
+            return
+        items, report.present, report.groups = self.due_items(self.loop_count)
+        live = self.table.ping.copy()
+        answered = np.zeros(len(self.table), dtype=bool)
+        addressed = np.zeros(len(self.table), dtype=bool)
+        if items:
+            for read in self._plan(tuple(sorted(set(items))), live):
+                addressed[read.positions] = True
+                data = self.bus.sync_read(read.address, read.length, read.ids, fast=self.fast_read)
+                self.stats_reads += 1
+                if len(data) == len(read.ids):
+                    self.stats_full_reads += 1
+                if data:
+                    self._store(read, data, report.stamp)
+                    answered[[self.table.index[i] for i in data]] = True
+        # servos that stopped answering are pinged now and then, not read every loop
+        if self.loop_count % RECHECK_LOOPS == 0:
+            for pos in np.flatnonzero(~live):
+                addressed[pos] = True
+                if self.bus.ping(self.table.ids[pos], retries=0) is not None:
+                    answered[pos] = True
+        self._update_ping(addressed, answered, report)
+
+    def _update_ping(self, addressed: np.ndarray, answered: np.ndarray, report: StepReport) -> None:
+        table = self.table
+        silent = addressed & ~answered
+        back = answered & ~table.ping
+        for pos in np.flatnonzero(silent & table.ping):
+            self.log.warning(f"ID {table.ids[pos]}: no response (ping false)")
+        for pos in np.flatnonzero(back):
+            self.log.info(f"ID {table.ids[pos]}: answers again")
+        table.no_response[silent] += 1
+        table.no_response[answered] = 0
+        table.ping[silent] = False
+        table.ping[answered] = True
+        limit = self.config["no_response_id_auto_remove_count"]
+        if limit > 0:
+            for pos in reversed(np.flatnonzero(table.no_response >= limit)):
+                dxl_id = table.ids[pos]
+                self.log.warning(f"ID {dxl_id}: no response {limit} times in a row: removed "
+                                 "(add it again with the shortcut add_id)")
+                report.removed.append(dxl_id)
+                self.remove_id(dxl_id)
+
+    def _plan(self, items: tuple[str, ...], live: np.ndarray) -> list[_Read]:
+        """Sync reads for ``items`` over the live servos, grouped by control-table layout (cached)."""
+        if self._plans_version != self.table.version:
+            self._plans.clear()
+            self._plans_version = self.table.version
+        key = (items, live.tobytes())
+        plan = self._plans.get(key)
+        if plan is not None:
+            return plan
+        layouts: dict[tuple, list[int]] = {}
+        for pos, model in enumerate(self.table.models):
+            if not live[pos]:
+                continue
+            sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed)
+                        for i in items if model.has(i))
+            if sig:
+                layouts.setdefault(tuple(sorted(sig, key=lambda s: s[1])), []).append(pos)
+        plan = []
+        for sig, positions in layouts.items():
+            ids = tuple(self.table.ids[p] for p in positions)
+            for address, length, parts in _spans(sig, self.split_read):
+                plan.append(_Read(address, length, np.asarray(positions), ids, parts))
+        self._plans[key] = plan
+        return plan
+
+    def _store(self, read: _Read, data: dict[int, bytes], stamp: float) -> None:
+        ok_ids = [i for i in read.ids if i in data]
+        positions = np.fromiter((self.table.index[i] for i in ok_ids), dtype=np.int64, count=len(ok_ids))
+        buf = np.frombuffer(b"".join(data[i] for i in ok_ids), dtype=np.uint8).reshape(len(ok_ids), read.length)
+        for part in read.parts:
+            cols = buf[:, part.offset:part.offset + part.size].astype(np.int64)
+            values = cols @ (np.int64(1) << (8 * np.arange(part.size, dtype=np.int64)))
+            if part.signed:
+                half = np.int64(1) << (8 * part.size - 1)
+                values = np.where(values >= half, values - 2 * half, values)
+            self.table.store(part.item, positions, values, stamp)
+
+    # ================================================================ shutdown
+    def shutdown(self) -> None:
+        """Stop servos that would keep moving and/or disable torque, as term/* say."""
+        cfg = self.config
+        if not self.bus.is_open:
+            return
+        for dxl_id in list(self.table.ids):
+            if cfg["term/servo_auto_stop"]:
+                mode = self.mode(dxl_id)
+                neutral = {"velocity": "goal_velocity", "current": "goal_current", "pwm": "goal_pwm"}.get(mode or "")
+                if neutral:
+                    self.write_item(dxl_id, neutral, 0)
+            if cfg["term/torque_auto_disable"]:
+                self.torque_off(dxl_id)
+
+
+def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool) -> list[tuple[int, int, tuple[_Part, ...]]]:
+    """Cut items (sorted by address) into read spans: one per item, or merged across small gaps."""
+    spans: list[tuple[int, int, list[tuple[str, int, int, bool]]]] = []
+    for item, address, size, signed in sig:
+        if spans and not split and address - (spans[-1][0] + spans[-1][1]) <= SPAN_GAP:
+            start, _, members = spans[-1]
+            end = max(start + spans[-1][1], address + size)
+            spans[-1] = (start, end - start, members + [(item, address, size, signed)])
+        else:
+            spans.append((address, size, [(item, address, size, signed)]))
+    return [(start, length, tuple(_Part(i, a - start, s, sg) for i, a, s, sg in members))
+            for start, length, members in spans]
+
+
+def _merge_adjacent_writes(writes: dict[tuple[int, int], dict[int, bytes]]) -> dict[tuple[int, int], dict[int, bytes]]:
+    """Join writes of back-to-back items that go to the same IDs into one sync write."""
+    merged: dict[tuple[int, int], dict[int, bytes]] = {}
+    last: tuple[int, int] | None = None
+    for (address, size), data in sorted(writes.items()):
+        if last is not None and last[0] + last[1] == address and set(merged[last]) == set(data):
+            joined = {i: merged[last][i] + data[i] for i in data}
+            del merged[last]
+            last = (last[0], last[1] + size)
+            merged[last] = joined
+        else:
+            last = (address, size)
+            merged[last] = dict(data)
+    return merged
+
+
+def mode_value(name: str) -> int:
+    return OPERATING_MODES[name]
+
+
+__all__ = ["Handler", "StartupError", "StepReport", "mode_value"]

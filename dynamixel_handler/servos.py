@@ -1,0 +1,146 @@
+"""The in-memory table of handled servos: what was read (pulses, when) and what waits to be written.
+
+Values are kept per item as int64 arrays aligned with ``ids`` (sorted), so one numpy call converts
+an item of every servo to physical units. ROS-free and bus-free; the loop fills it, the ROS layer
+reads snapshots of it. Writers (command callbacks) and the loop meet only in ``PendingWrites``,
+which has its own lock.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from . import units
+from .control_table import Model
+
+
+class ServoTable:
+    """Handled servos in ID order, with the last value read of every item."""
+
+    def __init__(self) -> None:
+        self.ids: list[int] = []
+        self.models: list[Model] = []
+        self.index: dict[int, int] = {}
+        self._raw: dict[str, np.ndarray] = {}
+        self._known: dict[str, np.ndarray] = {}
+        self.read_time: dict[str, float] = {}
+        self.ping = np.zeros(0, dtype=bool)
+        self.no_response = np.zeros(0, dtype=np.int64)
+        self.version = 0  # bumps whenever the set of servos changes
+
+    # -------------------------------------------------------------- membership
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def __contains__(self, dxl_id: int) -> bool:
+        return dxl_id in self.index
+
+    def model(self, dxl_id: int) -> Model:
+        return self.models[self.index[dxl_id]]
+
+    def add(self, dxl_id: int, model: Model) -> None:
+        if dxl_id in self.index:
+            self.models[self.index[dxl_id]] = model
+            self.version += 1
+            return
+        pos = int(np.searchsorted(np.asarray(self.ids, dtype=np.int64), dxl_id))
+        self.ids.insert(pos, dxl_id)
+        self.models.insert(pos, model)
+        for name in list(self._raw):
+            self._raw[name] = np.insert(self._raw[name], pos, 0)
+            self._known[name] = np.insert(self._known[name], pos, False)
+        self.ping = np.insert(self.ping, pos, True)
+        self.no_response = np.insert(self.no_response, pos, 0)
+        self._reindex()
+
+    def remove(self, dxl_id: int) -> None:
+        pos = self.index.get(dxl_id)
+        if pos is None:
+            return
+        del self.ids[pos]
+        del self.models[pos]
+        for name in list(self._raw):
+            self._raw[name] = np.delete(self._raw[name], pos)
+            self._known[name] = np.delete(self._known[name], pos)
+        self.ping = np.delete(self.ping, pos)
+        self.no_response = np.delete(self.no_response, pos)
+        self._reindex()
+
+    def _reindex(self) -> None:
+        self.index = {dxl_id: i for i, dxl_id in enumerate(self.ids)}
+        self.version += 1
+
+    # -------------------------------------------------------------- values
+    def store(self, item: str, positions: np.ndarray, pulses: np.ndarray, when: float) -> None:
+        """Record pulses read for the servos at ``positions``."""
+        if item not in self._raw:
+            self._raw[item] = np.zeros(len(self.ids), dtype=np.int64)
+            self._known[item] = np.zeros(len(self.ids), dtype=bool)
+        self._raw[item][positions] = pulses
+        self._known[item][positions] = True
+        self.read_time[item] = when
+
+    def set_value(self, item: str, dxl_id: int, pulses: int) -> None:
+        """Record a value known without a read (e.g. one just written and confirmed)."""
+        pos = self.index[dxl_id]
+        self.store(item, np.array([pos]), np.array([pulses], dtype=np.int64), self.read_time.get(item, 0.0))
+
+    def pulses(self, item: str) -> np.ndarray:
+        """Last pulses of ``item`` per servo (0 where never read)."""
+        raw = self._raw.get(item)
+        return raw.copy() if raw is not None else np.zeros(len(self.ids), dtype=np.int64)
+
+    def known(self, item: str) -> np.ndarray:
+        known = self._known.get(item)
+        return known.copy() if known is not None else np.zeros(len(self.ids), dtype=bool)
+
+    def value(self, item: str, dxl_id: int) -> int | None:
+        pos = self.index.get(dxl_id)
+        if pos is None or item not in self._raw or not self._known[item][pos]:
+            return None
+        return int(self._raw[item][pos])
+
+    def units(self, item: str) -> np.ndarray:
+        """Last value of ``item`` per servo in physical units; NaN where unknown or not on the model."""
+        out = units.pulse_to_unit(self.models, item, self.pulses(item)) if self.ids else np.zeros(0)
+        known = self.known(item)
+        if not known.all():
+            out = out.astype(np.float64, copy=True)
+            out[~known] = np.nan
+        return out
+
+
+@dataclass
+class PendingWrites:
+    """Values waiting for the next loop: the last value per (item, ID) wins, nothing is lost."""
+
+    _items: dict[str, dict[int, int]] = field(default_factory=dict)
+    _lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def put(self, item: str, values: Mapping[int, int]) -> None:
+        with self._lock:
+            self._items.setdefault(item, {}).update(values)
+
+    def put_many(self, writes: Iterable[tuple[str, Mapping[int, int]]]) -> None:
+        with self._lock:
+            for item, values in writes:
+                self._items.setdefault(item, {}).update(values)
+
+    def take(self) -> dict[str, dict[int, int]]:
+        """Everything pending, emptied atomically."""
+        with self._lock:
+            taken, self._items = self._items, {}
+        return taken
+
+    def drop_ids(self, ids: Sequence[int]) -> None:
+        with self._lock:
+            for values in self._items.values():
+                for dxl_id in ids:
+                    values.pop(dxl_id, None)
+
+    def __bool__(self) -> bool:
+        with self._lock:
+            return any(self._items.values())
