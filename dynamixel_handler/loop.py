@@ -124,7 +124,7 @@ class Handler:
     def _setup_servo(self, dxl_id: int) -> None:
         cfg, model = self.config, self.table.model(dxl_id)
         if cfg["init/hardware_error_auto_clean"]:
-            err = self._read_item(dxl_id, "hardware_error_status")
+            err = self.read_item(dxl_id, "hardware_error_status")
             if err:
                 self.log.warning(f"ID {dxl_id}: hardware error 0x{err:02X} at start-up: clearing it by reboot")
                 self.reboot(dxl_id)
@@ -138,7 +138,7 @@ class Handler:
             self.torque_on(dxl_id)
 
     # ================================================================ single-servo helpers
-    def _read_item(self, dxl_id: int, item: str) -> int | None:
+    def read_item(self, dxl_id: int, item: str) -> int | None:
         model = self.table.model(dxl_id)
         if not model.has(item):
             return None
@@ -164,9 +164,9 @@ class Handler:
         """Write an EEPROM item: only if it differs, with torque off for the write and restored after."""
         if not self.table.model(dxl_id).has(item):
             return False
-        if self._read_item(dxl_id, item) == pulses:
+        if self.read_item(dxl_id, item) == pulses:
             return True
-        torque = self._read_item(dxl_id, "torque_enable")
+        torque = self.read_item(dxl_id, "torque_enable")
         if torque:
             self.write_item(dxl_id, "torque_enable", 0)
         ok = self.write_item(dxl_id, item, pulses)
@@ -189,7 +189,7 @@ class Handler:
     def mode(self, dxl_id: int) -> str | None:
         value = self.table.value("operating_mode", dxl_id)
         if value is None:
-            value = self._read_item(dxl_id, "operating_mode")
+            value = self.read_item(dxl_id, "operating_mode")
         return MODE_NAMES.get(value) if value is not None else None
 
     def torque_on(self, dxl_id: int) -> bool:
@@ -197,7 +197,7 @@ class Handler:
         mode = self.mode(dxl_id)
         model = self.table.model(dxl_id)
         if mode in ("position", "ex_position", "cur_position"):
-            present = self._read_item(dxl_id, "present_position")
+            present = self.read_item(dxl_id, "present_position")
             if present is not None:
                 if mode == "position":
                     present = self._clip_to_position_limits(dxl_id, present)
@@ -220,9 +220,9 @@ class Handler:
         lo = self.table.value("min_position_limit", dxl_id)
         hi = self.table.value("max_position_limit", dxl_id)
         if lo is None:
-            lo = self._read_item(dxl_id, "min_position_limit")
+            lo = self.read_item(dxl_id, "min_position_limit")
         if hi is None:
-            hi = self._read_item(dxl_id, "max_position_limit")
+            hi = self.read_item(dxl_id, "max_position_limit")
         if lo is not None and hi is not None and lo <= hi:
             return min(max(pulses, lo), hi)
         return pulses
