@@ -18,12 +18,13 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
 from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
-                                        DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelShortcut,
-                                        DynamixelStatus)
+                                        DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
 
 from ..bus import BusError, DynamixelBus
+from ..commands import Commander
 from ..loop import Handler, StartupError, StepReport
 from . import convert
+from .command_topics import CommandTopics
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
@@ -85,7 +86,9 @@ class DynamixelHandlerNode(Node):
                 self.pub_state[name] = self.create_publisher(typ, f"dynamixel/state/{name}", qos)
 
     def _create_subscriptions(self) -> None:
-        self.create_subscription(DynamixelShortcut, "dynamixel/shortcut", self._on_shortcut, 10)
+        self.commander = Commander(self.handler)
+        self.command_topics = CommandTopics(self, self.commander, self.config.used_series,
+                                            command_line=not self.config["no_use_command_line"])
 
     # ------------------------------------------------------------------ start-up
     def start(self) -> None:
@@ -164,20 +167,6 @@ class DynamixelHandlerNode(Node):
                 self.pub_state[name].publish(getattr(convert, name)(table))
         if groups & {"extra_dynamic", "extra_static"}:
             self.pub_state["extra"].publish(convert.extra(table))
-
-    # ------------------------------------------------------------------ commands
-    def _on_shortcut(self, msg: DynamixelShortcut) -> None:
-        command = msg.command
-        ids = list(msg.id_list)
-        handler = self.handler
-        if command in ("add_id", "ADID"):
-            for dxl_id in ids:
-                handler.queue(f"add_id {dxl_id}", lambda i=dxl_id: handler.add_id(i))
-        elif command in ("remove_id", "RMID"):
-            for dxl_id in ids:
-                handler.queue(f"remove_id {dxl_id}", lambda i=dxl_id: handler.remove_id(i))
-        else:
-            self.get_logger().warning(f"shortcut: unknown command '{command}'")
 
 
 def main(args: list[str] | None = None) -> int:

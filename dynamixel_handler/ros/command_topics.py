@@ -1,0 +1,110 @@
+"""Command subscriptions: message -> (id_list, {field: values}) -> Commander.
+
+Callbacks only unpack and check array lengths; the Commander does the rest in the loop thread.
+A callback never raises: whatever goes wrong is logged with the topic's name.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+from rclpy.node import Node
+
+from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsPro, DxlCommandsX,
+                                        DynamixelControlPCurrent, DynamixelControlPExtendedPosition,
+                                        DynamixelControlPPosition, DynamixelControlPPwm, DynamixelControlPVelocity,
+                                        DynamixelControlProCurrent, DynamixelControlProExtendedPosition,
+                                        DynamixelControlProPosition, DynamixelControlProVelocity,
+                                        DynamixelControlXCurrent, DynamixelControlXCurrentBasePosition,
+                                        DynamixelControlXExtendedPosition, DynamixelControlXPosition,
+                                        DynamixelControlXPwm, DynamixelControlXVelocity, DynamixelExtra,
+                                        DynamixelGain, DynamixelGoal, DynamixelLimit, DynamixelShortcut,
+                                        DynamixelStatus)
+
+from ..commands import Commander, take_fields
+
+CONTROL_TYPES = {
+    "X": {"pwm_control": DynamixelControlXPwm, "current_control": DynamixelControlXCurrent,
+          "velocity_control": DynamixelControlXVelocity, "position_control": DynamixelControlXPosition,
+          "extended_position_control": DynamixelControlXExtendedPosition,
+          "current_base_position_control": DynamixelControlXCurrentBasePosition},
+    "P": {"pwm_control": DynamixelControlPPwm, "current_control": DynamixelControlPCurrent,
+          "velocity_control": DynamixelControlPVelocity, "position_control": DynamixelControlPPosition,
+          "extended_position_control": DynamixelControlPExtendedPosition},
+    "PRO": {"current_control": DynamixelControlProCurrent, "velocity_control": DynamixelControlProVelocity,
+            "position_control": DynamixelControlProPosition,
+            "extended_position_control": DynamixelControlProExtendedPosition},
+}
+COMMANDS_TYPES = {"X": ("x", DxlCommandsX), "P": ("p", DxlCommandsP), "PRO": ("pro", DxlCommandsPro)}
+GROUP_TYPES = {"status": DynamixelStatus, "goal": DynamixelGoal, "gain": DynamixelGain, "limit": DynamixelLimit,
+               "extra": DynamixelExtra}
+
+
+def unpack(msg) -> tuple[list[int], dict[str, list]]:
+    """id_list and every other array of a Dynamixel* message; nested messages flatten to 'a.b'."""
+    fields: dict[str, list] = {}
+
+    def walk(m, prefix: str) -> None:
+        for name in m.get_fields_and_field_types():
+            value = getattr(m, name)
+            if hasattr(value, "get_fields_and_field_types"):
+                walk(value, f"{prefix}{name}.")
+            elif name != "id_list" or prefix:
+                fields[prefix + name] = list(value)
+    walk(msg, "")
+    return [int(i) for i in msg.id_list], fields
+
+
+class CommandTopics:
+    def __init__(self, node: Node, commander: Commander, series: tuple[str, ...], command_line: bool) -> None:
+        self.node, self.commander = node, commander
+        self.log = node.get_logger()
+        sub = node.create_subscription
+        for s in series:
+            suffix, typ = COMMANDS_TYPES[s]
+            sub(typ, f"dynamixel/commands/{suffix}", self._guard(f"commands/{suffix}", lambda m, s=s: self._bundle(s, m)), 10)
+        sub(DxlCommandsAll, "dynamixel/commands/all", self._guard("commands/all", lambda m: self._bundle(None, m)), 10)
+        sub(DynamixelShortcut, "dynamixel/shortcut", self._guard("shortcut", self._shortcut), 10)
+        if not command_line:
+            return
+        for s in series:
+            suffix = COMMANDS_TYPES[s][0]
+            for control, typ in CONTROL_TYPES[s].items():
+                topic = f"command/{suffix}/{control}"
+                sub(typ, f"dynamixel/{topic}", self._guard(topic, lambda m, s=s, c=control, t=topic: self._control(s, c, m, t)), 10)
+        for group, typ in GROUP_TYPES.items():
+            topic = f"command/{group}"
+            sub(typ, f"dynamixel/{topic}", self._guard(topic, lambda m, g=group, t=topic: self._group(g, m, t)), 10)
+
+    def _guard(self, topic: str, callback: Callable) -> Callable:
+        def run(msg) -> None:
+            try:
+                callback(msg)
+            except Exception as exc:  # a bad message must never take the node down
+                self.log.error(f"/dynamixel/{topic}: command dropped: {type(exc).__name__}: {exc}")
+        return run
+
+    def _fields(self, what: str, msg) -> tuple[list[int], dict[str, list]]:
+        ids, fields = unpack(msg)
+        return ids, take_fields(what, ids, fields, self.log.warning)
+
+    def _control(self, series: str, control: str, msg, what: str) -> None:
+        ids, fields = self._fields(what, msg)
+        if ids and fields:
+            self.commander.control(series, control, ids, fields)
+
+    def _group(self, group: str, msg, what: str) -> None:
+        ids, fields = self._fields(what, msg)
+        if ids and fields:
+            getattr(self.commander, group)(ids, fields, what)
+
+    def _bundle(self, series: str | None, msg) -> None:
+        prefix = "commands/" + (COMMANDS_TYPES[series][0] if series else "all")
+        if series is not None:
+            for control in CONTROL_TYPES[series]:
+                self._control(series, control, getattr(msg, control), f"{prefix}.{control}")
+        for group in ("status", "goal", "gain", "limit", "extra"):
+            if hasattr(msg, group):
+                self._group(group, getattr(msg, group), f"{prefix}.{group}")
+
+    def _shortcut(self, msg: DynamixelShortcut) -> None:
+        self.commander.shortcut(msg.command, [int(i) for i in msg.id_list])

@@ -1,0 +1,89 @@
+"""A test rig: a virtual bus, the real node process on it, and an rclpy node in the test process
+that publishes commands and collects what the handler publishes."""
+from __future__ import annotations
+
+import threading
+import time
+from typing import Callable
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+from dynamixel_handler.sim import VirtualBus
+from dynamixel_handler_msgs.msg import DxlStates, DynamixelDebug
+
+from ros_helpers import NodeProcess, node_command
+
+X, X540, P, PRO = 1020, 1120, 2020, 54024  # XM430-W350, XM540-W270, PH54-200-S500-R, H54-200-S500-R
+
+
+class Rig:
+    def __init__(self, servos: dict[int, int], *params: str, sim_kwargs: dict | None = None) -> None:
+        self.sim = VirtualBus(servos=servos, **(sim_kwargs or {}))
+        path = self.sim.start()
+        ids = sorted(servos)
+        args = [f"device_name:={path}", "latency_timer:=1", "init/used_servo_series.P:=true",
+                "init/used_servo_series.Pro:=true", f"init/servo_auto_search.min_id:={ids[0]}",
+                f"init/servo_auto_search.max_id:={ids[-1]}", "verbose_ratio:=0", *params]
+        self.node_proc = NodeProcess(node_command(*args))
+        rclpy.init()
+        self.node = Node("test_rig")
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self.states: list[DxlStates] = []
+        self.debug: list[DynamixelDebug] = []
+        self.node.create_subscription(DxlStates, "/dynamixel/states", self.states.append, 50)
+        self.node.create_subscription(DynamixelDebug, "/dynamixel/debug", self.debug.append, 50)
+        self._pubs: dict[tuple, object] = {}
+        self._spin = True
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._spin_loop, daemon=True)
+        self._thread.start()
+        self.node_proc.wait_for("handled", timeout=30)
+        self.wait(lambda: self.debug and len(self.debug[-1].status.id_list) == len(servos)
+                  and len(self.debug[-1].position_deg.present) == len(servos), timeout=30,
+                  what="the first /dynamixel/debug with every servo")
+
+    def _spin_loop(self) -> None:
+        while self._spin:
+            with self._lock:
+                self.executor.spin_once(timeout_sec=0.02)
+
+    def publish(self, topic: str, msg) -> None:
+        key = (topic, type(msg))
+        if key not in self._pubs:
+            with self._lock:
+                self._pubs[key] = self.node.create_publisher(type(msg), topic, 10)
+            deadline = time.monotonic() + 10
+            while self._pubs[key].get_subscription_count() == 0 and time.monotonic() < deadline:
+                time.sleep(0.05)
+        self._pubs[key].publish(msg)
+
+    def wait(self, predicate: Callable[[], object], timeout: float = 10.0, what: str = "condition") -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if predicate():
+                return
+            time.sleep(0.02)
+        raise AssertionError(f"timed out waiting for {what}\nnode output:\n{self.node_proc.output[-4000:]}")
+
+    def debug_of(self, dxl_id: int) -> dict:
+        """Latest debug values of one ID: present/goal of position, velocity, current; torque; mode."""
+        msg = self.debug[-1]
+        k = list(msg.status.id_list).index(dxl_id)
+        return {"position": msg.position_deg.present[k], "goal_position": msg.position_deg.goal[k],
+                "velocity": msg.velocity_deg_s.present[k], "goal_velocity": msg.velocity_deg_s.goal[k],
+                "current": msg.current_ma.present[k], "goal_current": msg.current_ma.goal[k],
+                "torque": msg.status.torque[k], "mode": msg.status.mode[k], "error": msg.status.error[k],
+                "ping": msg.status.ping[k]}
+
+    def close(self) -> int:
+        code = self.node_proc.stop()
+        self._spin = False
+        self._thread.join(2)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown()
+        self.sim.stop()
+        return code
