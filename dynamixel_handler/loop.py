@@ -28,6 +28,10 @@ SPAN_GAP = 24
 RECHECK_LOOPS = 10
 #: time a servo needs after a reboot instruction before it answers again [s]
 REBOOT_WAIT_S = 0.6
+#: least time between two attempts to reopen a vanished device [s]
+RECONNECT_INTERVAL_S = 1.0
+#: bus watchdog register value of a servo whose watchdog has tripped
+WATCHDOG_TRIPPED = 255
 
 
 class StartupError(RuntimeError):
@@ -81,27 +85,40 @@ class Handler:
         self.split_write = bool(config["method/split_write"])
         self.stats_reads = 0
         self.stats_full_reads = 0
+        self.reconnects = 0
+        self.device_lost = False
+        self._had_device = False
+        self._next_reconnect = 0.0
+        self.watchdog_trips = 0
 
     # ================================================================ start-up
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
         cfg = self.config
+        self._had_device = self.bus.is_open
         lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
+        dummies = sorted(getattr(self.bus, "dummies", {}))
         expected = cfg["init/expected_servo_num"]
         attempts = cfg["init/servo_auto_search.retry_times"] + 1
         found: dict[int, int] = {}
         for attempt in range(attempts):
-            found.update(self.bus.scan(range(lo, hi + 1)))
+            found.update(self.bus.scan(sorted(set(range(lo, hi + 1)) | set(dummies))))
             enough = len(found) >= expected if expected > 0 else len(found) >= 1
-            self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} at {self.bus.baudrate} bps: "
-                          f"{len(found)} servo(s) {sorted(found)}")
-            if enough:
+            real = sorted(set(found) - set(dummies))
+            self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} on {self.bus.device} at "
+                          f"{self.bus.baudrate} bps: {len(real)} servo(s) {real}"
+                          + (f" + dummies {dummies}" if dummies else ""))
+            if enough or not self.bus.is_open:
                 break
-        else:
+        enough = len(found) >= expected if expected > 0 else len(found) >= 1
+        if not enough:
             want = f"{expected}" if expected > 0 else "at least 1"
-            raise StartupError(
-                f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected {want}: "
-                f"check power, wiring, IDs ({lo}..{hi}) and baudrate (init/baudrate_auto_set can find others)")
+            message = (f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected "
+                       f"{want}: check power, wiring, IDs ({lo}..{hi}) and baudrate "
+                       "(init/baudrate_auto_set can find servos at other rates)")
+            if not cfg["debug"]:
+                raise StartupError(message)
+            self.log.warning(message + " (debug: running on)")
         used = set(cfg.used_series)
         for dxl_id, number in sorted(found.items()):
             try:
@@ -114,8 +131,9 @@ class Handler:
                               f"init/used_servo_series does not enable: skipped")
                 continue
             self.table.add(dxl_id, model)
-            self.log.info(f"ID {dxl_id}: {model.name} (model {number}, series {model.series}) handled")
-        if not len(self.table):
+            kind = "dummy" if dxl_id in dummies else f"model {number}"
+            self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}) handled")
+        if not len(self.table) and found and not cfg["debug"]:
             raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
                                f"{sorted(found)}: enable their series in init/used_servo_series")
         for dxl_id in list(self.table.ids):
@@ -134,8 +152,32 @@ class Handler:
             if model.has(item):
                 pulses = int(units.unit_to_pulse([model], item, [cfg[param]])[0])
                 self.write_item(dxl_id, item, pulses)
+        self.arm_watchdog(dxl_id)
         if cfg["init/torque_auto_enable"]:
             self.torque_on(dxl_id)
+
+    def watchdog_pulses(self) -> int:
+        """Bus watchdog register value (20 ms units, 0 = off): default/bus_watchdog, but at least three
+        times the longest gap between two reads of a servo, so a healthy loop never trips it."""
+        cfg = self.config
+        if not cfg["term/servo_auto_stop"] or cfg["default/bus_watchdog"] <= 0:
+            return 0
+        ratios = [cfg.present_ratio(k) for k in PRESENT] + [cfg[p] for p in GROUP_RATIO_PARAM.values()]
+        every = min((r for r in ratios if r > 0), default=0)
+        if every == 0:
+            return 0  # nothing is read after start-up: a watchdog would stop every servo
+        ms = max(cfg["default/bus_watchdog"], 3000.0 * every / cfg["loop_rate"])
+        return int(min(127, max(1, round(ms / 20.0))))
+
+    def arm_watchdog(self, dxl_id: int) -> None:
+        """So that a crashed or killed node still stops its servos: the servo stops by itself when
+        no instruction has reached it for the watchdog time (X and P; the old Pro has none)."""
+        if not self.table.model(dxl_id).has("bus_watchdog"):
+            return
+        pulses = self.watchdog_pulses()
+        self.write_item(dxl_id, "bus_watchdog", 0)  # also clears a tripped watchdog
+        if pulses:
+            self.write_item(dxl_id, "bus_watchdog", pulses)
 
     # ================================================================ single-servo helpers
     def read_item(self, dxl_id: int, item: str) -> int | None:
@@ -272,6 +314,8 @@ class Handler:
     # ================================================================ the loop step
     def step(self) -> StepReport:
         report = StepReport(loop=self.loop_count)
+        if self._had_device and not self.bus.is_open:
+            self._reconnect(report)
         self._run_ops()
         t0 = time.perf_counter()
         self._write_pending()
@@ -280,8 +324,49 @@ class Handler:
         report.stamp = time.time()
         self._read_due(report)
         report.read_s = time.perf_counter() - t1
+        if "extra_dynamic" in report.groups:
+            self.check_watchdogs()
         self.loop_count += 1
         return report
+
+    def _reconnect(self, report: StepReport) -> None:
+        """The device vanished: servos on it read ping false; try to reopen it once a second."""
+        dummies = getattr(self.bus, "dummies", {})
+        if not self.device_lost:
+            self.device_lost = True
+            self.log.error(f"{self.bus.device} is gone (unplugged?): reconnecting every {RECONNECT_INTERVAL_S:g}s; "
+                           "states keep being published with ping false")
+        for pos, dxl_id in enumerate(self.table.ids):
+            if dxl_id not in dummies:
+                self.table.ping[pos] = False
+        report.groups.add("status")
+        now = time.monotonic()
+        if now < self._next_reconnect:
+            return
+        self._next_reconnect = now + RECONNECT_INTERVAL_S
+        try:
+            self.bus.reopen()
+        except Exception as exc:  # BusError with the reason; anything else must not stop the loop
+            self.log.debug(f"reconnect failed: {exc}")
+            return
+        self.device_lost = False
+        self.reconnects += 1
+        self.log.info(f"{self.bus.device} is back: reconnected (reconnect #{self.reconnects})")
+        for dxl_id in list(self.table.ids):
+            if dxl_id not in dummies and self.bus.ping(dxl_id, retries=1) is not None:
+                self.table.ping[self.table.index[dxl_id]] = True
+                self.arm_watchdog(dxl_id)
+
+    def check_watchdogs(self) -> None:
+        """Re-arm watchdogs that tripped (the loop stalled longer than the watchdog time)."""
+        if not self.watchdog_pulses():
+            return
+        for pos, dxl_id in enumerate(self.table.ids):
+            if self.table.known("bus_watchdog")[pos] and self.table.pulses("bus_watchdog")[pos] == WATCHDOG_TRIPPED:
+                self.watchdog_trips += 1
+                self.log.warning(f"ID {dxl_id}: bus watchdog tripped (no instruction for "
+                                 f"{self.watchdog_pulses() * 20} ms): servo stopped, watchdog re-armed")
+                self.arm_watchdog(dxl_id)
 
     # ---------------------------------------------------------------- writes
     def _write_pending(self) -> None:
@@ -413,6 +498,8 @@ class Handler:
                     self.write_item(dxl_id, neutral, 0)
             if cfg["term/torque_auto_disable"]:
                 self.torque_off(dxl_id)
+            if self.table.model(dxl_id).has("bus_watchdog") and self.watchdog_pulses():
+                self.write_item(dxl_id, "bus_watchdog", 0)
 
 
 def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool) -> list[tuple[int, int, tuple[_Part, ...]]]:

@@ -11,6 +11,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -22,12 +23,15 @@ from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelErro
 
 from ..bus import BusError, DynamixelBus
 from ..commands import Commander
+from ..dummy import BusWithDummies, make_dummies
 from ..loop import Handler, StartupError, StepReport
 from . import convert
 from .command_topics import CommandTopics
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
+#: consecutive failed loop steps after which the node stops the servos and exits
+MAX_LOOP_FAILURES = 50
 
 
 class _LoggerAdapter:
@@ -64,12 +68,18 @@ class DynamixelHandlerNode(Node):
         log = self.get_logger()
         log.info("parameters: " + "\n".join(describe(self.config)))
         self.adapter = _LoggerAdapter(log)
-        self.bus = DynamixelBus(cfg["device_name"], cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
-                                cfg["dyn_comm/retry_num"], float(cfg["dyn_comm/inerval_msec"]),
-                                verbose=cfg["dyn_comm/verbose"], logger=self.adapter)
+        self.wire = DynamixelBus(cfg["device_name"], cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
+                                 cfg["dyn_comm/retry_num"], float(cfg["dyn_comm/inerval_msec"]),
+                                 verbose=cfg["dyn_comm/verbose"], logger=self.adapter)
+        bad = [i for i in cfg["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252]
+        if bad:
+            log.warning(f"init/dummy_servo_list: IDs {bad} are outside 0..252: ignored")
+        self.bus = BusWithDummies(self.wire, make_dummies(cfg.dummy_ids, cfg.used_series[0]))
         self.handler = Handler(self.bus, cfg, self.adapter)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.failed = False
+        self.on_failure = None  # called from the loop thread when the loop gives up
         self._create_publishers()
         self._create_subscriptions()
 
@@ -94,12 +104,12 @@ class DynamixelHandlerNode(Node):
     def start(self) -> None:
         """Open the bus and set up the servos; StartupError/BusError when that cannot be done."""
         try:
-            self.bus.open()
+            self.wire.open()
         except BusError as err:
-            if not self.config["debug"]:
+            if not (self.config["debug"] or self.bus.dummies):
                 raise
-            self.get_logger().warning(f"{err} (debug: running without a bus)")
-            return
+            why = "debug" if self.config["debug"] else "dummy servos only"
+            self.get_logger().warning(f"{err} ({why}: running without the device)")
         self.handler.start()
         self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
         self._thread.start()
@@ -113,7 +123,7 @@ class DynamixelHandlerNode(Node):
             if self.bus.is_open:
                 self.handler.shutdown()
         finally:
-            self.bus.close()
+            self.wire.close()
 
     # ------------------------------------------------------------------ the loop thread
     def _run(self) -> None:
@@ -121,25 +131,36 @@ class DynamixelHandlerNode(Node):
         verbose_ratio = self.config["verbose_ratio"]
         next_t = time.monotonic()
         window_start, window_loops, window_read = time.monotonic(), 0, 0.0
-        stats_before = self.bus.stats.copy()
+        stats_before = self.wire.stats.copy()
+        failures = 0
         while not self._stop.is_set():
             try:
                 report = self.handler.step()
                 self._publish(report)
+                failures = 0
             except Exception as exc:  # keep the loop alive; the context says where it broke
-                self.get_logger().error(f"loop {self.handler.loop_count}: {type(exc).__name__}: {exc}")
+                failures += 1
+                self.get_logger().error(
+                    f"loop {self.handler.loop_count}: {type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
                 report = None
+                if failures >= MAX_LOOP_FAILURES:
+                    self.get_logger().fatal(f"the loop failed {failures} times in a row: shutting down safely")
+                    self.failed = True
+                    self._stop.set()
+                    if self.on_failure is not None:
+                        self.on_failure()
+                    return
             window_loops += 1
             if report is not None:
                 window_read += report.read_s
             if verbose_ratio and window_loops >= verbose_ratio:
                 elapsed = time.monotonic() - window_start
-                delta = self.bus.stats.delta(stats_before)
+                delta = self.wire.stats.delta(stats_before)
                 self.get_logger().info(
                     f"time={1000 * elapsed / window_loops:.2f}ms/loop({1000 * window_read / window_loops:.2f}ms/read), "
                     f"success={100 * delta.success_rate:.1f}%(full={100 * delta.full_success_rate:.1f}%)")
                 window_start, window_loops, window_read = time.monotonic(), 0, 0.0
-                stats_before = self.bus.stats.copy()
+                stats_before = self.wire.stats.copy()
             next_t += period
             delay = next_t - time.monotonic()
             if delay > 0:
@@ -179,19 +200,21 @@ def main(args: list[str] | None = None) -> int:
 
     def on_signal(signum, _frame) -> None:
         stopping.set()
-        executor.wake() if hasattr(executor, "wake") else None
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     code = 0
     try:
         node = DynamixelHandlerNode()
+        node.on_failure = stopping.set
         node.start()
         executor.add_node(node)
         while not stopping.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
-        log.info("stopping: " + ", ".join(k for k in ("term/servo_auto_stop", "term/torque_auto_disable")
-                                          if node.config[k]) or "stopping")
+        safety = [k for k in ("term/servo_auto_stop", "term/torque_auto_disable") if node.config[k]]
+        log.info("stopping" + (f" ({', '.join(safety)})" if safety else ""))
+        if node.failed:
+            code = 1
     except ConfigError as err:
         log.fatal(f"bad parameter: {err}")
         code = 2

@@ -1,0 +1,109 @@
+"""Dummy servos (``init/dummy_servo_list``): IDs handled with no hardware behind them.
+
+Each dummy is a servo model of the virtual bus (same control table, same simple physics: it
+follows its goals), served in-process. ``BusWithDummies`` stands in for the real bus: requests for
+dummy IDs go to the models, everything else to the wire, so dummies and real servos mix freely
+in one sync read or write. A dummy wins over a real servo of the same ID (the real one is never
+addressed). ROS-free.
+"""
+from __future__ import annotations
+
+import time
+from typing import Iterable, Mapping
+
+from .bus import DynamixelBus
+from .control_table import model_by_number
+from .sim.servo import CLEAR_KEY, VirtualServo
+
+#: model used for dummies, by the first enabled series
+DUMMY_MODEL = {"X": 1020, "P": 2020, "PRO": 54024}  # XM430-W350, PH54-200-S500-R, H54-200-S500-R
+
+
+def make_dummies(ids: Iterable[int], series: str) -> dict[int, VirtualServo]:
+    model = model_by_number(DUMMY_MODEL[series])
+    return {i: VirtualServo(model, i, time.monotonic) for i in ids}
+
+
+class BusWithDummies:
+    """The bus API of ``DynamixelBus`` over real servos plus in-process dummies."""
+
+    def __init__(self, bus: DynamixelBus, dummies: Mapping[int, VirtualServo]) -> None:
+        self._bus = bus
+        self.dummies = dict(dummies)
+
+    def __getattr__(self, name: str):
+        return getattr(self._bus, name)
+
+    # ------------------------------------------------------------ helpers
+    def _split(self, ids: Iterable[int]) -> tuple[list[int], list[int]]:
+        real, dummy = [], []
+        for i in ids:
+            (dummy if i in self.dummies else real).append(i)
+        return real, dummy
+
+    def _real_ok(self) -> bool:
+        return self._bus.is_open
+
+    def _dummy(self, dxl_id: int, now: float) -> VirtualServo:
+        servo = self.dummies[dxl_id]
+        servo.note_instruction(now)  # feeds its bus watchdog, as an instruction on the wire would
+        return servo
+
+    @property
+    def is_open(self) -> bool:
+        return self._bus.is_open
+
+    # ------------------------------------------------------------ single servo
+    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
+        if dxl_id in self.dummies:
+            return self.dummies[dxl_id].model.number
+        return self._bus.ping(dxl_id, retries) if self._real_ok() else None
+
+    def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
+        real, dummy = self._split(ids)
+        found = self._bus.scan(real, broadcast) if (real and self._real_ok()) else {}
+        found.update({i: self.dummies[i].model.number for i in dummy})
+        return dict(sorted(found.items()))
+
+    def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
+        if dxl_id in self.dummies:
+            error, data = self._dummy(dxl_id, now := time.monotonic()).host_read(address, size, now)
+            return None if error & 0x7F else data
+        return self._bus.read(dxl_id, address, size) if self._real_ok() else None
+
+    def write(self, dxl_id: int, address: int, data: bytes) -> bool:
+        if dxl_id in self.dummies:
+            return not (self._dummy(dxl_id, now := time.monotonic()).host_write(address, bytes(data), now) & 0x7F)
+        return self._bus.write(dxl_id, address, data) if self._real_ok() else False
+
+    def reboot(self, dxl_id: int) -> bool:
+        if dxl_id in self.dummies:
+            self.dummies[dxl_id].reboot(time.monotonic())
+            return True
+        return self._bus.reboot(dxl_id) if self._real_ok() else False
+
+    def clear_multi_turn(self, dxl_id: int) -> bool:
+        if dxl_id in self.dummies:
+            return not (self.dummies[dxl_id].clear_multi_turn(CLEAR_KEY, time.monotonic()) & 0x7F)
+        return self._bus.clear_multi_turn(dxl_id) if self._real_ok() else False
+
+    # ------------------------------------------------------------ groups
+    def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
+        real, dummy = self._split(ids)
+        out = self._bus.sync_read(address, length, real, fast) if (real and self._real_ok()) else {}
+        now = time.monotonic()
+        for i in dummy:
+            error, data = self._dummy(i, now).host_read(address, length, now)
+            if not error & 0x7F:
+                out[i] = data
+        return out
+
+    def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
+        real = {i: d for i, d in data.items() if i not in self.dummies}
+        now = time.monotonic()
+        for i, chunk in data.items():
+            if i in self.dummies:
+                self._dummy(i, now).host_write(address, bytes(chunk), now)
+        if not real:
+            return True
+        return self._bus.sync_write(address, length, real) if self._real_ok() else False
