@@ -48,13 +48,20 @@ class VirtualBus:
     ``baudrate`` None disables wire timing (replies as fast as possible); with a baud rate,
     each transaction takes (instruction + reply bytes) * 10 / baud plus ``latency_s`` plus
     the servos' return delays, so a benchmark sees a real bus's time.
+
+    ``check_baudrate`` makes each servo hear only packets sent while the host's port is set to
+    the servo's Baud Rate register (read from the pty, see ``PtyPort.host_baudrate``), as on a
+    real bus; a write to Baud Rate takes effect after its status reply. Off by default: then
+    servos answer at any host baud rate.
     """
 
     def __init__(self, servos: Mapping[int, int] | None = None, baudrate: int | None = None,
                  latency_s: float = 0.0, link: str | None = None,
                  clock: Callable[[], float] = time.monotonic, seed: int | None = None,
-                 log_size: int = 100_000) -> None:
+                 log_size: int = 100_000, check_baudrate: bool = False) -> None:
         self.baudrate = baudrate
+        self.check_baudrate = check_baudrate
+        self._line_bps: int | None = None  # host line speed of the packet being executed
         self.latency_s = latency_s
         self.clock = clock
         self.crc_error_rate = 0.0
@@ -231,8 +238,9 @@ class VirtualBus:
             if not data:
                 continue
             arrival = time.perf_counter()
+            line = self._port.host_baudrate() if self.check_baudrate else None
             for packet in self._parser.feed(data):
-                self._transact(packet, arrival)
+                self._transact(packet, arrival, line)
             self.stats["crc_errors"] = self._parser.crc_errors
 
     def feed(self, data: bytes) -> list[bytes]:
@@ -246,9 +254,13 @@ class VirtualBus:
                 replies += [reply for _, reply in self._execute(packet)]
         return replies
 
-    def _transact(self, packet: p.Packet, arrival: float) -> None:
+    def _transact(self, packet: p.Packet, arrival: float, line_bps: int | None = None) -> None:
         with self._lock:
-            replies = self._execute(packet)
+            self._line_bps = line_bps
+            try:
+                replies = self._execute(packet)
+            finally:
+                self._line_bps = None
             out = []
             for delay, reply in replies:
                 reply = self._apply_faults(reply)
@@ -284,14 +296,18 @@ class VirtualBus:
     # ------------------------------------------------------------------ instructions
     def _hearing(self, packet_id: int) -> list[VirtualServo]:
         """Servos that hear a packet for ``packet_id``, in ID order (broadcast: all)."""
-        alive = [s for s in self._servos if not s.silent]
+        alive = [s for s in self._servos if not s.silent and self._on_line_speed(s)]
         if packet_id == p.BROADCAST_ID:
             return sorted(alive, key=lambda s: s.id)
         return [s for s in alive if s.id == packet_id]
 
     def _secondary(self, packet_id: int) -> list[VirtualServo]:
-        return [s for s in self._servos if not s.silent and s.model.has("secondary_id")
-                and s.id != packet_id and s._peek("secondary_id") == packet_id]
+        return [s for s in self._servos if not s.silent and self._on_line_speed(s)
+                and s.model.has("secondary_id") and s.id != packet_id and s._peek("secondary_id") == packet_id]
+
+    def _on_line_speed(self, servo: VirtualServo) -> bool:
+        """Whether ``servo`` can decode the packet at hand (always, unless check_baudrate)."""
+        return self._line_bps is None or servo.baudrate == self._line_bps
 
     def _execute(self, packet: p.Packet) -> list[tuple[float, bytes]]:
         now = self.clock()

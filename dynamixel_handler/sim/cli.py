@@ -75,6 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="models for --ids, comma separated; one model applies to all IDs")
     ap.add_argument("--link", metavar="PATH", help="also expose the device as this symlink, e.g. /tmp/ttyDXL")
     ap.add_argument("--baudrate", type=int, help="simulate wire time at this baud rate (default: no timing)")
+    ap.add_argument("--check-baudrate", action="store_true",
+                    help="servos answer only when the host's port is at their Baud Rate register "
+                         "(default: at any host baud rate)")
     ap.add_argument("--latency-ms", type=float, default=0.0, help="extra latency per transaction (ms)")
     ap.add_argument("--silent", type=_id_list, default=[], metavar="LIST", help="IDs that do not answer")
     ap.add_argument("--crc-error-rate", type=float, default=0.0, metavar="P",
@@ -151,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     servos = _servos_from(args, ap)
     bus = VirtualBus(servos, baudrate=args.baudrate, latency_s=args.latency_ms / 1000.0,
-                     link=args.link, seed=args.seed)
+                     link=args.link, seed=args.seed, check_baudrate=args.check_baudrate)
     bus.crc_error_rate = args.crc_error_rate
     for sid in args.silent:
         bus.set_silent(sid)

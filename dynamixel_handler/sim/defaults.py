@@ -132,6 +132,20 @@ READ_ONLY = frozenset({
 VALID_MODES = {"X": (0, 1, 3, 4, 5, 16), "P": (0, 1, 3, 4, 5, 16), "PRO_RA": (0, 1, 3, 4, 5, 16),
                "OLD_PRO": (0, 1, 3, 4)}
 
-# Baud rate register -> bits per second (X / P / PRO share 0..7).
-BAUD_RATES = {0: 9600, 1: 57600, 2: 115200, 3: 1000000, 4: 2000000, 5: 3000000, 6: 4000000,
-              7: 4500000, 8: 10500000}
+# Baud rate register -> bits per second, per firmware family (e-Manual): 0..6 are shared; X430/540
+# add 7 = 4.5M; X330 stops at 4M; P and PRO "-RA" have 8 = 6M and 9 = 10.5M; old PRO "-R" has 8 = 10.5M.
+_BAUD_COMMON = {0: 9600, 1: 57600, 2: 115200, 3: 1000000, 4: 2000000, 5: 3000000, 6: 4000000}
+BAUD_RATES = {
+    "X": {**_BAUD_COMMON, 7: 4500000},
+    "X330": dict(_BAUD_COMMON),
+    "P": {**_BAUD_COMMON, 7: 4500000, 8: 6000000, 9: 10500000},
+    "PRO_RA": {**_BAUD_COMMON, 7: 4500000, 8: 6000000, 9: 10500000},
+    "OLD_PRO": {**_BAUD_COMMON, 7: 4500000, 8: 10500000},
+}
+
+
+def baud_rates(model: Model, layout: str) -> dict[int, int]:
+    """Baud rate register value -> bps that ``model`` (control-table ``layout``) accepts."""
+    if layout == "X" and "330" in model.name:
+        return BAUD_RATES["X330"]
+    return BAUD_RATES[layout]

@@ -15,7 +15,7 @@ from typing import Callable
 from dynamixel_handler.control_table import Item, Model, model_by_number
 
 from . import protocol as p
-from .defaults import (BAUD_RATES, MODE_RESET_ITEMS, READ_ONLY, VALID_MODES, factory_defaults,
+from .defaults import (MODE_RESET_ITEMS, READ_ONLY, VALID_MODES, baud_rates, factory_defaults,
                        family)
 from .motion import Command, Motor, profile_kind
 
@@ -43,6 +43,7 @@ class VirtualServo:
         self.model: Model = model_by_number(model) if isinstance(model, int) else model
         self.layout = _layout(self.model)
         self.family = family(self.model)
+        self.baud_rates = baud_rates(self.model, self.layout)
         self._clock = clock
         self._items = sorted(self.model.items.values(), key=lambda it: it.address)
         size = max(it.address + it.size for it in self._items)
@@ -113,6 +114,11 @@ class VirtualServo:
     @property
     def return_delay_s(self) -> float:
         return self._peek("return_delay_time") * 2e-6
+
+    @property
+    def baudrate(self) -> int | None:
+        """The line speed (bps) the servo listens at: its Baud Rate register, decoded."""
+        return self.baud_rates.get(self._peek("baud_rate"))
 
     @property
     def status_return_level(self) -> int:
@@ -270,7 +276,7 @@ class VirtualServo:
             return p.ERR_DATA_RANGE
         if name == "operating_mode" and value == 0 and math.isnan(self.model.current_ma_per_pulse):
             return p.ERR_DATA_RANGE
-        if name == "baud_rate" and value not in BAUD_RATES:
+        if name == "baud_rate" and value not in self.baud_rates:
             return p.ERR_DATA_RANGE
         if name == "drive_mode" and x and value & ~0x0D:
             return p.ERR_DATA_RANGE

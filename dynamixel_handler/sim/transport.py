@@ -8,11 +8,22 @@ own slave descriptor open so the master never reports EIO while hosts come and g
 
 from __future__ import annotations
 
+import array
 import errno
 import fcntl
 import os
+import termios
 import time
 import tty
+
+# struct termios2 (asm-generic, x86 and arm): 4 flag words, c_line, 19 c_cc, then c_ispeed, c_ospeed.
+# Unlike tcgetattr it reports custom rates (4.5M, 6M, 10.5M: BOTHER) as plain numbers.
+_TCGETS2 = 0x802C542A
+_TERMIOS2_OSPEED = 10
+_BOTHER = 0o010000
+_SPEED_OF = {getattr(termios, f"B{b}"): b for b in (
+    9600, 19200, 38400, 57600, 115200, 230400, 460800, 500000, 576000, 921600, 1000000, 1152000,
+    1500000, 2000000, 2500000, 3000000, 3500000, 4000000) if hasattr(termios, f"B{b}")}
 
 
 class PtyPort:
@@ -67,6 +78,27 @@ class PtyPort:
                     os.unlink(self.link)
             except OSError:
                 pass
+
+    def host_baudrate(self) -> int | None:
+        """The baud rate the host last set on its side of the line, or None if unknown.
+
+        On Linux the termios ioctls of a pty master act on the slave, so the master sees the
+        speed the host gave its serial port (pyserial sets 4.5M/6M/10.5M through TCSETS2 with
+        BOTHER, which only TCGETS2 reads back as a number).
+        """
+        if self.master is None:
+            return None
+        buf = array.array("i", [0] * 64)
+        try:
+            fcntl.ioctl(self.master, _TCGETS2, buf)
+            return int(buf[_TERMIOS2_OSPEED])
+        except OSError:
+            pass
+        try:
+            speed = termios.tcgetattr(self.master)[5]
+        except termios.error:
+            return None
+        return None if speed == _BOTHER else _SPEED_OF.get(speed)
 
     def read(self) -> bytes:
         if self.master is None:
