@@ -19,7 +19,9 @@ X, X540, P, PRO = 1020, 1120, 2020, 54024  # XM430-W350, XM540-W270, PH54-200-S5
 
 
 class Rig:
-    def __init__(self, servos: dict[int, int], *params: str, sim_kwargs: dict | None = None) -> None:
+    def __init__(self, servos: dict[int, int], *params: str, sim_kwargs: dict | None = None,
+                 expect: int | None = None) -> None:
+        """``expect``: number of IDs the node should handle (default: every simulated servo)."""
         self.sim = VirtualBus(servos=servos, **(sim_kwargs or {}))
         path = self.sim.start()
         ids = sorted(servos)
@@ -40,10 +42,15 @@ class Rig:
         self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._spin_loop, daemon=True)
         self._thread.start()
-        self.node_proc.wait_for("handled", timeout=30)
-        self.wait(lambda: self.debug and len(self.debug[-1].status.id_list) == len(servos)
-                  and len(self.debug[-1].position_deg.present) == len(servos), timeout=30,
-                  what="the first /dynamixel/debug with every servo")
+        n = len(servos) if expect is None else expect
+        try:
+            self.node_proc.wait_for("handled", timeout=30)
+            self.wait(lambda: self.debug and len(self.debug[-1].status.id_list) == n
+                      and len(self.debug[-1].position_deg.present) == n, timeout=30,
+                      what="the first /dynamixel/debug with every servo")
+        except BaseException:
+            self.close()
+            raise
 
     def _spin_loop(self) -> None:
         while self._spin:

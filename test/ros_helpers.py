@@ -1,6 +1,7 @@
 """Helpers for tests that run the real node and talk to it through real rclpy topics."""
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
 import subprocess
@@ -25,6 +26,11 @@ def node_command(*ros_args: str, params_file: Path | None = CONFIG) -> list[str]
     return cmd + args
 
 
+def _die_with_parent() -> None:
+    """In the child: get SIGTERM when the test process dies, so no node outlives a crashed test."""
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+
+
 class NodeProcess:
     """A node started in its own process; output collected line by line."""
 
@@ -33,7 +39,8 @@ class NodeProcess:
         full_env.update(env or {})
         full_env["PYTHONUNBUFFERED"] = "1"
         full_env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=full_env)
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=full_env,
+                                     preexec_fn=_die_with_parent)
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()

@@ -1,0 +1,87 @@
+"""Shutdown safety and survival: SIGTERM, SIGKILL (bus watchdog), a vanished device, dummy servos."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelControlXVelocity, DynamixelShortcut
+
+from rig import X, X540, Rig
+
+
+def _velocity(rig: Rig, dxl_id: int, deg_s: float) -> None:
+    rig.publish("/dynamixel/command/x/velocity_control", DynamixelControlXVelocity(id_list=[dxl_id], velocity_deg_s=[deg_s]))
+    rig.wait(lambda: abs(rig.debug_of(dxl_id)["velocity"] - deg_s) < 5, timeout=15, what=f"ID {dxl_id} turning")
+
+
+def test_sigterm_stops_velocity_servos_and_disables_torque():
+    rig = Rig({1: X, 2: X540}, "mode_change_interval_sec:=0.0")
+    try:
+        _velocity(rig, 1, 60.0)
+        assert rig.sim.servo(1).read("goal_velocity") != 0
+    finally:
+        code = rig.node_proc.stop(signal.SIGTERM)
+        rig.close()
+    assert code == 0
+    assert "stopping (term/servo_auto_stop, term/torque_auto_disable)" in rig.node_proc.output
+    for i in (1, 2):
+        assert rig.sim.servo(i).read("torque_enable") == 0
+    assert rig.sim.servo(1).read("goal_velocity") == 0
+
+
+def test_sigkill_leaves_a_velocity_servo_stopped_by_the_bus_watchdog():
+    rig = Rig({1: X}, "default/bus_watchdog:=100.0", "term/torque_auto_disable:=false")
+    try:
+        assert rig.sim.servo(1).read("bus_watchdog") == 5  # 100 ms / 20 ms
+        _velocity(rig, 1, 90.0)
+        rig.node_proc.proc.send_signal(signal.SIGKILL)
+        rig.node_proc.proc.wait(10)
+        time.sleep(0.6)
+        servo = rig.sim.servo(1)
+        assert servo.read("torque_enable") == 1  # nobody switched it off...
+        assert servo.read("present_velocity") == 0  # ...but it stopped by itself
+        assert servo.read("bus_watchdog") == 255  # tripped, as the e-Manual says
+    finally:
+        rig.close()
+
+
+def test_device_vanishing_is_reported_survived_and_reconnected(tmp_path):
+    link = str(tmp_path / "ttyDXL")
+    rig = Rig({1: X, 2: X540}, "pub_ratio/status:=5", sim_kwargs={"link": link})
+    try:
+        rig.sim.vanish()
+        rig.node_proc.wait_for("is gone (unplugged?)", timeout=10)
+        rig.wait(lambda: not any(rig.debug[-1].status.ping), what="ping false while the device is gone")
+        n = len(rig.debug)
+        rig.wait(lambda: len(rig.debug) > n + 5, what="states still published without the device")
+        rig.sim.reappear()
+        rig.node_proc.wait_for("is back: reconnected", timeout=10)
+        rig.wait(lambda: all(rig.debug[-1].status.ping), what="ping true again")
+        rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[2], position_deg=[30.0]))
+        rig.wait(lambda: abs(rig.debug_of(2)["position"] - 30.0) < 0.5, timeout=15, what="commands work after reconnect")
+    finally:
+        assert rig.close() == 0
+
+
+def test_dummy_servos_mix_with_real_ones_and_follow_commands():
+    # ID 2 exists on the bus too: the dummy wins and the real servo is never addressed
+    rig = Rig({1: X, 2: X540}, "init/dummy_servo_list:=[2, 7, 300]", "init/servo_auto_search.max_id:=3",
+              expect=3)
+    try:
+        ids = list(rig.debug[-1].status.id_list)
+        assert ids == [1, 2, 7]
+        rig.node_proc.wait_for("IDs [300] are outside 0..252: ignored")
+        rig.node_proc.wait_for("ID 7: XM430-W350 (dummy, series X) handled")
+        before = rig.sim.servo(2).read("goal_position")
+        rig.sim.clear_log()
+        rig.publish("/dynamixel/command/x/position_control",
+                    DynamixelControlXPosition(id_list=[1, 2, 7], position_deg=[20.0, -20.0, 45.0]))
+        rig.wait(lambda: all(abs(rig.debug_of(i)["position"] - g) < 0.5 for i, g in ((1, 20.0), (2, -20.0), (7, 45.0))),
+                 timeout=15, what="real and dummy servos at their goals")
+        assert rig.sim.servo(2).read("goal_position") == before  # the real ID 2 never got the command
+        assert all(2 not in entry.ids for entry in rig.sim.log if entry.ids)
+    finally:
+        assert rig.close() == 0
