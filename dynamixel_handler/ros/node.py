@@ -18,12 +18,13 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
-from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
+from dynamixel_handler_msgs.msg import (DxlExternalPort, DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
                                         DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
 
 from ..bus import BusError, DynamixelBus
 from ..commands import Commander
 from ..dummy import BusWithDummies, make_dummies
+from ..external_ports import ExternalPorts
 from ..loop import Handler, StartupError, StepReport
 from . import convert
 from .command_topics import CommandTopics
@@ -99,6 +100,18 @@ class DynamixelHandlerNode(Node):
         self.commander = Commander(self.handler)
         self.command_topics = CommandTopics(self, self.commander, self.config.used_series,
                                             command_line=not self.config["no_use_command_line"])
+        self.external_ports: ExternalPorts | None = None
+        if self.config["option/external_port.use"]:
+            self.external_ports = ExternalPorts(self.handler)
+            self.pub_external = self.create_publisher(DxlExternalPort, "dynamixel/external_port/read", 10)
+            self.create_subscription(DxlExternalPort, "dynamixel/external_port/write", self._on_external_write, 10)
+
+    def _on_external_write(self, msg: DxlExternalPort) -> None:
+        try:
+            self.external_ports.write([int(i) for i in msg.id_list], [int(p) for p in msg.port], list(msg.mode),
+                                      [int(d) for d in msg.data])
+        except Exception as exc:  # a bad message must never take the node down
+            self.get_logger().error(f"/dynamixel/external_port/write: dropped: {type(exc).__name__}: {exc}")
 
     # ------------------------------------------------------------------ start-up
     def start(self) -> None:
@@ -137,6 +150,8 @@ class DynamixelHandlerNode(Node):
             try:
                 report = self.handler.step()
                 self._publish(report)
+                if self.external_ports is not None:
+                    self._publish_external(self.external_ports.step())
                 failures = 0
             except Exception as exc:  # keep the loop alive; the context says where it broke
                 failures += 1
@@ -167,6 +182,13 @@ class DynamixelHandlerNode(Node):
                 self._stop.wait(delay)
             else:
                 next_t = time.monotonic()  # overran: start the next loop now, don't try to catch up
+
+    def _publish_external(self, reading) -> None:
+        if reading is None:
+            return
+        msg = DxlExternalPort(id_list=reading.ids, port=reading.ports, mode=reading.modes, data=reading.data)
+        msg.stamp = self.get_clock().now().to_msg()
+        self.pub_external.publish(msg)
 
     def _publish(self, report: StepReport) -> None:
         table = self.handler.table
