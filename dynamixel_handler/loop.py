@@ -90,6 +90,7 @@ class Handler:
         self._had_device = False
         self._next_reconnect = 0.0
         self.watchdog_trips = 0
+        self._reported_errors: dict[int, int] = {}
 
     # ================================================================ start-up
     def start(self) -> None:
@@ -425,6 +426,34 @@ class Handler:
                 if self.bus.ping(self.table.ids[pos], retries=0) is not None:
                     answered[pos] = True
         self._update_ping(addressed, answered, report)
+        self._log_reads(report, addressed & ~answered)
+
+    def _log_reads(self, report: StepReport, silent: np.ndarray) -> None:
+        """verbose/read_<group>.{raw,err} and verbose/read_hardware_error, max_log_width IDs a line."""
+        cfg, table = self.config, self.table
+        groups = set(report.groups) | ({"present"} if report.present else set())
+        for group in sorted(groups):
+            key = "extra" if group.startswith("extra") else group
+            if key == "error":
+                continue
+            if cfg.values.get(f"verbose/read_{key}.err") and silent.any():
+                self.log.warning(f"read {group}: no answer from IDs {[table.ids[p] for p in np.flatnonzero(silent)]}")
+            if cfg.values.get(f"verbose/read_{key}.raw"):
+                items = ([PRESENT[k][0] for k in sorted(report.present)] if group == "present"
+                         else list(GROUP_ITEMS[group]))
+                for item in items:
+                    if table.known(item).any():
+                        self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), cfg["max_log_width"]))
+        if "error" in report.groups and cfg["verbose/read_hardware_error"]:
+            bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
+            flags = units.decode_hardware_error(bits)
+            for pos in np.flatnonzero(bits):
+                dxl_id = table.ids[pos]
+                if self._reported_errors.get(dxl_id) != bits[pos]:
+                    causes = [name for name, f in flags.items() if f[pos]]
+                    self.log.error(f"ID {dxl_id}: hardware error {', '.join(causes)} (0x{int(bits[pos]):02X}): "
+                                   "clear it with the shortcut clear_error (CE)")
+            self._reported_errors = {table.ids[pos]: bits[pos] for pos in np.flatnonzero(bits)}
 
     def _update_ping(self, addressed: np.ndarray, answered: np.ndarray, report: StepReport) -> None:
         table = self.table
@@ -500,6 +529,11 @@ class Handler:
                 self.torque_off(dxl_id)
             if self.table.model(dxl_id).has("bus_watchdog") and self.watchdog_pulses():
                 self.write_item(dxl_id, "bus_watchdog", 0)
+
+
+def _rows(ids: Sequence[int], values: np.ndarray, width: int) -> str:
+    pairs = [f"{i}={v}" for i, v in zip(ids, values.tolist())]
+    return "\n  ".join(", ".join(pairs[k:k + width]) for k in range(0, len(pairs), max(1, width)))
 
 
 def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool) -> list[tuple[int, int, tuple[_Part, ...]]]:
