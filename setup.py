@@ -25,6 +25,7 @@ setup(
         "console_scripts": [
             f"dynamixel_handler = {PACKAGE}.ros.node:main",
             f"dynamixel_handler_sim = {PACKAGE}.sim.cli:main",
+            f"dynamixel_unify_baudrate = {PACKAGE}.tools.unify_baudrate:main",
         ],
     },
 )
