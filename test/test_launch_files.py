@@ -1,0 +1,124 @@
+"""The launch files, checked statically: `launch`/`launch_ros` have no PyPI wheels, so they cannot
+be run here. The XML is parsed; the Python files are compiled and their AST read. Both must start
+executables the package installs, with config files it ships, and be installed to share/."""
+from __future__ import annotations
+
+import ast
+import py_compile
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+LAUNCH = ROOT / "launch"
+SHARE = ROOT / "install" / "dynamixel_handler" / "share" / "dynamixel_handler"
+LIB = ROOT / "install" / "dynamixel_handler" / "lib" / "dynamixel_handler"
+PY_FILES = ["dynamixel_handler_launch.py", "dynamixel_unify_baudrate_launch.py"]
+XML_FILE = "dynamixel_handler_launch.xml"
+
+
+def console_scripts() -> set[str]:
+    """Executable names declared in setup.py's entry points."""
+    text = (ROOT / "setup.py").read_text()
+    return set(re.findall(r'f?"(\w+) = \{PACKAGE\}\.[\w.]+:\w+"', text))
+
+
+def test_console_scripts_are_read_from_setup_py():
+    assert {"dynamixel_handler", "dynamixel_unify_baudrate"} <= console_scripts()
+
+
+# ---------------------------------------------------------------------- XML
+def test_xml_launch_starts_the_handler_with_the_shipped_config():
+    root = ET.parse(LAUNCH / XML_FILE).getroot()
+    assert root.tag == "launch"
+    args = {a.get("name"): a.get("default") for a in root.findall("arg")}
+    assert set(args) == {"namespace", "params_file", "device_name"}
+    assert args["namespace"] == "" and args["device_name"] == ""
+    share, config = re.fullmatch(r"\$\(find-pkg-share (\w+)\)/(.+)", args["params_file"]).groups()
+    assert share == "dynamixel_handler" and (ROOT / config).is_file()
+    nodes = root.findall("node")
+    assert len(nodes) == 2
+    for node in nodes:
+        assert node.get("pkg") == "dynamixel_handler"
+        assert node.get("exec") in console_scripts()
+        assert node.get("namespace") == "$(var namespace)"
+        assert node.get("output") == "screen"
+        assert [p.get("from") for p in node.findall("param") if p.get("from")] == ["$(var params_file)"]
+    # exactly one of the two runs: without device_name, or with it as an override after the file
+    plain, override = (nodes if nodes[0].get("unless") else nodes[::-1])
+    assert plain.get("unless") == override.get("if") and "$(var device_name)" in override.get("if")
+    assert plain.get("if") is None and override.get("unless") is None
+    named = [p for p in override.findall("param") if p.get("name")]
+    assert [(p.get("name"), p.get("value")) for p in named] == [("device_name", "$(var device_name)")]
+
+
+# ---------------------------------------------------------------------- Python
+def _module(name: str, tmp: Path) -> ast.Module:
+    path = LAUNCH / name
+    # compiled outside the source tree: a launch/__pycache__ would be installed and change the build hash
+    py_compile.compile(str(path), cfile=str(tmp / (name + "c")), doraise=True)
+    return ast.parse(path.read_text(), filename=str(path))
+
+
+def _constants(tree: ast.Module) -> dict[str, str]:
+    return {t.id: node.value.value for node in tree.body if isinstance(node, ast.Assign)
+            and isinstance(node.value, ast.Constant) for t in node.targets if isinstance(t, ast.Name)}
+
+
+def _calls(tree: ast.Module, func: str) -> list[ast.Call]:
+    return [n for n in ast.walk(tree) if isinstance(n, ast.Call)
+            and getattr(n.func, "id", getattr(n.func, "attr", None)) == func]
+
+
+def _value(node: ast.AST, constants: dict[str, str]):
+    if isinstance(node, ast.Constant):
+        return node.value
+    if isinstance(node, ast.Name):
+        return constants.get(node.id)
+    return None
+
+
+@pytest.mark.parametrize("name,executable,config,arguments", [
+    ("dynamixel_handler_launch.py", "dynamixel_handler", "config_dynamixel_handler.yaml",
+     {"namespace", "params_file", "device_name"}),
+    ("dynamixel_unify_baudrate_launch.py", "dynamixel_unify_baudrate", "config_unify_baudrate.yaml",
+     {"params_file", "device_name", "target_baudrate"}),
+])
+def test_python_launch_compiles_and_names_installed_parts(name, executable, config, arguments, tmp_path):
+    tree = _module(name, tmp_path)
+    constants = _constants(tree)
+    functions = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
+    assert "generate_launch_description" in functions
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module
+                and n.module.startswith(("launch", "launch_ros")) for a in n.names}
+    assert {"LaunchDescription", "DeclareLaunchArgument", "Node"} <= imported
+    declared = {_value(c.args[0], constants) for c in _calls(tree, "DeclareLaunchArgument")}
+    assert declared == arguments
+    nodes = _calls(tree, "Node")
+    assert len(nodes) == 1
+    kw = {k.arg: _value(k.value, constants) for k in nodes[0].keywords}
+    assert kw["package"] == "dynamixel_handler" and kw["output"] == "screen"
+    assert kw["executable"] == executable and executable in console_scripts()
+    # the default params_file: <share of the package>/config/<config>
+    joins = _calls(tree, "PathJoinSubstitution")
+    parts = [[_value(e, constants) for e in j.args[0].elts] for j in joins]
+    assert [None, "config", config] in parts
+    assert (ROOT / "config" / config).is_file()
+    package_shares = [_value(c.args[0], constants) for c in _calls(tree, "FindPackageShare")]
+    assert package_shares == ["dynamixel_handler"]
+
+
+# ---------------------------------------------------------------------- install space
+needs_install = pytest.mark.skipif(not SHARE.is_dir(), reason="not built (scripts/setup.sh)")
+
+
+@needs_install
+def test_launch_and_config_files_are_installed_to_share():
+    for name in PY_FILES + [XML_FILE]:
+        assert (SHARE / "launch" / name).is_file(), f"{name} not in {SHARE / 'launch'}: run scripts/setup.sh"
+    for config in ("config_dynamixel_handler.yaml", "config_unify_baudrate.yaml"):
+        assert (SHARE / "config" / config).is_file()
+    for executable in ("dynamixel_handler", "dynamixel_unify_baudrate"):
+        assert (LIB / executable).is_file(), f"{executable} not installed: run scripts/setup.sh"
