@@ -1,16 +1,18 @@
-"""External ports through /dynamixel/external_port/{write,read} on X540 and P servos."""
+"""External ports through /dynamixel/external_port/{write,read} on XH540 and P servos."""
 from __future__ import annotations
 
 import pytest
 
 from dynamixel_handler_msgs.msg import DxlExternalPort
 
-from rig import P, X, X540, Rig
+from rig import P, X, Rig
+
+XH540 = 1100  # XH540-W270
 
 
 @pytest.fixture(scope="module")
 def rig():
-    r = Rig({1: X, 2: X540, 3: P}, "option/external_port.use:=true", "option/external_port.pub_ratio/data:=2",
+    r = Rig({1: X, 2: XH540, 3: P}, "option/external_port.use:=true", "option/external_port.pub_ratio/data:=2",
             "option/external_port.pub_ratio/mode:=5")
     r.reads: list[DxlExternalPort] = []
     with r._lock:
@@ -39,7 +41,8 @@ def test_modes_and_digital_output_reach_the_servo_and_are_read_back(rig):
     rig.publish("/dynamixel/external_port/write", DxlExternalPort(id_list=[2, 3], port=[1, 4], data=[1, 1]))
     rig.wait(lambda: _last_for(rig, 2, 1) == ("d_out", 1) and _last_for(rig, 3, 4) == ("d_out", 1), what="outputs on")
     assert rig.sim.servo(2).read("external_port_data_1") == 1
-    assert _last_for(rig, 3, 2)[0] == "a_in"
+    mode, analog = _last_for(rig, 3, 2)
+    assert mode == "a_in" and 0 <= analog <= 4095
 
 
 def test_only_named_ports_are_read_and_unset_stops_reading(rig):
@@ -55,7 +58,7 @@ def test_only_named_ports_are_read_and_unset_stops_reading(rig):
 def test_models_without_ports_and_bad_values_are_refused_with_a_warning(rig):
     rig.publish("/dynamixel/external_port/write", DxlExternalPort(id_list=[1, 2, 2], port=[1, 4, 2], mode=["d_out", "d_out", "fast"]))
     rig.node_proc.wait_for("ID 1 port 1: XM430-W350 has no external ports: ignored")
-    rig.node_proc.wait_for("ID 2 port 4: XM540-W270 has ports [1, 2, 3]: ignored")
+    rig.node_proc.wait_for("ID 2 port 4: XH540-W270 has ports [1, 2, 3]: ignored")
     rig.node_proc.wait_for("ID 2 port 2: unknown mode 'fast'")
     rig.publish("/dynamixel/external_port/write", DxlExternalPort(id_list=[2], port=[1, 2]))
     rig.node_proc.wait_for("'port' has 2 values for 1 IDs: ignored")

@@ -85,3 +85,46 @@ def test_dummy_servos_mix_with_real_ones_and_follow_commands():
         assert all(2 not in entry.ids for entry in rig.sim.log if entry.ids)
     finally:
         assert rig.close() == 0
+
+
+def test_dummy_only_node_without_a_device_publishes_complete_states_and_follows_commands():
+    import rclpy
+    from rclpy.node import Node
+
+    from dynamixel_handler_msgs.msg import DxlStates
+    from ros_helpers import NodeProcess, node_command
+
+    proc = NodeProcess(node_command("device_name:=/dev/ttyDOES_NOT_EXIST", "init/dummy_servo_list:=[3, 4]",
+                                    "pub_ratio/status:=3", "pub_ratio/goal:=3", "pub_ratio/limit:=3", "pub_ratio/gain:=3",
+                                    "pub_ratio/error:=3", "pub_ratio/extra.dynamic_items:=3", "pub_ratio/extra.static_items:=3",
+                                    "pub_ratio/present.input_voltage:=3", "pub_ratio/present.temperature:=3"))
+    rclpy.init()
+    node = Node("test_dummy_only")
+    full: list[DxlStates] = []
+    node.create_subscription(DxlStates, "/dynamixel/states",
+                             lambda m: full.append(m) if len(m.limit.id_list) == 2 else None, 10)
+    pub = node.create_publisher(DynamixelControlXPosition, "/dynamixel/command/x/position_control", 10)
+    try:
+        proc.wait_for("dummy servos only: running without the device", timeout=30)
+        end = time.monotonic() + 20
+        while not full and time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        assert full, proc.output
+        m = full[-1]
+        for group in (m.status, m.present, m.goal, m.gain, m.limit, m.error, m.extra):
+            assert list(group.id_list) == [3, 4]
+        assert list(m.extra.model) == ["XM430-W350", "XM430-W350"]
+        assert all(len(getattr(m.present, f)) == 2 for f in ("position_deg", "velocity_deg_s", "current_ma"))
+        assert m.limit.max_position_limit_deg[0] > 0 and m.present.input_voltage_v[0] > 0
+        pub.publish(DynamixelControlXPosition(id_list=[3, 4], position_deg=[-30.0, 60.0]))
+        end = time.monotonic() + 20
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+            if full and [round(v) for v in full[-1].present.position_deg] == [-30, 60]:
+                break
+        else:
+            raise AssertionError(f"dummies did not follow: {list(full[-1].present.position_deg)}\n{proc.output}")
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+        assert proc.stop() == 0
