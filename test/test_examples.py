@@ -2,6 +2,7 @@
 handler and the example; the simulated servos must really swing (seen in the example's output)."""
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import shutil
@@ -15,8 +16,8 @@ ROOT = Path(__file__).resolve().parent.parent
 RUN = ROOT / "examples" / "run_example.sh"
 EXAMPLE = ROOT / "examples" / "position_oscillation.py"
 
-needs_ros = pytest.mark.skipif(shutil.which("dynamixel_handler") is None,
-                               reason="dynamixel_handler not installed (source env.sh)")
+needs_ros = pytest.mark.skipif(shutil.which("dynamixel_handler") is None or importlib.util.find_spec("rclpy") is None,
+                               reason="needs the ROS environment: source env.sh")
 
 
 def _env(tmp_path: Path) -> dict[str, str]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 import subprocess
 from pathlib import Path
 
@@ -168,3 +169,16 @@ def test_tool_process_missing_device_says_so():
     assert out.returncode == 1
     assert "/dev/ttyDXL-missing-device does not exist" in out.text
     assert "Traceback" not in out.text
+
+
+def test_sim_command_line_check_baudrate_flag():
+    proc = subprocess.Popen([sys.executable, "-m", "dynamixel_handler.sim", "--check-baudrate", "--quiet",
+                             "--servo", "1:XM430-W350"], stdout=subprocess.PIPE, stdin=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+    try:
+        path = proc.stdout.readline().strip()
+        assert answering(path, 57600) == {1: X}
+        assert answering(path, 1_000_000) == {}
+    finally:
+        proc.terminate()
+        proc.wait(10)
