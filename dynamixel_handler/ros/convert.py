@@ -100,7 +100,7 @@ def extra(table: ServoTable) -> DynamixelExtra:
     msg.id_list = u16(table.ids)
     msg.model = [m.name for m in table.models]
     msg.model_number = u16([m.number for m in table.models])
-    msg.protocol_type = u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"), 2))
+    msg.protocol_type = u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"), 0))
     msg.firmware_version = u16(table.pulses("firmware_version"))
     msg.realtime_tick_s = f64(table.units("realtime_tick"))
     has = table.known("moving_status")
