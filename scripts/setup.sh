@@ -91,6 +91,7 @@ SRC_HASH="$(cd "$ROOT" && hash_of package.xml setup.py setup.cfg dynamixel_handl
   <(echo "$REQ_HASH"))"
 if [ $FORCE = 1 ] || [ ! -f "$ROOT/install/setup.bash" ] || [ "$(cat "$ROOT/install/.source-hash" 2>/dev/null)" != "$SRC_HASH" ]; then
   say "building dynamixel_handler_msgs and dynamixel_handler with colcon (first time ~1-2 min)"
+  mkdir -p "$ROOT/log"
   (
     cd "$ROOT"
     # shellcheck disable=SC1091
