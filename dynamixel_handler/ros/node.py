@@ -25,8 +25,9 @@ from ..bus import BusError, DynamixelBus
 from ..commands import Commander
 from ..dummy import BusWithDummies, make_dummies
 from ..external_ports import ExternalPorts
+from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, StartupError, StepReport
-from . import convert
+from . import convert, joint_states
 from .command_topics import CommandTopics
 from .params import ConfigError, declare_and_load, describe
 
@@ -83,6 +84,8 @@ class DynamixelHandlerNode(Node):
         self.on_failure = None  # called from the loop thread when the loop gives up
         self._create_publishers()
         self._create_subscriptions()
+        # called on the loop thread after each step's state publishing (joint states, diagnostics)
+        self.step_hooks = [h for h in (joint_states.attach(self),) if h is not None]
 
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
@@ -123,7 +126,19 @@ class DynamixelHandlerNode(Node):
                 raise
             why = "debug" if self.config["debug"] else "dummy servos only"
             self.get_logger().warning(f"{err} ({why}: running without the device)")
+        if self.config["init/baudrate_auto_set"] and self.wire.is_open:
+            self._unify_baudrate()
         self.handler.start()
+
+    def _unify_baudrate(self) -> None:
+        """init/baudrate_auto_set: move servos found at other rates to `baudrate` before the scan."""
+        cfg = self.config
+        ids = range(cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"] + 1)
+        report = unify_baudrate(self.wire, cfg["baudrate"], ids, search_rates(9600, 10_500_000), self.adapter)
+        for line in report.summary():
+            (self.get_logger().info if report.ok else self.get_logger().warning)(f"baudrate auto set: {line}")
+        if self.wire.baudrate != cfg["baudrate"]:
+            self.wire.set_baudrate(cfg["baudrate"])
         self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
         self._thread.start()
 
@@ -150,6 +165,8 @@ class DynamixelHandlerNode(Node):
             try:
                 report = self.handler.step()
                 self._publish(report)
+                for hook in self.step_hooks:
+                    hook(report)
                 if self.external_ports is not None:
                     self._publish_external(self.external_ports.step())
                 failures = 0
