@@ -79,6 +79,9 @@ class VirtualBus:
         self._requests: collections.deque = collections.deque()
         self._wire_free_at = 0.0
         self.stats = collections.Counter()
+        #: writes a servo refused: (time, id, address, data, error code) — sync writes included,
+        #: which get no reply on a real bus, so tests can tell what a servo rejected
+        self.refused: collections.deque = collections.deque(maxlen=10_000)
         for servo_id, model in (servos or {}).items():
             self.add_servo(servo_id, model)
 
@@ -355,6 +358,13 @@ class VirtualBus:
             out += self._status(s, p.READ, error, data)
         return out
 
+    def _host_write(self, servo: VirtualServo, address: int, data: bytes, now: float) -> int:
+        """A write to one servo; refused ones (range, limit, access...) are kept in ``refused``."""
+        error = servo.host_write(address, data, now)
+        if error & 0x7F:
+            self.refused.append((now, servo.id, address, bytes(data), error & 0x7F))
+        return error
+
     def _do_write(self, pk: p.Packet, now: float):
         out = []
         broadcast = pk.packet_id == p.BROADCAST_ID
@@ -364,7 +374,7 @@ class VirtualBus:
             if len(pk.params) < 3:
                 error = p.ERR_DATA_LENGTH
             elif pk.instruction == p.WRITE:
-                error = s.host_write(p.u16(pk.params), pk.params[2:], now)
+                error = self._host_write(s, p.u16(pk.params), pk.params[2:], now)
             else:
                 error = s.reg_write(p.u16(pk.params), pk.params[2:], now)
             if s in servos:
@@ -447,14 +457,14 @@ class VirtualBus:
             k = 4
             while k + 1 + length <= len(prm):
                 for s in self._hearing(prm[k]):
-                    s.host_write(address, prm[k + 1:k + 1 + length], now)
+                    self._host_write(s, address, prm[k + 1:k + 1 + length], now)
                 k += 1 + length
         else:
             k = 0
             while k + 5 <= len(prm):
                 dev_id, address, length = prm[k], p.u16(prm, k + 1), p.u16(prm, k + 3)
                 for s in self._hearing(dev_id):
-                    s.host_write(address, prm[k + 5:k + 5 + length], now)
+                    self._host_write(s, address, prm[k + 5:k + 5 + length], now)
                 k += 5 + length
         return []
 
