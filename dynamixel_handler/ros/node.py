@@ -27,7 +27,7 @@ from ..dummy import BusWithDummies, make_dummies
 from ..external_ports import ExternalPorts
 from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, StartupError, StepReport
-from . import convert, joint_states
+from . import convert, diagnostics, joint_states
 from .command_topics import CommandTopics
 from .params import ConfigError, declare_and_load, describe
 
@@ -85,7 +85,7 @@ class DynamixelHandlerNode(Node):
         self._create_publishers()
         self._create_subscriptions()
         # called on the loop thread after each step's state publishing (joint states, diagnostics)
-        self.step_hooks = [h for h in (joint_states.attach(self),) if h is not None]
+        self.step_hooks = [h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]
 
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
@@ -129,6 +129,8 @@ class DynamixelHandlerNode(Node):
         if self.config["init/baudrate_auto_set"] and self.wire.is_open:
             self._unify_baudrate()
         self.handler.start()
+        self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
+        self._thread.start()
 
     def _unify_baudrate(self) -> None:
         """init/baudrate_auto_set: move servos found at other rates to `baudrate` before the scan."""
@@ -139,8 +141,6 @@ class DynamixelHandlerNode(Node):
             (self.get_logger().info if report.ok else self.get_logger().warning)(f"baudrate auto set: {line}")
         if self.wire.baudrate != cfg["baudrate"]:
             self.wire.set_baudrate(cfg["baudrate"])
-        self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
-        self._thread.start()
 
     def stop(self) -> None:
         """Stop the loop, make the servos safe as term/* say, close the port."""
