@@ -13,6 +13,7 @@ from typing import Any, Mapping
 
 # Parameter types, as ROS knows them.
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
+STR_ARRAY = "str[]"
 
 
 @dataclass(frozen=True)
@@ -97,6 +98,12 @@ SCHEMA: tuple[Param, ...] = (
     _p("no_response_id_auto_remove_count", INT, 0, "remove a servo after this many loops without reply (0: never)"),
     _p("mode_change_interval_sec", FLOAT, 1.0, "least time between two mode changes of one servo [s]"),
     _p("clear_error_interval_sec", FLOAT, 1.0, "least time between two error clears of one servo [s]"),
+    _p("joint_state.use", BOOL, False, "publish sensor_msgs/JointState on joint_states for the mapped servos"),
+    _p("joint_state.names", STR_ARRAY, [""], "joint names, aligned with joint_state.ids ([\"\"]: no mapping)"),
+    _p("joint_state.ids", INT_ARRAY, [-1], "servo ID of each joint name ([-1]: no mapping)"),
+    _p("joint_state.directions", INT_ARRAY, [1], "+1/-1 per joint (one value: every joint); joint = dir*(servo-offset)"),
+    _p("joint_state.offsets_deg", FLOAT_ARRAY, [0.0], "servo angle at the joint's zero [deg] per joint (one value: every joint)"),
+    _p("diagnostics.period_sec", FLOAT, 1.0, "publish diagnostic_msgs/DiagnosticArray on /diagnostics every this many seconds (0: off)"),
 )
 SCHEMA_BY_NAME: dict[str, Param] = {p.name: p for p in SCHEMA}
 
@@ -137,10 +144,10 @@ def coerce(param: Param, value: Any) -> Any:
         if isinstance(value, str):
             return value
         raise bad()
-    if t in (INT_ARRAY, FLOAT_ARRAY):
+    if t in (INT_ARRAY, FLOAT_ARRAY, STR_ARRAY):
         if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
             raise bad()
-        elem = Param(param.name + "[]", INT if t == INT_ARRAY else FLOAT, None, "")
+        elem = Param(param.name + "[]", {INT_ARRAY: INT, FLOAT_ARRAY: FLOAT, STR_ARRAY: STR}[t], None, "")
         return [coerce(elem, v) for v in value]
     raise bad()
 
@@ -199,6 +206,10 @@ def validate(values: Mapping[str, Any]) -> Config:
     need(v["default/bus_watchdog"] <= 2540, "parameter 'default/bus_watchdog' must be <= 2540 ms (127 x 20 ms)")
     need(v["no_response_id_auto_remove_count"] >= 0, "parameter 'no_response_id_auto_remove_count' must be >= 0")
     need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
+    need(math.isfinite(v["diagnostics.period_sec"]) and v["diagnostics.period_sec"] >= 0,
+         "parameter 'diagnostics.period_sec' must be a finite value >= 0 (0: off)")
+    from .joints import joint_map  # late: joints.py imports ConfigError from here
+    joint_map(v)  # raises ConfigError naming the joint_state parameter at fault
     return Config(v)
 
 

@@ -12,13 +12,14 @@ from typing import Any
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.node import Node
 
-from ..config import (BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, TOLERATED_PREFIXES,
-                      Config, ConfigError, coerce, validate)
+from ..config import (BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, STR_ARRAY,
+                      TOLERATED_PREFIXES, Config, ConfigError, coerce, validate)
 
 _ROS_TYPES = {
     BOOL: ParameterType.PARAMETER_BOOL, INT: ParameterType.PARAMETER_INTEGER,
     FLOAT: ParameterType.PARAMETER_DOUBLE, STR: ParameterType.PARAMETER_STRING,
     INT_ARRAY: ParameterType.PARAMETER_INTEGER_ARRAY, FLOAT_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
+    STR_ARRAY: ParameterType.PARAMETER_STRING_ARRAY,
 }
 _ROS_OWN = {"use_sim_time", "start_type_description_service"}
 

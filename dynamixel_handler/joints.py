@@ -1,0 +1,159 @@
+"""Joint names on top of servo IDs: the mapping, its validation, and the servo -> joint conversion.
+
+Robot software (robot_state_publisher, rviz, MoveIt) speaks of joints by name in SI units, while
+the handler speaks of servo IDs in degrees. The ``joint_state.*`` parameters map one to the other:
+
+    joint angle [deg] = direction * (servo angle [deg] - offset_deg)
+
+so ``offset_deg`` is what the servo reads when the joint is at its zero, and ``direction = -1``
+flips a servo mounted the other way round. Velocity and effort follow the direction (effort is
+the present current in A, the only torque-like quantity every model measures). ROS-free.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from .config import ConfigError
+from .servos import ServoTable
+
+DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class JointMap:
+    """Joints in parameter order: name, servo ID, direction (+1/-1) and offset [deg] of each."""
+
+    names: tuple[str, ...]
+    ids: tuple[int, ...]
+    directions: tuple[int, ...]
+    offsets_deg: tuple[float, ...]
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def id_of(self, name: str) -> int:
+        """The servo ID of joint ``name``; KeyError naming the known joints otherwise."""
+        try:
+            return self.ids[self.names.index(name)]
+        except ValueError:
+            raise KeyError(f"unknown joint '{name}' (known: {', '.join(self.names)})") from None
+
+    def index_of_id(self, dxl_id: int) -> int | None:
+        return self.ids.index(dxl_id) if dxl_id in self.ids else None
+
+    def to_servo_deg(self, name: str, joint_deg: float) -> float:
+        """Joint angle [deg] -> the servo angle [deg] that puts the joint there."""
+        k = self.names.index(name)
+        return joint_deg * self.directions[k] + self.offsets_deg[k]
+
+    def to_joint_deg(self, name: str, servo_deg: float) -> float:
+        k = self.names.index(name)
+        return self.directions[k] * (servo_deg - self.offsets_deg[k])
+
+
+@dataclass(frozen=True)
+class JointReading:
+    """What one /joint_states message carries: SI units, joints whose position is known."""
+
+    names: list[str]
+    position_rad: np.ndarray
+    velocity_rad_s: np.ndarray
+    effort_a: np.ndarray
+
+
+def joint_map(values: Mapping[str, Any]) -> JointMap | None:
+    """The mapping the ``joint_state.*`` values describe, None when none is given; ConfigError
+    with one line naming the parameter at fault when the values do not make a mapping."""
+    names, ids = list(values["joint_state.names"]), list(values["joint_state.ids"])
+    use = bool(values["joint_state.use"])
+    if names == [""] and ids == [-1]:
+        if use:
+            raise ConfigError("parameter 'joint_state.use' is true but 'joint_state.names'/'joint_state.ids' map no "
+                              "joint: give e.g. names: [pan, tilt] and ids: [1, 2]")
+        return None
+    n = len(names)
+    if n != len(ids):
+        raise ConfigError(f"parameters 'joint_state.names' ({n} names) and 'joint_state.ids' ({len(ids)} IDs) "
+                          "must have the same length")
+    empty = [k for k, name in enumerate(names) if not name.strip()]
+    if empty:
+        raise ConfigError(f"parameter 'joint_state.names' has an empty name at index {empty[0]}")
+    dup = sorted({name for name in names if names.count(name) > 1})
+    if dup:
+        raise ConfigError(f"parameter 'joint_state.names' repeats {', '.join(dup)}: joint names must be unique")
+    bad = [i for i in ids if not 0 <= i <= 252]
+    if bad:
+        raise ConfigError(f"parameter 'joint_state.ids' has {bad}: servo IDs are 0..252")
+    dup_ids = sorted({i for i in ids if ids.count(i) > 1})
+    if dup_ids:
+        raise ConfigError(f"parameter 'joint_state.ids' repeats {dup_ids}: one joint per servo")
+    directions = _per_joint(values, "joint_state.directions", n)
+    if any(d not in (1, -1) for d in directions):
+        raise ConfigError(f"parameter 'joint_state.directions' = {directions}: each must be 1 or -1")
+    offsets = _per_joint(values, "joint_state.offsets_deg", n)
+    if not all(math.isfinite(o) for o in offsets):
+        raise ConfigError(f"parameter 'joint_state.offsets_deg' = {offsets}: each must be a finite angle")
+    return JointMap(tuple(names), tuple(int(i) for i in ids), tuple(int(d) for d in directions),
+                    tuple(float(o) for o in offsets))
+
+
+def _per_joint(values: Mapping[str, Any], name: str, n: int) -> list:
+    given = list(values[name])
+    if len(given) == 1:
+        return given * n
+    if len(given) != n:
+        raise ConfigError(f"parameter '{name}' has {len(given)} values for {n} joints: give one value or one per joint")
+    return given
+
+
+def unhandled(mapping: JointMap, handled_ids: Iterable[int]) -> list[str]:
+    """Joints whose servo is not among the handled ones (to warn about once)."""
+    handled = set(handled_ids)
+    return [name for name, i in zip(mapping.names, mapping.ids) if i not in handled]
+
+
+def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
+    """The mapped joints of ``table`` in SI units (parameter order); joints whose servo is not
+    handled or whose position was never read are left out rather than published as NaN."""
+    position = table.units("present_position")
+    velocity = table.units("present_velocity")
+    current = table.units("present_current")
+    names, rows = [], []
+    for k, (name, dxl_id) in enumerate(zip(mapping.names, mapping.ids)):
+        pos = table.index.get(dxl_id)
+        if pos is None or not math.isfinite(position[pos]):
+            continue
+        names.append(name)
+        rows.append((k, pos))
+    ks = np.array([k for k, _ in rows], dtype=np.int64)
+    ps = np.array([p for _, p in rows], dtype=np.int64)
+    direction = np.asarray(mapping.directions, dtype=np.float64)[ks]
+    offset = np.asarray(mapping.offsets_deg, dtype=np.float64)[ks]
+    return JointReading(names=names,
+                        position_rad=direction * (position[ps] - offset) * DEG,
+                        velocity_rad_s=direction * velocity[ps] * DEG,
+                        effort_a=direction * current[ps] / 1000.0)
+
+
+def resolve_targets(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str]) -> list[tuple[int, str | None]]:
+    """(servo ID, joint name or None) of a request that names servos either by ID or by joint
+    name; ValueError with the reason when it does neither, both, or names an unknown joint."""
+    if len(ids) and len(names):
+        raise ValueError("give either ids or joint names, not both")
+    if not len(ids) and not len(names):
+        raise ValueError("no ids and no joint names given")
+    if len(ids):
+        bad = [i for i in ids if not 0 <= int(i) <= 252]
+        if bad:
+            raise ValueError(f"IDs {bad} are outside 0..252")
+        return [(int(i), None) for i in ids]
+    if mapping is None:
+        raise ValueError("joint names given but no joint_state.names/ids mapping is configured")
+    try:
+        return [(mapping.id_of(name), name) for name in names]
+    except KeyError as err:
+        raise ValueError(err.args[0]) from None
