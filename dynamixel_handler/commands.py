@@ -60,6 +60,7 @@ SHORTCUTS: Mapping[str, str] = {
     "disable": "disable", "reboot": "reboot",
 }
 MAX_ROTATION = 256.0
+X_MULTI_TURN_GOAL = 1_048_575
 BROADCAST_ID = 254
 
 Fields = Mapping[str, Sequence]
@@ -180,11 +181,11 @@ class Commander:
                 a, b = self._value(dxl_id, "min_position_limit"), self._value(dxl_id, "max_position_limit")
                 if a is not None and b is not None and a <= b:
                     return a, b
-            if mode in ("ex_position", "cur_position") or model.series != "X":
-                turns = int(round(MAX_ROTATION * 360.0 / model.position_deg_per_pulse))
-                zero = model.position_zero_pulse
-                return max(lo, zero - turns), min(hi, zero + turns)
-            return lo, hi
+            if model.series == "X":
+                # X multi-turn goals: -1,048,575..1,048,575 pulses (±256 turns) in the e-Manual
+                return (max(lo, -X_MULTI_TURN_GOAL), min(hi, X_MULTI_TURN_GOAL)) if mode != "position" else (lo, hi)
+            turns = int(round(MAX_ROTATION * 360.0 / model.position_deg_per_pulse))
+            return max(lo, -turns), min(hi, turns)
         bound_item = MAGNITUDE_LIMIT.get(item)
         if bound_item is not None and model.has(bound_item):
             bound = self._value(dxl_id, bound_item)

@@ -26,8 +26,8 @@ from .servos import PendingWrites, ServoTable
 SPAN_GAP = 24
 #: loops between pings of a servo that stopped answering
 RECHECK_LOOPS = 10
-#: time a servo needs after a reboot instruction before it answers again [s]
-REBOOT_WAIT_S = 0.6
+#: longest wait for a servo to answer again after a reboot instruction [s]
+REBOOT_WAIT_S = 1.0
 #: least time between two attempts to reopen a vanished device [s]
 RECONNECT_INTERVAL_S = 1.0
 #: bus watchdog register value of a servo whose watchdog has tripped
@@ -220,13 +220,17 @@ class Handler:
         return ok
 
     def reboot(self, dxl_id: int) -> bool:
+        """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
+        loop meanwhile, so that nothing is sent to a servo that is still booting)."""
         ok = self.bus.reboot(dxl_id)
         if ok:
-            time.sleep(REBOOT_WAIT_S)
-            for _ in range(10):
-                if self.bus.ping(dxl_id, retries=0) is not None:
+            deadline = time.monotonic() + REBOOT_WAIT_S
+            time.sleep(0.02)
+            while self.bus.ping(dxl_id, retries=0) is None:
+                if time.monotonic() > deadline:
+                    self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
                     break
-                time.sleep(0.05)
+                time.sleep(0.02)
         return ok
 
     def mode(self, dxl_id: int) -> str | None:
@@ -463,7 +467,9 @@ class Handler:
             self.log.warning(f"ID {table.ids[pos]}: no response (ping false)")
         for pos in np.flatnonzero(back):
             self.log.info(f"ID {table.ids[pos]}: answers again")
-        table.no_response[silent] += 1
+        # every loop without a reply counts, also the loops between the pings of a servo that
+        # already stopped answering: the removal comes after no_response_id_auto_remove_count loops
+        table.no_response[silent | (~table.ping & ~answered)] += 1
         table.no_response[answered] = 0
         table.ping[silent] = False
         table.ping[answered] = True
