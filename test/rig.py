@@ -20,10 +20,12 @@ X, X540, P, PRO = 1020, 1120, 2020, 54024  # XM430-W350, XM540-W270, PH54-200-S5
 
 class Rig:
     def __init__(self, servos: dict[int, int], *params: str, sim_kwargs: dict | None = None,
-                 expect: int | None = None) -> None:
+                 expect: int | None = None, before_start: Callable[[VirtualBus], None] | None = None) -> None:
         """``expect``: number of IDs the node should handle (default: every simulated servo)."""
         self.sim = VirtualBus(servos=servos, **(sim_kwargs or {}))
         path = self.sim.start()
+        if before_start is not None:
+            before_start(self.sim)
         ids = sorted(servos)
         args = [f"device_name:={path}", "latency_timer:=1", "init/used_servo_series.P:=true",
                 "init/used_servo_series.Pro:=true", f"init/servo_auto_search.min_id:={ids[0]}",
@@ -84,6 +86,59 @@ class Rig:
                 "current": msg.current_ma.present[k], "goal_current": msg.current_ma.goal[k],
                 "torque": msg.status.torque[k], "mode": msg.status.mode[k], "error": msg.status.error[k],
                 "ping": msg.status.ping[k]}
+
+    # ------------------------------------------------------------------ helpers for command tests
+    def mark(self) -> int:
+        """A position in the node's log; ``log_since``/``wait_log`` look only at what came after."""
+        return len(self.node_proc.lines)
+
+    def log_since(self, mark: int) -> str:
+        return "\n".join(self.node_proc.lines[mark:])
+
+    def wait_log(self, *substrings: str, since: int = 0, timeout: float = 10.0) -> str:
+        """Wait until one line after ``since`` holds every one of ``substrings``; that line."""
+        found: list[str] = []
+
+        def seen() -> bool:
+            found[:] = [line for line in self.node_proc.lines[since:] if all(s in line for s in substrings)]
+            return bool(found)
+        self.wait(seen, timeout=timeout, what=f"a log line with {substrings!r}")
+        return found[0]
+
+    def group(self, name: str):
+        """The latest published DxlStates part ``name`` (status, present, goal, gain, limit, error,
+        extra) that was read in its loop (non-empty id_list); None before the first."""
+        for msg in reversed(self.states):
+            part = getattr(msg, name)
+            if len(part.id_list):
+                return part
+        return None
+
+    def state_of(self, name: str, field: str, dxl_id: int):
+        """One ID's value of a (possibly nested, dotted) field of the latest DxlStates part ``name``."""
+        part = self.group(name)
+        if part is None or dxl_id not in list(part.id_list):
+            return None
+        k = list(part.id_list).index(dxl_id)
+        value = part
+        for attr in field.split("."):
+            value = getattr(value, attr)
+        return value[k] if len(value) > k else None
+
+    def fresh_states(self, count: int = 2, timeout: float = 10.0) -> None:
+        """Wait for ``count`` more DxlStates of each group published (so they hold current reads)."""
+        n = len(self.states)
+        self.wait(lambda: len(self.states) >= n + count, timeout=timeout, what=f"{count} more /dynamixel/states")
+
+    def turn_by_hand(self, dxl_id: int, pulses: float) -> None:
+        """Turn the shaft of a servo as a hand would (no instruction on the bus): the virtual
+        servo has no public hook for an external force, so the motor model is moved directly.
+        Meant for a servo with torque off (with torque on it would just drive back)."""
+        with self.sim._lock:
+            servo = self.sim.servo(dxl_id)
+            servo.refresh(servo._clock())
+            servo._motor.p += pulses
+            servo.refresh(servo._clock())
 
     def close(self) -> int:
         code = self.node_proc.stop()

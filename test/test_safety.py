@@ -128,3 +128,14 @@ def test_dummy_only_node_without_a_device_publishes_complete_states_and_follows_
         node.destroy_node()
         rclpy.shutdown()
         assert proc.stop() == 0
+
+
+def test_baudrate_auto_set_moves_servos_at_other_rates_before_the_scan():
+    rig = Rig({1: X, 2: X540}, "init/baudrate_auto_set:=true", "baudrate:=1000000",
+              sim_kwargs={"check_baudrate": True}, before_start=lambda sim: sim.servo(2).write("baud_rate", 1))
+    try:
+        assert rig.sim.servo(2).read("baud_rate") == 3  # 57600 -> 1 Mbps
+        assert list(rig.debug[-1].status.id_list) == [1, 2]
+        rig.node_proc.wait_for("baudrate auto set")
+    finally:
+        assert rig.close() == 0
