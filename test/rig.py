@@ -27,9 +27,13 @@ class Rig:
         if before_start is not None:
             before_start(self.sim)
         ids = sorted(servos)
+        n = len(servos) if expect is None else expect
+        # a loaded machine can delay the simulator's reply past a 1 ms adapter's timeout: the scan
+        # retries until every servo was seen
         args = [f"device_name:={path}", "latency_timer:=1", "init/used_servo_series.P:=true",
                 "init/used_servo_series.Pro:=true", f"init/servo_auto_search.min_id:={ids[0]}",
-                f"init/servo_auto_search.max_id:={ids[-1]}", "verbose_ratio:=0", *params]
+                f"init/servo_auto_search.max_id:={ids[-1]}", "init/servo_auto_search.retry_times:=5",
+                f"init/expected_servo_num:={n}", "verbose_ratio:=0", *params]
         self.node_proc = NodeProcess(node_command(*args))
         rclpy.init()
         self.node = Node("test_rig")
@@ -44,7 +48,6 @@ class Rig:
         self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._spin_loop, daemon=True)
         self._thread.start()
-        n = len(servos) if expect is None else expect
         try:
             self.node_proc.wait_for("handled", timeout=30)
             self.wait(lambda: self.debug and len(self.debug[-1].status.id_list) == n
