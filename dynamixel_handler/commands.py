@@ -216,6 +216,8 @@ class Commander:
                 if not self.finite(what, field, dxl_id, value):
                     continue
                 if field == "position_deg" and rotation is not None:
+                    if rotation[k] is None:
+                        continue  # its rotation was refused: without the turns it would go elsewhere
                     value = float(value) + 360.0 * float(rotation[k])
                 pulses = self.to_pulses(what, field, dxl_id, item, float(value))
                 if pulses is not None:
@@ -223,6 +225,8 @@ class Commander:
         # rotation given alone: turns on top of the present goal's angle
         if rotation is not None and "position_deg" not in fields:
             for k, dxl_id in targets:
+                if rotation[k] is None:
+                    continue
                 current = self.h.table.units("goal_position")[self.h.table.index[dxl_id]]
                 base = 0.0 if not math.isfinite(current) else math.fmod(current, 360.0)
                 pulses = self.to_pulses(what, "rotation", dxl_id, "goal_position", base + 360.0 * float(rotation[k]))
@@ -234,6 +238,8 @@ class Commander:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 
     def _checked_rotation(self, what: str, targets: list[tuple[int, int]], fields: Fields) -> list | None:
+        """Rotations clamped to ±256 turns; None for a refused one (NaN/inf), which refuses that
+        ID's position goal too."""
         rotation = fields.get("rotation")
         if rotation is None:
             return None
@@ -241,8 +247,9 @@ class Commander:
         for k, dxl_id in targets:
             r = rotation[k]
             if not math.isfinite(r):
-                self.warn(f"{what}: ID {dxl_id} 'rotation' = {r} refused (not a finite number)")
-                rotation[k] = 0.0
+                self.warn(f"{what}: ID {dxl_id} 'rotation' = {r} refused (not a finite number), "
+                          "and with it the position goal")
+                rotation[k] = None
             elif abs(r) > MAX_ROTATION:
                 self.warn(f"{what}: ID {dxl_id} 'rotation' = {r:g} is beyond ±{MAX_ROTATION:g}: clamped")
                 rotation[k] = math.copysign(MAX_ROTATION, r)
