@@ -1,0 +1,209 @@
+"""Loop benchmark: the node against the wire limit and against a bare dynamixel-sdk loop.
+
+    cd /work/main && source env.sh && python bench/bench_loop.py [--quick] [--json out.json]
+
+For each bus (1 and 4 Mbps, adapter latency 0 and 1 ms) and each number of X servos (1, 4, 12,
+30) on the virtual bus with wire timing, it measures:
+- the wire limit of one cycle (``wire.py``: exact packets, bytes x 10 / baud + latency per reply);
+- the bare ``dynamixel-sdk`` cycle, Sync Read and Fast Sync Read (``sdk_baseline.py``, own process);
+- the node (own process) reading present current/velocity/position every loop, writing goal
+  positions every loop from /dynamixel/commands/x, publishing /dynamixel/states and
+  /dynamixel/debug, flat out (loop_rate 2000) and at loop_rate 100, with method/fast_read false and
+  true (``node_run.py``).
+Then it prints one table with the ratios node / SDK and node / wire limit, and the targets.
+
+``--quick`` measures only the target bus (12 servos, 1 Mbps, latency 0 and 1 ms) with shorter windows.
+"""
+from __future__ import annotations
+
+import argparse
+import fcntl
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+
+def claim_domain() -> str:
+    """A ROS domain no concurrent test run or benchmark uses: the same lock files as the test suite
+    (one per domain, held while this process lives), searched from the top so tests rarely meet it."""
+    for domain in range(100, 0, -1):
+        handle = open(os.path.join(tempfile.gettempdir(), f"dynamixel_handler_test_domain_{domain}.lock"), "w")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        claim_domain.handle = handle  # type: ignore[attr-defined]
+        return str(domain)
+    return "100"
+
+
+# Before rclpy is imported anywhere: discovery on this machine only, on a domain of our own.
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ["ROS_DOMAIN_ID"] = claim_domain()
+
+from dynamixel_handler.sim import VirtualBus  # noqa: E402
+
+import wire  # noqa: E402
+from common import hardware_priority  # noqa: E402
+from node_run import Controller, NodeResult, measure_node  # noqa: E402
+
+X_MODEL = 1020  # XM430-W350
+
+#: the targets of the issue, evaluated on this bus
+TARGET_N, TARGET_BAUD = 12, 1_000_000
+
+
+@dataclass
+class Row:
+    baudrate: int
+    latency_ms: float
+    n: int
+    fast_read: bool
+    wire_hz: float
+    sdk_hz: float = float("nan")
+    sdk_cpu: float = float("nan")
+    sdk_failures: int = 0
+    max_: NodeResult | None = None
+    at100: NodeResult | None = None
+
+    @property
+    def node_vs_sdk(self) -> float:
+        return self.max_.rate_hz / self.sdk_hz if self.max_ else float("nan")
+
+    @property
+    def node_vs_wire(self) -> float:
+        return self.max_.rate_hz / self.wire_hz if self.max_ else float("nan")
+
+
+def sdk_run(path: str, n: int, baudrate: int, latency_s: float, fast: bool, seconds: float) -> dict:
+    cmd = [sys.executable, os.path.join(HERE, "sdk_baseline.py"), path, "--ids", f"1-{n}", "--baudrate",
+           str(baudrate), "--latency-ms", str(max(1.0, latency_s * 1000)), "--seconds", str(seconds)]
+    if fast:
+        cmd.append("--fast")
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    if done.returncode != 0:
+        return {"rate_hz": float("nan"), "cpu_percent": float("nan"), "failures": -1, "error": done.stderr[-400:]}
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def ms(seconds: float) -> str:
+    return "-" if not math.isfinite(seconds) else f"{1000 * seconds:.2f}"
+
+
+def num(value: float, fmt: str = "{:.0f}") -> str:
+    return "-" if not math.isfinite(value) else fmt.format(value)
+
+
+def table(rows: list[Row]) -> str:
+    head = ("baud  lat  N fast | wire Hz  sdk Hz | node Hz  mean ms  p99 ms  cpu% | /sdk  /wire | "
+            "@100: Hz  cpu%  lat mean  lat p99 ms")
+    out = [head, "-" * len(head)]
+    for r in rows:
+        m, h = r.max_ or NodeResult(), r.at100 or NodeResult()
+        out.append(
+            f"{r.baudrate // 1_000_000}M {r.latency_ms:4.0f} {r.n:2d} {'yes' if r.fast_read else ' no'}  | "
+            f"{r.wire_hz:7.0f} {num(r.sdk_hz):>7} | {num(m.rate_hz):>7} {ms(m.mean_s):>8} {ms(m.p99_s):>7} "
+            f"{num(m.cpu_percent):>5} | {num(r.node_vs_sdk, '{:.2f}'):>4} {num(r.node_vs_wire, '{:.2f}'):>5} | "
+            f"{num(h.rate_hz):>8} {num(h.cpu_percent):>5} {ms(h.latency_mean_s):>9} {ms(h.latency_p99_s):>8}")
+    return "\n".join(out)
+
+
+def targets(rows: list[Row]) -> list[str]:
+    lines = []
+    for r in rows:
+        if r.n != TARGET_N or r.baudrate != TARGET_BAUD or not r.max_ or not r.at100:
+            continue
+        tag = f"12 servos 1 Mbps latency {r.latency_ms:g} ms, fast_read {'true' if r.fast_read else 'false'}"
+        checks = [("node rate >= 0.9 x SDK rate", r.node_vs_sdk >= 0.9, f"{r.node_vs_sdk:.2f}")]
+        if r.fast_read:
+            checks.append(("node rate >= 0.85 x wire limit", r.node_vs_wire >= 0.85, f"{r.node_vs_wire:.2f}"))
+        checks.append(("CPU <= 25 % at loop_rate 100", r.at100.cpu_percent <= 25.0, f"{r.at100.cpu_percent:.0f} %"))
+        for label, res in (("flat out", r.max_), ("loop_rate 100", r.at100)):
+            bound = res.mean_s + 0.001
+            checks.append((f"latency p99 <= period + 1 ms ({label})", res.latency_p99_s <= bound,
+                           f"{ms(res.latency_p99_s)} vs {ms(bound)} ms"))
+        for label, ok, value in checks:
+            lines.append(f"  [{'met' if ok else 'NOT met'}] {tag}: {label}: {value}")
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="target bus only (12 servos, 1 Mbps), short windows")
+    ap.add_argument("--window", type=float, default=None, help="seconds measured per node run")
+    ap.add_argument("--sdk-window", type=float, default=None, help="seconds measured per SDK run")
+    ap.add_argument("--n", default=None, help="servo counts, e.g. 12 or 1,4,12,30")
+    ap.add_argument("--baud", default=None, help="baud rates, e.g. 1000000,4000000")
+    ap.add_argument("--latency-ms", default=None, help="adapter latencies, e.g. 0,1")
+    ap.add_argument("--json", default=None, help="also write every figure to this file")
+    a = ap.parse_args(argv)
+    counts = [int(x) for x in (a.n or ("12" if a.quick else "1,4,12,30")).split(",")]
+    bauds = [int(x) for x in (a.baud or ("1000000" if a.quick else "1000000,4000000")).split(",")]
+    latencies = [float(x) / 1000 for x in (a.latency_ms or "0,1").split(",")]
+    window = a.window or (1.5 if a.quick else 1.6)
+    sdk_window = a.sdk_window or (1.0 if a.quick else 0.8)
+
+    import rclpy
+    rclpy.init()
+    controller = Controller()
+    rows: list[Row] = []
+    began = time.monotonic()
+    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, load average {os.getloadavg()[0]:.2f} "
+          f"on {os.cpu_count()} cores", flush=True)
+    try:
+        for baudrate in bauds:
+            for latency_s in latencies:
+                for n in counts:
+                    sim = VirtualBus(servos={i: X_MODEL for i in range(1, n + 1)}, baudrate=baudrate,
+                                     latency_s=latency_s)
+                    path = sim.start()
+                    priority = hardware_priority()
+                    for i in range(1, n + 1):
+                        sim.servo(i).write("return_delay_time", 0)  # as the node sets it (default/return_delay_time)
+                    try:
+                        for fast in (False, True):
+                            row = Row(baudrate, latency_s * 1000, n, fast, wire.cycle(n, baudrate, latency_s, fast).rate_hz)
+                            sdk = sdk_run(path, n, baudrate, latency_s, fast, sdk_window)
+                            row.sdk_hz, row.sdk_cpu, row.sdk_failures = sdk["rate_hz"], sdk["cpu_percent"], sdk["failures"]
+                            for loop_rate in (2000, 100):
+                                sim.clear_log()
+                                res = measure_node(sim, controller, n, baudrate, latency_s, loop_rate, fast, window)
+                                if res.error:
+                                    print(f"  node run failed ({res.error}):\n    " + "\n    ".join(res.log_tail),
+                                          file=sys.stderr, flush=True)
+                                if loop_rate == 100:
+                                    row.at100 = res
+                                else:
+                                    row.max_ = res
+                            rows.append(row)
+                            print(f"[{time.monotonic() - began:5.0f}s] ({priority}) {baudrate // 1_000_000} Mbps, latency "
+                                  f"{latency_s * 1000:g} ms, N={n:2d}, fast_read={fast}: wire {row.wire_hz:.0f} Hz, "
+                                  f"sdk {row.sdk_hz:.0f} Hz, node {row.max_.rate_hz:.0f} Hz", flush=True)
+                    finally:
+                        sim.close()
+    finally:
+        controller.close()
+        rclpy.try_shutdown()
+    print()
+    print(table(rows))
+    print()
+    print("Targets:")
+    print("\n".join(targets(rows)) or "  (the target bus was not measured)")
+    print(f"\ntotal {time.monotonic() - began:.0f} s, load average now {os.getloadavg()[0]:.2f}")
+    if a.json:
+        with open(a.json, "w") as handle:
+            json.dump([asdict(r) for r in rows], handle, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
