@@ -1,0 +1,103 @@
+"""A servo that stops answering mid-run: ping false, the others keep being read every loop, removal
+after no_response_id_auto_remove_count loops, and back again with the shortcut add_id."""
+from __future__ import annotations
+
+import math
+
+from dynamixel_handler_msgs.msg import DynamixelShortcut
+
+from core_helpers import PING, Bench
+
+REMOVE_AFTER = 10  # loops
+SILENT_ID = 3      # the PH54
+
+
+def _ids(msg) -> list[int]:
+    return list(msg.status.id_list)
+
+
+def _of(msg, dxl_id: int, field: str):
+    k = _ids(msg).index(dxl_id)
+    return msg.status.ping[k] if field == "ping" else getattr(msg, field).present[k]
+
+
+def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_with_add_id():
+    bench = Bench("pub_ratio/present.position:=1", "pub_ratio/status:=1",
+                  f"no_response_id_auto_remove_count:={REMOVE_AFTER}")
+    try:
+        # ID 1 turns at a constant velocity, so its present position changes every loop
+        x = bench.sim.servo(1)
+        x.write("operating_mode", 1)
+        x.write("goal_velocity", 40)
+        debug = bench.topics["debug"]
+        bench.wait(lambda: debug.last().velocity_deg_s.present[0] > 30, what="ID 1 turning")
+
+        start = len(debug)
+        bench.sim.set_silent(SILENT_ID, True)
+        bench.wait(lambda: SILENT_ID not in _ids(debug.last()), timeout=15, what=f"ID {SILENT_ID} removed")
+        bench.wait_new(["debug"], count=20)
+        messages = debug.all()[start:]
+
+        # ping false first, in the loop after it went silent, while the others stay true
+        silent = [m for m in messages if SILENT_ID in _ids(m) and not _of(m, SILENT_ID, "ping")]
+        assert silent, "no message with ping false before the removal"
+        assert all(_of(m, i, "ping") for m in messages for i in (1, 2, 4))
+        # removed after REMOVE_AFTER loops without reply (one message per loop; the removal loop has
+        # no ID 3): REMOVE_AFTER - 1 messages with ping false, give or take one lost in transit
+        assert REMOVE_AFTER - 3 <= len(silent) <= REMOVE_AFTER, \
+            f"{len(silent)} loops with ping false before the removal, want {REMOVE_AFTER - 1}"
+        after = messages[messages.index(silent[0]):]
+        assert all(_ids(m) == [1, 2, 4] for m in after[len(silent):])
+        bench.node_proc.wait_for(f"ID {SILENT_ID}: no response (ping false)")
+        bench.node_proc.wait_for(f"ID {SILENT_ID}: no response {REMOVE_AFTER} times in a row: removed")
+
+        # the others kept being read every loop: ID 1's position changed from message to message
+        positions = [_of(m, 1, "position_deg") for m in after]
+        changed = sum(1 for a, b in zip(positions, positions[1:]) if a != b)
+        assert changed >= len(positions) - 3, f"ID 1 position changed in {changed} of {len(positions) - 1} loops"
+        assert not any(math.isnan(_of(m, 4, "position_deg")) for m in after)
+
+        # ...and the silent servo did not hold up every loop: after the first failed read it is only
+        # pinged now and then, never read again (reads of ID 1 vs instructions to ID 3)
+        t_silent = next(e.time for e in reversed(bench.transactions())
+                        if SILENT_ID in (e.ids or ()) and e.instruction != PING)  # its last (failed) read
+        later = [e for e in bench.transactions() if e.time > t_silent]
+        to_silent = [e for e in later if SILENT_ID in (e.ids or ())]
+        reads_of_1 = [e for e in later if e.address == 132 and 1 in (e.ids or ())]
+        assert all(e.instruction == PING for e in to_silent), [e.name for e in to_silent]
+        assert len(to_silent) <= 1 + len(reads_of_1) // 5
+
+        # it answers again and is handled again after the shortcut add_id
+        bench.sim.set_silent(SILENT_ID, False)
+        bench.publish("/dynamixel/shortcut", DynamixelShortcut(command="add_id", id_list=[SILENT_ID]))
+        bench.wait(lambda: _ids(debug.last()) == [1, 2, 3, 4] and _of(debug.last(), SILENT_ID, "ping")
+                   and not math.isnan(_of(debug.last(), SILENT_ID, "position_deg")),
+                   timeout=10, what=f"ID {SILENT_ID} handled and read again")
+        status = bench.topics["state/status"]
+        bench.wait(lambda: list(status.last().id_list) == [1, 2, 3, 4] and all(status.last().ping),
+                   what="/dynamixel/state/status with every ID and ping true")
+        assert abs(_of(debug.last(), SILENT_ID, "position_deg")
+                   - bench.sim.servo(SILENT_ID).read("present_position") * 180 / 501923) < 0.01
+    finally:
+        code = bench.close()
+    assert code == 0
+
+
+def test_a_short_silence_is_survived_without_removal():
+    # no auto removal (the default): a servo silent for a while answers again and is read again
+    bench = Bench("pub_ratio/present.position:=1", "pub_ratio/status:=1", servos={1: 1020, 4: 54024})
+    try:
+        debug = bench.topics["debug"]
+        bench.sim.set_silent(4, True)
+        bench.wait(lambda: not _of(debug.last(), 4, "ping"), what="ping false")
+        bench.wait_new(["debug"], count=30)
+        assert _ids(debug.last()) == [1, 4]  # never removed with the count at 0
+        bench.sim.set_silent(4, False)
+        bench.wait(lambda: _of(debug.last(), 4, "ping"), what="ping true again (re-pinged on its own)")
+        bench.node_proc.wait_for("ID 4: answers again")
+        bench.sim.servo(4).pin("present_position", 25096)
+        bench.wait(lambda: abs(_of(debug.last(), 4, "position_deg") - 25096 * 180 / 250961) < 1e-6,
+                   what="ID 4 read again")
+    finally:
+        code = bench.close()
+    assert code == 0

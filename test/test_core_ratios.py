@@ -1,0 +1,185 @@
+"""pub_ratio: each group is read (on the wire) and published every `ratio` loops, 0 = at start only;
+pub_outdated_present_value decides whether present items not read this loop are published."""
+from __future__ import annotations
+
+import math
+import re
+import time
+
+import pytest
+
+from core_helpers import Bench
+
+# present position every loop: one sync read of it (and one /dynamixel/states) per loop, the loop clock
+PRESENT_RATIOS = {"position": 1, "velocity": 2, "current": 3, "pwm": 0, "velocity_trajectory": 0,
+                  "position_trajectory": 0, "input_voltage": 5, "temperature": 7}
+GROUP_RATIOS = {"status": 4, "goal": 3, "gain": 0, "limit": 6, "error": 5, "extra.dynamic_items": 7,
+                "extra.static_items": 0}
+# XM430-W350 addresses (e-Manual) of an item each ratio governs, read by itself (method/split_read)
+PRESENT_ADDRESS = {"position": 132, "velocity": 128, "current": 126, "pwm": 124, "velocity_trajectory": 136,
+                   "position_trajectory": 140, "input_voltage": 144, "temperature": 146}
+GROUP_ADDRESS = {"status": 11, "goal": 116, "gain": 84, "limit": 31, "extra.dynamic_items": 65,
+                 "extra.static_items": 0}
+HARDWARE_ERROR_STATUS = 70  # read for status and for error
+PRESENT_FIELDS = {"pwm": "pwm_percent", "current": "current_ma", "velocity": "velocity_deg_s",
+                  "position": "position_deg", "velocity_trajectory": "vel_trajectory_deg_s",
+                  "position_trajectory": "pos_trajectory_deg", "input_voltage": "input_voltage_v",
+                  "temperature": "temperature_degc"}
+WARM_UP = 10  # /dynamixel/states messages skipped: loop 0 (where every group is due) is not counted
+
+
+def due_loops(loops: int, *ratios: int) -> int:
+    """Loops among 0..loops-1 where any of ``ratios`` is due (0 = loop 0 only)."""
+    return sum(1 for k in range(loops) if any((k % r == 0) if r > 0 else k == 0 for r in ratios))
+
+
+def ratio_params(outdated: bool) -> list[str]:
+    return ([f"pub_ratio/present.{k}:={v}" for k, v in PRESENT_RATIOS.items()]
+            + [f"pub_ratio/{k}:={v}" for k, v in GROUP_RATIOS.items()]
+            + ["method/split_read:=true", f"pub_outdated_present_value:={'true' if outdated else 'false'}"])
+
+
+def run(outdated: bool, loops: int = 150) -> dict:
+    """Run the node for about ``loops`` loops after warm-up, stop it, and return what was seen."""
+    bench = Bench(*ratio_params(outdated))
+    try:
+        start_count = len(bench.topics["states"])
+        bench.wait(lambda: len(bench.topics["states"]) >= max(start_count, WARM_UP) + loops, timeout=30,
+                   what=f"{loops} loops")
+        time.sleep(0.2)  # let in-flight messages of other topics arrive
+        window_start = bench.topics["states"]._items[WARM_UP][0]
+        window_end = bench.topics["states"]._items[-1][0]
+        code = bench.stop_node()
+        seen = {
+            "code": code,
+            "states": bench.topics["states"].all()[WARM_UP:],
+            "topics": {name: [m for t, m in rec._items if window_start <= t <= window_end]
+                       for name, rec in bench.topics.items()},
+            "log_reads": {a: len(bench.sync_reads(a, 1)) for a in
+                          set(PRESENT_ADDRESS.values()) | set(GROUP_ADDRESS.values()) | {HARDWARE_ERROR_STATUS}},
+        }
+    finally:
+        bench.close()
+    return seen
+
+
+@pytest.fixture(scope="module")
+def outdated_on():
+    return run(outdated=True)
+
+
+@pytest.fixture(scope="module")
+def outdated_off():
+    return run(outdated=False, loops=60)
+
+
+def test_node_exits_0(outdated_on):
+    assert outdated_on["code"] == 0
+
+
+@pytest.mark.parametrize("key", list(PRESENT_RATIOS))
+def test_each_present_item_is_read_on_the_wire_every_ratio_loops(outdated_on, key):
+    loops = outdated_on["log_reads"][PRESENT_ADDRESS["position"]]
+    assert loops > 100
+    assert outdated_on["log_reads"][PRESENT_ADDRESS[key]] == due_loops(loops, PRESENT_RATIOS[key])
+
+
+@pytest.mark.parametrize("group", list(GROUP_ADDRESS))
+def test_each_group_is_read_on_the_wire_every_ratio_loops(outdated_on, group):
+    loops = outdated_on["log_reads"][PRESENT_ADDRESS["position"]]
+    assert outdated_on["log_reads"][GROUP_ADDRESS[group]] == due_loops(loops, GROUP_RATIOS[group])
+
+
+def test_hardware_error_is_read_once_in_loops_where_status_or_error_is_due(outdated_on):
+    loops = outdated_on["log_reads"][PRESENT_ADDRESS["position"]]
+    want = due_loops(loops, GROUP_RATIOS["status"], GROUP_RATIOS["error"])
+    assert outdated_on["log_reads"][HARDWARE_ERROR_STATUS] == want
+
+
+def test_a_zero_ratio_means_one_read_at_start_only(outdated_on):
+    reads = outdated_on["log_reads"]
+    for address in (GROUP_ADDRESS["gain"], GROUP_ADDRESS["extra.static_items"], PRESENT_ADDRESS["pwm"],
+                    PRESENT_ADDRESS["velocity_trajectory"], PRESENT_ADDRESS["position_trajectory"]):
+        assert reads[address] == 1, f"address {address}"
+
+
+STATES_GROUP_RATIO = {"status": [4], "goal": [3], "gain": [0], "limit": [6], "error": [5],
+                      "extra": [7, 0]}
+
+
+@pytest.mark.parametrize("group", list(STATES_GROUP_RATIO))
+def test_dxl_states_carries_each_group_every_ratio_loops(outdated_on, group):
+    states = outdated_on["states"]
+    n = len(states)
+    published = sum(1 for m in states if len(getattr(m, group).id_list))
+    ratios = [r for r in STATES_GROUP_RATIO[group] if r > 0]
+    want = sum(n / r for r in ratios)  # extra: only the dynamic ratio counts after loop 0
+    assert abs(published - want) <= 1, f"{group}: {published} of {n} messages, want {want:.1f}"
+    for m in states:
+        if len(getattr(m, group).id_list):
+            assert len(getattr(m, group).id_list) == 4
+
+
+@pytest.mark.parametrize("group", list(STATES_GROUP_RATIO))
+def test_state_topics_are_published_every_ratio_loops(outdated_on, group):
+    n = len(outdated_on["topics"]["states"])
+    published = len(outdated_on["topics"][f"state/{group}"])
+    want = sum(n / r for r in STATES_GROUP_RATIO[group] if r > 0)
+    assert abs(published - want) <= 2, f"/dynamixel/state/{group}: {published} in {n} loops, want {want:.1f}"
+
+
+def test_present_and_debug_are_published_every_loop(outdated_on):
+    n = len(outdated_on["topics"]["states"])
+    assert all(len(m.present.id_list) == 4 for m in outdated_on["states"])
+    assert abs(len(outdated_on["topics"]["state/present"]) - n) <= 2
+    assert abs(len(outdated_on["topics"]["debug"]) - n) <= 2
+
+
+def test_outdated_present_values_are_published_when_asked(outdated_on):
+    # pub_outdated_present_value true: every present item in every message, read this loop or not
+    for msg in outdated_on["topics"]["state/present"] + [s.present for s in outdated_on["states"]]:
+        for field in PRESENT_FIELDS.values():
+            values = getattr(msg, field)
+            assert len(values) == 4, field
+            assert not any(math.isnan(v) for v in values[:2]), field  # the X servos have every item
+
+
+def test_present_items_not_read_this_loop_are_empty_without_outdated_values(outdated_off):
+    assert outdated_off["code"] == 0
+    for source, messages in (("/dynamixel/state/present", outdated_off["topics"]["state/present"]),
+                             ("/dynamixel/states", [s.present for s in outdated_off["states"]])):
+        n = len(messages)
+        assert n >= 50
+        for key, field in PRESENT_FIELDS.items():
+            lengths = [len(getattr(m, field)) for m in messages]
+            assert set(lengths) <= {0, 4}, f"{source} {field}: arrays are all or nothing"
+            filled = lengths.count(4)
+            ratio = PRESENT_RATIOS[key]
+            want = n / ratio if ratio else 0
+            assert abs(filled - want) <= 1, f"{source} {field}: filled in {filled} of {n} messages, want {want:.1f}"
+            for m in messages:
+                assert not any(math.isnan(v) for v in getattr(m, field)), f"{source} {field}"
+
+
+VERBOSE = re.compile(r"time=(\d+\.\d+)ms/loop\((\d+\.\d+)ms/read\), success=(\d+\.\d)%\(full=(\d+\.\d)%\)")
+
+
+def test_verbose_line_every_verbose_ratio_loops_and_success_drops_with_a_silent_servo():
+    bench = Bench("verbose_ratio:=20", "pub_ratio/present.position:=1", servos={1: 1020, 3: 2020})
+    try:
+        bench.node_proc.wait_for(VERBOSE.search)
+        bench.sim.set_silent(3, True)
+        bench.wait(lambda: any(float(m.group(4)) < 100.0 for m in map(VERBOSE.search, bench.output.splitlines())
+                               if m), what="a verbose line with full < 100 %")
+        bench.wait_new(["debug"], count=40)
+        code = bench.stop_node()
+        loops = len(bench.sync_reads(132, 1))
+    finally:
+        bench.close()
+    assert code == 0
+    lines = [m for m in map(VERBOSE.search, bench.output.splitlines()) if m]
+    assert len(lines) == loops // 20, f"{len(lines)} lines in {loops} loops"
+    for m in lines:
+        loop_ms, read_ms, success, full = map(float, m.groups())
+        assert 0 < read_ms <= loop_ms and 0 <= full <= success <= 100
+    assert float(lines[0].group(3)) == 100.0  # all servos answering at first
