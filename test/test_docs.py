@@ -1,0 +1,60 @@
+"""The documentation stays true to the code: the parameter tables of docs/parameters.md are what
+scripts/gen_param_docs.py renders from config.SCHEMA, and links between docs lead somewhere."""
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+from dynamixel_handler.config import SCHEMA
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+
+
+def _generator():
+    spec = importlib.util.spec_from_file_location("gen_param_docs", ROOT / "scripts" / "gen_param_docs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_parameter_tables_match_the_schema():
+    gen = _generator()
+    documented = gen.generated_part((DOCS / "parameters.md").read_text(encoding="utf-8"))
+    assert documented == gen.render(), (
+        "docs/parameters.md is out of date with dynamixel_handler/config.py SCHEMA: "
+        "run scripts/gen_param_docs.py --write")
+
+
+def test_every_parameter_has_exactly_one_row_with_its_default():
+    gen = _generator()
+    rows = [line for line in gen.render().splitlines() if line.startswith("| `")]
+    names = [re.match(r"\| `([^`]+)`", row).group(1) for row in rows]
+    assert names.count("device_name") == 1
+    assert sorted(names) == sorted(p.name for p in SCHEMA)
+    by_name = dict(zip(names, rows))
+    for param in SCHEMA:
+        assert f"`{gen.format_value(param.default)}`" in by_name[param.name], param.name
+
+
+def test_yaml_defaults_are_rendered_as_yaml():
+    gen = _generator()
+    assert gen.format_value(True) == "true"
+    assert gen.format_value([-1]) == "[-1]"
+    assert gen.format_value([0.0, 0.0, 180.0]) == "[0.0, 0.0, 180.0]"
+    assert gen.format_value([""]) == '[""]'
+    assert gen.format_value("/dev/ttyUSB0") == "/dev/ttyUSB0"
+
+
+def test_relative_links_in_docs_lead_to_files_that_exist():
+    broken = []
+    for doc in sorted(DOCS.glob("*.md")) + [ROOT / "README.md"]:
+        text = re.sub(r"```.*?```", "", doc.read_text(encoding="utf-8"), flags=re.S)  # code is not links
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", target) or target.startswith("#"):
+                continue
+            path = (doc.parent / target.split("#")[0]).resolve()
+            if not path.exists():
+                broken.append(f"{doc.relative_to(ROOT)} -> {target}")
+    assert not broken, "broken links: " + ", ".join(broken)
