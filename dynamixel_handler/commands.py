@@ -337,7 +337,8 @@ class Commander:
 
     def clear_error(self, dxl_id: int, keep_rotation: bool, what: str) -> bool:
         """Reboot to clear a hardware error; with ``keep_rotation`` the multi-turn position survives
-        through the homing offset. Torque comes back as it was."""
+        through the homing offset. Torque comes back on if it was on, or if the error's shutdown
+        switched it off (then the error, not the user, turned it off)."""
         now = time.monotonic()
         interval = self.h.config["clear_error_interval_sec"]
         last = self._last_clear.get(dxl_id)
@@ -348,6 +349,9 @@ class Commander:
         self._last_clear[dxl_id] = now
         model = self.h.table.model(dxl_id)
         torque = self._value(dxl_id, "torque_enable")
+        error = self.h.read_item(dxl_id, "hardware_error_status") or 0
+        shutdown = self._value(dxl_id, "shutdown")
+        torque = bool(torque) or bool(error & (0xFF if shutdown is None else shutdown))
         before = self.h.read_item(dxl_id, "present_position")
         offset = self.h.read_item(dxl_id, "homing_offset")
         if not self.h.reboot(dxl_id):
