@@ -261,9 +261,11 @@ class Commander:
         targets = self.known_ids(ids, what, series)
         if not targets:
             return
-        for _, dxl_id in targets:
-            if self.h.mode(dxl_id) != mode:
-                self.change_mode(dxl_id, mode, what)
+        # goals meant for another mode are not written where the mode change was refused or failed
+        targets = [(k, dxl_id) for k, dxl_id in targets
+                   if self.h.mode(dxl_id) == mode or self.change_mode(dxl_id, mode, what)]
+        if not targets:
+            return
 
         def item_of(field: str, dxl_id: int) -> str | None:
             model = self.h.table.model(dxl_id)
