@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
 from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsPro, DxlCommandsX,
@@ -54,11 +55,20 @@ def unpack(msg) -> tuple[list[int], dict[str, list]]:
     return [int(i) for i in msg.id_list], fields
 
 
+def lean_subscription(node: Node, typ, topic: str, callback: Callable, depth: int = 10):
+    """A subscription without the default QoS-event handlers: each one is a waitable the executor
+    re-examines on every spin, and with ~30 command topics they cost more CPU than the messages."""
+    return node.create_subscription(typ, topic, callback, depth,
+                                    event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+
+
 class CommandTopics:
     def __init__(self, node: Node, commander: Commander, series: tuple[str, ...], command_line: bool) -> None:
         self.node, self.commander = node, commander
         self.log = node.get_logger()
-        sub = node.create_subscription
+
+        def sub(typ, topic, callback, depth):
+            return lean_subscription(node, typ, topic, callback, depth)
         for s in series:
             suffix, typ = COMMANDS_TYPES[s]
             sub(typ, f"dynamixel/commands/{suffix}", self._guard(f"commands/{suffix}", lambda m, s=s: self._bundle(s, m)), 10)
