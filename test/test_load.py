@@ -83,3 +83,20 @@ def test_ten_publishers_at_100_hz_lose_nothing_and_keep_the_rate(tmp_path):
     finally:
         assert rig.close() == 0
     assert "Traceback" not in rig.node_proc.output
+
+
+def test_sigterm_in_the_middle_of_a_burst_still_runs_the_shutdown_sequence(tmp_path):
+    import signal
+    rig = Rig({i: X for i in range(1, 5)}, "mode_change_interval_sec:=0.0")
+    try:
+        burst = subprocess.Popen([sys.executable, str(Path(__file__).with_name("load_publisher.py")), "4", "10", "100",
+                                  "3", str(tmp_path / "sent.json")])
+        rig.wait(lambda: rig.sim.servo(1).read("goal_position") != 2048, timeout=15, what="the burst reaching the wire")
+        time.sleep(0.5)
+        code = rig.node_proc.stop(signal.SIGTERM)
+        burst.wait(30)
+    finally:
+        rig.close()
+    assert code == 0
+    assert "stopping (term/servo_auto_stop, term/torque_auto_disable)" in rig.node_proc.output
+    assert all(rig.sim.servo(i).read("torque_enable") == 0 for i in range(1, 5))
