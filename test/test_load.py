@@ -100,3 +100,26 @@ def test_sigterm_in_the_middle_of_a_burst_still_runs_the_shutdown_sequence(tmp_p
     assert code == 0
     assert "stopping (term/servo_auto_stop, term/torque_auto_disable)" in rig.node_proc.output
     assert all(rig.sim.servo(i).read("torque_enable") == 0 for i in range(1, 5))
+
+
+def test_ids_removed_and_added_while_commands_flow_never_break_the_loop(tmp_path):
+    from dynamixel_handler_msgs.msg import DynamixelShortcut
+    rig = Rig({i: X for i in range(1, 7)}, "mode_change_interval_sec:=0.0", "pub_ratio/status:=3")
+    try:
+        burst = subprocess.Popen([sys.executable, str(Path(__file__).with_name("load_publisher.py")), "6", "10", "100",
+                                  "4", str(tmp_path / "sent.json")])
+        time.sleep(1.0)
+        for k in range(40):  # membership changes interleaved with the burst's commands
+            dxl_id = k % 6 + 1
+            rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="RMID" if k % 2 == 0 else "ADID", id_list=[dxl_id]))
+            time.sleep(0.05)
+        rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="ADID", id_list=[1, 2, 3, 4, 5, 6]))
+        burst.wait(30)
+        rig.wait(lambda: list(rig.debug[-1].status.id_list) == [1, 2, 3, 4, 5, 6], what="all IDs back")
+        n = len(rig.debug)
+        rig.wait(lambda: len(rig.debug) > n + 20, what="the loop still publishing")
+    finally:
+        assert rig.close() == 0
+    out = rig.node_proc.output
+    assert "Traceback" not in out and "changed size" not in out
+    assert not re.search(r"\]: loop \d+: ", out), "the loop reported an exception"
