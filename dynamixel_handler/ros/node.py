@@ -14,7 +14,7 @@ import time
 import traceback
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
@@ -27,13 +27,15 @@ from ..dummy import BusWithDummies, make_dummies
 from ..external_ports import ExternalPorts
 from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, StartupError, StepReport
-from . import convert, diagnostics, joint_states
+from . import convert, diagnostics, joint_states, services
 from .command_topics import CommandTopics
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
 #: consecutive failed loop steps after which the node stops the servos and exits
 MAX_LOOP_FAILURES = 50
+#: executor threads (subscriptions share one mutually exclusive group; services may wait)
+EXECUTOR_THREADS = 6
 
 
 class _LoggerAdapter:
@@ -86,6 +88,7 @@ class DynamixelHandlerNode(Node):
         self._create_subscriptions()
         # called on the loop thread after each step's state publishing (joint states, diagnostics)
         self.step_hooks = [h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]
+        self.motion_services = services.attach(self)  # set_torque, move_to, move_joints
 
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
@@ -234,7 +237,9 @@ def main(args: list[str] | None = None) -> int:
     rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     log = rclpy.logging.get_logger(NODE_NAME)
     node: DynamixelHandlerNode | None = None
-    executor = SingleThreadedExecutor()
+    # several threads: a waiting move service or action must not stall topics and cancels
+    # (callbacks still only queue work for the loop thread)
+    executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
     stopping = threading.Event()
 
     def on_signal(signum, _frame) -> None:
