@@ -321,6 +321,8 @@ class Commander:
                         self.h.add_id(dxl_id)
                 else:
                     self.h.remove_id(dxl_id)
+        if not set(fields) - {"ping"}:
+            return  # nothing else to do: an ID just removed is no "unknown ID"
         targets = self.known_ids(ids, what)
         for k, dxl_id in targets:
             if "error" in fields:
