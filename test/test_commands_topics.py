@@ -390,12 +390,16 @@ def test_command_status_torque_mode_and_ping(rig):
     assert rig.sim.servo(3).read("goal_position") == rig.sim.servo(3).read("present_position")
     rig.wait(lambda: rig.debug_of(1)["torque"] and rig.debug_of(3)["torque"], what="torque on published")
 
-    # ping false removes an ID from the handled set, ping true adds it back
+    # ping false removes an ID from the handled set, ping true adds it back; neither is warned about
+    mark = rig.mark()
     rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[2], ping=[False]))
     rig.wait(lambda: list(rig.debug[-1].status.id_list) == [1, 3, 4], what="ID 2 removed")
     rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[2], ping=[True]))
     rig.wait(lambda: list(rig.debug[-1].status.id_list) == [1, 2, 3, 4], what="ID 2 added back")
     rig.wait(lambda: rig.debug_of(2)["ping"] and rig.debug_of(2)["mode"] == "position", what="ID 2 read again")
+    rig.wait_log("ID 2: removed", since=mark)
+    rig.wait_log("ID 2: XM540-W270 added", since=mark)
+    assert "WARN" not in rig.log_since(mark)
 
 
 # ============================================================================ command/extra
