@@ -64,6 +64,7 @@ class _Read:
     positions: np.ndarray
     ids: tuple[int, ...]
     parts: tuple[_Part, ...]
+    fast: bool = False
 
 
 class Handler:
@@ -80,6 +81,7 @@ class Handler:
         self._ops_lock = threading.Lock()
         self._plans: dict[tuple, list[_Read]] = {}
         self._plans_version = -1
+        self._plain_read: set[int] = set()  # IDs that do not answer Fast Sync Read
         self.fast_read = bool(config["method/fast_read"])
         self.split_read = bool(config["method/split_read"])
         self.split_write = bool(config["method/split_write"])
@@ -416,7 +418,9 @@ class Handler:
         if items:
             for read in self._plan(tuple(sorted(set(items))), live):
                 addressed[read.positions] = True
-                data = self.bus.sync_read(read.address, read.length, read.ids, fast=self.fast_read)
+                data = self.bus.sync_read(read.address, read.length, read.ids, fast=read.fast)
+                if read.fast and len(data) < len(read.ids):
+                    data = self._read_plain(read, data)
                 self.stats_reads += 1
                 if len(data) == len(read.ids):
                     self.stats_full_reads += 1
@@ -482,6 +486,17 @@ class Handler:
                 report.removed.append(dxl_id)
                 self.remove_id(dxl_id)
 
+    def _read_plain(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
+        """Firmware without Fast Sync Read (old Pro "-R", early X and P) ignores it: ask the servos
+        that did not answer with a plain Sync Read, and read those that answer it so from now on."""
+        missing = [i for i in read.ids if i not in data]
+        plain = self.bus.sync_read(read.address, read.length, missing)
+        if plain:
+            self.log.info(f"IDs {sorted(plain)}: no answer to Fast Sync Read, read with Sync Read from now on")
+            self._plain_read.update(plain)
+            self._plans.clear()
+        return {**data, **plain}
+
     def _plan(self, items: tuple[str, ...], live: np.ndarray) -> list[_Read]:
         """Sync reads for ``items`` over the live servos, grouped by control-table layout (cached)."""
         if self._plans_version != self.table.version:
@@ -497,13 +512,14 @@ class Handler:
                 continue
             sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed)
                         for i in items if model.has(i))
+            fast = self.fast_read and self.table.ids[pos] not in self._plain_read
             if sig:
-                layouts.setdefault(tuple(sorted(sig, key=lambda s: s[1])), []).append(pos)
+                layouts.setdefault((fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
         plan = []
-        for sig, positions in layouts.items():
+        for (fast, sig), positions in layouts.items():
             ids = tuple(self.table.ids[p] for p in positions)
             for address, length, parts in _spans(sig, self.split_read):
-                plan.append(_Read(address, length, np.asarray(positions), ids, parts))
+                plan.append(_Read(address, length, np.asarray(positions), ids, parts, fast))
         self._plans[key] = plan
         return plan
 
