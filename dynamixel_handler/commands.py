@@ -335,9 +335,15 @@ class Commander:
                     self.change_mode(dxl_id, mode, what)
             if "torque" in fields:
                 if fields["torque"][k]:
-                    self.h.torque_on(dxl_id)
+                    self.torque_on(dxl_id)
                 else:
                     self.h.torque_off(dxl_id)
+
+    def torque_on(self, dxl_id: int) -> None:
+        """Torque on as asked by a command: safely if it is off; a servo whose torque is already on
+        keeps its goals (the safe torque on would make them the present state and stop it)."""
+        if self.h.read_item(dxl_id, "torque_enable") != 1:
+            self.h.torque_on(dxl_id)
 
     def clear_error(self, dxl_id: int, keep_rotation: bool, what: str) -> bool:
         """Reboot to clear a hardware error; with ``keep_rotation`` the multi-turn position survives
@@ -440,7 +446,7 @@ class Commander:
             if action == "clear_error":
                 self.clear_error(dxl_id, keep_rotation=True, what=what)
             elif action == "torque_on":
-                self.h.torque_on(dxl_id)
+                self.torque_on(dxl_id)
             elif action in ("torque_off", "disable"):
                 self.h.torque_off(dxl_id)
             elif action == "enable":
