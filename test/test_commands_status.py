@@ -153,6 +153,21 @@ def test_torque_on_after_a_hand_move_does_not_jump(rig):
     at_rest(rig, 5)
 
 
+def test_torque_on_for_a_servo_already_on_changes_nothing(rig):
+    assert reg(rig, 5, "operating_mode") == 1 and reg(rig, 5, "torque_enable") == 1  # from the test above
+    rig.publish("/dynamixel/command/x/velocity_control", DynamixelControlXVelocity(id_list=[5], velocity_deg_s=[60.0]))
+    rig.wait(lambda: abs(rig.debug_of(5)["velocity"] - 60.0) < 2, timeout=15, what="ID 5 turning")
+    goal = reg(rig, 5, "goal_velocity")
+    rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="TON", id_list=[5]))
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[5], torque=[True]))
+    rig.wait(lambda: rig.debug_of(5)["torque"], what="torque on published")
+    rig.fresh_states(10)
+    assert reg(rig, 5, "goal_velocity") == goal  # still turning as commanded, not stopped
+    assert abs(rig.debug_of(5)["velocity"] - 60.0) < 2
+    rig.publish("/dynamixel/command/x/velocity_control", DynamixelControlXVelocity(id_list=[5], velocity_deg_s=[0.0]))
+    wait_reg(rig, 5, "goal_velocity", 0)
+
+
 # ============================================================================ shortcut
 def in_debug(rig: Rig) -> list[int]:
     return list(rig.debug[-1].status.id_list)
