@@ -76,8 +76,9 @@ class Bench:
         self.device = self.sim.start()
         self.node_proc: NodeProcess | None = None
         # listen first, so the node's first loops reach us once discovery is done
-        rclpy.init()
-        self.node = Node("core_test_listener")
+        self.context = rclpy.Context()  # its own context: benches may overlap (module fixtures)
+        rclpy.init(context=self.context)
+        self.node = Node(f"core_test_listener_{id(self):x}", context=self.context)
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.topics: dict[str, Received] = {}
         for name, typ in (("states", DxlStates), ("debug", DynamixelDebug),
@@ -85,7 +86,7 @@ class Bench:
             self.topics[name] = Received()
             self.node.create_subscription(typ, f"/dynamixel/{name}", self.topics[name].add, qos)
         self._pubs: dict[tuple, object] = {}
-        self.executor = SingleThreadedExecutor()
+        self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._lock = threading.Lock()
         self._spinning = True
@@ -175,6 +176,6 @@ class Bench:
             self._thread.join(2)
             self.executor.shutdown()
             self.node.destroy_node()
-            rclpy.shutdown()
+            rclpy.shutdown(context=self.context)
             self.sim.close()
         return code

@@ -6,7 +6,8 @@ import math
 
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
-from core_helpers import PING, Bench
+from core_helpers import FAST_SYNC_READ, PING, SYNC_READ, Bench
+from test_core_states import assert_unit
 
 REMOVE_AFTER = 10  # loops
 SILENT_ID = 3      # the PH54
@@ -28,9 +29,9 @@ def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_
         # ID 1 turns at a constant velocity, so its present position changes every loop
         x = bench.sim.servo(1)
         x.write("operating_mode", 1)
-        x.write("goal_velocity", 40)
+        x.write("goal_velocity", 100)
         debug = bench.topics["debug"]
-        bench.wait(lambda: debug.last().velocity_deg_s.present[0] > 30, what="ID 1 turning")
+        bench.wait(lambda: debug.last().velocity_deg_s.present[0] > 100, what="ID 1 turning")
 
         start = len(debug)
         bench.sim.set_silent(SILENT_ID, True)
@@ -101,3 +102,28 @@ def test_a_short_silence_is_survived_without_removal():
     finally:
         code = bench.close()
     assert code == 0
+
+
+def test_fast_read_reads_every_servo_and_the_old_pro_with_plain_sync_read():
+    # method/fast_read: X and P answer Fast Sync Read; the old Pro "-R" firmware has no such
+    # instruction, so it must be read with a plain Sync Read instead of going ping false
+    b = Bench("method/fast_read:=true", "pub_ratio/status:=1", "pub_ratio/present.position:=1")
+    try:
+        pins = {1: 1000, 2: 3000, 3: -250000, 4: 123456}
+        for dxl_id, pulses in pins.items():
+            b.sim.servo(dxl_id).pin("present_position", pulses)
+        b.wait_new(["debug"], count=30)
+        msg = b.topics["debug"].last()
+        assert list(msg.status.ping) == [True] * 4
+        for k, dxl_id in enumerate(msg.status.id_list):
+            assert_unit(msg.position_deg.present[k], b.sim.servo(dxl_id), "present_position",
+                        f"present position of ID {dxl_id}")
+        recent = b.topics["debug"].all()[-20:]
+        assert all(all(m.status.ping) for m in recent)
+        assert "no response" not in b.output
+        b.node_proc.wait_for("IDs [4]: no answer to Fast Sync Read, read with Sync Read from now on")
+        reads = [e for e in b.transactions()[-200:] if e.instruction in (FAST_SYNC_READ, SYNC_READ)]
+        assert {e.instruction for e in reads if 1 in e.ids or 3 in e.ids} == {FAST_SYNC_READ}
+        assert {e.instruction for e in reads if 4 in e.ids} == {SYNC_READ}
+    finally:
+        b.close()

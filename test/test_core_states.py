@@ -302,3 +302,4 @@ def test_debug_carries_status_and_present_and_goal_of_current_velocity_position(
             servo = bench.sim.servo(dxl_id)
             assert_unit(element.present[k], servo, f"present_{item}", f"debug.{field}.present[ID {dxl_id}]")
             assert_unit(element.goal[k], servo, f"goal_{item}", f"debug.{field}.goal[ID {dxl_id}]")
+
