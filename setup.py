@@ -24,6 +24,7 @@ setup(
     entry_points={
         "console_scripts": [
             f"dynamixel_handler = {PACKAGE}.ros.node:main",
+            f"dynamixel_handler_lifecycle = {PACKAGE}.ros.lifecycle_node:main",
             f"dynamixel_handler_sim = {PACKAGE}.sim.cli:main",
             f"dynamixel_unify_baudrate = {PACKAGE}.tools.unify_baudrate:main",
         ],

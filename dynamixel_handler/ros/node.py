@@ -122,6 +122,11 @@ class DynamixelHandlerNode(Node):
     # ------------------------------------------------------------------ start-up
     def start(self) -> None:
         """Open the bus and set up the servos; StartupError/BusError when that cannot be done."""
+        self.open_and_scan()
+        self.start_loop()
+
+    def open_and_scan(self) -> None:
+        """Open the device and scan/set up the servos (the lifecycle node's configure)."""
         try:
             self.wire.open()
         except BusError as err:
@@ -132,6 +137,9 @@ class DynamixelHandlerNode(Node):
         if self.config["init/baudrate_auto_set"] and self.wire.is_open:
             self._unify_baudrate()
         self.handler.start()
+
+    def start_loop(self) -> None:
+        self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
         self._thread.start()
 

@@ -1,0 +1,168 @@
+"""The handler as a managed (lifecycle) node: ``dynamixel_handler_lifecycle``.
+
+Same parameters, topics, services and action as ``dynamixel_handler``, but the bus is only
+touched when a manager (launch, nav2's lifecycle_manager, ``ros2 lifecycle set``) says so:
+
+- configure: open the device, scan and set up the servos (torque stays as it is);
+- activate: for each servo goal := present state, then torque on (no jump), and start the loop;
+- deactivate: stop the loop, torque off;
+- cleanup: forget the servos and close the device;
+- shutdown (or SIGINT/SIGTERM): stop the loop and leave the servos safe as ``term/*`` say.
+
+A configure that finds no servo (or no device) fails and the node stays unconfigured; an activate
+that cannot switch on every servo switches the others back off and fails, so the node stays
+inactive; an unexpected error goes through error processing, which leaves the servos without
+torque and the device closed (unconfigured).
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+
+from ..bus import BusError
+from ..config import Config
+from ..loop import StartupError
+from .node import EXECUTOR_THREADS, NODE_NAME, DynamixelHandlerNode
+from .params import ConfigError
+
+SUCCESS, FAILURE, ERROR = (TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE,
+                           TransitionCallbackReturn.ERROR)
+
+
+class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
+    """DynamixelHandlerNode whose bus work follows the lifecycle transitions."""
+
+    def __init__(self) -> None:
+        super().__init__()  # parameters, publishers, subscriptions, services; no bus access
+        # torque comes on at activate, not during the configure scan
+        self.handler.config = Config({**self.config.values, "init/torque_auto_enable": False})
+
+    # ------------------------------------------------------------------ transitions
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        try:
+            self.open_and_scan()
+        except (BusError, StartupError) as err:
+            self.get_logger().error(f"configure failed: {err}")
+            self._forget_and_close()
+            return FAILURE
+        except Exception as exc:
+            self.get_logger().error(f"configure: {type(exc).__name__}: {exc}")
+            return ERROR
+        self.get_logger().info(f"configured: servos {list(self.handler.table.ids)} (torque unchanged)")
+        return SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        try:
+            ids = list(self.handler.table.ids)
+            failed = [i for i in ids if not self.handler.torque_on(i)]  # goal := present, then torque on
+            if failed:
+                for i in ids:
+                    self.handler.torque_off(i)
+                self.get_logger().error(f"activate failed: torque on failed on IDs {failed}: "
+                                        f"{self.bus.last_failure} (all servos left without torque)")
+                return FAILURE
+            self.start_loop()
+        except Exception as exc:
+            self.get_logger().error(f"activate: {type(exc).__name__}: {exc}")
+            return ERROR
+        self.get_logger().info(f"active: torque on for IDs {ids}, loop running")
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        try:
+            self._stop_loop()
+            failed = [i for i in self.handler.table.ids if not self.handler.torque_off(i)]
+        except Exception as exc:
+            self.get_logger().error(f"deactivate: {type(exc).__name__}: {exc}")
+            return ERROR
+        if failed:
+            self.get_logger().warning(f"deactivate: torque off failed on IDs {failed}: {self.bus.last_failure}")
+        self.get_logger().info("inactive: loop stopped, torque off")
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._forget_and_close()
+        self.get_logger().info("cleaned up: device closed")
+        return SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._safe_stop()
+        return SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Leave the servos without torque and the device closed; back to unconfigured."""
+        self._stop_loop()
+        try:
+            if self.wire.is_open:
+                for i in list(self.handler.table.ids):
+                    self.handler.torque_off(i)
+        except Exception as exc:
+            self.get_logger().error(f"error processing: torque off: {type(exc).__name__}: {exc}")
+        self._forget_and_close()
+        self.get_logger().warning("error processing done: torque off, device closed (unconfigured)")
+        return SUCCESS
+
+    # ------------------------------------------------------------------ helpers
+    def _stop_loop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
+            self._thread = None
+
+    def _forget_and_close(self) -> None:
+        self._stop_loop()
+        for i in list(self.handler.table.ids):
+            self.handler.remove_id(i)
+        self.handler.pending.take()
+        self.wire.close()
+
+    def _safe_stop(self) -> None:
+        """The node's stop(): loop stopped, servos safe as term/* say, device closed (idempotent)."""
+        self.stop()
+
+
+def main(args: list[str] | None = None) -> int:
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
+    log = rclpy.logging.get_logger(NODE_NAME)
+    node: DynamixelHandlerLifecycleNode | None = None
+    executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
+    stopping = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stopping.set())
+    signal.signal(signal.SIGTERM, lambda *_: stopping.set())
+    code = 0
+    try:
+        node = DynamixelHandlerLifecycleNode()
+        node.on_failure = stopping.set
+        executor.add_node(node)
+        log.info("unconfigured: waiting for the configure transition")
+        while not stopping.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+        if node.failed:
+            code = 1
+    except ConfigError as err:
+        log.fatal(f"bad parameter: {err}")
+        code = 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            try:
+                node.stop()
+            except Exception as exc:
+                log.error(f"shutdown: {type(exc).__name__}: {exc}")
+            node.destroy_node()
+        executor.shutdown(timeout_sec=1.0)
+        if rclpy.ok():
+            rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
