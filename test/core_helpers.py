@@ -58,6 +58,11 @@ class Received:
         with self._lock:
             return [m for when, m in self._items if when >= t]
 
+    def stamped(self) -> list[tuple[float, object]]:
+        """(arrival time, message) pairs."""
+        with self._lock:
+            return list(self._items)
+
     def all(self) -> list:
         with self._lock:
             return [m for _, m in self._items]

@@ -47,13 +47,13 @@ def run(outdated: bool, loops: int = 150) -> dict:
         bench.wait(lambda: len(bench.topics["states"]) >= max(start_count, WARM_UP) + loops, timeout=30,
                    what=f"{loops} loops")
         time.sleep(0.2)  # let in-flight messages of other topics arrive
-        window_start = bench.topics["states"]._items[WARM_UP][0]
-        window_end = bench.topics["states"]._items[-1][0]
+        states = bench.topics["states"].stamped()
+        window_start, window_end = states[WARM_UP][0], states[-1][0]
         code = bench.stop_node()
         seen = {
             "code": code,
             "states": bench.topics["states"].all()[WARM_UP:],
-            "topics": {name: [m for t, m in rec._items if window_start <= t <= window_end]
+            "topics": {name: [m for t, m in rec.stamped() if window_start <= t <= window_end]
                        for name, rec in bench.topics.items()},
             "log_reads": {a: len(bench.sync_reads(a, 1)) for a in
                           set(PRESENT_ADDRESS.values()) | set(GROUP_ADDRESS.values()) | {HARDWARE_ERROR_STATUS}},

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from core_helpers import FOUR_SERVOS, H54, PH54, XM430, XM540, Bench
+from core_helpers import H54, PH54, XM430, XM540, Bench
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ POKES = {
         feedforward_2nd_gain=66, feedforward_1st_gain=77,
         goal_pwm=-300, goal_current=-250, goal_velocity=-77, profile_acceleration=33, profile_velocity=44,
         goal_position=3000, hardware_error_status=0x01),
-    2: dict(  # XM540-W270: extended position mode, torque off
+    2: dict(  # XM540-W270: extended position mode, torque off, time-based profile (of 0, as in velocity units)
         operating_mode=4, torque_enable=0, return_delay_time=5, drive_mode=0x04, secondary_id=255,
         homing_offset=4096, moving_threshold=3, temperature_limit=60, max_voltage_limit=140, min_voltage_limit=100,
         pwm_limit=885, current_limit=2047, velocity_limit=100, max_position_limit=4095, min_position_limit=0,
@@ -57,7 +57,7 @@ POKES = {
         goal_pwm=885, goal_current=2047, goal_velocity=100, profile_acceleration=0, profile_velocity=0,
         goal_position=-70000, hardware_error_status=0),
     3: dict(  # PH54-200-S500-R: PWM mode, overheating error (its shutdown mask leaves bit 2 out)
-        operating_mode=16, return_delay_time=11, drive_mode=0x0C, secondary_id=9, homing_offset=-5000,
+        operating_mode=16, return_delay_time=11, drive_mode=0x08, secondary_id=9, homing_offset=-5000,
         moving_threshold=80, temperature_limit=70, max_voltage_limit=300, min_voltage_limit=160, pwm_limit=2000,
         current_limit=20000, acceleration_limit=9000, velocity_limit=2900, max_position_limit=400000,
         min_position_limit=-400000, startup_configuration=0x01, shutdown=0x3A,
