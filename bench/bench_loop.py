@@ -53,7 +53,7 @@ os.environ["ROS_DOMAIN_ID"] = claim_domain()
 from dynamixel_handler.sim import VirtualBus  # noqa: E402
 
 import wire  # noqa: E402
-from common import hardware_priority  # noqa: E402
+from common import coarse_physics, hardware_priority, raise_priority  # noqa: E402
 from node_run import Controller, NodeResult, measure_node  # noqa: E402
 
 X_MODEL = 1020  # XM430-W350
@@ -105,7 +105,7 @@ def num(value: float, fmt: str = "{:.0f}") -> str:
 
 def table(rows: list[Row]) -> str:
     head = ("baud  lat  N fast | wire Hz  sdk Hz | node Hz  mean ms  p99 ms  cpu% | /sdk  /wire | "
-            "@100: Hz  cpu%  lat mean  lat p99 ms")
+            "@100: Hz  cpu%  lat mean  lat p99 ms | others%")
     out = [head, "-" * len(head)]
     for r in rows:
         m, h = r.max_ or NodeResult(), r.at100 or NodeResult()
@@ -113,7 +113,8 @@ def table(rows: list[Row]) -> str:
             f"{r.baudrate // 1_000_000}M {r.latency_ms:4.0f} {r.n:2d} {'yes' if r.fast_read else ' no'}  | "
             f"{r.wire_hz:7.0f} {num(r.sdk_hz):>7} | {num(m.rate_hz):>7} {ms(m.mean_s):>8} {ms(m.p99_s):>7} "
             f"{num(m.cpu_percent):>5} | {num(r.node_vs_sdk, '{:.2f}'):>4} {num(r.node_vs_wire, '{:.2f}'):>5} | "
-            f"{num(h.rate_hz):>8} {num(h.cpu_percent):>5} {ms(h.latency_mean_s):>9} {ms(h.latency_p99_s):>8}")
+            f"{num(h.rate_hz):>8} {num(h.cpu_percent):>5} {ms(h.latency_mean_s):>9} {ms(h.latency_p99_s):>8} | "
+            f"{num(m.others_cpu_percent):>7}")
     return "\n".join(out)
 
 
@@ -145,20 +146,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baud", default=None, help="baud rates, e.g. 1000000,4000000")
     ap.add_argument("--latency-ms", default=None, help="adapter latencies, e.g. 0,1")
     ap.add_argument("--json", default=None, help="also write every figure to this file")
+    ap.add_argument("--no-boost", action="store_true", help="keep normal priority (default: nice -10 when allowed)")
+    ap.add_argument("--exact-physics", action="store_true",
+                    help="refresh the virtual servos at every instruction (slow: then the simulator, not the wire, "
+                         "limits every contender)")
     a = ap.parse_args(argv)
     counts = [int(x) for x in (a.n or ("12" if a.quick else "1,4,12,30")).split(",")]
     bauds = [int(x) for x in (a.baud or ("1000000" if a.quick else "1000000,4000000")).split(",")]
     latencies = [float(x) / 1000 for x in (a.latency_ms or "0,1").split(",")]
-    window = a.window or (1.5 if a.quick else 1.6)
-    sdk_window = a.sdk_window or (1.0 if a.quick else 0.8)
+    window = a.window or (1.5 if a.quick else 1.2)
+    sdk_window = a.sdk_window or (1.0 if a.quick else 0.6)
 
+    nice = "normal priority" if a.no_boost else raise_priority()
+    physics = "exact servo physics" if a.exact_physics else coarse_physics()
     import rclpy
     rclpy.init()
     controller = Controller()
     rows: list[Row] = []
     began = time.monotonic()
-    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, load average {os.getloadavg()[0]:.2f} "
-          f"on {os.cpu_count()} cores", flush=True)
+    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, bench/node/SDK at {nice}, {physics}, load average "
+          f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} cores", flush=True)
     try:
         for baudrate in bauds:
             for latency_s in latencies:
@@ -187,7 +194,8 @@ def main(argv: list[str] | None = None) -> int:
                             rows.append(row)
                             print(f"[{time.monotonic() - began:5.0f}s] ({priority}) {baudrate // 1_000_000} Mbps, latency "
                                   f"{latency_s * 1000:g} ms, N={n:2d}, fast_read={fast}: wire {row.wire_hz:.0f} Hz, "
-                                  f"sdk {row.sdk_hz:.0f} Hz, node {row.max_.rate_hz:.0f} Hz", flush=True)
+                                  f"sdk {row.sdk_hz:.0f} Hz, node {row.max_.rate_hz:.0f} Hz (node start-up {row.max_.startup_s:.1f} s)",
+                                  flush=True)
                     finally:
                         sim.close()
     finally:

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import Periods, cpu_seconds
+from common import Periods, cpu_seconds, machine_cpu_seconds
 from wire import GOAL_ADDRESS, PRESENT_ADDRESS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,6 +84,8 @@ class NodeResult:
     p99_s: float = float("nan")
     cpu_percent: float = float("nan")
     bench_cpu_percent: float = float("nan")  # the bench process (virtual bus + controller)
+    others_cpu_percent: float = float("nan")  # every other process on the machine, in % of one core
+    startup_s: float = float("nan")          # process start -> first /dynamixel/states
     latency_mean_s: float = float("nan")
     latency_p99_s: float = float("nan")
     latency_max_s: float = float("nan")
@@ -211,7 +213,7 @@ def command_latencies(sent: list[tuple[float, int]], writes: list[tuple[float, i
 
 
 def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: float, loop_rate: int,
-                 fast_read: bool, window_s: float, warmup_s: float = 0.7, start_timeout_s: float = 40.0) -> NodeResult:
+                 fast_read: bool, window_s: float, warmup_s: float = 0.4, start_timeout_s: float = 40.0) -> NodeResult:
     """Start the node on ``sim``, let it settle, measure for ``window_s``, stop it."""
     result = NodeResult()
     ids = list(range(1, n + 1))
@@ -224,6 +226,7 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
     env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_LOGGING_BUFFERED_STREAM="0")
     controller.reset(ids, 0.9 / loop_rate if loop_rate <= 200 else 0.0)
     lines: list[str] = []
+    started = time.monotonic()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                             cwd=str(ROOT), preexec_fn=_die_with_parent)
     reader = threading.Thread(target=lambda: lines.extend(line.rstrip() for line in proc.stdout), daemon=True)
@@ -236,17 +239,18 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
                 result.log_tail = lines[-15:]
                 return result
             time.sleep(0.05)
+        result.startup_s = time.monotonic() - started
         controller.commanding = True
         time.sleep(warmup_s)
         t0 = time.monotonic()
-        cpu0, bench0 = cpu_seconds(proc.pid), cpu_seconds(os.getpid())
+        cpu0, bench0, all0 = cpu_seconds(proc.pid), cpu_seconds(os.getpid()), machine_cpu_seconds()
         states0 = len(controller.states_times)
         time.sleep(window_s)
         t1 = time.monotonic()
-        cpu1, bench1 = cpu_seconds(proc.pid), cpu_seconds(os.getpid())
+        cpu1, bench1, all1 = cpu_seconds(proc.pid), cpu_seconds(os.getpid()), machine_cpu_seconds()
         states1 = len(controller.states_times)
         controller.commanding = False
-        time.sleep(0.3)  # the last commands of the window reach the wire
+        time.sleep(0.2)  # the last commands of the window reach the wire
         log = sim.log
     finally:
         controller.commanding = False
@@ -265,6 +269,7 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
     result.states_hz = (states1 - states0) / window
     result.cpu_percent = 100.0 * (cpu1 - cpu0) / window
     result.bench_cpu_percent = 100.0 * (bench1 - bench0) / window
+    result.others_cpu_percent = 100.0 * ((all1 - all0) - (cpu1 - cpu0) - (bench1 - bench0)) / window
     writes = [(e.time, int.from_bytes(e.params[5:9], "little") - GOAL_BASE) for e in log
               if e.instruction == SYNC_WRITE and e.address == GOAL_ADDRESS and len(e.params) >= 9 and e.time >= t0]
     sent = [(t, s % GOAL_CYCLE) for t, s in controller.sent if t0 <= t <= t1]
@@ -274,7 +279,7 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
         result.latency_mean_s = float(lat.mean())
         result.latency_p99_s = float(np.percentile(lat, 99))
         result.latency_max_s = float(lat.max())
+    result.log_tail = lines[-15:]
     if not reads:
         result.error = "no loop seen on the bus"
-        result.log_tail = lines[-15:]
     return result

@@ -30,7 +30,7 @@ from bench_loop import X_MODEL  # noqa: E402  (also claims the ROS domain before
 from dynamixel_handler.sim import VirtualBus  # noqa: E402
 
 import node_run  # noqa: E402
-from common import hardware_priority  # noqa: E402
+from common import coarse_physics, hardware_priority, raise_priority  # noqa: E402
 
 #: (bucket, any of these substrings in a frame) checked from the innermost frame outwards
 BUCKETS: list[tuple[str, tuple[str, ...]]] = [
@@ -49,7 +49,8 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
     ("read planning, ping bookkeeping", ("_plan", "_update_ping", "due_items", "_read_due")),
     ("bus layer other (stats, locks, reply bookkeeping)", ("bus/core.py", "dummy.py")),
     ("diagnostics / joint states", ("diagnostic", "joint_state")),
-    ("executor wait (idle)", ("_wait_for_ready_callbacks", "wait_for_ready_callbacks")),
+    ("executor wait (idle)", ("_wait_for_ready_callbacks", "wait_for_ready_callbacks",
+                              "_worker (concurrent/futures/thread.py")),
     ("loop bookkeeping (node._run, step)", ("_run (dynamixel_handler/ros/node.py", "step (dynamixel_handler/loop.py")),
 ]
 #: innermost frames that mean the thread is blocked in C (select / sleep), not running Python
@@ -119,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
     controller = node_run.Controller()
     sim = VirtualBus(servos={i: X_MODEL for i in range(1, a.n + 1)}, baudrate=a.baud, latency_s=a.latency_ms / 1000)
     sim.start()
-    print(hardware_priority())
+    print(raise_priority() + ", " + hardware_priority() + ", " + coarse_physics())
     raw = tempfile.mktemp(suffix=".txt", prefix="dxl_pyspy_")
     profiled: dict = {}
 
@@ -159,8 +160,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"node: {res.rate_hz:.0f} loops/s, CPU {res.cpu_percent:.0f} % of one core, "
           f"mean period {1e3 * res.mean_s:.2f} ms, p99 {1e3 * res.p99_s:.2f} ms, "
           f"command latency mean {1e3 * res.latency_mean_s:.2f} ms p99 {1e3 * res.latency_p99_s:.2f} ms")
+    print("node log (last lines):", *[line[:200] for line in res.log_tail[-6:]], sep="\n  ")
     if res.error:
-        print("node run failed:", res.error, *res.log_tail, sep="\n")
+        print("node run failed:", res.error)
     if not os.path.exists(raw):
         print("py-spy produced no profile:", profiled.get("spy").stderr if profiled.get("spy") else "not run")
         return 1

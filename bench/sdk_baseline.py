@@ -46,7 +46,7 @@ class FairPort(PortHandler):
 
 
 def run(device: str, ids: list[int], baudrate: int, latency_timer_ms: float, fast: bool, seconds: float,
-        warmup_s: float = 0.3) -> dict:
+        warmup_s: float = 0.2) -> dict:
     port = FairPort(device, latency_timer_ms)
     if not port.openPort() or not port.setBaudRate(baudrate):
         raise SystemExit(f"cannot open {device} at {baudrate} bps")

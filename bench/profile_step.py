@@ -1,0 +1,194 @@
+"""CPU cost of one loop, part by part, measured in-process with thread CPU clocks.
+
+    cd /work/main && source env.sh && python bench/profile_step.py [--n 12] [--baud 1000000]
+                                      [--latency-ms 0] [--fast] [--seconds 3] [--cprofile]
+
+The node object is built exactly as ``ros2 run`` builds it (same parameters as ``bench_loop.py``),
+but its loop body runs here, flat out, in this thread: ``Handler.step()``, ``_publish()`` and the
+step hooks, with one ``/dynamixel/commands/x`` goal per loop delivered through the node's own
+subscription callback (after deserialising it as the executor would). Every part is wrapped in a
+timer that reads ``time.thread_time()`` (CPU of this thread only: immune to what else the machine
+runs) and ``time.perf_counter()``; nested parts are counted exclusively. The virtual bus runs in
+this process on a real-time thread; subscribers in this process make DDS really deliver.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import cProfile
+import functools
+import os
+import pstats
+import sys
+import tempfile
+import threading
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from bench_loop import X_MODEL  # noqa: E402  (also claims the ROS domain before rclpy starts)
+
+from common import coarse_physics, hardware_priority  # noqa: E402
+from node_run import GOAL_BASE, GOAL_CYCLE, SHIPPED_CONFIG, X_DEG_PER_PULSE, X_ZERO, node_params  # noqa: E402
+
+
+class PartTimer:
+    """Exclusive CPU and wall time per label, for wrapped calls on this thread."""
+
+    def __init__(self) -> None:
+        self.cpu: collections.Counter = collections.Counter()
+        self.wall: collections.Counter = collections.Counter()
+        self.calls: collections.Counter = collections.Counter()
+        self._stack: list[list] = []  # [label, cpu0, wall0, child_cpu, child_wall]
+        self.thread = threading.get_ident()
+
+    def wrap(self, label: str, fn):
+        @functools.wraps(fn)
+        def timed(*args, **kwargs):
+            if threading.get_ident() != self.thread:
+                return fn(*args, **kwargs)
+            frame = [label, time.thread_time(), time.perf_counter(), 0.0, 0.0]
+            self._stack.append(frame)
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self._stack.pop()
+                cpu = time.thread_time() - frame[1]
+                wall = time.perf_counter() - frame[2]
+                self.cpu[label] += cpu - frame[3]
+                self.wall[label] += wall - frame[4]
+                self.calls[label] += 1
+                if self._stack:
+                    self._stack[-1][3] += cpu
+                    self._stack[-1][4] += wall
+        return timed
+
+    def patch(self, owner, name: str, label: str) -> None:
+        setattr(owner, name, self.wrap(label, getattr(owner, name)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=12)
+    ap.add_argument("--baud", type=int, default=1_000_000)
+    ap.add_argument("--latency-ms", type=float, default=0.0)
+    ap.add_argument("--fast", action="store_true")
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--cprofile", action="store_true", help="also print the top functions by own time")
+    a = ap.parse_args(argv)
+
+    from dynamixel_handler.sim import VirtualBus
+    sim = VirtualBus(servos={i: X_MODEL for i in range(1, a.n + 1)}, baudrate=a.baud, latency_s=a.latency_ms / 1000)
+    path = sim.start()
+    print(hardware_priority() + ", " + coarse_physics())
+    with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as handle:
+        handle.write(node_params(path, a.n, a.baud, max(1, int(round(a.latency_ms))), 2000, a.fast))
+        params = handle.name
+
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.publisher import Publisher
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from dynamixel_handler import units
+    from dynamixel_handler.ros import convert
+    from dynamixel_handler.ros import node as node_module
+    from dynamixel_handler_msgs.msg import DxlCommandsX, DxlStates, DynamixelDebug, DynamixelPresent
+
+    rclpy.init(args=["--ros-args", "--params-file", str(SHIPPED_CONFIG), "--params-file", params])
+    node = node_module.DynamixelHandlerNode()
+    listener = Node("dynamixel_handler_bench_listener")
+    for typ, topic in ((DxlStates, "/dynamixel/states"), (DynamixelDebug, "/dynamixel/debug"),
+                       (DynamixelPresent, "/dynamixel/state/present")):
+        listener.create_subscription(typ, topic, lambda _m: None, 10, raw=True)
+    executor = SingleThreadedExecutor()
+    executor.add_node(listener)
+    spinning = True
+
+    def spin() -> None:
+        while spinning:
+            executor.spin_once(timeout_sec=0.05)
+    spinner = threading.Thread(target=spin, daemon=True)
+    spinner.start()
+
+    node.wire.open()
+    node.handler.start()
+    handler = node.handler
+    command_sub = next(s for s in node.subscriptions if s.topic_name == "/dynamixel/commands/x")
+    ids = list(range(1, a.n + 1))
+
+    t = PartTimer()
+    t.patch(handler, "_run_ops", "commands: queued op (validate, units -> pulses, pending)")
+    t.patch(handler, "_write_pending", "goal write: encode + sync write (packet, write syscall)")
+    t.patch(handler.bus, "sync_read", "sync read: packet, syscalls, reply parsing (+ bus wait)")
+    t.patch(handler, "_store", "decode + store in the servo table")
+    t.patch(handler, "_plan", "read planning")
+    t.patch(handler, "_update_ping", "ping bookkeeping")
+    t.patch(handler, "step", "step: the rest")
+    for name in ("states", "debug", "present", "status", "goal"):
+        t.patch(convert, name, "message building (convert.py)")
+    t.patch(units, "pulse_to_unit", "units: pulse -> physical (numpy)")
+    t.patch(Publisher, "publish", "publish (rclpy: Python -> C, serialise, DDS write)")
+    node.step_hooks = [t.wrap("step hooks (diagnostics, joint_states)", h) for h in node.step_hooks]
+    publish_all = t.wrap("publish: the rest (_publish)", node._publish)
+    deserialise = t.wrap("command: take (deserialise DxlCommandsX)", deserialize_message)
+    callback = t.wrap("command: subscription callback (unpack, checks, queue)", command_sub.callback)
+    loop_body = t.wrap("loop: the rest", lambda report: None)
+
+    msg = DxlCommandsX()
+    msg.position_control.id_list = ids
+
+    def one_loop(k: int) -> None:
+        pulse = GOAL_BASE + k % GOAL_CYCLE
+        msg.position_control.position_deg = [(pulse - X_ZERO) * X_DEG_PER_PULSE] * len(ids)
+        wire_bytes = serialize_message(msg)  # the controller's side, not counted
+        callback(deserialise(wire_bytes, DxlCommandsX))
+        report = handler.step()
+        publish_all(report)
+        for hook in node.step_hooks:
+            hook(report)
+        loop_body(report)
+
+    for k in range(50):  # warm-up: first loop reads every group
+        one_loop(k)
+    for counter in (t.cpu, t.wall, t.calls):
+        counter.clear()
+    profiler = cProfile.Profile() if a.cprofile else None
+    loops, cpu0, wall0 = 0, time.thread_time(), time.perf_counter()
+    end = wall0 + a.seconds
+    if profiler:
+        profiler.enable()
+    while time.perf_counter() < end:
+        one_loop(loops)
+        loops += 1
+    if profiler:
+        profiler.disable()
+    cpu, wall = time.thread_time() - cpu0, time.perf_counter() - wall0
+    spinning = False
+    spinner.join(1)
+    handler.shutdown()
+    node.wire.close()
+    sim.close()
+    os.unlink(params)
+
+    print(f"{a.n} servos, {a.baud} bps, latency {a.latency_ms:g} ms, fast_read {a.fast}: {loops} loops in "
+          f"{wall:.1f} s = {loops / wall:.0f} loops/s; loop thread CPU {1e6 * cpu / loops:.0f} us/loop, "
+          f"wall {1e6 * wall / loops:.0f} us/loop" + (" (cProfile on: slower)" if profiler else ""))
+    print(f"{'part':58s} {'CPU us/loop':>11s} {'share':>6s} {'wall us/loop':>12s}")
+    total = sum(t.cpu.values())
+    for label, value in t.cpu.most_common():
+        print(f"{label:58s} {1e6 * value / loops:11.0f} {100 * value / total:5.1f}% {1e6 * t.wall[label] / loops:12.0f}")
+    wait = t.wall["sync read: packet, syscalls, reply parsing (+ bus wait)"] - t.cpu["sync read: packet, syscalls, reply parsing (+ bus wait)"]
+    print(f"{'(of which sync read wall not on CPU: bus wait)':58s} {'':11s} {'':6s} {1e6 * wait / loops:12.0f}")
+    if profiler:
+        print()
+        pstats.Stats(profiler).sort_stats("tottime").print_stats(25)
+    node.destroy_node()
+    listener.destroy_node()
+    rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
