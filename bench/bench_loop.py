@@ -146,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baud", default=None, help="baud rates, e.g. 1000000,4000000")
     ap.add_argument("--latency-ms", default=None, help="adapter latencies, e.g. 0,1")
     ap.add_argument("--json", default=None, help="also write every figure to this file")
+    ap.add_argument("--command", choices=("bundle", "control", "none"), default="bundle",
+                    help="goal commands: /dynamixel/commands/x (default), /dynamixel/command/x/position_control, "
+                         "or none (then the node only reads and publishes)")
     ap.add_argument("--no-boost", action="store_true", help="keep normal priority (default: nice -10 when allowed)")
     ap.add_argument("--exact-physics", action="store_true",
                     help="refresh the virtual servos at every instruction (slow: then the simulator, not the wire, "
@@ -161,10 +164,10 @@ def main(argv: list[str] | None = None) -> int:
     physics = "exact servo physics" if a.exact_physics else coarse_physics()
     import rclpy
     rclpy.init()
-    controller = Controller()
+    controller = Controller(a.command)
     rows: list[Row] = []
     began = time.monotonic()
-    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, bench/node/SDK at {nice}, {physics}, load average "
+    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, bench/node/SDK at {nice}, {physics}, commands: {a.command}, load average "
           f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} cores", flush=True)
     try:
         for baudrate in bauds:

@@ -98,21 +98,27 @@ class NodeResult:
 class Controller:
     """The bench's rclpy node: counts state messages and answers each with a goal command."""
 
-    def __init__(self) -> None:
+    def __init__(self, command: str = "bundle") -> None:
+        """``command``: "bundle" = /dynamixel/commands/x (DxlCommandsX.position_control), "control" =
+        /dynamixel/command/x/position_control (DynamixelControlXPosition), "none" = no commands."""
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
         from rclpy.qos import QoSProfile
 
-        from dynamixel_handler_msgs.msg import DxlCommandsX, DxlStates, DynamixelDebug
+        from dynamixel_handler_msgs.msg import DxlCommandsX, DxlStates, DynamixelControlXPosition, DynamixelDebug
 
         self._rclpy = rclpy
         self.node = Node("dynamixel_handler_bench")
         qos = QoSProfile(depth=10)
-        self.pub = self.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", qos)
+        self.command = command
+        if command == "control":
+            self._msg_type, topic = DynamixelControlXPosition, "/dynamixel/command/x/position_control"
+        else:
+            self._msg_type, topic = DxlCommandsX, "/dynamixel/commands/x"
+        self.pub = self.node.create_publisher(self._msg_type, topic, qos)
         self.node.create_subscription(DxlStates, "/dynamixel/states", self._on_states, qos, raw=True)
         self.node.create_subscription(DynamixelDebug, "/dynamixel/debug", self._on_debug, qos, raw=True)
-        self._msg_type = DxlCommandsX
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self.states_times: list[float] = []
@@ -138,7 +144,8 @@ class Controller:
         self.ids = list(ids)
         self.delay_max_s = delay_max_s
         msg = self._msg_type()
-        msg.position_control.id_list = array.array("H", self.ids)
+        self._target = msg if self.command == "control" else msg.position_control
+        self._target.id_list = array.array("H", self.ids)
         self._msg = msg
         self.states_times = []
         self.debug_count = 0
@@ -148,7 +155,7 @@ class Controller:
     def _on_states(self, _raw: bytes) -> None:
         now = time.monotonic()
         self.states_times.append(now)
-        if not self.commanding:
+        if not self.commanding or self.command == "none":
             return
         if self.delay_max_s > 0:
             self._queue.put(now)
@@ -175,10 +182,9 @@ class Controller:
         self._seq += 1
         pulse = GOAL_BASE + seq % GOAL_CYCLE
         deg = (pulse - X_ZERO) * X_DEG_PER_PULSE
-        msg = self._msg
-        msg.position_control.position_deg = array.array("d", [deg] * len(self.ids))
+        self._target.position_deg = array.array("d", [deg] * len(self.ids))
         t = time.monotonic()
-        self.pub.publish(msg)
+        self.pub.publish(self._msg)
         self.sent.append((t, seq))
 
     def matched(self) -> bool:
@@ -233,7 +239,7 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
     reader.start()
     try:
         deadline = time.monotonic() + start_timeout_s
-        while not (controller.states_times and controller.matched()):
+        while not (controller.states_times and (controller.matched() or controller.command == "none")):
             if proc.poll() is not None or time.monotonic() > deadline:
                 result.error = "node did not start" if proc.poll() is not None else "no states in time"
                 result.log_tail = lines[-15:]
