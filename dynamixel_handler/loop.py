@@ -93,6 +93,7 @@ class Handler:
         self._next_reconnect = 0.0
         self.watchdog_trips = 0
         self._reported_errors: dict[int, int] = {}
+        self._to_arm: set[int] = set()  # servos whose bus watchdog is armed at the next step
 
     # ================================================================ start-up
     def start(self) -> None:
@@ -151,13 +152,19 @@ class Handler:
                 self.reboot(dxl_id)
         delay = int(units.unit_to_pulse([model], "return_delay_time", [cfg["default/return_delay_time"]])[0])
         self.write_eeprom(dxl_id, "return_delay_time", delay)
-        for item, param in (("profile_acceleration", "default/profile_acc"), ("profile_velocity", "default/profile_vel")):
-            if model.has(item):
-                pulses = int(units.unit_to_pulse([model], item, [cfg[param]])[0])
-                self.write_item(dxl_id, item, pulses)
-        self.arm_watchdog(dxl_id)
+        self._setup_ram(dxl_id)
         if cfg["init/torque_auto_enable"]:
             self.torque_on(dxl_id)
+
+    def _setup_ram(self, dxl_id: int) -> None:
+        """Profile defaults now; the bus watchdog when the loop starts (arming it here, servo by
+        servo, would let it trip on the first servos while the last ones are still set up)."""
+        model = self.table.model(dxl_id)
+        for item, param in (("profile_acceleration", "default/profile_acc"), ("profile_velocity", "default/profile_vel")):
+            if model.has(item):
+                pulses = int(units.unit_to_pulse([model], item, [self.config[param]])[0])
+                self.write_item(dxl_id, item, pulses)
+        self._to_arm.add(dxl_id)
 
     def watchdog_pulses(self) -> int:
         """Bus watchdog register value (20 ms units, 0 = off): default/bus_watchdog, but at least three
@@ -224,6 +231,8 @@ class Handler:
     def reboot(self, dxl_id: int) -> bool:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
         loop meanwhile, so that nothing is sent to a servo that is still booting)."""
+        # a reboot resets the RAM area: what the handler had set there comes back afterwards
+        kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
         ok = self.bus.reboot(dxl_id)
         if ok:
             deadline = time.monotonic() + REBOOT_WAIT_S
@@ -233,6 +242,11 @@ class Handler:
                     self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
                     break
                 time.sleep(0.02)
+            for item, value in kept.items():
+                if value is not None:
+                    self.write_item(dxl_id, item, value)
+            if dxl_id in self.table:
+                self.arm_watchdog(dxl_id)
         return ok
 
     def mode(self, dxl_id: int) -> str | None:
@@ -292,6 +306,7 @@ class Handler:
             self.log.warning(f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in init/used_servo_series")
             return False
         self.table.add(dxl_id, model)
+        self._setup_ram(dxl_id)
         self.log.info(f"ID {dxl_id}: {model.name} added")
         return True
 
@@ -323,6 +338,10 @@ class Handler:
         report = StepReport(loop=self.loop_count)
         if self._had_device and not self.bus.is_open:
             self._reconnect(report)
+        while self._to_arm:
+            dxl_id = self._to_arm.pop()
+            if dxl_id in self.table:
+                self.arm_watchdog(dxl_id)
         self._run_ops()
         t0 = time.perf_counter()
         self._write_pending()

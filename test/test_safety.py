@@ -139,3 +139,23 @@ def test_baudrate_auto_set_moves_servos_at_other_rates_before_the_scan():
         rig.node_proc.wait_for("baudrate auto set")
     finally:
         assert rig.close() == 0
+
+
+def test_reboot_and_add_id_keep_the_watchdog_and_profiles_the_handler_set():
+    rig = Rig({1: X, 2: X540}, "clear_error_interval_sec:=0.0", "no_response_id_auto_remove_count:=3")
+    try:
+        servo = rig.sim.servo(1)
+        before = {k: servo.read(k) for k in ("bus_watchdog", "profile_velocity", "profile_acceleration")}
+        assert before["bus_watchdog"] > 0 and before["profile_velocity"] > 0
+        rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="reboot", id_list=[1]))
+        rig.wait(lambda: rig.sim.log and any(e.name == "reboot" for e in rig.sim.log), what="the reboot on the wire")
+        rig.wait(lambda: {k: servo.read(k) for k in before} == before, what="RAM settings restored after the reboot")
+        # a servo removed (silent) and added again is set up like the others
+        rig.sim.set_silent(2, True)
+        rig.node_proc.wait_for("ID 2: no response 3 times in a row: removed")
+        rig.sim.servo(2).write("bus_watchdog", 0)
+        rig.sim.set_silent(2, False)
+        rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="ADID", id_list=[2]))
+        rig.wait(lambda: rig.sim.servo(2).read("bus_watchdog") == before["bus_watchdog"], what="watchdog armed on the added servo")
+    finally:
+        assert rig.close() == 0
