@@ -30,6 +30,7 @@ class ServoTable:
         self.ping = np.zeros(0, dtype=bool)
         self.no_response = np.zeros(0, dtype=np.int64)
         self.version = 0  # bumps whenever the set of servos changes
+        self._units: dict[str, np.ndarray] = {}  # item -> units of the values now held
 
     # -------------------------------------------------------------- membership
     def __len__(self) -> int:
@@ -72,6 +73,7 @@ class ServoTable:
     def _reindex(self) -> None:
         self.index = {dxl_id: i for i, dxl_id in enumerate(self.ids)}
         self.version += 1
+        self._units.clear()
 
     # -------------------------------------------------------------- values
     def store(self, item: str, positions: np.ndarray, pulses: np.ndarray, when: float) -> None:
@@ -82,6 +84,7 @@ class ServoTable:
         self._raw[item][positions] = pulses
         self._known[item][positions] = True
         self.read_time[item] = when
+        self._units.pop(item, None)
 
     def set_value(self, item: str, dxl_id: int, pulses: int) -> None:
         """Record a value known without a read (e.g. one just written and confirmed)."""
@@ -104,12 +107,18 @@ class ServoTable:
         return int(self._raw[item][pos])
 
     def units(self, item: str) -> np.ndarray:
-        """Last value of ``item`` per servo in physical units; NaN where unknown or not on the model."""
+        """Last value of ``item`` per servo in physical units; NaN where unknown or not on the model.
+        Converted once per new read (several messages of one loop share it); do not modify."""
+        cached = self._units.get(item)
+        if cached is not None:
+            return cached
         out = units.pulse_to_unit(self.models, item, self.pulses(item)) if self.ids else np.zeros(0)
         known = self.known(item)
         if not known.all():
             out = out.astype(np.float64, copy=True)
             out[~known] = np.nan
+        out.setflags(write=False)
+        self._units[item] = out
         return out
 
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from typing import Callable
 
-from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
 from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsPro, DxlCommandsX,
@@ -22,6 +21,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommand
                                         DynamixelStatus)
 
 from ..commands import Commander, take_fields
+from .lean import lean_subscription
 
 CONTROL_TYPES = {
     "X": {"pwm_control": DynamixelControlXPwm, "current_control": DynamixelControlXCurrent,
@@ -53,13 +53,6 @@ def unpack(msg) -> tuple[list[int], dict[str, list]]:
                 fields[prefix + name] = list(value)
     walk(msg, "")
     return [int(i) for i in msg.id_list], fields
-
-
-def lean_subscription(node: Node, typ, topic: str, callback: Callable, depth: int = 10):
-    """A subscription without the default QoS-event handlers: each one is a waitable the executor
-    re-examines on every spin, and with ~30 command topics they cost more CPU than the messages."""
-    return node.create_subscription(typ, topic, callback, depth,
-                                    event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
 
 class CommandTopics:
@@ -94,6 +87,8 @@ class CommandTopics:
         return run
 
     def _fields(self, what: str, msg) -> tuple[list[int], dict[str, list]]:
+        if len(msg.id_list) == 0:  # nothing to do; most parts of a bundle are empty
+            return [], {}
         ids, fields = unpack(msg)
         return ids, take_fields(what, ids, fields, self.log.warning)
 

@@ -14,6 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from ..health import BusSample, Health, bus_health, servo_health, silent_count
 from ..loop import StepReport
+from .lean import lean_publisher
 
 
 class DiagnosticsPublisher:
@@ -22,7 +23,7 @@ class DiagnosticsPublisher:
     def __init__(self, node, period_s: float) -> None:
         self.node = node
         self.period_s = period_s
-        self.pub = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.pub = lean_publisher(node, DiagnosticArray, "/diagnostics", 10)
         self.prefix = node.get_fully_qualified_name().lstrip("/")
         self._since: float | None = None
 

@@ -11,6 +11,7 @@ from sensor_msgs.msg import JointState
 from ..joints import JointMap, joint_map, read_joints, unhandled
 from ..loop import StepReport
 from .convert import f64, stamp_of
+from .lean import lean_publisher
 
 
 class JointStatePublisher:
@@ -19,7 +20,7 @@ class JointStatePublisher:
     def __init__(self, node, mapping: JointMap) -> None:
         self.node = node
         self.mapping = mapping
-        self.pub = node.create_publisher(JointState, "joint_states", 10)
+        self.pub = lean_publisher(node, JointState, "joint_states", 10)
         self._checked_version = -1
 
     def __call__(self, report: StepReport) -> None:

@@ -29,6 +29,7 @@ from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, StartupError, StepReport
 from . import convert, diagnostics, joint_states, services
 from .command_topics import CommandTopics
+from .lean import lean_publisher, lean_subscription
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
@@ -93,14 +94,14 @@ class DynamixelHandlerNode(Node):
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
         qos = QoSProfile(depth=10)
-        self.pub_states = self.create_publisher(DxlStates, "dynamixel/states", qos)
-        self.pub_debug = self.create_publisher(DynamixelDebug, "dynamixel/debug", qos)
+        self.pub_states = lean_publisher(self, DxlStates, "dynamixel/states", qos)
+        self.pub_debug = lean_publisher(self, DynamixelDebug, "dynamixel/debug", qos)
         self.pub_state: dict[str, object] = {}
         if not self.config["no_use_command_line"]:
             for name, typ in (("status", DynamixelStatus), ("present", DynamixelPresent), ("goal", DynamixelGoal),
                               ("gain", DynamixelGain), ("limit", DynamixelLimit), ("error", DynamixelError),
                               ("extra", DynamixelExtra)):
-                self.pub_state[name] = self.create_publisher(typ, f"dynamixel/state/{name}", qos)
+                self.pub_state[name] = lean_publisher(self, typ, f"dynamixel/state/{name}", qos)
 
     def _create_subscriptions(self) -> None:
         self.commander = Commander(self.handler)
@@ -109,8 +110,8 @@ class DynamixelHandlerNode(Node):
         self.external_ports: ExternalPorts | None = None
         if self.config["option/external_port.use"]:
             self.external_ports = ExternalPorts(self.handler)
-            self.pub_external = self.create_publisher(DxlExternalPort, "dynamixel/external_port/read", 10)
-            self.create_subscription(DxlExternalPort, "dynamixel/external_port/write", self._on_external_write, 10)
+            self.pub_external = lean_publisher(self, DxlExternalPort, "dynamixel/external_port/read", 10)
+            lean_subscription(self, DxlExternalPort, "dynamixel/external_port/write", self._on_external_write, 10)
 
     def _on_external_write(self, msg: DxlExternalPort) -> None:
         try:
