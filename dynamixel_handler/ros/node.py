@@ -220,25 +220,32 @@ class DynamixelHandlerNode(Node):
         self.pub_external.publish(msg)
 
     def _publish(self, report: StepReport) -> None:
+        """Publish what this loop read; a message nobody subscribes to is not even built."""
         table = self.handler.table
         groups, present_keys = report.groups, report.present
         if not (groups or present_keys):
             return
         outdated = self.config["pub_outdated_present_value"]
-        self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, outdated))
-        if present_keys or "status" in groups:
+        if _wanted(self.pub_states):
+            self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, outdated))
+        if (present_keys or "status" in groups) and _wanted(self.pub_debug):
             self.pub_debug.publish(convert.debug(table))
         if not self.pub_state:
             return
-        if "status" in groups:
-            self.pub_state["status"].publish(convert.status(table))
-        if present_keys:
-            self.pub_state["present"].publish(convert.present(table, None if outdated else present_keys))
+        pubs = self.pub_state
+        if "status" in groups and _wanted(pubs["status"]):
+            pubs["status"].publish(convert.status(table))
+        if present_keys and _wanted(pubs["present"]):
+            pubs["present"].publish(convert.present(table, None if outdated else present_keys))
         for name in ("goal", "gain", "limit", "error"):
-            if name in groups:
-                self.pub_state[name].publish(getattr(convert, name)(table))
-        if groups & {"extra_dynamic", "extra_static"}:
-            self.pub_state["extra"].publish(convert.extra(table))
+            if name in groups and _wanted(pubs[name]):
+                pubs[name].publish(getattr(convert, name)(table))
+        if groups & {"extra_dynamic", "extra_static"} and _wanted(pubs["extra"]):
+            pubs["extra"].publish(convert.extra(table))
+
+
+def _wanted(publisher) -> bool:
+    return publisher.get_subscription_count() > 0
 
 
 def main(args: list[str] | None = None) -> int:
