@@ -20,25 +20,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
-HEADER = b"\xff\xff\xfd\x00"
-BROADCAST_ID = 0xFE
-MAX_ID = 0xFC
+from ..protocol2 import (BROADCAST_ID, HEADER, MAX_ID, MAX_PACKET_LENGTH, crc16, frame, stuff,  # noqa: F401
+                         unstuff)
+from .. import protocol2 as _p2
 
-INST_PING = 0x01
-INST_READ = 0x02
-INST_WRITE = 0x03
-INST_REG_WRITE = 0x04
-INST_ACTION = 0x05
-INST_FACTORY_RESET = 0x06
-INST_REBOOT = 0x08
-INST_CLEAR = 0x10
-INST_STATUS = 0x55
-INST_SYNC_READ = 0x82
-INST_SYNC_WRITE = 0x83
-INST_FAST_SYNC_READ = 0x8A
-INST_BULK_READ = 0x92
-INST_BULK_WRITE = 0x93
-INST_FAST_BULK_READ = 0x9A
+INST_PING, INST_READ, INST_WRITE, INST_REG_WRITE = _p2.PING, _p2.READ, _p2.WRITE, _p2.REG_WRITE
+INST_ACTION, INST_FACTORY_RESET, INST_REBOOT, INST_CLEAR = _p2.ACTION, _p2.FACTORY_RESET, _p2.REBOOT, _p2.CLEAR
+INST_STATUS, INST_SYNC_READ, INST_SYNC_WRITE = _p2.STATUS, _p2.SYNC_READ, _p2.SYNC_WRITE
+INST_FAST_SYNC_READ, INST_BULK_READ, INST_BULK_WRITE = _p2.FAST_SYNC_READ, _p2.BULK_READ, _p2.BULK_WRITE
+INST_FAST_BULK_READ = _p2.FAST_BULK_READ
 
 #: Status error numbers (bits 0..6 of the error byte); bit 7 is the hardware alert.
 ERROR_ALERT = 0x80
@@ -54,80 +44,18 @@ ERROR_NAMES = {
 
 #: Bytes of a status packet without parameters: header(4) id len(2) inst err crc(2).
 STATUS_OVERHEAD = 11
-#: Longest packet we accept from the wire; anything longer is noise.
-MAX_PACKET_LENGTH = 4096
-
-
-def _make_crc_table() -> tuple[int, ...]:
-    table = []
-    for i in range(256):
-        crc = i << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else (crc << 1)
-        table.append(crc & 0xFFFF)
-    return tuple(table)
-
-
-_CRC_TABLE = _make_crc_table()
-
-
-def crc16(data: bytes | bytearray | memoryview, crc: int = 0) -> int:
-    """CRC-16 of Protocol 2.0 (polynomial 0x8005, init 0, not reflected)."""
-    table = _CRC_TABLE
-    for byte in data:
-        crc = ((crc << 8) ^ table[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
-    return crc
-
-
-def stuff(body: bytes) -> bytes:
-    """Insert 0xFD after every ``FF FF FD`` in instruction+params (e-Manual byte stuffing)."""
-    if b"\xff\xff\xfd" not in body:
-        return bytes(body)
-    out = bytearray()
-    for i, byte in enumerate(body):
-        out.append(byte)
-        if byte == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF:
-            out.append(0xFD)
-    return bytes(out)
-
-
-def unstuff(body: bytes) -> bytes:
-    """Inverse of :func:`stuff`: ``FF FF FD FD`` -> ``FF FF FD``."""
-    if b"\xff\xff\xfd\xfd" not in body:
-        return bytes(body)
-    out = bytearray()
-    i = 0
-    n = len(body)
-    while i < n:
-        out.append(body[i])
-        if body[i] == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF \
-                and i + 1 < n and body[i + 1] == 0xFD:
-            i += 1  # skip the stuffing byte
-        i += 1
-    return bytes(out)
 
 
 def build_instruction(dxl_id: int, instruction: int, params: bytes = b"") -> bytes:
     """A complete, stuffed instruction packet ready for the wire."""
     if not 0 <= dxl_id <= 0xFE or dxl_id == 0xFD:
         raise ValueError(f"invalid Dynamixel ID {dxl_id} (use 0..252 or 254 for broadcast)")
-    body = stuff(bytes([instruction]) + bytes(params))
-    length = len(body) + 2
-    packet = bytearray(HEADER)
-    packet += bytes([dxl_id, length & 0xFF, length >> 8])
-    packet += body
-    crc = crc16(packet)
-    packet += bytes([crc & 0xFF, crc >> 8])
-    return bytes(packet)
+    return frame(dxl_id, bytes([instruction]) + bytes(params))
 
 
 def build_status(dxl_id: int, error: int, params: bytes = b"") -> bytes:
     """A stuffed status packet (what a servo sends back); used by tests and tools."""
-    body = stuff(bytes([INST_STATUS, error]) + bytes(params))
-    length = len(body) + 2
-    packet = bytearray(HEADER) + bytes([dxl_id, length & 0xFF, length >> 8]) + body
-    crc = crc16(packet)
-    return bytes(packet + bytes([crc & 0xFF, crc >> 8]))
+    return frame(dxl_id, bytes([INST_STATUS, error]) + bytes(params))
 
 
 def u16(value: int) -> bytes:

@@ -1,10 +1,10 @@
 """Dynamixel Protocol 2.0 framing, as a servo sees it.
 
-The simulator must behave like a real servo on the wire, so this module implements the
-e-Manual rules independently of any host library: CRC-16 (polynomial 0x8005), byte
-stuffing (``FF FF FD`` -> ``FF FF FD FD`` between the instruction byte and the CRC), an
-incremental parser that resynchronises on the ``FF FF FD 00`` header after garbage, and
-status packet builders including the single-packet Fast Sync/Bulk Read reply.
+The simulator must behave like a real servo on the wire. CRC-16, byte stuffing and framing are
+the shared :mod:`dynamixel_handler.protocol2` (checked against the e-Manual's example packets);
+this module adds the servo's side: an incremental parser that resynchronises on the
+``FF FF FD 00`` header after garbage, and status packet builders including the single-packet
+Fast Sync/Bulk Read reply.
 """
 
 from __future__ import annotations
@@ -12,26 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
-HEADER = b"\xff\xff\xfd\x00"
-BROADCAST_ID = 0xFE
-MAX_ID = 0xFC
-
-# Instructions (e-Manual protocol 2.0)
-PING = 0x01
-READ = 0x02
-WRITE = 0x03
-REG_WRITE = 0x04
-ACTION = 0x05
-FACTORY_RESET = 0x06
-REBOOT = 0x08
-CLEAR = 0x10
-STATUS = 0x55
-SYNC_READ = 0x82
-SYNC_WRITE = 0x83
-FAST_SYNC_READ = 0x8A
-BULK_READ = 0x92
-BULK_WRITE = 0x93
-FAST_BULK_READ = 0x9A
+from ..protocol2 import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE, CLEAR,  # noqa: F401
+                         ERR_ACCESS, ERR_CRC, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_INSTRUCTION,
+                         ERR_NONE, ERR_RESULT_FAIL, FACTORY_RESET, FAST_BULK_READ, FAST_SYNC_READ, HEADER, MAX_ID,
+                         PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE, WRITE, crc16, frame, stuff,
+                         unstuff)
 
 INSTRUCTION_NAMES = {
     PING: "ping", READ: "read", WRITE: "write", REG_WRITE: "reg_write", ACTION: "action",
@@ -40,79 +25,7 @@ INSTRUCTION_NAMES = {
     BULK_READ: "bulk_read", BULK_WRITE: "bulk_write", FAST_BULK_READ: "fast_bulk_read",
 }
 
-# Error numbers of the status packet (bit 7 is the alert flag)
-ERR_NONE = 0x00
-ERR_RESULT_FAIL = 0x01
-ERR_INSTRUCTION = 0x02
-ERR_CRC = 0x03
-ERR_DATA_RANGE = 0x04
-ERR_DATA_LENGTH = 0x05
-ERR_DATA_LIMIT = 0x06
-ERR_ACCESS = 0x07
-ALERT_BIT = 0x80
-
-# Largest LEN field we accept; a longer one is garbage that merely looks like a header.
 MAX_LENGTH = 4096
-
-
-def _crc_table() -> list[int]:
-    table = []
-    for i in range(256):
-        crc = i << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else (crc << 1)
-        table.append(crc & 0xFFFF)
-    return table
-
-
-_CRC_TABLE = _crc_table()
-
-
-def crc16(data: bytes | bytearray | Iterable[int], crc: int = 0) -> int:
-    """CRC-16/BUYPASS as specified by the e-Manual (poly 0x8005, init 0, no reflection).
-
-    ``crc`` lets a caller continue an accumulation, which the fast-read reply needs: each
-    device's CRC there covers the whole packet sent so far.
-    """
-    table = _CRC_TABLE
-    for byte in data:
-        crc = ((crc << 8) ^ table[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
-    return crc
-
-
-def stuff(body: bytes) -> bytes:
-    """Insert an extra 0xFD after every ``FF FF FD`` so the body never contains a header."""
-    if b"\xff\xff\xfd" not in body:
-        return bytes(body)
-    out = bytearray()
-    ff_run = 0
-    for byte in body:
-        out.append(byte)
-        if byte == 0xFD and ff_run >= 2:
-            out.append(0xFD)
-            ff_run = 0
-        elif byte == 0xFF:
-            ff_run += 1
-        else:
-            ff_run = 0
-    return bytes(out)
-
-
-def unstuff(body: bytes) -> bytes:
-    """Drop the 0xFD that follows each ``FF FF FD`` (inverse of :func:`stuff`)."""
-    if b"\xff\xff\xfd\xfd" not in body:
-        return bytes(body)
-    out = bytearray()
-    i = 0
-    n = len(body)
-    while i < n:
-        out.append(body[i])
-        if body[i] == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF \
-                and i + 1 < n and body[i + 1] == 0xFD:
-            i += 2
-            continue
-        i += 1
-    return bytes(out)
 
 
 def build_packet(packet_id: int, instruction: int, params: bytes = b"", *, error: int | None = None) -> bytes:
@@ -121,13 +34,7 @@ def build_packet(packet_id: int, instruction: int, params: bytes = b"", *, error
     Stuffing covers the instruction, error and parameter bytes; LEN and CRC are computed
     after stuffing, as the e-Manual's transmission order prescribes.
     """
-    body = bytes([instruction]) + (bytes([error]) if error is not None else b"") + bytes(params)
-    body = stuff(body)
-    length = len(body) + 2
-    head = HEADER + bytes([packet_id, length & 0xFF, length >> 8])
-    packet = head + body
-    crc = crc16(packet)
-    return packet + bytes([crc & 0xFF, crc >> 8])
+    return frame(packet_id, bytes([instruction]) + (bytes([error]) if error is not None else b"") + bytes(params))
 
 
 def build_status(packet_id: int, error: int, params: bytes = b"") -> bytes:

@@ -1,0 +1,84 @@
+"""Dynamixel Protocol 2.0 wire facts shared by the bus layer (host side) and the virtual bus
+(servo side): header, instruction and error codes, CRC-16, byte stuffing and packet framing.
+
+Both sides are checked byte for byte against the ROBOTIS e-Manual's example packets (and the bus
+layer's CRC against ``dynamixel_sdk``'s), so sharing this code hides nothing from the tests.
+"""
+from __future__ import annotations
+
+from typing import Iterable
+
+HEADER = b"\xff\xff\xfd\x00"
+BROADCAST_ID = 0xFE
+MAX_ID = 0xFC
+MAX_PACKET_LENGTH = 4096
+
+# Instructions
+PING, READ, WRITE, REG_WRITE, ACTION = 0x01, 0x02, 0x03, 0x04, 0x05
+FACTORY_RESET, REBOOT, CLEAR, STATUS = 0x06, 0x08, 0x10, 0x55
+SYNC_READ, SYNC_WRITE, FAST_SYNC_READ = 0x82, 0x83, 0x8A
+BULK_READ, BULK_WRITE, FAST_BULK_READ = 0x92, 0x93, 0x9A
+
+# Status error numbers (bits 0..6 of the error byte); bit 7 is the hardware alert
+ERR_NONE, ERR_RESULT_FAIL, ERR_INSTRUCTION, ERR_CRC = 0x00, 0x01, 0x02, 0x03
+ERR_DATA_RANGE, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_ACCESS = 0x04, 0x05, 0x06, 0x07
+ALERT_BIT = 0x80
+
+
+def _crc_table() -> tuple[int, ...]:
+    table = []
+    for i in range(256):
+        crc = i << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else (crc << 1)
+        table.append(crc & 0xFFFF)
+    return tuple(table)
+
+
+_CRC_TABLE = _crc_table()
+
+
+def crc16(data: bytes | bytearray | memoryview | Iterable[int], crc: int = 0) -> int:
+    """CRC-16 of Protocol 2.0 (polynomial 0x8005, init 0, not reflected). ``crc`` continues an
+    accumulation, which the fast-read reply needs: each servo's CRC there covers the packet so far."""
+    table = _CRC_TABLE
+    for byte in data:
+        crc = ((crc << 8) ^ table[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
+    return crc
+
+
+def stuff(body: bytes) -> bytes:
+    """Insert 0xFD after every ``FF FF FD`` of instruction+params, so the body never holds a header."""
+    if b"\xff\xff\xfd" not in body:
+        return bytes(body)
+    out = bytearray()
+    for i, byte in enumerate(body):
+        out.append(byte)
+        if byte == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF:
+            out.append(0xFD)
+    return bytes(out)
+
+
+def unstuff(body: bytes) -> bytes:
+    """Inverse of :func:`stuff`: ``FF FF FD FD`` -> ``FF FF FD``."""
+    if b"\xff\xff\xfd\xfd" not in body:
+        return bytes(body)
+    out = bytearray()
+    i, n = 0, len(body)
+    while i < n:
+        out.append(body[i])
+        if body[i] == 0xFD and i >= 2 and body[i - 1] == 0xFF and body[i - 2] == 0xFF \
+                and i + 1 < n and body[i + 1] == 0xFD:
+            i += 1  # skip the stuffing byte
+        i += 1
+    return bytes(out)
+
+
+def frame(packet_id: int, body: bytes) -> bytes:
+    """Header, ID, length, the stuffed body (instruction or status+error, then params) and CRC;
+    LEN and CRC are computed on the stuffed bytes, as the e-Manual prescribes."""
+    body = stuff(body)
+    length = len(body) + 2
+    packet = HEADER + bytes([packet_id, length & 0xFF, length >> 8]) + body
+    crc = crc16(packet)
+    return packet + bytes([crc & 0xFF, crc >> 8])
