@@ -163,7 +163,10 @@ class Commander:
         if not model.has(item):
             self.warn(f"{what}: ID {dxl_id} ({model.name}) has no {item}: '{field}' ignored")
             return None
-        pulses = int(units.unit_to_pulse([model], item, [value])[0])
+        return self._clamp(what, field, dxl_id, item, value, int(units.unit_to_pulse([model], item, [value])[0]))
+
+    def _clamp(self, what: str, field: str, dxl_id: int, item: str, value: float, pulses: int) -> int:
+        model = self.h.table.model(dxl_id)
         lo, hi = self._limits(dxl_id, item, model)
         if lo is not None and hi is not None and not lo <= pulses <= hi:
             clamped = min(max(pulses, lo), hi)
@@ -205,9 +208,12 @@ class Commander:
     def _goal_writes(self, what: str, targets: list[tuple[int, int]], fields: Fields,
                      item_of: Callable[[str, int], str | None], rotation: Sequence | None = None) -> None:
         writes: dict[str, dict[int, int]] = {}
+        table = self.h.table
         for field, values in fields.items():
             if field == "rotation":
                 continue
+            # one vectorised conversion per item, then each servo's limits
+            by_item: dict[str, list[tuple[int, float]]] = {}
             for k, dxl_id in targets:
                 item = item_of(field, dxl_id)
                 if item is None:
@@ -219,9 +225,15 @@ class Commander:
                     if rotation[k] is None:
                         continue  # its rotation was refused: without the turns it would go elsewhere
                     value = float(value) + 360.0 * float(rotation[k])
-                pulses = self.to_pulses(what, field, dxl_id, item, float(value))
-                if pulses is not None:
-                    writes.setdefault(item, {})[dxl_id] = pulses
+                model = table.model(dxl_id)
+                if not model.has(item):
+                    self.warn(f"{what}: ID {dxl_id} ({model.name}) has no {item}: '{field}' ignored")
+                    continue
+                by_item.setdefault(item, []).append((dxl_id, float(value)))
+            for item, rows in by_item.items():
+                pulses = units.unit_to_pulse([table.model(i) for i, _ in rows], item, [v for _, v in rows])
+                for (dxl_id, value), raw in zip(rows, pulses.tolist()):
+                    writes.setdefault(item, {})[dxl_id] = self._clamp(what, field, dxl_id, item, value, raw)
         # rotation given alone: turns on top of the present goal's angle
         if rotation is not None and "position_deg" not in fields:
             for k, dxl_id in targets:
