@@ -401,16 +401,27 @@ class Handler:
             return
         # (address, size) -> {item: {id: pulses}}: one sync write per item and layout
         writes: dict[tuple[int, int], dict[int, bytes]] = {}
+        index = self.table.index
         for item, values in pending.items():
+            positions, written = [], []
             for dxl_id, pulses in values.items():
-                if dxl_id not in self.table:
+                pos = index.get(dxl_id)
+                if pos is None:
                     continue
-                model = self.table.model(dxl_id)
-                if not model.has(item):
+                spec = self.table.models[pos].items.get(item)
+                if spec is None:
                     continue
-                spec = model.item(item)
-                writes.setdefault((spec.address, spec.size), {})[dxl_id] = units.encode(spec, [pulses])
-                self.table.set_value(item, dxl_id, pulses)
+                try:
+                    data = int(pulses).to_bytes(spec.size, "little", signed=spec.signed)
+                except OverflowError:
+                    self.log.error(f"ID {dxl_id}: {item}={pulses} does not fit its {spec.size} bytes: not written")
+                    continue
+                writes.setdefault((spec.address, spec.size), {})[dxl_id] = data
+                positions.append(pos)
+                written.append(pulses)
+            if positions:
+                self.table.store(item, np.asarray(positions), np.asarray(written, dtype=np.int64),
+                                 self.table.read_time.get(item, 0.0))
         if not self.split_write:
             writes = _merge_adjacent_writes(writes)
         for (address, size), data in sorted(writes.items()):
