@@ -136,9 +136,9 @@ def extra(table: ServoTable) -> DynamixelExtra:
     return msg
 
 
-def debug(table: ServoTable) -> DynamixelDebug:
+def debug(table: ServoTable, status_msg: DynamixelStatus | None = None) -> DynamixelDebug:
     msg = DynamixelDebug()
-    msg.status = status(table)
+    msg.status = status_msg if status_msg is not None else status(table)
     for field, now, want in (("current_ma", "present_current", "goal_current"),
                              ("velocity_deg_s", "present_velocity", "goal_velocity"),
                              ("position_deg", "present_position", "goal_position")):
@@ -148,23 +148,36 @@ def debug(table: ServoTable) -> DynamixelDebug:
     return msg
 
 
+class Parts:
+    """The group messages of one loop, each built once however many topics carry it."""
+
+    BUILDERS = {"status": status, "goal": goal, "gain": gain, "limit": limit, "error": error, "extra": extra}
+
+    def __init__(self, table: ServoTable, present_keys: set[str], outdated_present: bool) -> None:
+        self.table = table
+        self.present_keys = None if outdated_present else present_keys
+        self._built: dict[str, object] = {}
+
+    def get(self, name: str):
+        msg = self._built.get(name)
+        if msg is None:
+            msg = (present(self.table, self.present_keys) if name == "present"
+                   else self.BUILDERS[name](self.table))
+            self._built[name] = msg
+        return msg
+
+
 def states(table: ServoTable, stamp: float, groups: set[str], present_keys: set[str],
-           outdated_present: bool) -> DxlStates:
+           outdated_present: bool, parts: Parts | None = None) -> DxlStates:
     """The program-facing message: only the groups read in this loop are filled."""
+    parts = parts or Parts(table, present_keys, outdated_present)
     msg = DxlStates()
     msg.stamp = stamp_of(stamp)
-    if "status" in groups:
-        msg.status = status(table)
+    for name in ("status", "goal", "gain", "limit", "error"):
+        if name in groups:
+            setattr(msg, name, parts.get(name))
     if present_keys:
-        msg.present = present(table, None if outdated_present else present_keys)
-    if "goal" in groups:
-        msg.goal = goal(table)
-    if "gain" in groups:
-        msg.gain = gain(table)
-    if "limit" in groups:
-        msg.limit = limit(table)
-    if "error" in groups:
-        msg.error = error(table)
+        msg.present = parts.get("present")
     if groups & {"extra_dynamic", "extra_static"}:
-        msg.extra = extra(table)
+        msg.extra = parts.get("extra")
     return msg

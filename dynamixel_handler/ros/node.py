@@ -225,23 +225,23 @@ class DynamixelHandlerNode(Node):
         groups, present_keys = report.groups, report.present
         if not (groups or present_keys):
             return
-        outdated = self.config["pub_outdated_present_value"]
+        parts = convert.Parts(table, present_keys, self.config["pub_outdated_present_value"])
         if _wanted(self.pub_states):
-            self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, outdated))
+            self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, parts=parts,
+                                                          outdated_present=self.config["pub_outdated_present_value"]))
         if (present_keys or "status" in groups) and _wanted(self.pub_debug):
-            self.pub_debug.publish(convert.debug(table))
+            self.pub_debug.publish(convert.debug(table, parts.get("status")))
         if not self.pub_state:
             return
         pubs = self.pub_state
-        if "status" in groups and _wanted(pubs["status"]):
-            pubs["status"].publish(convert.status(table))
-        if present_keys and _wanted(pubs["present"]):
-            pubs["present"].publish(convert.present(table, None if outdated else present_keys))
-        for name in ("goal", "gain", "limit", "error"):
-            if name in groups and _wanted(pubs[name]):
-                pubs[name].publish(getattr(convert, name)(table))
-        if groups & {"extra_dynamic", "extra_static"} and _wanted(pubs["extra"]):
-            pubs["extra"].publish(convert.extra(table))
+        due = {name for name in ("status", "goal", "gain", "limit", "error") if name in groups}
+        if present_keys:
+            due.add("present")
+        if groups & {"extra_dynamic", "extra_static"}:
+            due.add("extra")
+        for name in due:
+            if _wanted(pubs[name]):
+                pubs[name].publish(parts.get(name))
 
 
 def _wanted(publisher) -> bool:
