@@ -159,3 +159,28 @@ def test_reboot_and_add_id_keep_the_watchdog_and_profiles_the_handler_set():
         rig.wait(lambda: rig.sim.servo(2).read("bus_watchdog") == before["bus_watchdog"], what="watchdog armed on the added servo")
     finally:
         assert rig.close() == 0
+
+
+def test_an_exception_in_the_loop_is_logged_and_the_loop_goes_on(monkeypatch):
+    monkeypatch.setenv("DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS", "3")
+    rig = Rig({1: X})
+    try:
+        n = len(rig.debug)
+        rig.wait(lambda: len(rig.debug) > n + 20, what="the loop publishing after the faults")
+    finally:
+        assert rig.close() == 0
+    out = rig.node_proc.output
+    assert out.count(": RuntimeError: fault injected by DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS") == 3
+    assert "]: loop 0: RuntimeError" in out and "Traceback" in out  # logged with its context
+
+
+def test_a_loop_that_keeps_failing_stops_the_servos_and_exits_non_zero(monkeypatch):
+    from ros_helpers import NodeProcess, node_command
+    from dynamixel_handler.sim import VirtualBus
+
+    monkeypatch.setenv("DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS", "1000")
+    with VirtualBus(servos={1: X}) as sim:
+        proc = NodeProcess(node_command(f"device_name:={sim.path}", "latency_timer:=1", "init/servo_auto_search.max_id:=1"))
+        assert proc.wait_exit(30) == 1
+        assert "the loop failed 50 times in a row: shutting down safely" in proc.output
+        assert sim.servo(1).read("torque_enable") == 0

@@ -35,6 +35,8 @@ from .params import ConfigError, declare_and_load, describe
 NODE_NAME = "dynamixel_handler"
 #: consecutive failed loop steps after which the node stops the servos and exits
 MAX_LOOP_FAILURES = 50
+#: environment variable: number of loop steps that fail on purpose (tests, fault drills)
+INJECT_ENV = "DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS"
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
 
@@ -84,6 +86,8 @@ class DynamixelHandlerNode(Node):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.failed = False
+        # fault injection for tests and drills: the first N loop steps raise
+        self._injected_faults = int(os.environ.get(INJECT_ENV, "0") or 0)
         self.on_failure = None  # called from the loop thread when the loop gives up
         self._create_publishers()
         self._create_subscriptions()
@@ -175,6 +179,9 @@ class DynamixelHandlerNode(Node):
         failures = 0
         while not self._stop.is_set():
             try:
+                if self._injected_faults > 0:
+                    self._injected_faults -= 1
+                    raise RuntimeError(f"fault injected by {INJECT_ENV}")
                 report = self.handler.step()
                 self._publish(report)
                 for hook in self.step_hooks:
