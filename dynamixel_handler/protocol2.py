@@ -82,3 +82,62 @@ def frame(packet_id: int, body: bytes) -> bytes:
     packet = HEADER + bytes([packet_id, length & 0xFF, length >> 8]) + body
     crc = crc16(packet)
     return packet + bytes([crc & 0xFF, crc >> 8])
+
+
+class FrameReader:
+    """Incremental reader of (stuffed) Protocol 2.0 packets from a noisy byte stream.
+
+    ``frames()`` takes whatever the port delivered and returns the complete packets with a valid
+    CRC as ``(id, unstuffed body, bytes on the wire)``; garbage before a header, implausible
+    headers and bad CRCs are skipped and counted, the search restarting one byte later (the real
+    header may be inside), as a servo's or host's receiver does.
+    """
+
+    def __init__(self, min_length: int = 3) -> None:
+        self.min_length = min_length
+        self.crc_errors = 0
+        self.discarded_bytes = 0
+        self._buf = bytearray()
+
+    @property
+    def pending_bytes(self) -> int:
+        """Bytes held while waiting for the rest of a packet."""
+        return len(self._buf)
+
+    def reset(self) -> None:
+        """Forget a partial packet (e.g. after an inter-byte timeout)."""
+        self.discarded_bytes += len(self._buf)
+        self._buf.clear()
+
+    def frames(self, data: bytes) -> list[tuple[int, bytes, int]]:
+        buf = self._buf
+        buf += data
+        out: list[tuple[int, bytes, int]] = []
+        while True:
+            start = buf.find(HEADER)
+            if start < 0:
+                keep = next((k for k in (3, 2, 1) if len(buf) >= k and buf[-k:] == HEADER[:k]), 0)
+                self.discarded_bytes += len(buf) - keep  # keep a possible partial header at the end
+                del buf[: len(buf) - keep]
+                return out
+            if start:
+                self.discarded_bytes += start
+                del buf[:start]
+            if len(buf) < 7:
+                return out
+            packet_id, length = buf[4], buf[5] | (buf[6] << 8)
+            if packet_id in (0xFD, 0xFF) or length < self.min_length or length > MAX_PACKET_LENGTH:
+                self.discarded_bytes += 1
+                del buf[:1]
+                continue
+            total = 7 + length
+            if len(buf) < total:
+                return out
+            if crc16(memoryview(buf)[: total - 2]) != buf[total - 2] | (buf[total - 1] << 8):
+                self.crc_errors += 1
+                self.discarded_bytes += 1
+                del buf[:1]
+                continue
+            body = unstuff(bytes(buf[7: total - 2]))
+            del buf[:total]
+            out.append((packet_id, body, total))

@@ -20,8 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
-from ..protocol2 import (BROADCAST_ID, HEADER, MAX_ID, MAX_PACKET_LENGTH, crc16, frame, stuff,  # noqa: F401
-                         unstuff)
+from ..protocol2 import (BROADCAST_ID, HEADER, MAX_ID, MAX_PACKET_LENGTH, FrameReader, crc16, frame,  # noqa: F401
+                         stuff, unstuff)
 from .. import protocol2 as _p2
 
 INST_PING, INST_READ, INST_WRITE, INST_REG_WRITE = _p2.PING, _p2.READ, _p2.WRITE, _p2.REG_WRITE
@@ -87,8 +87,7 @@ class Status:
         return bool(self.error & 0x7F)
 
 
-@dataclass
-class StatusStream:
+class StatusStream(FrameReader):
     """Incremental parser of a byte stream made of (stuffed) status packets.
 
     ``feed()`` may be called with arbitrary chunks; complete packets with a valid
@@ -96,58 +95,17 @@ class StatusStream:
     (e.g. an echoed instruction) are skipped and counted, never returned.
     """
 
-    crc_errors: int = 0
-    discarded_bytes: int = 0
-    _buffer: bytearray = field(default_factory=bytearray)
+    def __init__(self) -> None:
+        super().__init__(min_length=4)  # instruction, error and CRC at least
 
     def feed(self, data: bytes) -> list[Status]:
-        self._buffer += data
         out: list[Status] = []
-        buf = self._buffer
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                # keep a possible partial header at the end
-                keep = 0
-                for k in (3, 2, 1):
-                    if len(buf) >= k and buf[-k:] == HEADER[:k]:
-                        keep = k
-                        break
-                self.discarded_bytes += len(buf) - keep
-                del buf[: len(buf) - keep]
-                break
-            if start:
-                self.discarded_bytes += start
-                del buf[:start]
-            if len(buf) < 7:
-                break
-            length = buf[5] | (buf[6] << 8)
-            if length < 4 or length > MAX_PACKET_LENGTH or buf[4] > BROADCAST_ID:
-                self.discarded_bytes += 1
-                del buf[:1]
+        for packet_id, body, wire_size in self.frames(data):
+            if body[0] != INST_STATUS:
+                self.discarded_bytes += wire_size
                 continue
-            total = 7 + length
-            if len(buf) < total:
-                break
-            crc = buf[total - 2] | (buf[total - 1] << 8)
-            if crc16(memoryview(buf)[: total - 2]) != crc:
-                self.crc_errors += 1
-                self.discarded_bytes += 1
-                del buf[:1]  # resync: the real header may be inside
-                continue
-            if buf[7] != INST_STATUS:
-                self.discarded_bytes += total
-                del buf[:total]
-                continue
-            body = unstuff(bytes(buf[8: total - 2]))
-            out.append(Status(buf[4], body[0], body[1:]))
-            del buf[:total]
+            out.append(Status(packet_id, body[1], body[2:]))
         return out
-
-    @property
-    def pending_bytes(self) -> int:
-        """Bytes received but not yet part of a complete packet."""
-        return len(self._buffer)
 
 
 @dataclass

@@ -15,8 +15,8 @@ from typing import Iterable
 from ..protocol2 import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE, CLEAR,  # noqa: F401
                          ERR_ACCESS, ERR_CRC, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_INSTRUCTION,
                          ERR_NONE, ERR_RESULT_FAIL, FACTORY_RESET, FAST_BULK_READ, FAST_SYNC_READ, HEADER, MAX_ID,
-                         PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE, WRITE, crc16, frame, stuff,
-                         unstuff)
+                         PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE, WRITE, FrameReader, crc16,
+                         frame, stuff, unstuff)
 
 INSTRUCTION_NAMES = {
     PING: "ping", READ: "read", WRITE: "write", REG_WRITE: "reg_write", ACTION: "action",
@@ -25,7 +25,6 @@ INSTRUCTION_NAMES = {
     BULK_READ: "bulk_read", BULK_WRITE: "bulk_write", FAST_BULK_READ: "fast_bulk_read",
 }
 
-MAX_LENGTH = 4096
 
 
 def build_packet(packet_id: int, instruction: int, params: bytes = b"", *, error: int | None = None) -> bytes:
@@ -77,70 +76,17 @@ class Packet:
     wire_size: int  # bytes on the wire, stuffing included (for wire timing)
 
 
-class PacketParser:
-    """Incremental instruction-packet reader tolerant to noise.
-
-    Feed it whatever the pty delivered; it returns complete packets with a valid CRC and
-    silently skips garbage, bad-CRC packets and implausible headers, restarting its search
-    one byte after a rejected header like a servo's receiver state machine.
-    """
-
-    def __init__(self) -> None:
-        self._buf = bytearray()
-        self.crc_errors = 0
-        self.discarded_bytes = 0
+class PacketParser(FrameReader):
+    """Incremental instruction-packet reader tolerant to noise, like a servo's receiver: complete
+    packets with a valid CRC come out, garbage, bad-CRC packets and implausible headers are skipped."""
 
     @property
     def pending(self) -> int:
         """Bytes held while waiting for the rest of a packet."""
-        return len(self._buf)
-
-    def reset(self) -> None:
-        """Forget a partial packet (used after an inter-byte timeout)."""
-        self.discarded_bytes += len(self._buf)
-        self._buf.clear()
+        return self.pending_bytes
 
     def feed(self, data: bytes) -> list[Packet]:
-        self._buf += data
-        packets: list[Packet] = []
-        buf = self._buf
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                # keep a possible header prefix at the end
-                keep = 0
-                for k in (3, 2, 1):
-                    if len(buf) >= k and buf[-k:] == HEADER[:k]:
-                        keep = k
-                        break
-                self.discarded_bytes += len(buf) - keep
-                del buf[: len(buf) - keep]
-                break
-            if start:
-                self.discarded_bytes += start
-                del buf[:start]
-            if len(buf) < 7:
-                break
-            packet_id = buf[4]
-            length = buf[5] | (buf[6] << 8)
-            if packet_id in (0xFD, 0xFF) or length < 3 or length > MAX_LENGTH:
-                del buf[:1]
-                self.discarded_bytes += 1
-                continue
-            total = 7 + length
-            if len(buf) < total:
-                break
-            raw = bytes(buf[:total])
-            crc = raw[-2] | (raw[-1] << 8)
-            if crc16(raw[:-2]) != crc:
-                self.crc_errors += 1
-                del buf[:1]
-                self.discarded_bytes += 1
-                continue
-            del buf[:total]
-            body = unstuff(raw[7:-2])
-            packets.append(Packet(packet_id, body[0], body[1:], total))
-        return packets
+        return [Packet(packet_id, body[0], body[1:], wire_size) for packet_id, body, wire_size in self.frames(data)]
 
 
 def u16(data: bytes, offset: int = 0) -> int:
