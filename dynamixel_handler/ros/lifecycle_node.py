@@ -16,20 +16,14 @@ torque and the device closed (unconfigured).
 """
 from __future__ import annotations
 
-import os
-import signal
 import sys
-import threading
 
-import rclpy
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from ..bus import BusError
 from ..config import Config
 from ..loop import StartupError
-from .node import EXECUTOR_THREADS, NODE_NAME, DynamixelHandlerNode
-from .params import ConfigError
+from .node import DynamixelHandlerNode, run
 
 SUCCESS, FAILURE, ERROR = (TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE,
                            TransitionCallbackReturn.ERROR)
@@ -128,41 +122,9 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
-    log = rclpy.logging.get_logger(NODE_NAME)
-    node: DynamixelHandlerLifecycleNode | None = None
-    executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
-    stopping = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stopping.set())
-    signal.signal(signal.SIGTERM, lambda *_: stopping.set())
-    code = 0
-    try:
-        node = DynamixelHandlerLifecycleNode()
-        node.on_failure = stopping.set
-        executor.add_node(node)
-        log.info("unconfigured: waiting for the configure transition")
-        while not stopping.is_set() and rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
-        if node.failed:
-            code = 1
-    except ConfigError as err:
-        log.fatal(f"bad parameter: {err}")
-        code = 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            try:
-                node.stop()
-            except Exception as exc:
-                log.error(f"shutdown: {type(exc).__name__}: {exc}")
-            node.destroy_node()
-        executor.shutdown(timeout_sec=1.0)
-        if rclpy.ok():
-            rclpy.try_shutdown()
-    return code
-
+    def ready(node: DynamixelHandlerLifecycleNode) -> None:
+        node.get_logger().info("unconfigured: waiting for the configure transition")
+    return run(DynamixelHandlerLifecycleNode, ready, args)
 
 if __name__ == "__main__":
     sys.exit(main())

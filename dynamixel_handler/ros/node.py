@@ -12,6 +12,7 @@ import sys
 import threading
 import time
 import traceback
+from typing import Callable
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -255,26 +256,27 @@ def _wanted(publisher) -> bool:
     return publisher.get_subscription_count() > 0
 
 
-def main(args: list[str] | None = None) -> int:
+def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list[str] | None = None) -> int:
+    """Run a handler node until SIGINT/SIGTERM (or a loop that gave up), then make the servos safe.
+
+    Exit codes: 0 normal stop, 1 start-up failure or a loop that kept failing, 2 bad parameter.
+    Shared by the plain node and the lifecycle node.
+    """
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     log = rclpy.logging.get_logger(NODE_NAME)
-    node: DynamixelHandlerNode | None = None
+    node = None
     # several threads: a waiting move service or action must not stall topics and cancels
     # (callbacks still only queue work for the loop thread)
     executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
     stopping = threading.Event()
-
-    def on_signal(signum, _frame) -> None:
-        stopping.set()
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, lambda *_: stopping.set())
+    signal.signal(signal.SIGTERM, lambda *_: stopping.set())
     code = 0
     try:
-        node = DynamixelHandlerNode()
+        node = make_node()
         node.on_failure = stopping.set
-        node.start()
+        ready(node)
         executor.add_node(node)
         while not stopping.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
@@ -302,6 +304,9 @@ def main(args: list[str] | None = None) -> int:
             rclpy.try_shutdown()
     return code
 
+
+def main(args: list[str] | None = None) -> int:
+    return run(DynamixelHandlerNode, lambda node: node.start(), args)
 
 if __name__ == "__main__":
     sys.exit(main())
