@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Callable, Iterable
+from typing import Iterable
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
@@ -19,7 +19,7 @@ from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
                                         DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
 
-from ros_helpers import NodeProcess, node_command
+from ros_helpers import NodeProcess, TopicClient, node_command
 
 #: XM430-W350, XM540-W270, PH54-200-S500-R, H54-200-S500-R (old Pro firmware)
 XM430, XM540, PH54, H54 = 1020, 1120, 2020, 54024
@@ -72,7 +72,7 @@ class Received:
             return self._items[-1][1] if self._items else None
 
 
-class Bench:
+class Bench(TopicClient):
     """A virtual bus, a listening rclpy node, then the handler node process on the bus."""
 
     def __init__(self, *params: str, servos: dict[int, int] | None = None, wait_ids: Iterable[int] | None = None,
@@ -90,13 +90,9 @@ class Bench:
                           *((f"state/{g}", t) for g, t in STATE_TOPICS.items())):
             self.topics[name] = Received()
             self.node.create_subscription(typ, f"/dynamixel/{name}", self.topics[name].add, qos)
-        self._pubs: dict[tuple, object] = {}
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self._lock = threading.Lock()
-        self._spinning = True
-        self._thread = threading.Thread(target=self._spin, daemon=True)
-        self._thread.start()
+        self._start_spinning()
         if start_node:
             try:
                 self.start_node(*params, wait_ids=wait_ids)
@@ -124,28 +120,6 @@ class Bench:
         return self.node_proc.output if self.node_proc is not None else ""
 
     # ------------------------------------------------------------------ topics
-    def _spin(self) -> None:
-        while self._spinning:
-            with self._lock:
-                self.executor.spin_once(timeout_sec=0.02)
-
-    def publish(self, topic: str, msg) -> None:
-        """Publish once the node's subscription is matched (so the message is not lost)."""
-        key = (topic, type(msg))
-        if key not in self._pubs:
-            with self._lock:
-                self._pubs[key] = self.node.create_publisher(type(msg), topic, 10)
-            self.wait(lambda: self._pubs[key].get_subscription_count() > 0, timeout=10, what=f"a subscriber of {topic}")
-        self._pubs[key].publish(msg)
-
-    def wait(self, predicate: Callable[[], object], timeout: float = 10.0, what: str = "condition") -> None:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if predicate():
-                return
-            time.sleep(0.02)
-        raise AssertionError(f"timed out waiting for {what}\nnode output:\n{self.output[-4000:]}")
-
     def wait_new(self, topics: Iterable[str], count: int, timeout: float = 10.0) -> float:
         """Wait until each topic delivered ``count`` messages from now on; return the start time."""
         start = time.monotonic()
@@ -177,8 +151,7 @@ class Bench:
             if self.node_proc is not None:
                 code = self.node_proc.stop()
         finally:
-            self._spinning = False
-            self._thread.join(2)
+            self._stop_spinning()
             self.executor.shutdown()
             self.node.destroy_node()
             rclpy.shutdown(context=self.context)

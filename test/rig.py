@@ -2,8 +2,6 @@
 that publishes commands and collects what the handler publishes."""
 from __future__ import annotations
 
-import threading
-import time
 from typing import Callable
 
 import rclpy
@@ -13,12 +11,12 @@ from rclpy.node import Node
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DxlStates, DynamixelDebug
 
-from ros_helpers import NodeProcess, node_command
+from ros_helpers import NodeProcess, TopicClient, node_command
 
 X, X540, P, PRO = 1020, 1120, 2020, 54024  # XM430-W350, XM540-W270, PH54-200-S500-R, H54-200-S500-R
 
 
-class Rig:
+class Rig(TopicClient):
     def __init__(self, servos: dict[int, int], *params: str, sim_kwargs: dict | None = None,
                  expect: int | None = None, before_start: Callable[[VirtualBus], None] | None = None) -> None:
         """``expect``: number of IDs the node should handle (default: every simulated servo)."""
@@ -43,11 +41,7 @@ class Rig:
         self.debug: list[DynamixelDebug] = []
         self.node.create_subscription(DxlStates, "/dynamixel/states", self.states.append, 50)
         self.node.create_subscription(DynamixelDebug, "/dynamixel/debug", self.debug.append, 50)
-        self._pubs: dict[tuple, object] = {}
-        self._spin = True
-        self._lock = threading.Lock()
-        self._thread = threading.Thread(target=self._spin_loop, daemon=True)
-        self._thread.start()
+        self._start_spinning()
         try:
             self.node_proc.wait_for("handled", timeout=30)
             self.wait(lambda: self.debug and len(self.debug[-1].status.id_list) == n
@@ -57,28 +51,9 @@ class Rig:
             self.close()
             raise
 
-    def _spin_loop(self) -> None:
-        while self._spin:
-            with self._lock:
-                self.executor.spin_once(timeout_sec=0.02)
-
-    def publish(self, topic: str, msg) -> None:
-        key = (topic, type(msg))
-        if key not in self._pubs:
-            with self._lock:
-                self._pubs[key] = self.node.create_publisher(type(msg), topic, 10)
-            deadline = time.monotonic() + 10
-            while self._pubs[key].get_subscription_count() == 0 and time.monotonic() < deadline:
-                time.sleep(0.05)
-        self._pubs[key].publish(msg)
-
-    def wait(self, predicate: Callable[[], object], timeout: float = 10.0, what: str = "condition") -> None:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if predicate():
-                return
-            time.sleep(0.02)
-        raise AssertionError(f"timed out waiting for {what}\nnode output:\n{self.node_proc.output[-4000:]}")
+    @property
+    def output(self) -> str:
+        return self.node_proc.output
 
     def debug_of(self, dxl_id: int) -> dict:
         """Latest debug values of one ID: present/goal of position, velocity, current; torque; mode."""
@@ -145,8 +120,7 @@ class Rig:
 
     def close(self) -> int:
         code = self.node_proc.stop()
-        self._spin = False
-        self._thread.join(2)
+        self._stop_spinning()
         self.executor.shutdown()
         self.node.destroy_node()
         rclpy.shutdown()

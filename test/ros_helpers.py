@@ -102,3 +102,49 @@ def spin_until(node, executor, predicate: Callable[[], bool], timeout: float = 1
         if predicate():
             return True
     return predicate()
+
+
+class TopicClient:
+    """An rclpy test node spun on a thread of its own: publish once the handler listens, wait for
+    conditions with the node's log in the failure message. Subclasses set ``node`` and
+    ``executor`` and provide ``output`` (the handler's log), then call ``_start_spinning()``."""
+
+    node: object
+    executor: object
+
+    @property
+    def output(self) -> str:
+        return ""
+
+    def _start_spinning(self) -> None:
+        self._pubs: dict[tuple, object] = {}
+        self._lock = threading.Lock()
+        self._spinning = True
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _stop_spinning(self) -> None:
+        self._spinning = False
+        self._thread.join(2)
+
+    def _spin(self) -> None:
+        while self._spinning:
+            with self._lock:
+                self.executor.spin_once(timeout_sec=0.02)
+
+    def publish(self, topic: str, msg) -> None:
+        """Publish once the handler's subscription is matched (so the message is not lost)."""
+        key = (topic, type(msg))
+        if key not in self._pubs:
+            with self._lock:
+                self._pubs[key] = self.node.create_publisher(type(msg), topic, 10)
+            self.wait(lambda: self._pubs[key].get_subscription_count() > 0, timeout=10, what=f"a subscriber of {topic}")
+        self._pubs[key].publish(msg)
+
+    def wait(self, predicate: Callable[[], object], timeout: float = 10.0, what: str = "condition") -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if predicate():
+                return
+            time.sleep(0.02)
+        raise AssertionError(f"timed out waiting for {what}\nnode output:\n{self.output[-4000:]}")
