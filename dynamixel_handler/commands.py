@@ -12,7 +12,6 @@ import math
 import time
 from typing import Callable, Iterable, Mapping, Sequence
 
-import numpy as np
 
 from . import units
 from .control_table import OPERATING_MODES, Model
@@ -200,6 +199,16 @@ class Commander:
             return 0, hi
         return lo, hi
 
+    def _allowed(self, last_times: dict[int, float], param: str, dxl_id: int, action: str) -> bool:
+        """Rate limit per servo (``param`` seconds apart); warns and refuses when too soon."""
+        now, interval = time.monotonic(), self.h.config[param]
+        last = last_times.get(dxl_id)
+        if last is not None and now - last < interval:
+            self.warn(f"{action} refused: the last one was {now - last:.2f}s ago ({param}={interval:g})")
+            return False
+        last_times[dxl_id] = now
+        return True
+
     def _value(self, dxl_id: int, item: str) -> int | None:
         value = self.h.table.value(item, dxl_id)
         return value if value is not None else self.h.read_item(dxl_id, item)
@@ -298,14 +307,9 @@ class Commander:
         if mode not in SERIES_MODES[model.series]:
             self.warn(f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored")
             return False
-        now = time.monotonic()
-        interval = self.h.config["mode_change_interval_sec"]
-        last = self._last_mode_change.get(dxl_id)
-        if last is not None and now - last < interval:
-            self.warn(f"{what}: ID {dxl_id} mode change to '{mode}' refused: the last one was "
-                      f"{now - last:.2f}s ago (mode_change_interval_sec={interval:g})")
+        if not self._allowed(self._last_mode_change, "mode_change_interval_sec", dxl_id,
+                             f"{what}: ID {dxl_id} mode change to '{mode}'"):
             return False
-        self._last_mode_change[dxl_id] = now
         keep = {item: self._value(dxl_id, item) for item in ("goal_current", "profile_velocity", "profile_acceleration")
                 if model.has(item)}
         torque = self._value(dxl_id, "torque_enable")
@@ -361,14 +365,8 @@ class Commander:
         """Reboot to clear a hardware error; with ``keep_rotation`` the multi-turn position survives
         through the homing offset. Torque comes back on if it was on, or if the error's shutdown
         switched it off (then the error, not the user, turned it off)."""
-        now = time.monotonic()
-        interval = self.h.config["clear_error_interval_sec"]
-        last = self._last_clear.get(dxl_id)
-        if last is not None and now - last < interval:
-            self.warn(f"{what}: ID {dxl_id} error clear refused: the last one was {now - last:.2f}s ago "
-                      f"(clear_error_interval_sec={interval:g})")
+        if not self._allowed(self._last_clear, "clear_error_interval_sec", dxl_id, f"{what}: ID {dxl_id} error clear"):
             return False
-        self._last_clear[dxl_id] = now
         model = self.h.table.model(dxl_id)
         torque = self._value(dxl_id, "torque_enable")
         error = self.h.read_item(dxl_id, "hardware_error_status") or 0
