@@ -11,14 +11,14 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from . import units
 from .bus import DynamixelBus
 from .config import Config
-from .control_table import OPERATING_MODES, Model, model_by_number
+from .control_table import OPERATING_MODES, model_by_number
 from .groups import GROUP_ITEMS, GROUP_RATIO_PARAM, MODE_NAMES, PRESENT, due
 from .servos import PendingWrites, ServoTable
 

@@ -10,7 +10,6 @@ Fast Sync/Bulk Read reply.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
 
 from ..protocol2 import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE, CLEAR,  # noqa: F401
                          ERR_ACCESS, ERR_CRC, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_INSTRUCTION,
