@@ -5,8 +5,8 @@
 
 The node object is built exactly as ``ros2 run`` builds it (same parameters as ``bench_loop.py``),
 but its loop body runs here, flat out, in this thread: ``Handler.step()``, ``_publish()`` and the
-step hooks, with one ``/dynamixel/commands/x`` goal per loop delivered through the node's own
-subscription callback (after deserialising it as the executor would). Every part is wrapped in a
+step hooks, with one ``/dynamixel/commands/x`` goal per loop published by a controller node in this
+process and taken by the node's command intake at the start of the step, as in the real loop. Every part is wrapped in a
 timer that reads ``time.thread_time()`` (CPU of this thread only: immune to what else the machine
 runs) and ``time.perf_counter()``; nested parts are counted exclusively. The virtual bus runs in
 this process on a real-time thread; subscribers in this process make DDS really deliver.
@@ -30,6 +30,9 @@ from bench_loop import X_MODEL  # noqa: E402  (also claims the ROS domain before
 
 from common import coarse_physics, hardware_priority  # noqa: E402
 from node_run import GOAL_BASE, GOAL_CYCLE, SHIPPED_CONFIG, X_DEG_PER_PULSE, X_ZERO, node_params  # noqa: E402
+
+
+CONTROLLER = "controller: publish the command (not the node; subtracted)"
 
 
 class PartTimer:
@@ -89,11 +92,11 @@ def main(argv: list[str] | None = None) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
     from rclpy.publisher import Publisher
-    from rclpy.serialization import deserialize_message, serialize_message
 
     from dynamixel_handler import units
     from dynamixel_handler.ros import convert
     from dynamixel_handler.ros import node as node_module
+    from dynamixel_handler.ros.cdr import Codec
     from dynamixel_handler_msgs.msg import DxlCommandsX, DxlStates, DynamixelDebug, DynamixelPresent
 
     rclpy.init(args=["--ros-args", "--params-file", str(SHIPPED_CONFIG), "--params-file", params])
@@ -102,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     for typ, topic in ((DxlStates, "/dynamixel/states"), (DynamixelDebug, "/dynamixel/debug"),
                        (DynamixelPresent, "/dynamixel/state/present")):
         listener.create_subscription(typ, topic, lambda _m: None, 10, raw=True)
+    controller = listener.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 10)
     executor = SingleThreadedExecutor()
     executor.add_node(listener)
     spinning = True
@@ -115,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     node.wire.open()
     node.handler.start()
     handler = node.handler
-    command_sub = next(s for s in node.subscriptions if s.topic_name == "/dynamixel/commands/x")
+    deadline = time.monotonic() + 5
+    while controller.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
     ids = list(range(1, a.n + 1))
 
     t = PartTimer()
@@ -130,10 +136,13 @@ def main(argv: list[str] | None = None) -> int:
         t.patch(convert, name, "message building (convert.py)")
     t.patch(units, "pulse_to_unit", "units: pulse -> physical (numpy)")
     t.patch(Publisher, "publish", "publish (rclpy: Python -> C, serialise, DDS write)")
+    t.patch(Codec, "encode", "message encoding (cdr.py)")
+    t.patch(Codec, "to_message", "message encoding (cdr.py)")
+    t.patch(Codec, "decode", "command: decode (cdr.py)")
     node.step_hooks = [t.wrap("step hooks (diagnostics, joint_states)", h) for h in node.step_hooks]
     publish_all = t.wrap("publish: the rest (_publish)", node._publish)
-    deserialise = t.wrap("command: take (deserialise DxlCommandsX)", deserialize_message)
-    callback = t.wrap("command: subscription callback (unpack, checks, queue)", command_sub.callback)
+    take = t.wrap("command: take (intake: take, unpack, checks, queue)", node.intake.poll)
+    send = t.wrap(CONTROLLER, controller.publish)
     loop_body = t.wrap("loop: the rest", lambda report: None)
 
     msg = DxlCommandsX()
@@ -142,8 +151,8 @@ def main(argv: list[str] | None = None) -> int:
     def one_loop(k: int) -> None:
         pulse = GOAL_BASE + k % GOAL_CYCLE
         msg.position_control.position_deg = [(pulse - X_ZERO) * X_DEG_PER_PULSE] * len(ids)
-        wire_bytes = serialize_message(msg)  # the controller's side, not counted
-        callback(deserialise(wire_bytes, DxlCommandsX))
+        send(msg)  # the controller's side, not counted
+        take()
         report = handler.step()
         publish_all(report)
         for hook in node.step_hooks:
@@ -165,6 +174,9 @@ def main(argv: list[str] | None = None) -> int:
     if profiler:
         profiler.disable()
     cpu, wall = time.thread_time() - cpu0, time.perf_counter() - wall0
+    cpu -= t.cpu.pop(CONTROLLER, 0.0)
+    wall -= t.wall.pop(CONTROLLER, 0.0)
+    taken = node.intake.taken
     spinning = False
     spinner.join(1)
     handler.shutdown()
@@ -174,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"{a.n} servos, {a.baud} bps, latency {a.latency_ms:g} ms, fast_read {a.fast}: {loops} loops in "
           f"{wall:.1f} s = {loops / wall:.0f} loops/s; loop thread CPU {1e6 * cpu / loops:.0f} us/loop, "
-          f"wall {1e6 * wall / loops:.0f} us/loop" + (" (cProfile on: slower)" if profiler else ""))
+          f"wall {1e6 * wall / loops:.0f} us/loop; {taken} commands taken" + (" (cProfile on: slower)" if profiler else ""))
     print(f"{'part':58s} {'CPU us/loop':>11s} {'share':>6s} {'wall us/loop':>12s}")
     total = sum(t.cpu.values())
     for label, value in t.cpu.most_common():

@@ -1,13 +1,13 @@
-"""Command subscriptions: message -> (id_list, {field: values}) -> Commander.
+"""Command subscriptions: message (as ``cdr.Codec``'s nested dict) -> (id_list, {field: values})
+-> Commander.
 
-Callbacks only unpack and check array lengths; the Commander does the rest in the loop thread.
-A callback never raises: whatever goes wrong is logged with the topic's name.
+Handlers only unpack and check array lengths; the Commander does the rest in the loop thread.
+A handler never raises: whatever goes wrong is logged with the topic's name. Messages arrive
+through ``intake.CommandIntake`` (taken by the loop thread at the start of each step).
 """
 from __future__ import annotations
 
 from typing import Callable
-
-from rclpy.node import Node
 
 from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsPro, DxlCommandsX,
                                         DynamixelControlPCurrent, DynamixelControlPExtendedPosition,
@@ -21,7 +21,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommand
                                         DynamixelStatus)
 
 from ..commands import Commander, take_fields
-from .lean import lean_subscription
+from .intake import CommandIntake
 
 CONTROL_TYPES = {
     "X": {"pwm_control": DynamixelControlXPwm, "current_control": DynamixelControlXCurrent,
@@ -38,30 +38,32 @@ CONTROL_TYPES = {
 COMMANDS_TYPES = {"X": ("x", DxlCommandsX), "P": ("p", DxlCommandsP), "PRO": ("pro", DxlCommandsPro)}
 GROUP_TYPES = {"status": DynamixelStatus, "goal": DynamixelGoal, "gain": DynamixelGain, "limit": DynamixelLimit,
                "extra": DynamixelExtra}
+#: every message type a command topic carries
+COMMAND_TYPES = (DxlCommandsAll, DynamixelShortcut, *(t for _, t in COMMANDS_TYPES.values()),
+                 *(t for types in CONTROL_TYPES.values() for t in types.values()), *GROUP_TYPES.values())
 
 
-def unpack(msg) -> tuple[list[int], dict[str, list]]:
+def unpack(msg: dict) -> tuple[list[int], dict[str, list]]:
     """id_list and every other array of a Dynamixel* message; nested messages flatten to 'a.b'."""
     fields: dict[str, list] = {}
 
-    def walk(m, prefix: str) -> None:
-        for name in m.get_fields_and_field_types():
-            value = getattr(m, name)
-            if hasattr(value, "get_fields_and_field_types"):
+    def walk(m: dict, prefix: str) -> None:
+        for name, value in m.items():
+            if isinstance(value, dict):
                 walk(value, f"{prefix}{name}.")
             elif name != "id_list" or prefix:
-                fields[prefix + name] = list(value)
+                fields[prefix + name] = value
     walk(msg, "")
-    return [int(i) for i in msg.id_list], fields
+    return [int(i) for i in msg["id_list"]], fields
 
 
 class CommandTopics:
-    def __init__(self, node: Node, commander: Commander, series: tuple[str, ...], command_line: bool) -> None:
-        self.node, self.commander = node, commander
-        self.log = node.get_logger()
+    def __init__(self, intake: CommandIntake, commander: Commander, series: tuple[str, ...], command_line: bool) -> None:
+        self.commander = commander
+        self.log = intake.log
 
         def sub(typ, topic, callback, depth):
-            return lean_subscription(node, typ, topic, callback, depth)
+            intake.subscribe(typ, topic, callback, depth)
         for s in series:
             suffix, typ = COMMANDS_TYPES[s]
             sub(typ, f"dynamixel/commands/{suffix}", self._guard(f"commands/{suffix}", lambda m, s=s: self._bundle(s, m)), 10)
@@ -86,8 +88,8 @@ class CommandTopics:
                 self.log.error(f"/dynamixel/{topic}: command dropped: {type(exc).__name__}: {exc}")
         return run
 
-    def _fields(self, what: str, msg) -> tuple[list[int], dict[str, list]]:
-        if len(msg.id_list) == 0:  # nothing to do; most parts of a bundle are empty
+    def _fields(self, what: str, msg: dict) -> tuple[list[int], dict[str, list]]:
+        if len(msg["id_list"]) == 0:  # nothing to do; most parts of a bundle are empty
             return [], {}
         ids, fields = unpack(msg)
         return ids, take_fields(what, ids, fields, self.log.warning)
@@ -106,10 +108,10 @@ class CommandTopics:
         prefix = "commands/" + (COMMANDS_TYPES[series][0] if series else "all")
         if series is not None:
             for control in CONTROL_TYPES[series]:
-                self._control(series, control, getattr(msg, control), f"{prefix}.{control}")
+                self._control(series, control, msg[control], f"{prefix}.{control}")
         for group in ("status", "goal", "gain", "limit", "extra"):
-            if hasattr(msg, group):
-                self._group(group, getattr(msg, group), f"{prefix}.{group}")
+            if group in msg:
+                self._group(group, msg[group], f"{prefix}.{group}")
 
-    def _shortcut(self, msg: DynamixelShortcut) -> None:
-        self.commander.shortcut(msg.command, [int(i) for i in msg.id_list])
+    def _shortcut(self, msg: dict) -> None:
+        self.commander.shortcut(msg["command"], [int(i) for i in msg["id_list"]])

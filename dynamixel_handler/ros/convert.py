@@ -1,150 +1,141 @@
-"""Servo table -> state messages. Arrays go in as array.array so rclpy copies them without
-checking element by element; items a series lacks come out NaN / 0 / "" / false."""
+"""Servo table -> state messages, as nested dicts of numpy arrays (``cdr.Codec`` encodes them to
+bytes or builds rclpy objects from them). Items a series lacks come out NaN / 0 / "" / false."""
 from __future__ import annotations
 
 import array
 import math
-from typing import Iterable
+from typing import Any, Iterable
 
 import numpy as np
 from builtin_interfaces.msg import Time
-
-from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
-                                        DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
 
 from .. import units
 from ..groups import GAIN, GOAL, LIMIT, MODE_NAMES, PRESENT
 from ..servos import ServoTable
 
+Tree = dict[str, Any]
+
 
 def f64(values: np.ndarray) -> array.array:
+    """For rclpy message objects: array.array is copied without per-element checks."""
     out = array.array("d")
     out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
     return out
 
 
-def u16(values: Iterable[int] | np.ndarray) -> array.array:
-    arr = np.clip(np.asarray(values, dtype=np.int64), 0, 65535).astype(np.uint16)
-    out = array.array("H")
-    out.frombytes(arr.tobytes())
-    return out
+def u16(values: Iterable[int] | np.ndarray) -> np.ndarray:
+    return np.clip(np.asarray(values, dtype=np.int64), 0, 65535).astype(np.uint16)
 
 
 def stamp_of(seconds: float) -> Time:
+    sec, nanosec = _stamp(seconds)
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def _stamp(seconds: float) -> tuple[int, int]:
     sec = math.floor(seconds)
-    return Time(sec=int(sec), nanosec=int((seconds - sec) * 1e9))
+    return int(sec), min(int((seconds - sec) * 1e9), 999_999_999)
 
 
 def _flag(table: ServoTable, item: str) -> np.ndarray:
     return (table.pulses(item) != 0) & table.known(item)
 
 
-def status(table: ServoTable) -> DynamixelStatus:
-    msg = DynamixelStatus()
-    msg.id_list = u16(table.ids)
-    msg.torque = _flag(table, "torque_enable").tolist()
-    msg.error = _flag(table, "hardware_error_status").tolist()
-    msg.ping = table.ping.tolist()
+def status(table: ServoTable) -> Tree:
     known = table.known("operating_mode")
-    msg.mode = [MODE_NAMES.get(int(v), "") if k else "" for v, k in zip(table.pulses("operating_mode"), known)]
-    return msg
+    return {"id_list": u16(table.ids), "torque": _flag(table, "torque_enable"),
+            "error": _flag(table, "hardware_error_status"), "ping": table.ping.copy(),
+            "mode": [MODE_NAMES.get(int(v), "") if k else "" for v, k in zip(table.pulses("operating_mode"), known)]}
 
 
-def present(table: ServoTable, keys: Iterable[str] | None = None) -> DynamixelPresent:
+def present(table: ServoTable, keys: Iterable[str] | None = None) -> Tree:
     """Present values; with ``keys`` only those items are filled (the others stay empty)."""
-    msg = DynamixelPresent()
-    msg.id_list = u16(table.ids)
+    msg: Tree = {"id_list": u16(table.ids)}
     wanted = set(PRESENT) if keys is None else set(keys)
     for key, (item, field) in PRESENT.items():
         if key in wanted:
-            setattr(msg, field, f64(table.units(item)))
+            msg[field] = table.units(item)
     return msg
 
 
-def goal(table: ServoTable) -> DynamixelGoal:
-    msg = DynamixelGoal()
-    msg.id_list = u16(table.ids)
+def goal(table: ServoTable) -> Tree:
+    msg: Tree = {"id_list": u16(table.ids)}
     for item, field in GOAL.items():
-        setattr(msg, field, f64(table.units(item)))
+        msg[field] = table.units(item)
     return msg
 
 
-def gain(table: ServoTable) -> DynamixelGain:
-    msg = DynamixelGain()
-    msg.id_list = u16(table.ids)
+def gain(table: ServoTable) -> Tree:
+    msg: Tree = {"id_list": u16(table.ids)}
     for item, field in GAIN.items():
-        setattr(msg, field, u16(np.where(table.known(item), table.pulses(item), 0)))
+        msg[field] = u16(np.where(table.known(item), table.pulses(item), 0))
     return msg
 
 
-def limit(table: ServoTable) -> DynamixelLimit:
-    msg = DynamixelLimit()
-    msg.id_list = u16(table.ids)
+def limit(table: ServoTable) -> Tree:
+    msg: Tree = {"id_list": u16(table.ids)}
     for item, field in LIMIT.items():
-        setattr(msg, field, f64(table.units(item)))
+        msg[field] = table.units(item)
     return msg
 
 
-def error(table: ServoTable) -> DynamixelError:
-    msg = DynamixelError()
-    msg.id_list = u16(table.ids)
+def error(table: ServoTable) -> Tree:
+    msg: Tree = {"id_list": u16(table.ids)}
     bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
     for name, flags in units.decode_hardware_error(bits).items():
-        setattr(msg, name, np.asarray(flags, dtype=bool).tolist())
+        msg[name] = np.asarray(flags, dtype=bool)
     return msg
 
 
-def extra(table: ServoTable) -> DynamixelExtra:
-    msg = DynamixelExtra()
+def extra(table: ServoTable) -> Tree:
     n = len(table)
-    msg.id_list = u16(table.ids)
-    msg.model = [m.name for m in table.models]
-    msg.model_number = u16([m.number for m in table.models])
-    msg.protocol_type = u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"), 0))
-    msg.firmware_version = u16(table.pulses("firmware_version"))
-    msg.realtime_tick_s = f64(table.units("realtime_tick"))
     has = table.known("moving_status")
     moving = units.decode_moving_status(table.pulses("moving_status"))
-    msg.moving_status.velocity_profile = [p if k else "none" for p, k in zip(moving["velocity_profile"], has)]
+    moving_status: Tree = {"velocity_profile": [p if k else "none" for p, k in zip(moving["velocity_profile"], has)]}
     for name in ("following_error", "profile_ongoing", "in_position"):
-        setattr(msg.moving_status, name, (np.asarray(moving[name], dtype=bool) & has).tolist())
-    msg.moving = _flag(table, "moving").tolist()
-    msg.return_delay_time_us = f64(table.units("return_delay_time"))
+        moving_status[name] = np.asarray(moving[name], dtype=bool) & has
     has = table.known("drive_mode")
     drive = units.decode_drive_mode(table.pulses("drive_mode"))
-    msg.drive_mode.torque_on_by_goal_update = (np.asarray(drive["torque_on_by_goal_update"], bool) & has).tolist()
-    msg.drive_mode.profile_configuration = [c if k else "velocity_based"
-                                            for c, k in zip(drive["profile_configuration"], has)]
-    msg.drive_mode.reverse_mode = (np.asarray(drive["reverse_mode"], bool) & has).tolist()
-    msg.shadow_id = u16(table.pulses("secondary_id"))
-    msg.homing_offset_deg = f64(table.units("homing_offset"))
-    msg.moving_threshold_deg_s = f64(table.units("moving_threshold"))
+    drive_mode = {"torque_on_by_goal_update": np.asarray(drive["torque_on_by_goal_update"], bool) & has,
+                  "profile_configuration": [c if k else "velocity_based" for c, k in zip(drive["profile_configuration"], has)],
+                  "reverse_mode": np.asarray(drive["reverse_mode"], bool) & has}
     has = table.known("startup_configuration")
     ram_restore, startup_torque = units.decode_startup_configuration(table.pulses("startup_configuration"))
-    msg.restore_configuration.ram_restore = (np.asarray(ram_restore, bool) & has).tolist()
-    msg.restore_configuration.startup_torque_on = (np.asarray(startup_torque, bool) & has).tolist()
-    msg.pwm_slope_percent = f64(np.where(table.known("pwm_slope"), table.pulses("pwm_slope"), np.nan))
-    has = table.known("shutdown")
-    for name, flags in units.decode_shutdown(table.pulses("shutdown")).items():
-        setattr(msg.shutdown, name, (np.asarray(flags, bool) & has).tolist())
+    has_shutdown = table.known("shutdown")
     led = np.where(table.known("led"), table.pulses("led") * 100.0, np.nan)
-    msg.led.red_percent = f64(np.where(table.known("led_red"), table.pulses("led_red") / 2.55, led))
-    msg.led.green_percent = f64(np.where(table.known("led_green"), table.pulses("led_green") / 2.55, np.nan))
-    msg.led.blue_percent = f64(np.where(table.known("led_blue"), table.pulses("led_blue") / 2.55, np.nan))
-    msg.bus_watchdog_ms = f64(table.units("bus_watchdog"))
-    msg.reboot = [False] * n
-    return msg
+    return {
+        "id_list": u16(table.ids),
+        "model": [m.name for m in table.models],
+        "model_number": u16([m.number for m in table.models]),
+        "protocol_type": u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"), 0)),
+        "firmware_version": u16(table.pulses("firmware_version")),
+        "realtime_tick_s": table.units("realtime_tick"),
+        "moving_status": moving_status,
+        "moving": _flag(table, "moving"),
+        "return_delay_time_us": table.units("return_delay_time"),
+        "drive_mode": drive_mode,
+        "shadow_id": u16(table.pulses("secondary_id")),
+        "homing_offset_deg": table.units("homing_offset"),
+        "moving_threshold_deg_s": table.units("moving_threshold"),
+        "restore_configuration": {"ram_restore": np.asarray(ram_restore, bool) & has,
+                                  "startup_torque_on": np.asarray(startup_torque, bool) & has},
+        "pwm_slope_percent": np.where(table.known("pwm_slope"), table.pulses("pwm_slope"), np.nan).astype(np.float64),
+        "shutdown": {name: np.asarray(flags, bool) & has_shutdown
+                     for name, flags in units.decode_shutdown(table.pulses("shutdown")).items()},
+        "led": {"red_percent": np.where(table.known("led_red"), table.pulses("led_red") / 2.55, led),
+                "green_percent": np.where(table.known("led_green"), table.pulses("led_green") / 2.55, np.nan),
+                "blue_percent": np.where(table.known("led_blue"), table.pulses("led_blue") / 2.55, np.nan)},
+        "bus_watchdog_ms": table.units("bus_watchdog"),
+        "reboot": np.zeros(n, dtype=bool),
+    }
 
 
-def debug(table: ServoTable, status_msg: DynamixelStatus | None = None) -> DynamixelDebug:
-    msg = DynamixelDebug()
-    msg.status = status_msg if status_msg is not None else status(table)
+def debug(table: ServoTable, status_msg: Tree | None = None) -> Tree:
+    msg: Tree = {"status": status_msg if status_msg is not None else status(table)}
     for field, now, want in (("current_ma", "present_current", "goal_current"),
                              ("velocity_deg_s", "present_velocity", "goal_velocity"),
                              ("position_deg", "present_position", "goal_position")):
-        element = getattr(msg, field)
-        element.present = f64(table.units(now))
-        element.goal = f64(table.units(want))
+        msg[field] = {"present": table.units(now), "goal": table.units(want)}
     return msg
 
 
@@ -156,9 +147,9 @@ class Parts:
     def __init__(self, table: ServoTable, present_keys: set[str], outdated_present: bool) -> None:
         self.table = table
         self.present_keys = None if outdated_present else present_keys
-        self._built: dict[str, object] = {}
+        self._built: dict[str, Tree] = {}
 
-    def get(self, name: str):
+    def get(self, name: str) -> Tree:
         msg = self._built.get(name)
         if msg is None:
             msg = (present(self.table, self.present_keys) if name == "present"
@@ -168,16 +159,16 @@ class Parts:
 
 
 def states(table: ServoTable, stamp: float, groups: set[str], present_keys: set[str],
-           outdated_present: bool, parts: Parts | None = None) -> DxlStates:
+           outdated_present: bool, parts: Parts | None = None) -> Tree:
     """The program-facing message: only the groups read in this loop are filled."""
     parts = parts or Parts(table, present_keys, outdated_present)
-    msg = DxlStates()
-    msg.stamp = stamp_of(stamp)
+    sec, nanosec = _stamp(stamp)
+    msg: Tree = {"stamp": {"sec": sec, "nanosec": nanosec}}
     for name in ("status", "goal", "gain", "limit", "error"):
         if name in groups:
-            setattr(msg, name, parts.get(name))
+            msg[name] = parts.get(name)
     if present_keys:
-        msg.present = parts.get("present")
+        msg["present"] = parts.get("present")
     if groups & {"extra_dynamic", "extra_static"}:
-        msg.extra = parts.get("extra")
+        msg["extra"] = parts.get("extra")
     return msg

@@ -17,7 +17,6 @@ from typing import Callable
 import rclpy
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
 
 from dynamixel_handler_msgs.msg import (DxlExternalPort, DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
                                         DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
@@ -29,8 +28,9 @@ from ..external_ports import ExternalPorts
 from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, StartupError, StepReport
 from . import convert, diagnostics, joint_states, services
-from .command_topics import CommandTopics
-from .lean import lean_publisher, lean_subscription
+from .command_topics import COMMAND_TYPES, CommandTopics
+from .intake import CommandIntake
+from .lean import TreePublisher, lean_publisher, lean_subscription, raw_cdr_usable
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
@@ -38,6 +38,9 @@ NODE_NAME = "dynamixel_handler"
 MAX_LOOP_FAILURES = 50
 #: environment variable: number of loop steps that fail on purpose (tests, fault drills)
 INJECT_ENV = "DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS"
+#: messages the handler encodes/decodes itself; checked against the middleware at start-up
+RAW_CHECKED = (DxlStates, DynamixelDebug, DynamixelStatus, DynamixelPresent, DynamixelGoal, DynamixelGain,
+               DynamixelLimit, DynamixelError, DynamixelExtra, *COMMAND_TYPES)
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
 
@@ -98,19 +101,22 @@ class DynamixelHandlerNode(Node):
 
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
-        qos = QoSProfile(depth=10)
-        self.pub_states = lean_publisher(self, DxlStates, "dynamixel/states", qos)
-        self.pub_debug = lean_publisher(self, DynamixelDebug, "dynamixel/debug", qos)
-        self.pub_state: dict[str, object] = {}
+        # the handler writes and reads its own messages' CDR bytes when the middleware agrees (cdr.py)
+        self.raw_cdr = raw_cdr_usable(RAW_CHECKED, self.get_logger())
+        self.pub_states = TreePublisher(self, DxlStates, "dynamixel/states", 10, self.raw_cdr)
+        self.pub_debug = TreePublisher(self, DynamixelDebug, "dynamixel/debug", 10, self.raw_cdr)
+        self.pub_state: dict[str, TreePublisher] = {}
         if not self.config["no_use_command_line"]:
             for name, typ in (("status", DynamixelStatus), ("present", DynamixelPresent), ("goal", DynamixelGoal),
                               ("gain", DynamixelGain), ("limit", DynamixelLimit), ("error", DynamixelError),
                               ("extra", DynamixelExtra)):
-                self.pub_state[name] = lean_publisher(self, typ, f"dynamixel/state/{name}", qos)
+                self.pub_state[name] = TreePublisher(self, typ, f"dynamixel/state/{name}", 10, self.raw_cdr)
 
     def _create_subscriptions(self) -> None:
         self.commander = Commander(self.handler)
-        self.command_topics = CommandTopics(self, self.commander, self.config.used_series,
+        # command topics are taken by the loop thread at the start of each step (intake.py)
+        self.intake = CommandIntake(self, self.raw_cdr)
+        self.command_topics = CommandTopics(self.intake, self.commander, self.config.used_series,
                                             command_line=not self.config["no_use_command_line"])
         self.external_ports: ExternalPorts | None = None
         if self.config["option/external_port.use"]:
@@ -170,6 +176,10 @@ class DynamixelHandlerNode(Node):
         finally:
             self.wire.close()
 
+    def destroy_node(self) -> None:
+        self.intake.close()  # its subscriptions are not in the node's list
+        super().destroy_node()
+
     # ------------------------------------------------------------------ the loop thread
     def _run(self) -> None:
         period = 1.0 / self.config["loop_rate"]
@@ -183,6 +193,7 @@ class DynamixelHandlerNode(Node):
                 if self._injected_faults > 0:
                     self._injected_faults -= 1
                     raise RuntimeError(f"fault injected by {INJECT_ENV}")
+                self.intake.poll()
                 report = self.handler.step()
                 self._publish(report)
                 for hook in self.step_hooks:
@@ -234,10 +245,10 @@ class DynamixelHandlerNode(Node):
         if not (groups or present_keys):
             return
         parts = convert.Parts(table, present_keys, self.config["pub_outdated_present_value"])
-        if _wanted(self.pub_states):
+        if self.pub_states.wanted():
             self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, parts=parts,
                                                           outdated_present=self.config["pub_outdated_present_value"]))
-        if (present_keys or "status" in groups) and _wanted(self.pub_debug):
+        if (present_keys or "status" in groups) and self.pub_debug.wanted():
             self.pub_debug.publish(convert.debug(table, parts.get("status")))
         if not self.pub_state:
             return
@@ -248,12 +259,8 @@ class DynamixelHandlerNode(Node):
         if groups & {"extra_dynamic", "extra_static"}:
             due.add("extra")
         for name in due:
-            if _wanted(pubs[name]):
+            if pubs[name].wanted():
                 pubs[name].publish(parts.get(name))
-
-
-def _wanted(publisher) -> bool:
-    return publisher.get_subscription_count() > 0
 
 
 def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list[str] | None = None) -> int:

@@ -1,0 +1,105 @@
+"""Command topics taken by the loop thread itself, at the start of each loop step.
+
+Through an executor every command message costs a wake-up, a wait set rebuilt in Python over every
+entity of the node, a hand-over to a worker thread and rclpy's conversion of the whole message into
+Python objects, all fighting the loop thread for the interpreter lock. The loop only applies
+commands at the start of a step anyway, so it takes them itself, right before it applies them:
+as raw CDR bytes (decoded by ``cdr.Codec`` straight into numpy arrays) when the middleware agrees
+with ``cdr.py``, else as rclpy messages. Messages taken in one step, from any of the command topics,
+are handled in the order they were published (source timestamp).
+
+The subscriptions are ordinary subscriptions of the node (``ros2 node info`` lists them, QoS as
+before) that are kept out of the executor's sight. If this rclpy does not allow that, they are
+left to the executor and their callbacks do the same work (``detached`` is False).
+"""
+from __future__ import annotations
+
+import threading
+from typing import Any, Callable
+
+from rclpy.node import Node
+
+from .cdr import Codec, DecodeError
+from .lean import lean_subscription
+
+Handler = Callable[[dict[str, Any]], None]
+
+
+class CommandIntake:
+    def __init__(self, node: Node, raw: bool) -> None:
+        self.node = node
+        self.raw = raw
+        self.log = node.get_logger()
+        self.detached = isinstance(getattr(node, "_subscriptions", None), list)
+        self._entries: list[tuple[Any, Codec, Handler, str]] = []
+        self._lock = threading.Lock()  # poll() and close() may come from different threads
+        self.taken = 0
+        self.undecodable = 0
+
+    def subscribe(self, typ, topic: str, handler: Handler, depth: int = 10) -> None:
+        """``handler`` gets the message as a nested dict (``cdr.Codec.decode``'s form)."""
+        codec = Codec.of(typ)
+        if not self.detached:
+            def callback(msg, codec=codec, handler=handler, topic=topic) -> None:
+                value = self._value(codec, msg, topic)
+                if value is not None:
+                    handler(value)
+            lean_subscription(self.node, typ, topic, callback, depth, raw=self.raw)
+            return
+        sub = lean_subscription(self.node, typ, topic, _never_called, depth, raw=self.raw)
+        self.node._subscriptions.remove(sub)  # the executor does not see it; poll() takes it
+        self._entries.append((sub, codec, handler, topic))
+
+    def poll(self) -> int:
+        """Take every waiting message of every command topic and hand them over in publish order.
+        Returns the number of messages handled."""
+        batch = []
+        with self._lock:
+            for entry in self._entries:
+                sub = entry[0]
+                while True:
+                    try:
+                        with sub.handle:
+                            got = sub.handle.take_message(sub.msg_type, self.raw)
+                    except Exception as exc:  # a destroyed handle or a middleware error: never fatal
+                        self.log.error(f"{entry[3]}: take failed: {type(exc).__name__}: {exc}")
+                        break
+                    if got is None:
+                        break
+                    batch.append((got[1].get("source_timestamp", 0), len(batch), got[0], entry))
+        if len(batch) > 1:
+            batch.sort(key=lambda b: (b[0], b[1]))
+        for _, _, msg, (_, codec, handler, topic) in batch:
+            value = self._value(codec, msg, topic)
+            if value is not None:
+                handler(value)
+        self.taken += len(batch)
+        return len(batch)
+
+    def _value(self, codec: Codec, msg, topic: str) -> dict[str, Any] | None:
+        if not self.raw:
+            return codec.from_message(msg)
+        try:
+            return codec.decode(msg)
+        except DecodeError as exc:
+            # e.g. a writer using XCDR2: let rclpy read it
+            try:
+                from rclpy.serialization import deserialize_message
+                return codec.from_message(deserialize_message(msg, codec.msg_class))
+            except Exception:
+                self.undecodable += 1
+                self.log.error(f"{topic}: message dropped: cannot decode it ({exc})")
+                return None
+
+    def close(self) -> None:
+        with self._lock:
+            for sub, *_ in self._entries:
+                try:
+                    sub.destroy()
+                except Exception:  # already gone with the node
+                    pass
+            self._entries.clear()
+
+
+def _never_called(msg) -> None:  # pragma: no cover - detached subscriptions have no executor
+    raise AssertionError("a detached command subscription was run by an executor")
