@@ -76,7 +76,8 @@ class Bench(TopicClient):
     """A virtual bus, a listening rclpy node, then the handler node process on the bus."""
 
     def __init__(self, *params: str, servos: dict[int, int] | None = None, wait_ids: Iterable[int] | None = None,
-                 start_node: bool = True) -> None:
+                 start_node: bool = True, env: dict[str, str] | None = None) -> None:
+        self.env = env
         self.sim = VirtualBus(servos=dict(FOUR_SERVOS if servos is None else servos))
         self.device = self.sim.start()
         self.node_proc: NodeProcess | None = None
@@ -105,7 +106,7 @@ class Bench(TopicClient):
         """Start the handler on the bus and wait until it publishes states of ``wait_ids``
         (default: every simulated servo)."""
         args = (f"device_name:={self.device}", *BASE_PARAMS, *params)
-        self.node_proc = NodeProcess(node_command(*args))
+        self.node_proc = NodeProcess(node_command(*args), env=self.env)
         ids = sorted(self.sim.servos if wait_ids is None else wait_ids)
         self.wait(lambda: (m := self.topics["debug"].last()) is not None and list(m.status.id_list) == ids,
                   timeout=30, what=f"/dynamixel/debug with IDs {ids}")

@@ -18,8 +18,10 @@ X, X540, P, PRO = 1020, 1120, 2020, 54024  # XM430-W350, XM540-W270, PH54-200-S5
 
 class Rig(TopicClient):
     def __init__(self, servos: dict[int, int], *params: str, sim_kwargs: dict | None = None,
-                 expect: int | None = None, before_start: Callable[[VirtualBus], None] | None = None) -> None:
-        """``expect``: number of IDs the node should handle (default: every simulated servo)."""
+                 expect: int | None = None, before_start: Callable[[VirtualBus], None] | None = None,
+                 env: dict[str, str] | None = None) -> None:
+        """``expect``: number of IDs the node should handle (default: every simulated servo);
+        ``env``: extra environment of the node process."""
         self.sim = VirtualBus(servos=servos, **(sim_kwargs or {}))
         path = self.sim.start()
         if before_start is not None:
@@ -32,7 +34,7 @@ class Rig(TopicClient):
                 "init/used_servo_series.Pro:=true", f"init/servo_auto_search.min_id:={ids[0]}",
                 f"init/servo_auto_search.max_id:={ids[-1]}", "init/servo_auto_search.retry_times:=5",
                 f"init/expected_servo_num:={n}", "verbose_ratio:=0", *params]
-        self.node_proc = NodeProcess(node_command(*args))
+        self.node_proc = NodeProcess(node_command(*args), env=env)
         rclpy.init()
         self.node = Node("test_rig")
         self.executor = SingleThreadedExecutor()

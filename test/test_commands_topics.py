@@ -21,6 +21,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommand
                                         DynamixelControlXPwm, DynamixelControlXVelocity, DynamixelExtra,
                                         DynamixelGain, DynamixelGoal, DynamixelStatus)
 
+from dynamixel_handler.ros.lean import RAW_ENV
 from rig import PRO, P, X, X540, Rig
 
 # ---- e-Manual units per LSB ------------------------------------------------------------------
@@ -55,11 +56,15 @@ def pulses(value: float, per_lsb: float) -> int:
     return round(value / per_lsb)
 
 
-@pytest.fixture(scope="module")
-def rig():
+@pytest.fixture(scope="module", params=["raw CDR", "rclpy objects"])
+def rig(request):
+    """Run twice: commands decoded by the node's own CDR reader, and by rclpy (its fallback)."""
+    env = {RAW_ENV: "0"} if request.param == "rclpy objects" else None
     r = Rig({1: X, 2: X540, 3: P, 4: PRO}, "mode_change_interval_sec:=0.0", "pub_ratio/status:=3",
             "pub_ratio/goal:=3", "pub_ratio/gain:=3", "pub_ratio/limit:=5", "pub_ratio/extra.dynamic_items:=5",
-            "pub_ratio/extra.static_items:=5")
+            "pub_ratio/extra.static_items:=5", env=env)
+    if env:
+        r.wait_log("rclpy message objects")
     yield r
     assert r.close() == 0
 

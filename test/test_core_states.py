@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import pytest
 
+from dynamixel_handler.ros.lean import RAW_ENV
 from core_helpers import H54, PH54, XM430, XM540, Bench
 
 
@@ -250,14 +251,18 @@ CHECKS = {"status": check_status, "present": check_present, "goal": check_goal, 
           "limit": check_limit, "error": check_error, "extra": check_extra}
 
 
-@pytest.fixture(scope="module")
-def bench():
+@pytest.fixture(scope="module", params=["raw CDR", "rclpy objects"])
+def bench(request):
+    """Run twice: the node's own CDR encoding, and rclpy message objects (its fallback)."""
+    env = {RAW_ENV: "0"} if request.param == "rclpy objects" else None
     ratios = ["pub_ratio/present.velocity_trajectory:=1", "pub_ratio/present.position_trajectory:=1",
               "pub_ratio/present.input_voltage:=1", "pub_ratio/present.temperature:=1",
               "pub_ratio/status:=2", "pub_ratio/goal:=2", "pub_ratio/gain:=3", "pub_ratio/limit:=3",
               "pub_ratio/error:=2", "pub_ratio/extra.dynamic_items:=2", "pub_ratio/extra.static_items:=3"]
-    b = Bench(*ratios)
+    b = Bench(*ratios, env=env)
     try:
+        if env:
+            b.node_proc.wait_for("rclpy message objects")
         for dxl_id, values in POKES.items():
             servo = b.sim.servo(dxl_id)
             for name, value in values.items():
