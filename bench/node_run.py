@@ -83,7 +83,7 @@ class NodeResult:
     mean_s: float = float("nan")
     p99_s: float = float("nan")
     cpu_percent: float = float("nan")
-    bench_cpu_percent: float = float("nan")  # the bench process (virtual bus + controller)
+    bench_cpu_percent: float = float("nan")  # the bench process (controller), plus the virtual bus process
     others_cpu_percent: float = float("nan")  # every other process on the machine, in % of one core
     startup_s: float = float("nan")          # process start -> first /dynamixel/states
     latency_mean_s: float = float("nan")
@@ -249,11 +249,12 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
         controller.commanding = True
         time.sleep(warmup_s)
         t0 = time.monotonic()
-        cpu0, bench0, all0 = cpu_seconds(proc.pid), cpu_seconds(os.getpid()), machine_cpu_seconds()
+        bench_pids = [os.getpid(), *([sim.pid] if getattr(sim, "pid", None) else [])]
+        cpu0, bench0, all0 = cpu_seconds(proc.pid), sum(map(cpu_seconds, bench_pids)), machine_cpu_seconds()
         states0 = len(controller.states_times)
         time.sleep(window_s)
         t1 = time.monotonic()
-        cpu1, bench1, all1 = cpu_seconds(proc.pid), cpu_seconds(os.getpid()), machine_cpu_seconds()
+        cpu1, bench1, all1 = cpu_seconds(proc.pid), sum(map(cpu_seconds, bench_pids)), machine_cpu_seconds()
         states1 = len(controller.states_times)
         controller.commanding = False
         time.sleep(0.2)  # the last commands of the window reach the wire

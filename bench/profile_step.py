@@ -4,7 +4,7 @@
                                       [--latency-ms 0] [--fast] [--seconds 3] [--cprofile]
 
 The node object is built exactly as ``ros2 run`` builds it (same parameters as ``bench_loop.py``),
-but its loop body runs here, flat out, in this thread: ``Handler.step()``, ``_publish()`` and the
+but its loop body runs here, flat out, in this thread: ``Handler.step()``, publishing and the
 step hooks, with one ``/dynamixel/commands/x`` goal per loop published by a controller node in this
 process and taken by the node's command intake at the start of the step, as in the real loop. Every part is wrapped in a
 timer that reads ``time.thread_time()`` (CPU of this thread only: immune to what else the machine
@@ -140,7 +140,10 @@ def main(argv: list[str] | None = None) -> int:
     t.patch(Codec, "to_message", "message encoding (cdr.py)")
     t.patch(Codec, "decode", "command: decode (cdr.py)")
     node.step_hooks = [t.wrap("step hooks (diagnostics, joint_states)", h) for h in node.step_hooks]
-    publish_all = t.wrap("publish: the rest (_publish)", node._publish)
+    def publish_here(report) -> None:  # the node does this on its publishing thread (outbox.py)
+        for publisher, value in node._messages(report):
+            publisher.publish(value)
+    publish_all = t.wrap("publish: the rest (_messages)", publish_here)
     take = t.wrap("command: take (intake: take, unpack, checks, queue)", node.intake.poll)
     send = t.wrap(CONTROLLER, controller.publish)
     loop_body = t.wrap("loop: the rest", lambda report: None)

@@ -453,7 +453,8 @@ class DynamixelBus:
         stream = p.StatusStream()
         got: dict[int, p.Status] = {}
         while pending:
-            data = self._port.read_until(deadline)
+            data = self._port.read_until(deadline, sum(p.STATUS_OVERHEAD + n for n in pending.values())
+                                         - stream.pending_bytes)
             if not data:
                 break
             self.stats.bytes_rx += len(data)
@@ -482,7 +483,7 @@ class DynamixelBus:
         self.last_timeout_ms = first_ms
         deadline = time.monotonic() + first_ms / 1000.0
         while not reply.complete:
-            data = self._port.read_until(deadline)
+            data = self._port.read_until(deadline, total - reply.received_bytes)
             if not data:
                 break
             self.stats.bytes_rx += len(data)

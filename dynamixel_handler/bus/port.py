@@ -170,27 +170,37 @@ class SerialPort:
         if written != len(packet):
             raise serial.SerialException(f"wrote {written} of {len(packet)} bytes")
 
-    def read_until(self, deadline: float) -> bytes:
+    def read_until(self, deadline: float, expect: int = 0) -> bytes:
         """Bytes available now, or block (no spinning) until some arrive or ``deadline`` passes.
 
-        Returns b"" at the deadline. Raises OSError/SerialException if the device vanished.
+        ``expect``: bytes the caller still waits for. Once some have arrived, the rest of them
+        cannot arrive sooner than their wire time, so the thread sleeps that long and reads them
+        in one go instead of waking for every status packet. Returns b"" at the deadline.
+        Raises OSError/SerialException if the device vanished.
         """
         ser = self._port.ser
         fd = ser.fileno()
         while True:
             waiting = ser.in_waiting
-            if waiting:
-                return bytes(self._port.readPort(waiting))
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return b""
-            readable, _, _ = select.select([fd], [], [], remaining)
-            if readable:
-                data = self._port.readPort(max(1, ser.in_waiting))
-                if data:
-                    return bytes(data)
-                # readable but empty: a hung-up device (pyserial raises on most systems)
-                raise serial.SerialException(f"{self.device} hung up")
+            if not waiting:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return b""
+                readable, _, _ = select.select([fd], [], [], remaining)
+                if not readable:
+                    return b""
+                waiting = ser.in_waiting
+                if not waiting:
+                    data = self._port.readPort(1)
+                    if data:
+                        return bytes(data)
+                    # readable but empty: a hung-up device (pyserial raises on most systems)
+                    raise serial.SerialException(f"{self.device} hung up")
+            if expect > waiting:
+                rest_s = (expect - waiting) * self.tx_ms_per_byte / 1000.0
+                time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
+                waiting = max(waiting, ser.in_waiting)
+            return bytes(self._port.readPort(waiting))
 
 
 def check_baudrate(baudrate: int) -> None:

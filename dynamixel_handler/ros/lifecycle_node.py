@@ -108,6 +108,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         if self._thread is not None:
             self._thread.join(5.0)
             self._thread = None
+        self._close_outbox()
 
     def _forget_and_close(self) -> None:
         self._stop_loop()

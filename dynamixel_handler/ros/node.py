@@ -30,6 +30,7 @@ from ..loop import Handler, StartupError, StepReport
 from . import convert, diagnostics, joint_states, services
 from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
+from .outbox import Outbox
 from .lean import TreePublisher, lean_publisher, lean_subscription, raw_cdr_usable
 from .params import ConfigError, declare_and_load, describe
 
@@ -41,6 +42,8 @@ INJECT_ENV = "DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS"
 #: messages the handler encodes/decodes itself; checked against the middleware at start-up
 RAW_CHECKED = (DxlStates, DynamixelDebug, DynamixelStatus, DynamixelPresent, DynamixelGoal, DynamixelGain,
                DynamixelLimit, DynamixelError, DynamixelExtra, *COMMAND_TYPES)
+#: longest time (s) a thread that wants the interpreter lock waits for a busy one to give it up
+SWITCH_INTERVAL_S = 0.0002
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
 
@@ -93,6 +96,7 @@ class DynamixelHandlerNode(Node):
         # fault injection for tests and drills: the first N loop steps raise
         self._injected_faults = int(os.environ.get(INJECT_ENV, "0") or 0)
         self.on_failure = None  # called from the loop thread when the loop gives up
+        self.outbox: Outbox | None = None  # the publishing thread, while the loop runs
         self._create_publishers()
         self._create_subscriptions()
         # called on the loop thread after each step's state publishing (joint states, diagnostics)
@@ -152,6 +156,8 @@ class DynamixelHandlerNode(Node):
 
     def start_loop(self) -> None:
         self._stop.clear()
+        if self.outbox is None:
+            self.outbox = Outbox(self.get_logger())
         self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
         self._thread.start()
 
@@ -170,11 +176,17 @@ class DynamixelHandlerNode(Node):
         self._stop.set()
         if self._thread is not None:
             self._thread.join(5.0)
+        self._close_outbox()
         try:
             if self.bus.is_open:
                 self.handler.shutdown()
         finally:
             self.wire.close()
+
+    def _close_outbox(self) -> None:
+        if self.outbox is not None:
+            self.outbox.close()
+            self.outbox = None
 
     def destroy_node(self) -> None:
         self.intake.close()  # its subscriptions are not in the node's list
@@ -239,19 +251,24 @@ class DynamixelHandlerNode(Node):
         self.pub_external.publish(msg)
 
     def _publish(self, report: StepReport) -> None:
-        """Publish what this loop read; a message nobody subscribes to is not even built."""
+        """Hand this loop's messages to the publishing thread (``outbox.py``)."""
+        self.outbox.put(self._messages(report))
+
+    def _messages(self, report: StepReport) -> list[tuple[TreePublisher, dict]]:
+        """What this loop read, per topic; a message nobody subscribes to is not even built."""
         table = self.handler.table
         groups, present_keys = report.groups, report.present
         if not (groups or present_keys):
-            return
+            return []
+        out = []
         parts = convert.Parts(table, present_keys, self.config["pub_outdated_present_value"])
         if self.pub_states.wanted():
-            self.pub_states.publish(convert.states(table, report.stamp, groups, present_keys, parts=parts,
-                                                          outdated_present=self.config["pub_outdated_present_value"]))
+            out.append((self.pub_states, convert.states(table, report.stamp, groups, present_keys, parts=parts,
+                                                        outdated_present=self.config["pub_outdated_present_value"])))
         if (present_keys or "status" in groups) and self.pub_debug.wanted():
-            self.pub_debug.publish(convert.debug(table, parts.get("status")))
+            out.append((self.pub_debug, convert.debug(table, parts.get("status"))))
         if not self.pub_state:
-            return
+            return out
         pubs = self.pub_state
         due = {name for name in ("status", "goal", "gain", "limit", "error") if name in groups}
         if present_keys:
@@ -260,7 +277,8 @@ class DynamixelHandlerNode(Node):
             due.add("extra")
         for name in due:
             if pubs[name].wanted():
-                pubs[name].publish(parts.get(name))
+                out.append((pubs[name], parts.get(name)))
+        return out
 
 
 def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list[str] | None = None) -> int:
@@ -270,6 +288,9 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     Shared by the plain node and the lifecycle node.
     """
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    # the loop thread must get the interpreter lock back soon after the bus answers, even while
+    # the publishing thread encodes (Python's default lets a waiting thread wait 5 ms)
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     log = rclpy.logging.get_logger(NODE_NAME)
     node = None

@@ -1,0 +1,72 @@
+"""Publishing on a thread of its own, so a loop's messages go out while the next loop's
+instruction is on the wire (the loop thread then waits in ``select`` with the interpreter lock
+released). The loop thread builds each message's values (numpy arrays it will not touch again)
+and hands them over; encoding and the middleware's write happen here, in loop order.
+"""
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from typing import Any, Sequence
+
+from .lean import TreePublisher
+
+Batch = Sequence[tuple[TreePublisher, dict[str, Any]]]
+
+#: loops' worth of messages held when the publishing thread falls behind; older ones are dropped
+DEPTH = 8
+#: seconds between two warnings about dropped messages
+WARN_EVERY_S = 10.0
+
+
+class Outbox:
+    def __init__(self, log, depth: int = DEPTH) -> None:
+        self.log = log
+        self._queue: collections.deque[Batch] = collections.deque()
+        self._depth = depth
+        self._cond = threading.Condition()
+        self._closing = False
+        self.sent = 0
+        self.dropped = 0
+        self._dropped_reported = 0
+        self._next_warning = 0.0
+        self._thread = threading.Thread(target=self._run, name="dynamixel_publish", daemon=True)
+        self._thread.start()
+
+    def put(self, batch: Batch) -> None:
+        if not batch:
+            return
+        with self._cond:
+            if len(self._queue) >= self._depth:
+                self._queue.popleft()
+                self.dropped += 1
+            self._queue.append(batch)
+            self._cond.notify()
+        if self.dropped != self._dropped_reported and time.monotonic() >= self._next_warning:
+            self._next_warning = time.monotonic() + WARN_EVERY_S
+            self.log.warning(f"publishing falls behind the loop: {self.dropped - self._dropped_reported} loops' "
+                             f"messages dropped (the oldest first; {self.dropped} in all)")
+            self._dropped_reported = self.dropped
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._queue and not self._closing:
+                    self._cond.wait()
+                if not self._queue:
+                    return
+                batch = self._queue.popleft()
+            for publisher, value in batch:
+                try:
+                    publisher.publish(value)
+                    self.sent += 1
+                except Exception as exc:  # one bad message must not stop publishing
+                    self.log.error(f"publishing {publisher.publisher.topic_name}: {type(exc).__name__}: {exc}")
+
+    def close(self, timeout: float = 2.0) -> None:
+        """Publish what is queued, then stop the thread."""
+        with self._cond:
+            self._closing = True
+            self._cond.notify()
+        self._thread.join(timeout)
