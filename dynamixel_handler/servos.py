@@ -81,10 +81,24 @@ class ServoTable:
         if item not in self._raw:
             self._raw[item] = np.zeros(len(self.ids), dtype=np.int64)
             self._known[item] = np.zeros(len(self.ids), dtype=bool)
-        self._raw[item][positions] = pulses
-        self._known[item][positions] = True
+        # copy on write: snapshots (``snapshot``) share the arrays they were taken with
+        raw, known = self._raw[item].copy(), self._known[item].copy()
+        raw[positions] = pulses
+        known[positions] = True
+        self._raw[item], self._known[item] = raw, known
         self.read_time[item] = when
         self._units.pop(item, None)
+
+    def snapshot(self) -> "ServoTable":
+        """A frozen copy of what the table holds now, for another thread (the publishing one).
+        Cheap: value arrays are replaced, never changed in place, so they are shared."""
+        snap = ServoTable.__new__(ServoTable)
+        snap.ids, snap.models, snap.index = list(self.ids), list(self.models), self.index
+        snap._raw, snap._known, snap._units = dict(self._raw), dict(self._known), dict(self._units)
+        snap.read_time = dict(self.read_time)
+        snap.ping, snap.no_response = self.ping.copy(), self.no_response.copy()
+        snap.version = self.version
+        return snap
 
     def set_value(self, item: str, dxl_id: int, pulses: int) -> None:
         """Record a value known without a read (e.g. one just written and confirmed)."""
@@ -137,6 +151,11 @@ class PendingWrites:
         with self._lock:
             for item, values in writes:
                 self._items.setdefault(item, {}).update(values)
+
+    def peek(self, item: str) -> dict[int, int]:
+        """The values of ``item`` waiting to be written (a copy)."""
+        with self._lock:
+            return dict(self._items.get(item, {}))
 
     def take(self) -> dict[str, dict[int, int]]:
         """Everything pending, emptied atomically."""

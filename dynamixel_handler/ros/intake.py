@@ -58,9 +58,8 @@ class CommandIntake:
             for entry in self._entries:
                 sub = entry[0]
                 while True:
-                    try:
-                        with sub.handle:
-                            got = sub.handle.take_message(sub.msg_type, self.raw)
+                    try:  # close() destroys under the same lock, so no handle guard is needed
+                        got = sub.handle.take_message(sub.msg_type, self.raw)
                     except Exception as exc:  # a destroyed handle or a middleware error: never fatal
                         self.log.error(f"{entry[3]}: take failed: {type(exc).__name__}: {exc}")
                         break

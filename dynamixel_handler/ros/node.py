@@ -252,11 +252,13 @@ class DynamixelHandlerNode(Node):
 
     def _publish(self, report: StepReport) -> None:
         """Hand this loop's messages to the publishing thread (``outbox.py``)."""
-        self.outbox.put(self._messages(report))
+        if report.groups or report.present:
+            snapshot = self.handler.table.snapshot()
+            self.outbox.put(lambda: self._messages(report, snapshot))
 
-    def _messages(self, report: StepReport) -> list[tuple[TreePublisher, dict]]:
+    def _messages(self, report: StepReport, table=None) -> list[tuple[TreePublisher, dict]]:
         """What this loop read, per topic; a message nobody subscribes to is not even built."""
-        table = self.handler.table
+        table = self.handler.table if table is None else table
         groups, present_keys = report.groups, report.present
         if not (groups or present_keys):
             return []

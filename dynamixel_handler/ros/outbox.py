@@ -1,18 +1,19 @@
-"""Publishing on a thread of its own, so a loop's messages go out while the next loop's
-instruction is on the wire (the loop thread then waits in ``select`` with the interpreter lock
-released). The loop thread builds each message's values (numpy arrays it will not touch again)
-and hands them over; encoding and the middleware's write happen here, in loop order.
+"""Publishing on a thread of its own, so a loop's messages are built and go out while the next
+loop's instruction is on the wire (the loop thread then waits in ``select`` with the interpreter
+lock released). The loop thread hands over a job (a snapshot of the servo table and what the loop
+read); building the messages, encoding them and the middleware's write happen here, in loop order.
 """
 from __future__ import annotations
 
 import collections
 import threading
 import time
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from .lean import TreePublisher
 
 Batch = Sequence[tuple[TreePublisher, dict[str, Any]]]
+Job = Callable[[], Batch]  # builds one loop's messages
 
 #: loops' worth of messages held when the publishing thread falls behind; older ones are dropped
 DEPTH = 8
@@ -23,7 +24,7 @@ WARN_EVERY_S = 10.0
 class Outbox:
     def __init__(self, log, depth: int = DEPTH) -> None:
         self.log = log
-        self._queue: collections.deque[Batch] = collections.deque()
+        self._queue: collections.deque[Job] = collections.deque()
         self._depth = depth
         self._cond = threading.Condition()
         self._closing = False
@@ -34,14 +35,12 @@ class Outbox:
         self._thread = threading.Thread(target=self._run, name="dynamixel_publish", daemon=True)
         self._thread.start()
 
-    def put(self, batch: Batch) -> None:
-        if not batch:
-            return
+    def put(self, job: Job) -> None:
         with self._cond:
             if len(self._queue) >= self._depth:
                 self._queue.popleft()
                 self.dropped += 1
-            self._queue.append(batch)
+            self._queue.append(job)
             self._cond.notify()
         if self.dropped != self._dropped_reported and time.monotonic() >= self._next_warning:
             self._next_warning = time.monotonic() + WARN_EVERY_S
@@ -56,7 +55,12 @@ class Outbox:
                     self._cond.wait()
                 if not self._queue:
                     return
-                batch = self._queue.popleft()
+                job = self._queue.popleft()
+            try:
+                batch = job()
+            except Exception as exc:  # a loop whose messages cannot be built: say so, go on
+                self.log.error(f"building this loop's messages: {type(exc).__name__}: {exc}")
+                continue
             for publisher, value in batch:
                 try:
                     publisher.publish(value)

@@ -21,6 +21,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from dynamixel_handler_msgs.action import MoveJoints
 from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 
+from .. import units
 from ..commands import Commander
 from ..joints import JointMap, joint_map, resolve_targets
 from ..loop import Handler
@@ -135,7 +136,7 @@ class Motion:
         move = Move(targets, servo_deg, tolerance_deg if tolerance_deg > 0 else DEFAULT_TOLERANCE_DEG,
                     time.monotonic() + (timeout_s if timeout_s > 0 else DEFAULT_TIMEOUT_S))
         call_in_loop(self.h, "move", lambda: self._command(ids, servo_deg, velocity_deg_s))
-        # one loop later the goals are written: what was written is what the servos go to
+        # the goals as written (or about to be, this step): clamped values included
         goals = call_in_loop(self.h, "move (goals written)", lambda: self._goals(ids))
         move.goal_deg = goals
         for (i, name), want, got in zip(targets, servo_deg, goals):
@@ -174,8 +175,19 @@ class Motion:
                 self.commander.control(series, "position_control", batch_ids, fields)
 
     def _goals(self, ids: list[int]) -> list[float]:
-        goal = self.h.table.units("goal_position")
-        return [float(goal[self.h.table.index[i]]) if i in self.h.table else math.nan for i in ids]
+        """Goals the servos go to: written ones, or those still waiting for this step's write."""
+        table = self.h.table
+        goal = table.units("goal_position")
+        pending = self.h.pending.peek("goal_position")
+        out = []
+        for i in ids:
+            if i not in table:
+                out.append(math.nan)
+            elif i in pending:
+                out.append(float(units.pulse_to_unit([table.model(i)], "goal_position", [pending[i]])[0]))
+            else:
+                out.append(float(goal[table.index[i]]))
+        return out
 
     def probe(self, move: Move) -> tuple[list[float], list[bool]]:
         """Present positions [servo deg] and pings of the move's servos, as last read."""
