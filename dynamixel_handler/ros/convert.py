@@ -58,11 +58,16 @@ def present(table: ServoTable, keys: Iterable[str] | None = None) -> Tree:
     return msg
 
 
-def goal(table: ServoTable) -> Tree:
+def _in_units(table: ServoTable, fields: dict[str, str]) -> Tree:
+    """id_list and each item of ``fields`` (item -> message field) in physical units."""
     msg: Tree = {"id_list": u16(table.ids)}
-    for item, field in GOAL.items():
+    for item, field in fields.items():
         msg[field] = table.units(item)
     return msg
+
+
+def goal(table: ServoTable) -> Tree:
+    return _in_units(table, GOAL)
 
 
 def gain(table: ServoTable) -> Tree:
@@ -73,10 +78,7 @@ def gain(table: ServoTable) -> Tree:
 
 
 def limit(table: ServoTable) -> Tree:
-    msg: Tree = {"id_list": u16(table.ids)}
-    for item, field in LIMIT.items():
-        msg[field] = table.units(item)
-    return msg
+    return _in_units(table, LIMIT)
 
 
 def error(table: ServoTable) -> Tree:
