@@ -33,6 +33,7 @@ from node_run import GOAL_BASE, GOAL_CYCLE, SHIPPED_CONFIG, X_DEG_PER_PULSE, X_Z
 
 
 CONTROLLER = "controller: publish the command (not the node; subtracted)"
+WAIT = "sync read: wait, syscalls, reply parsing (+ bus wait)"
 
 
 class PartTimer:
@@ -94,6 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     from rclpy.publisher import Publisher
 
     from dynamixel_handler import units
+    from dynamixel_handler.bus import GroupRead
     from dynamixel_handler.ros import convert
     from dynamixel_handler.ros import node as node_module
     from dynamixel_handler.ros.cdr import Codec
@@ -126,8 +128,10 @@ def main(argv: list[str] | None = None) -> int:
 
     t = PartTimer()
     t.patch(handler, "_run_ops", "commands: queued op (validate, units -> pulses, pending)")
-    t.patch(handler, "_write_pending", "goal write: encode + sync write (packet, write syscall)")
-    t.patch(handler.bus, "sync_read", "sync read: packet, syscalls, reply parsing (+ bus wait)")
+    t.patch(handler, "_encode_pending", "goal write: encode")
+    t.patch(handler.bus, "sync_write", "goal write: sync write (packet, write syscall)")
+    t.patch(handler.bus, "start_sync_read", "sync read: packet, send")
+    t.patch(GroupRead, "result", WAIT)
     t.patch(handler, "_store", "decode + store in the servo table")
     t.patch(handler, "_plan", "read planning")
     t.patch(handler, "_update_ping", "ping bookkeeping")
@@ -194,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     total = sum(t.cpu.values())
     for label, value in t.cpu.most_common():
         print(f"{label:58s} {1e6 * value / loops:11.0f} {100 * value / total:5.1f}% {1e6 * t.wall[label] / loops:12.0f}")
-    wait = t.wall["sync read: packet, syscalls, reply parsing (+ bus wait)"] - t.cpu["sync read: packet, syscalls, reply parsing (+ bus wait)"]
+    wait = t.wall[WAIT] - t.cpu[WAIT]
     print(f"{'(of which sync read wall not on CPU: bus wait)':58s} {'':11s} {'':6s} {1e6 * wait / loops:12.0f}")
     if profiler:
         print()

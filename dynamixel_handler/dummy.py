@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from typing import Iterable, Mapping
 
-from .bus import DynamixelBus
+from .bus import DynamixelBus, GroupRead
 from .control_table import model_by_number
 from .sim.servo import CLEAR_KEY, VirtualServo
 
@@ -97,6 +97,13 @@ class BusWithDummies:
             if not error & 0x7F:
                 out[i] = data
         return out
+
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
+        """As ``DynamixelBus.start_sync_read``; a read that includes dummies is done at once."""
+        real, dummy = self._split(ids)
+        if not dummy and self._real_ok():
+            return self._bus.start_sync_read(address, length, real, fast)
+        return GroupRead.finished(self.sync_read(address, length, ids, fast))
 
     def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
         real = {i: d for i, d in data.items() if i not in self.dummies}

@@ -47,6 +47,13 @@ class StepReport:
     read_s: float = 0.0
     write_s: float = 0.0
     removed: list[int] = field(default_factory=list)
+    # the step's work between its phases (Handler.begin_step ... Handler.finish_step)
+    writes: dict[tuple[int, int], dict[int, bytes]] = field(default_factory=dict, repr=False)
+    reads: list[list] = field(default_factory=list, repr=False)   # [_Read, GroupRead, data or None]
+    recheck: list[int] = field(default_factory=list, repr=False)  # silent IDs pinged after the reads
+    silent: list[int] = field(default_factory=list, repr=False)   # IDs addressed that did not answer
+    seq: int = 0                                                  # ServoTable.seq when the reads went out
+    phase: int = 0                                                # 1 begun, 2 sent, 3 complete, 4 finished
 
 
 @dataclass(frozen=True)
@@ -335,7 +342,22 @@ class Handler:
 
     # ================================================================ the loop step
     def step(self) -> StepReport:
-        report = StepReport(loop=self.loop_count)
+        """One whole loop: queued operations, pending writes, the reads due, bookkeeping."""
+        report = self.begin_step()
+        self.send_step(report)
+        self.finish_step(report)
+        return report
+
+    # A step in four phases, so that a caller can overlap one loop's reads on the wire with work
+    # that needs no bus (the node takes the next commands and publishes the previous states then):
+    #   begin_step     reconnect, watchdog arming, queued operations, pending writes encoded
+    #   send_step      the writes, then the reads due; the last read is left on the wire
+    #   complete_step  its replies gathered, Fast Sync Read fallback, pings of silent servos, ping state
+    #   finish_step    replies stored in the table, read logs, tripped watchdogs re-armed
+    # Any bus transaction in between first waits for the read on the wire (``DynamixelBus``).
+    def begin_step(self) -> StepReport:
+        report = StepReport(loop=self.loop_count, phase=1)
+        self.loop_count += 1
         if self._had_device and not self.bus.is_open:
             self._reconnect(report)
         while self._to_arm:
@@ -344,16 +366,85 @@ class Handler:
                 self.arm_watchdog(dxl_id)
         self._run_ops()
         t0 = time.perf_counter()
-        self._write_pending()
+        report.writes = self._encode_pending()
+        report.write_s = time.perf_counter() - t0
+        return report
+
+    def send_step(self, report: StepReport) -> None:
+        report.phase = 2
+        t0 = time.perf_counter()
+        for (address, size), data in sorted(report.writes.items()):
+            if not self.bus.sync_write(address, size, data):
+                self.log.warning(f"sync write @{address}x{size} to IDs {sorted(data)} failed: {self.bus.last_failure}")
         t1 = time.perf_counter()
-        report.write_s = t1 - t0
+        report.write_s += t1 - t0
+        report.read_s = -t1
         report.stamp = time.time()
-        self._read_due(report)
-        report.read_s = time.perf_counter() - t1
+        report.seq = self.table.seq
+        if not len(self.table):
+            return
+        items, report.present, report.groups = self.due_items(report.loop)
+        live = self.table.ping.copy()
+        if items:
+            for read in self._plan(tuple(sorted(set(items))), live):
+                report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
+        # servos that stopped answering are pinged now and then, not read every loop
+        if report.loop % RECHECK_LOOPS == 0:
+            report.recheck = [self.table.ids[pos] for pos in np.flatnonzero(~live)]
+
+    @property
+    def reply_eta(self) -> float | None:
+        """``time.monotonic()`` by which the read left on the wire should be answered (None: none is)."""
+        return getattr(self.bus, "inflight_eta", None)
+
+    def complete_step(self, report: StepReport) -> None:
+        if report.phase >= 3:
+            return
+        if report.phase < 2:
+            self.send_step(report)
+        report.phase = 3
+        table = self.table
+        index = table.index
+        addressed = np.zeros(len(table), dtype=bool)
+        answered = np.zeros(len(table), dtype=bool)
+
+        def mark(flags: np.ndarray, ids) -> None:
+            for dxl_id in ids:
+                pos = index.get(dxl_id)
+                if pos is not None:  # an operation may have removed it meanwhile
+                    flags[pos] = True
+
+        for entry in report.reads:
+            read, pending, _ = entry
+            data = pending.result()
+            if read.fast and len(data) < len(read.ids):
+                data = self._read_plain(read, data)
+            self.stats_reads += 1
+            if len(data) == len(read.ids):
+                self.stats_full_reads += 1
+            entry[2] = data
+            mark(addressed, read.ids)
+            mark(answered, data)
+        for dxl_id in report.recheck:
+            mark(addressed, [dxl_id])
+            if dxl_id in index and self.bus.ping(dxl_id, retries=0) is not None:
+                mark(answered, [dxl_id])
+        report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
+        self._update_ping(addressed, answered, report)
+        report.read_s += time.perf_counter()
+
+    def finish_step(self, report: StepReport) -> None:
+        if report.phase >= 4:
+            return
+        self.complete_step(report)
+        report.phase = 4
+        for read, _, data in report.reads:
+            if data:
+                self._store(read, data, report.stamp, report.seq)
+        if len(self.table):
+            self._log_reads(report, report.silent)
         if "extra_dynamic" in report.groups:
             self.check_watchdogs()
-        self.loop_count += 1
-        return report
 
     def _reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second."""
@@ -395,10 +486,11 @@ class Handler:
                 self.arm_watchdog(dxl_id)
 
     # ---------------------------------------------------------------- writes
-    def _write_pending(self) -> None:
+    def _encode_pending(self) -> dict[tuple[int, int], dict[int, bytes]]:
+        """The pending values as sync writes ``{(address, size): {id: bytes}}``; the table takes them."""
         pending = self.pending.take()
         if not pending or not len(self.table):
-            return
+            return {}
         # (address, size) -> {item: {id: pulses}}: one sync write per item and layout
         writes: dict[tuple[int, int], dict[int, bytes]] = {}
         index = self.table.index
@@ -422,11 +514,10 @@ class Handler:
             if positions:
                 self.table.store(item, np.asarray(positions), np.asarray(written, dtype=np.int64),
                                  self.table.read_time.get(item, 0.0))
+                self.table.note_set(item, [self.table.ids[pos] for pos in positions])
         if not self.split_write:
             writes = _merge_adjacent_writes(writes)
-        for (address, size), data in sorted(writes.items()):
-            if not self.bus.sync_write(address, size, data):
-                self.log.warning(f"sync write @{address}x{size} to IDs {sorted(data)} failed: {self.bus.last_failure}")
+        return writes
 
     # ---------------------------------------------------------------- reads
     def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
@@ -438,35 +529,7 @@ class Handler:
             items += [i for i in GROUP_ITEMS[g] if i not in items]
         return items, present_keys, groups
 
-    def _read_due(self, report: StepReport) -> None:
-        if not len(self.table):
-            return
-        items, report.present, report.groups = self.due_items(self.loop_count)
-        live = self.table.ping.copy()
-        answered = np.zeros(len(self.table), dtype=bool)
-        addressed = np.zeros(len(self.table), dtype=bool)
-        if items:
-            for read in self._plan(tuple(sorted(set(items))), live):
-                addressed[read.positions] = True
-                data = self.bus.sync_read(read.address, read.length, read.ids, fast=read.fast)
-                if read.fast and len(data) < len(read.ids):
-                    data = self._read_plain(read, data)
-                self.stats_reads += 1
-                if len(data) == len(read.ids):
-                    self.stats_full_reads += 1
-                if data:
-                    self._store(read, data, report.stamp)
-                    answered[[self.table.index[i] for i in data]] = True
-        # servos that stopped answering are pinged now and then, not read every loop
-        if self.loop_count % RECHECK_LOOPS == 0:
-            for pos in np.flatnonzero(~live):
-                addressed[pos] = True
-                if self.bus.ping(self.table.ids[pos], retries=0) is not None:
-                    answered[pos] = True
-        self._update_ping(addressed, answered, report)
-        self._log_reads(report, addressed & ~answered)
-
-    def _log_reads(self, report: StepReport, silent: np.ndarray) -> None:
+    def _log_reads(self, report: StepReport, silent: list[int]) -> None:
         """verbose/read_<group>.{raw,err} and verbose/read_hardware_error, max_log_width IDs a line."""
         cfg, table = self.config, self.table
         groups = set(report.groups) | ({"present"} if report.present else set())
@@ -474,8 +537,8 @@ class Handler:
             key = "extra" if group.startswith("extra") else group
             if key == "error":
                 continue
-            if cfg.values.get(f"verbose/read_{key}.err") and silent.any():
-                self.log.warning(f"read {group}: no answer from IDs {[table.ids[p] for p in np.flatnonzero(silent)]}")
+            if cfg.values.get(f"verbose/read_{key}.err") and silent:
+                self.log.warning(f"read {group}: no answer from IDs {silent}")
             if cfg.values.get(f"verbose/read_{key}.raw"):
                 items = ([PRESENT[k][0] for k in sorted(report.present)] if group == "present"
                          else list(GROUP_ITEMS[group]))
@@ -553,9 +616,13 @@ class Handler:
         self._plans[key] = plan
         return plan
 
-    def _store(self, read: _Read, data: dict[int, bytes], stamp: float) -> None:
-        ok_ids = [i for i in read.ids if i in data]
-        positions = np.fromiter((self.table.index[i] for i in ok_ids), dtype=np.int64, count=len(ok_ids))
+    def _store(self, read: _Read, data: dict[int, bytes], stamp: float, seq: int | None = None) -> None:
+        """Store replies; values the host set after the read went out (sequence ``seq``) are newer and kept."""
+        index = self.table.index
+        ok_ids = [i for i in read.ids if i in data and i in index]  # an operation may have removed one meanwhile
+        if not ok_ids:
+            return
+        positions = np.fromiter((index[i] for i in ok_ids), dtype=np.int64, count=len(ok_ids))
         buf = np.frombuffer(b"".join(data[i] for i in ok_ids), dtype=np.uint8).reshape(len(ok_ids), read.length)
         for part in read.parts:
             cols = buf[:, part.offset:part.offset + part.size].astype(np.int64)
@@ -563,7 +630,12 @@ class Handler:
             if part.signed:
                 half = np.int64(1) << (8 * part.size - 1)
                 values = np.where(values >= half, values - 2 * half, values)
-            self.table.store(part.item, positions, values, stamp)
+            newer = self.table.newer_than(part.item, ok_ids, seq) if seq is not None else []
+            if newer:
+                keep = np.array([i not in newer for i in ok_ids])
+                self.table.store(part.item, positions[keep], values[keep], stamp)
+            else:
+                self.table.store(part.item, positions, values, stamp)
 
     # ================================================================ shutdown
     def shutdown(self) -> None:

@@ -31,6 +31,11 @@ class ServoTable:
         self.no_response = np.zeros(0, dtype=np.int64)
         self.version = 0  # bumps whenever the set of servos changes
         self._units: dict[str, np.ndarray] = {}  # item -> units of the values now held
+        # values the host set itself (written, or read one by one): a sequence number per
+        # (item, ID), so a group read sent before them never overwrites them (``newer_than``)
+        self.seq = 0
+        self._set_at: dict[tuple[str, int], int] = {}
+        self._item_set_at: dict[str, int] = {}
 
     # -------------------------------------------------------------- membership
     def __len__(self) -> int:
@@ -68,6 +73,7 @@ class ServoTable:
             self._known[name] = np.delete(self._known[name], pos)
         self.ping = np.delete(self.ping, pos)
         self.no_response = np.delete(self.no_response, pos)
+        self._set_at = {key: seq for key, seq in self._set_at.items() if key[1] != dxl_id}
         self._reindex()
 
     def _reindex(self) -> None:
@@ -98,12 +104,27 @@ class ServoTable:
         snap.read_time = dict(self.read_time)
         snap.ping, snap.no_response = self.ping.copy(), self.no_response.copy()
         snap.version = self.version
+        snap.seq, snap._set_at, snap._item_set_at = self.seq, {}, {}
         return snap
 
     def set_value(self, item: str, dxl_id: int, pulses: int) -> None:
-        """Record a value known without a read (e.g. one just written and confirmed)."""
+        """Record a value known without a group read (e.g. one just written and confirmed)."""
         pos = self.index[dxl_id]
         self.store(item, np.array([pos]), np.array([pulses], dtype=np.int64), self.read_time.get(item, 0.0))
+        self.note_set(item, (dxl_id,))
+
+    def note_set(self, item: str, ids: Iterable[int]) -> None:
+        """``item`` of ``ids`` was just set by the host: group reads sent before keep off it."""
+        self.seq += 1
+        for dxl_id in ids:
+            self._set_at[(item, dxl_id)] = self.seq
+        self._item_set_at[item] = self.seq
+
+    def newer_than(self, item: str, ids: Sequence[int], seq: int) -> list[int]:
+        """Those of ``ids`` whose ``item`` the host set after sequence number ``seq``."""
+        if self._item_set_at.get(item, 0) <= seq:
+            return []
+        return [i for i in ids if self._set_at.get((item, i), 0) > seq]
 
     def pulses(self, item: str) -> np.ndarray:
         """Last pulses of ``item`` per servo (0 where never read)."""

@@ -45,6 +45,10 @@ BROADCAST_SCAN_MIN_IDS = 5
 #: Time slot each ID gets in a broadcast ping reply train, on top of its packet's wire time.
 BROADCAST_PING_SLOT_MS = 3.0
 _PING_REPLY_PARAMS = 3
+#: sync read packets kept built (the loop asks for the same few reads over and over)
+_PACKET_CACHE_SIZE = 64
+#: cap of the learnt reply lag [s]
+_MAX_REPLY_LAG_S = 0.02
 
 
 @dataclass
@@ -122,6 +126,11 @@ class DynamixelBus:
         self._port = SerialPort(device, baudrate, latency_timer_ms, log=self._log)
         self._lock = threading.RLock()
         self._ever_opened = False
+        self._inflight: GroupRead | None = None  # a sync read sent but not yet gathered
+        self._wire_free_at = 0.0
+        #: how much later than their wire time replies arrive (learnt, seconds)
+        self.reply_lag_s = 0.0
+        self._packets: dict[tuple, bytes] = {}  # sync read packets by (address, length, ids, fast)
 
     # ------------------------------------------------------------------ lifecycle
     @property
@@ -256,13 +265,26 @@ class DynamixelBus:
         instruction is retried only when nobody answered. ``fast`` uses Fast Sync Read
         (X firmware 45+, P 12+): one unstuffed reply for all servos.
         """
-        order = _unique_ids(ids)
+        return self.start_sync_read(address, length, ids, fast).result()
+
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> "GroupRead":
+        """Send a sync read and return at once; ``result()`` of the returned read waits for the
+        replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
+        bus; any other transaction first waits for this read to end, so none is ever lost.
+        """
+        order = tuple(_unique_ids(ids))
         if not order:
-            return {}
-        instruction = p.INST_FAST_SYNC_READ if fast else p.INST_SYNC_READ
-        packet = p.build_instruction(p.BROADCAST_ID, instruction, p.sync_read_params(address, length, order))
-        return self._group_read(packet, [(i, length) for i in order], fast,
-                                f"{'fast ' if fast else ''}sync read @{address}x{length}")
+            return GroupRead.finished({})
+        key = (address, length, order, fast)
+        packet = self._packets.get(key)
+        if packet is None:
+            instruction = p.INST_FAST_SYNC_READ if fast else p.INST_SYNC_READ
+            packet = p.build_instruction(p.BROADCAST_ID, instruction, p.sync_read_params(address, length, order))
+            if len(self._packets) >= _PACKET_CACHE_SIZE:
+                self._packets.clear()
+            self._packets[key] = packet
+        return self._start_group_read(packet, [(i, length) for i in order], fast,
+                                      f"{'fast ' if fast else ''}sync read @{address}x{length}")
 
     def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:
         """Different ``(address, size)`` per servo in one instruction; returns the IDs that answered."""
@@ -323,26 +345,78 @@ class DynamixelBus:
     # ------------------------------------------------------------------ internals
     def _group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
                     what: str) -> dict[int, bytes]:
-        with self._transaction() as tx:
-            got: dict[int, p.Status] = {}
-            for attempt in range(1 + self.retry_num):
-                if attempt:
+        return self._start_group_read(packet, expected, fast, what).result()
+
+    def _start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
+                          what: str) -> "GroupRead":
+        with self._lock:
+            self._settle()
+            read = GroupRead(self, packet, expected, fast, what)
+            read.sent = self._send_or_lose(packet)
+            if read.sent:
+                read.reply_bytes = (8 + sum(size + 4 for _, size in expected) if fast
+                                    else sum(p.STATUS_OVERHEAD + size for _, size in expected))
+                read.eta = min(self._wire_free_at + read.reply_bytes * self._port.tx_ms_per_byte / 1000.0
+                               + self.reply_lag_s,
+                               read.started + self.reply_timeout_ms(len(packet), read.reply_bytes) / 1000.0)
+                self._inflight = read
+            return read
+
+    def _finish_group_read(self, read: "GroupRead") -> None:
+        """Gather the replies of ``read`` (retrying the instruction when nobody answered)."""
+        with self._lock:
+            if read.done:
+                return
+            if self._inflight is read:
+                self._inflight = None
+            data: dict[int, bytes] = {}
+            try:
+                waited = read.sent and self._port.waiting() < read.reply_bytes
+                replies = self._gather(read.expected, len(read.packet), read.fast, read.started) if read.sent else None
+                if replies is not None and len(replies) == len(read.expected):
+                    self._learn_lag(read, waited)
+                for _ in range(self.retry_num):
+                    if replies is None or replies:
+                        break
                     self._pause_before_retry()
-                replies = self._exchange(packet, expected, fast)
-                if replies is None:
-                    break
-                got = replies
-                if got:
-                    break
-            data = {i: s.params for i, s in got.items() if not s.refused}
-            if data:
-                tx.ok(len(data), len(expected))
-            else:
-                tx.fail(f"{what}: no servo answered")
-            missing = [i for i, _ in expected if i not in data]
-            if missing and data and self.verbose:
-                self._log("warning", f"{what}: no valid reply from ID {missing}")
-            return {i: data[i] for i, _ in expected if i in data}
+                    replies = self._exchange(read.packet, read.expected, read.fast)
+                data = {i: s.params for i, s in (replies or {}).items() if not s.refused}
+                if data:
+                    self.stats.successes += 1
+                    if len(data) >= len(read.expected):
+                        self.stats.full_successes += 1
+                else:
+                    self.last_failure = f"{read.what}: no servo answered"
+                    if self.verbose:
+                        self._log("warning", self.last_failure)
+                missing = [i for i, _ in read.expected if i not in data]
+                if missing and data and self.verbose:
+                    self._log("warning", f"{read.what}: no valid reply from ID {missing}")
+            finally:
+                self.stats.transactions += 1
+                self.stats.time_s += time.monotonic() - read.started
+                read.finish({i: data[i] for i, _ in read.expected if i in data})
+
+    def _learn_lag(self, read: "GroupRead", waited: bool) -> None:
+        """Track how much later than their wire time replies arrive (adapter latency, the servos'
+        return delay, scheduling), so ``eta`` of the next read is right: from reads that were
+        waited for; a reply that was already complete when asked for pulls the estimate down."""
+        if waited:
+            late = max(0.0, time.monotonic() - (read.eta - self.reply_lag_s))
+            self.reply_lag_s += 0.2 * (min(late, _MAX_REPLY_LAG_S) - self.reply_lag_s)
+        else:
+            self.reply_lag_s *= 0.8
+
+    def _settle(self) -> None:
+        """End a read left in flight before anything else goes on the wire."""
+        if self._inflight is not None:
+            self._finish_group_read(self._inflight)
+
+    @property
+    def inflight_eta(self) -> float | None:
+        """``time.monotonic()`` by which the replies of the read in flight should be in, or None."""
+        read = self._inflight
+        return read.eta if read is not None else None
 
     def _broadcast_txn(self, packet: bytes, what: str) -> bool:
         with self._transaction() as tx:
@@ -412,15 +486,24 @@ class DynamixelBus:
         """Send ``packet`` and gather the expected replies; None if the port is unusable."""
         if not self._send_or_lose(packet):
             return None
+        return self._gather(expected, len(packet), fast)
+
+    def _gather(self, expected: list[tuple[int, int]], tx_bytes: int, fast: bool,
+                sent_at: float | None = None) -> dict[int, p.Status] | None:
+        """The replies to a packet sent at ``sent_at`` (default: just now); None if the port is unusable."""
         if not expected:
             return {}
+        sent_at = time.monotonic() if sent_at is None else sent_at
         try:
             if fast:
-                return self._receive_fast(expected, len(packet))
-            return self._receive(expected, len(packet))
+                return self._receive_fast(expected, tx_bytes, sent_at)
+            return self._receive(expected, tx_bytes, sent_at)
         except (OSError, serial.SerialException) as exc:
             self._lose(exc)
             return None
+        finally:
+            # what was sent before has been answered (or timed out): the line is free now
+            self._wire_free_at = min(self._wire_free_at, time.monotonic())
 
     def _send_or_lose(self, packet: bytes) -> bool:
         if not self._ever_opened:
@@ -435,9 +518,12 @@ class DynamixelBus:
             return False
         self.stats.packets_sent += 1
         self.stats.bytes_tx += len(packet)
+        # when the line is free again: packets sent back to back queue behind each other
+        self._wire_free_at = (max(time.monotonic(), self._wire_free_at)
+                              + len(packet) * self._port.tx_ms_per_byte / 1000.0)
         return True
 
-    def _receive(self, expected: list[tuple[int, int]], tx_bytes: int) -> dict[int, p.Status]:
+    def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float) -> dict[int, p.Status]:
         """Collect stuffed status packets, one per expected ID, each with its own wait.
 
         The first reply gets the full timeout (our packet's wire time included); each
@@ -449,7 +535,7 @@ class DynamixelBus:
         first_ms = self.reply_timeout_ms(tx_bytes, largest)
         gap_s = self.reply_timeout_ms(0, largest) / 1000.0
         self.last_timeout_ms = first_ms
-        deadline = time.monotonic() + first_ms / 1000.0
+        deadline = sent_at + first_ms / 1000.0
         stream = p.StatusStream()
         got: dict[int, p.Status] = {}
         while pending:
@@ -474,14 +560,14 @@ class DynamixelBus:
         self.stats.discarded_bytes += stream.discarded_bytes
         return got
 
-    def _receive_fast(self, expected: list[tuple[int, int]], tx_bytes: int) -> dict[int, p.Status]:
+    def _receive_fast(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float) -> dict[int, p.Status]:
         """Collect the single unstuffed fast-read reply and split it by position."""
         reply = p.FastReply(expected)
         total = 8 + sum(size + 4 for _, size in expected)
         first_ms = self.reply_timeout_ms(tx_bytes, total)
         gap_s = self.reply_timeout_ms(0, 4 + max(size for _, size in expected)) / 1000.0
         self.last_timeout_ms = first_ms
-        deadline = time.monotonic() + first_ms / 1000.0
+        deadline = sent_at + first_ms / 1000.0
         while not reply.complete:
             data = self._port.read_until(deadline, total - reply.received_bytes)
             if not data:
@@ -535,6 +621,7 @@ class DynamixelBus:
     @contextmanager
     def _transaction(self) -> Iterator["_Outcome"]:
         with self._lock:
+            self._settle()
             start = time.monotonic()
             outcome = _Outcome(self)
             try:
@@ -542,6 +629,42 @@ class DynamixelBus:
             finally:
                 self.stats.transactions += 1
                 self.stats.time_s += time.monotonic() - start
+
+
+class GroupRead:
+    """A sync read on the wire: ``result()`` waits for its replies (once; later calls return the
+    same dict). ``eta`` is when they should be in (``time.monotonic()``)."""
+
+    def __init__(self, bus: DynamixelBus | None, packet: bytes, expected: list[tuple[int, int]], fast: bool,
+                 what: str) -> None:
+        self._bus = bus
+        self.packet = packet
+        self.expected = expected
+        self.fast = fast
+        self.what = what
+        self.sent = False
+        self.reply_bytes = 0
+        self.started = time.monotonic()
+        self.eta = self.started
+        self._data: dict[int, bytes] | None = None
+
+    @classmethod
+    def finished(cls, data: dict[int, bytes]) -> "GroupRead":
+        read = cls(None, b"", [], False, "")
+        read._data = data
+        return read
+
+    @property
+    def done(self) -> bool:
+        return self._data is not None
+
+    def finish(self, data: dict[int, bytes]) -> None:
+        self._data = data
+
+    def result(self) -> dict[int, bytes]:
+        if self._data is None:
+            self._bus._finish_group_read(self)
+        return self._data  # type: ignore[return-value]
 
 
 class _Outcome:

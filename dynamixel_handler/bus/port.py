@@ -165,6 +165,13 @@ class SerialPort:
                 return dropped
             dropped += len(self._port.readPort(waiting))
 
+    def waiting(self) -> int:
+        """Bytes in the input buffer now (0 if the port is closed or gone)."""
+        try:
+            return self._port.ser.in_waiting if self.is_open else 0
+        except (OSError, serial.SerialException, AttributeError):
+            return 0
+
     def write(self, packet: bytes) -> None:
         written = self._port.writePort(packet)
         if written != len(packet):

@@ -44,6 +44,10 @@ RAW_CHECKED = (DxlStates, DynamixelDebug, DynamixelStatus, DynamixelPresent, Dyn
                DynamixelLimit, DynamixelError, DynamixelExtra, *COMMAND_TYPES)
 #: longest time (s) a thread that wants the interpreter lock waits for a busy one to give it up
 SWITCH_INTERVAL_S = 0.0002
+#: running flat out, the next commands are taken this long (plus 1.5 x the time that takes) before
+#: the replies of the read on the wire are due, at most MAX_EARLY_S before [s]
+EARLY_MARGIN_S = 0.0002
+MAX_EARLY_S = 0.002
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
 
@@ -194,30 +198,50 @@ class DynamixelHandlerNode(Node):
 
     # ------------------------------------------------------------------ the loop thread
     def _run(self) -> None:
+        """The loop. Running flat out (a loop takes longer than a period), each loop's last read is
+        left on the wire while the previous loop's states are stored and published and, shortly
+        before its replies are due, the next commands are taken and encoded: the bus then waits on
+        the wire only, not on Python. With time to spare in a period, each loop ends before the
+        sleep, so states go out as soon as they are read."""
         period = 1.0 / self.config["loop_rate"]
         verbose_ratio = self.config["verbose_ratio"]
         next_t = time.monotonic()
         window_start, window_loops, window_read = time.monotonic(), 0, 0.0
         stats_before = self.wire.stats.copy()
         failures = 0
+        prev: StepReport | None = None  # a loop whose last read is still on the wire
+        begin_s = 0.0                   # how long taking commands and beginning a step takes (average)
         while not self._stop.is_set():
+            finished = None
             try:
                 if self._injected_faults > 0:
                     self._injected_faults -= 1
                     raise RuntimeError(f"fault injected by {INJECT_ENV}")
+                t0 = time.monotonic()
                 self.intake.poll()
-                report = self.handler.step()
-                self._publish(report)
-                for hook in self.step_hooks:
-                    hook(report)
-                if self.external_ports is not None:
-                    self._publish_external(self.external_ports.step())
+                report = self.handler.begin_step()
+                begin_s += 0.2 * (time.monotonic() - t0 - begin_s)
+                if prev is not None:
+                    self.handler.complete_step(prev)
+                reading = self.external_ports.step() if self.external_ports is not None else None
+                self.handler.send_step(report)
+                if prev is not None:
+                    finished, prev = prev, None
+                    self._end_step(finished)
+                prev = report
+                if reading is not None:
+                    self._publish_external(reading)
+                next_t += period
+                if next_t > time.monotonic() or self.handler.reply_eta is None:
+                    finished, prev = prev, None  # time to spare: this loop ends now, then the sleep
+                    self._end_step(finished)
                 failures = 0
             except Exception as exc:  # keep the loop alive; the context says where it broke
                 failures += 1
+                prev = None
+                next_t += period
                 self.get_logger().error(
                     f"loop {self.handler.loop_count}: {type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
-                report = None
                 if failures >= MAX_LOOP_FAILURES:
                     self.get_logger().fatal(f"the loop failed {failures} times in a row: shutting down safely")
                     self.failed = True
@@ -226,8 +250,8 @@ class DynamixelHandlerNode(Node):
                         self.on_failure()
                     return
             window_loops += 1
-            if report is not None:
-                window_read += report.read_s
+            if finished is not None:
+                window_read += finished.read_s
             if verbose_ratio and window_loops >= verbose_ratio:
                 elapsed = time.monotonic() - window_start
                 delta = self.wire.stats.delta(stats_before)
@@ -236,12 +260,31 @@ class DynamixelHandlerNode(Node):
                     f"success={100 * delta.success_rate:.1f}%(full={100 * delta.full_success_rate:.1f}%)")
                 window_start, window_loops, window_read = time.monotonic(), 0, 0.0
                 stats_before = self.wire.stats.copy()
-            next_t += period
-            delay = next_t - time.monotonic()
-            if delay > 0:
-                self._stop.wait(delay)
+            now = time.monotonic()
+            if prev is None:
+                if next_t > now:
+                    self._stop.wait(next_t - now)
+                else:
+                    next_t = now  # overran: start the next loop now, don't try to catch up
             else:
-                next_t = time.monotonic()  # overran: start the next loop now, don't try to catch up
+                next_t = now
+                eta = self.handler.reply_eta
+                if eta is not None:  # take the next commands as late as the replies allow
+                    wake = eta - min(MAX_EARLY_S, 1.5 * begin_s + EARLY_MARGIN_S)
+                    if wake > now:
+                        self._stop.wait(wake - now)
+        if prev is not None:
+            try:
+                self.handler.complete_step(prev)  # nothing stays on the wire once the loop has stopped
+            except Exception as exc:
+                self.get_logger().warning(f"last read: {type(exc).__name__}: {exc}")
+
+    def _end_step(self, report: StepReport) -> None:
+        """Store and log what a loop read, hand its messages to the publishing thread, run the hooks."""
+        self.handler.finish_step(report)
+        self._publish(report)
+        for hook in self.step_hooks:
+            hook(report)
 
     def _publish_external(self, reading) -> None:
         if reading is None:
