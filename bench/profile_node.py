@@ -57,6 +57,7 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
 BLOCKED: list[tuple[str, str]] = [
     ("SerialPort.read_until", "bus wait (blocked in select on the port)"),
     ("_pause_before_retry", "retry pause after a failed transaction (dyn_comm/inerval_msec)"),
+    ("CommandIntake.wait", "loop sleep until next period (woken by a command)"),
 ]
 
 

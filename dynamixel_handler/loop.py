@@ -48,7 +48,6 @@ class StepReport:
     write_s: float = 0.0
     removed: list[int] = field(default_factory=list)
     # the step's work between its phases (Handler.begin_step ... Handler.finish_step)
-    writes: dict[tuple[int, int], dict[int, bytes]] = field(default_factory=dict, repr=False)
     reads: list[list] = field(default_factory=list, repr=False)   # [_Read, GroupRead, data or None]
     recheck: list[int] = field(default_factory=list, repr=False)  # silent IDs pinged after the reads
     silent: list[int] = field(default_factory=list, repr=False)   # IDs addressed that did not answer
@@ -350,14 +349,20 @@ class Handler:
 
     # A step in four phases, so that a caller can overlap one loop's reads on the wire with work
     # that needs no bus (the node takes the next commands and publishes the previous states then):
-    #   begin_step     reconnect, watchdog arming, queued operations, pending writes encoded
-    #   send_step      the writes, then the reads due; the last read is left on the wire
+    #   begin_step     reconnect, watchdog arming, queued operations (``prepare``)
+    #   send_step      the pending writes, then the reads due; the last read is left on the wire
     #   complete_step  its replies gathered, Fast Sync Read fallback, pings of silent servos, ping state
     #   finish_step    replies stored in the table, read logs, tripped watchdogs re-armed
     # Any bus transaction in between first waits for the read on the wire (``DynamixelBus``).
     def begin_step(self) -> StepReport:
         report = StepReport(loop=self.loop_count, phase=1)
         self.loop_count += 1
+        self.prepare(report)
+        return report
+
+    def prepare(self, report: StepReport) -> None:
+        """Reopen a vanished device, arm watchdogs, run the queued operations (commands). Called
+        by ``begin_step``, and again before ``send_step`` for commands that came meanwhile."""
         if self._had_device and not self.bus.is_open:
             self._reconnect(report)
         while self._to_arm:
@@ -365,20 +370,24 @@ class Handler:
             if dxl_id in self.table:
                 self.arm_watchdog(dxl_id)
         self._run_ops()
+
+    def apply_now(self) -> None:
+        """Between loops: run the queued operations and write what they left pending at once."""
+        report = StepReport(loop=self.loop_count)
+        self.prepare(report)
+        self._send_writes(report)
+
+    def _send_writes(self, report: StepReport) -> None:
         t0 = time.perf_counter()
-        report.writes = self._encode_pending()
-        report.write_s = time.perf_counter() - t0
-        return report
+        for (address, size), data in sorted(self._encode_pending().items()):
+            if not self.bus.sync_write(address, size, data):
+                self.log.warning(f"sync write @{address}x{size} to IDs {sorted(data)} failed: {self.bus.last_failure}")
+        report.write_s += time.perf_counter() - t0
 
     def send_step(self, report: StepReport) -> None:
         report.phase = 2
-        t0 = time.perf_counter()
-        for (address, size), data in sorted(report.writes.items()):
-            if not self.bus.sync_write(address, size, data):
-                self.log.warning(f"sync write @{address}x{size} to IDs {sorted(data)} failed: {self.bus.last_failure}")
-        t1 = time.perf_counter()
-        report.write_s += t1 - t0
-        report.read_s = -t1
+        self._send_writes(report)
+        report.read_s = -time.perf_counter()
         report.stamp = time.time()
         report.seq = self.table.seq
         if not len(self.table):

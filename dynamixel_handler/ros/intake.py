@@ -15,7 +15,11 @@ left to the executor and their callbacks do the same work (``detached`` is False
 from __future__ import annotations
 
 import threading
+import time
+from contextlib import ExitStack
 from typing import Any, Callable
+
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
 from rclpy.node import Node
 
@@ -35,6 +39,8 @@ class CommandIntake:
         self._lock = threading.Lock()  # poll() and close() may come from different threads
         self.taken = 0
         self.undecodable = 0
+        self._wait_set = None
+        self._wait_size = 0
 
     def subscribe(self, typ, topic: str, handler: Handler, depth: int = 10) -> None:
         """``handler`` gets the message as a nested dict (``cdr.Codec.decode``'s form)."""
@@ -75,6 +81,27 @@ class CommandIntake:
         self.taken += len(batch)
         return len(batch)
 
+    def wait(self, timeout_s: float) -> bool:
+        """Block, without holding the interpreter lock, until a message waits on a command topic or
+        ``timeout_s`` passes; True if one waits. Without detached subscriptions: sleeps, False."""
+        if not self.detached or not self._entries:
+            time.sleep(max(0.0, timeout_s))
+            return False
+        with self._lock, ExitStack() as stack:
+            handles = [entry[0].handle for entry in self._entries]
+            for handle in handles:
+                stack.enter_context(handle)  # kept valid while waited on
+            stack.enter_context(self.node.context.handle)
+            if self._wait_set is None or self._wait_size != len(handles):
+                self._wait_set = _rclpy.WaitSet(len(handles), 0, 0, 0, 0, 0, self.node.context.handle)
+                self._wait_size = len(handles)
+            wait_set = self._wait_set
+            wait_set.clear_entities()
+            for handle in handles:
+                wait_set.add_subscription(handle)
+            wait_set.wait(max(0, int(timeout_s * 1e9)))
+            return bool(wait_set.get_ready_entities("subscription"))
+
     def _value(self, codec: Codec, msg, topic: str) -> dict[str, Any] | None:
         if not self.raw:
             return codec.from_message(msg)
@@ -92,6 +119,7 @@ class CommandIntake:
 
     def close(self) -> None:
         with self._lock:
+            self._wait_set = None
             for sub, *_ in self._entries:
                 try:
                     sub.destroy()

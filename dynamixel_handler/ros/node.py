@@ -48,6 +48,10 @@ SWITCH_INTERVAL_S = 0.0002
 #: the replies of the read on the wire are due, at most MAX_EARLY_S before [s]
 EARLY_MARGIN_S = 0.0002
 MAX_EARLY_S = 0.002
+#: between loops, a command is written at once unless the next loop starts within this time [s]
+EARLY_WRITE_MIN_S = 0.0005
+#: longest wait for a command before the loop looks at its stop flag again [s]
+STOP_CHECK_S = 0.1
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
 
@@ -223,6 +227,8 @@ class DynamixelHandlerNode(Node):
                 begin_s += 0.2 * (time.monotonic() - t0 - begin_s)
                 if prev is not None:
                     self.handler.complete_step(prev)
+                    if self.intake.poll():  # commands that came while the replies were due
+                        self.handler.prepare(report)
                 reading = self.external_ports.step() if self.external_ports is not None else None
                 self.handler.send_step(report)
                 if prev is not None:
@@ -263,7 +269,7 @@ class DynamixelHandlerNode(Node):
             now = time.monotonic()
             if prev is None:
                 if next_t > now:
-                    self._stop.wait(next_t - now)
+                    self._sleep_until(next_t)
                 else:
                     next_t = now  # overran: start the next loop now, don't try to catch up
             else:
@@ -278,6 +284,25 @@ class DynamixelHandlerNode(Node):
                 self.handler.complete_step(prev)  # nothing stays on the wire once the loop has stopped
             except Exception as exc:
                 self.get_logger().warning(f"last read: {type(exc).__name__}: {exc}")
+
+    def _sleep_until(self, t: float) -> None:
+        """Sleep until the next loop. The first command that arrives meanwhile is applied at once
+        (its sync write does not wait for the next loop); later ones in the same period wait for
+        the loop, so commands add at most one write per period to the bus."""
+        while not self._stop.is_set():
+            remaining = t - time.monotonic()
+            if remaining <= EARLY_WRITE_MIN_S:
+                break
+            if self.intake.wait(min(remaining, STOP_CHECK_S)) and self.intake.poll():
+                try:
+                    self.handler.apply_now()
+                except Exception as exc:  # as in the loop: logged, never fatal
+                    self.get_logger().error(f"applying a command between loops: {type(exc).__name__}: {exc}\n"
+                                            f"{traceback.format_exc(limit=4)}")
+                break
+        remaining = t - time.monotonic()
+        if remaining > 0:
+            self._stop.wait(remaining)
 
     def _end_step(self, report: StepReport) -> None:
         """Store and log what a loop read, hand its messages to the publishing thread, run the hooks."""

@@ -1,0 +1,180 @@
+"""The loop's overlap of wire and work, and commands written between loops.
+
+Running flat out, the node leaves each loop's last read on the wire while it publishes the previous
+states and takes the next commands; at lower rates it writes the first command of a period at once
+instead of at the next loop. These tests check what a user relies on meanwhile: a read in flight is
+never mixed up with another transaction, values set after a read went out are never overwritten by
+its older data, every command reaches the servos in order and the last one stays, and a command
+between loops does not wait for the next loop.
+"""
+from __future__ import annotations
+
+import struct
+import time
+
+import pytest
+
+from dynamixel_handler.bus import DynamixelBus
+from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.loop import Handler
+from dynamixel_handler.sim import VirtualBus
+from dynamixel_handler_msgs.msg import DxlCommandsX
+
+from core_helpers import FAST_SYNC_READ, SYNC_READ, SYNC_WRITE, XM430, Bench
+
+GOAL_POSITION, PRESENT_POSITION, OPERATING_MODE = 116, 132, 11  # X series (e-Manual)
+X_DEG = 360 / 4096
+
+
+def goals_written(entries, address: int = GOAL_POSITION) -> list[tuple[float, dict[int, int]]]:
+    """(time, {id: value}) of every 4-byte sync write at ``address``, in wire order."""
+    out = []
+    for e in entries:
+        if e.instruction != SYNC_WRITE or e.address != address:
+            continue
+        prm, length = e.params, e.length
+        out.append((e.time, {prm[k]: struct.unpack_from("<i", prm, k + 1)[0] for k in range(4, len(prm), 1 + length)}))
+    return out
+
+
+# ============================================================================ the bus
+@pytest.fixture
+def timed_bus():
+    """Four X servos on a virtual bus with wire timing (1 Mbps), and our bus opened on it."""
+    sim = VirtualBus({i: XM430 for i in range(1, 5)}, baudrate=1_000_000)
+    path = sim.start()
+    bus = DynamixelBus(path, 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus.open()
+    yield sim, bus
+    bus.close()
+    sim.close()
+
+
+def test_a_read_left_on_the_wire_is_gathered_before_any_other_transaction(timed_bus):
+    sim, bus = timed_bus
+    for i in range(1, 5):
+        sim.servo(i).write("goal_position", 1000 + i)
+    read = bus.start_sync_read(GOAL_POSITION, 4, [1, 2, 3, 4])
+    assert not read.done and bus.inflight_eta is not None and bus.inflight_eta > time.monotonic() - 0.001
+    # a unicast read issued while the sync read is on the wire: it must get its own reply, and the
+    # sync read must keep all four of its replies (the input flush before a packet would drop them)
+    mode = bus.read(2, OPERATING_MODE, 1)
+    assert read.done and bus.inflight_eta is None
+    assert mode == bytes([3])
+    assert {i: int.from_bytes(d, "little") for i, d in read.result().items()} == {i: 1000 + i for i in range(1, 5)}
+    assert read.result() is read.result()  # gathered once
+    names = [e.name for e in sim.log]
+    assert names[-2:] == ["sync_read", "read"]
+    assert bus.stats.timeouts == 0 and bus.stats.discarded_bytes == 0
+
+
+def test_a_read_in_flight_with_a_silent_servo_still_returns_the_others(timed_bus):
+    sim, bus = timed_bus
+    sim.servo(3).silent = True
+    read = bus.start_sync_read(PRESENT_POSITION, 4, [1, 2, 3, 4])
+    assert sorted(read.result()) == [1, 2, 4]
+    assert bus.inflight_eta is None
+
+
+def test_host_values_set_after_a_read_went_out_are_not_overwritten_by_it(timed_bus):
+    sim, bus = timed_bus
+    config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
+                       "pub_ratio/goal": 1, "pub_ratio/status": 1})
+    handler = Handler(bus, config)
+    handler.start()
+    report = handler.begin_step()
+    handler.send_step(report)                  # reads the goal group: goal position 2048 everywhere
+    assert bus.inflight_eta is not None        # the last read is still on the wire
+    assert handler.write_item(1, "goal_position", 3000)
+    handler.finish_step(report)
+    assert handler.table.value("goal_position", 1) == 3000  # newer than the read: kept
+    assert handler.table.value("goal_position", 2) == 2048  # from the read
+    assert sim.servo(1).read("goal_position") == 3000
+    handler.step()                             # the next read sees the servo's register
+    assert handler.table.value("goal_position", 1) == 3000
+
+
+# ============================================================================ the node, flat out
+def test_flat_out_every_command_reaches_the_wire_in_order_and_the_last_one_stays():
+    """loop_rate 2000 on a timed 1 Mbps bus of 6 servos: every loop overruns its period, so each
+    loop's read is left on the wire while the previous states go out and the next commands come in."""
+    ids = list(range(1, 7))
+    bench = Bench("loop_rate:=2000", "baudrate:=1000000", "method/fast_read:=true", "pub_ratio/present.current:=1",
+                  "pub_ratio/present.velocity:=1", "pub_ratio/present.position:=1", "pub_ratio/status:=50",
+                  "pub_ratio/goal:=50", "mode_change_interval_sec:=0.0", servos={i: XM430 for i in ids})
+    try:
+        bench.sim.baudrate = 1_000_000            # wire timing from now on (the scan ran untimed)
+        pub = bench.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 100)
+        bench.wait(lambda: pub.get_subscription_count() > 0, what="the node subscribing")
+        start = time.monotonic()
+        sent: list[float] = []
+        msg = DxlCommandsX()
+        msg.position_control.id_list = ids
+        seen = 0
+        while len(sent) < 300 and time.monotonic() - start < 30:
+            n = len(bench.topics["states"])
+            if n == seen:                          # one command per state message, as a controller would
+                time.sleep(0.0002)
+                continue
+            seen = n
+            deg = 10.0 + 0.05 * len(sent)          # increasing: the wire order must follow
+            sent.append(deg)
+            msg.position_control.position_deg = [deg + 0.01 * i for i in ids]
+            pub.publish(msg)
+        assert len(sent) == 300, f"only {len(sent)} states in 30 s"
+        last = {i: 2048 + round((sent[-1] + 0.01 * i) / X_DEG) for i in ids}
+        bench.wait(lambda: all(bench.sim.servo(i).read("goal_position") == last[i] for i in ids), timeout=10,
+                   what="the last command in every servo")
+        writes = goals_written(bench.sim.log)
+        for i in ids:
+            values = [w[i] for _, w in writes if i in w]
+            assert values == sorted(values), f"ID {i}: goals went out of order"
+            assert len(values) > 0.5 * len(sent), f"ID {i}: {len(values)} goal writes for {len(sent)} commands"
+        # states kept coming with every servo's present position, and their stamps only move forward
+        states = [m for m in bench.topics["states"].since(start)]
+        assert len(states) >= 300
+        stamps = [m.stamp.sec + 1e-9 * m.stamp.nanosec for m in states]
+        assert stamps == sorted(stamps)
+        assert all(list(m.present.id_list) == ids and len(m.present.position_deg) == len(ids) for m in states)
+        assert bench.node_proc.proc.poll() is None
+    finally:
+        code = bench.close()
+    assert code == 0
+    assert "Traceback" not in bench.output
+
+
+# ============================================================================ between loops
+def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_loop():
+    """loop_rate 2: the first command of a period goes to the wire when it arrives, not at the next
+    loop; a second one in the same period goes out with the next loop (at most one extra write)."""
+    bench = Bench("loop_rate:=2", "pub_ratio/present.position:=1", "pub_ratio/status:=0", "pub_ratio/goal:=0",
+                  servos={1: XM430})
+    try:
+        pub = bench.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 10)
+        bench.wait(lambda: pub.get_subscription_count() > 0, what="the node subscribing")
+        bench.wait_new(["states"], 2, timeout=5)
+        bench.wait_new(["states"], 1, timeout=5)      # a loop just ran: about 0.5 s to the next
+        time.sleep(0.05)
+        bench.sim.clear_log()
+        msg = DxlCommandsX()
+        msg.position_control.id_list = [1]
+        msg.position_control.position_deg = [30.0]
+        pub.publish(msg)
+        time.sleep(0.1)
+        msg.position_control.position_deg = [40.0]
+        pub.publish(msg)
+        bench.wait(lambda: bench.sim.servo(1).read("goal_position") == 2048 + round(40.0 / X_DEG), timeout=5,
+                   what="the second goal on the wire")
+        log = list(bench.sim.log)
+        writes = goals_written(log)
+        assert [w[1] for _, w in writes] == [2048 + round(30.0 / X_DEG), 2048 + round(40.0 / X_DEG)]
+        reads = [e.time for e in log if e.instruction in (SYNC_READ, FAST_SYNC_READ)]
+        first, second = writes[0][0], writes[1][0]
+        # the first went out on its own, well before the next loop's read; the second with that loop
+        next_read = min(t for t in reads if t > first)
+        assert next_read - first > 0.15, f"first goal {next_read - first:.3f} s before the next loop's read"
+        assert first < second <= next_read + 0.01
+        assert not [t for t in reads if first < t < second - 0.01], "the second goal waited more than one loop"
+    finally:
+        code = bench.close()
+    assert code == 0
