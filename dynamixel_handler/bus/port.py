@@ -23,6 +23,10 @@ DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 
                        6000000, 10500000)
 
 
+#: a read that sleeps through the wire time of the bytes still expected wakes this much earlier [s]
+SLEEP_SLACK_S = 0.0003
+
+
 class _SdkPort(PortHandler):
     """PortHandler that locks the device, keeps one pyserial handle across baud changes,
     and accepts every Dynamixel baud rate (the SDK refuses e.g. 4.5 Mbps)."""
@@ -204,9 +208,12 @@ class SerialPort:
                     # readable but empty: a hung-up device (pyserial raises on most systems)
                     raise serial.SerialException(f"{self.device} hung up")
             if expect > waiting:
-                rest_s = (expect - waiting) * self.tx_ms_per_byte / 1000.0
-                time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
-                waiting = max(waiting, ser.in_waiting)
+                # wake a little before the last byte is due (a sleep overshoots, the first bytes were
+                # noticed late); the caller's next call catches the rest as it arrives
+                rest_s = (expect - waiting) * self.tx_ms_per_byte / 1000.0 - SLEEP_SLACK_S
+                if rest_s > 0:
+                    time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
+                    waiting = max(waiting, ser.in_waiting)
             return bytes(self._port.readPort(waiting))
 
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import threading
 import time
-from contextlib import ExitStack
 from typing import Any, Callable
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -87,11 +86,9 @@ class CommandIntake:
         if not self.detached or not self._entries:
             time.sleep(max(0.0, timeout_s))
             return False
-        with self._lock, ExitStack() as stack:
+        # close() destroys the subscriptions under the same lock, so their handles stay valid here
+        with self._lock, self.node.context.handle:
             handles = [entry[0].handle for entry in self._entries]
-            for handle in handles:
-                stack.enter_context(handle)  # kept valid while waited on
-            stack.enter_context(self.node.context.handle)
             if self._wait_set is None or self._wait_size != len(handles):
                 self._wait_set = _rclpy.WaitSet(len(handles), 0, 0, 0, 0, 0, self.node.context.handle)
                 self._wait_size = len(handles)
