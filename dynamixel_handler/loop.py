@@ -67,7 +67,6 @@ class _Part:
 class _Read:
     address: int
     length: int
-    positions: np.ndarray
     ids: tuple[int, ...]
     parts: tuple[_Part, ...]
     fast: bool = False
@@ -409,8 +408,6 @@ class Handler:
     def complete_step(self, report: StepReport) -> None:
         if report.phase >= 3:
             return
-        if report.phase < 2:
-            self.send_step(report)
         report.phase = 3
         table = self.table
         index = table.index
@@ -621,7 +618,7 @@ class Handler:
         for (fast, sig), positions in layouts.items():
             ids = tuple(self.table.ids[p] for p in positions)
             for address, length, parts in _spans(sig, self.split_read):
-                plan.append(_Read(address, length, np.asarray(positions), ids, parts, fast))
+                plan.append(_Read(address, length, ids, parts, fast))
         self._plans[key] = plan
         return plan
 

@@ -382,13 +382,9 @@ class DynamixelBus:
                     replies = self._exchange(read.packet, read.expected, read.fast)
                 data = {i: s.params for i, s in (replies or {}).items() if not s.refused}
                 if data:
-                    self.stats.successes += 1
-                    if len(data) >= len(read.expected):
-                        self.stats.full_successes += 1
+                    _Outcome(self).ok(len(data), len(read.expected))
                 else:
-                    self.last_failure = f"{read.what}: no servo answered"
-                    if self.verbose:
-                        self._log("warning", self.last_failure)
+                    _Outcome(self).fail(f"{read.what}: no servo answered")
                 missing = [i for i, _ in read.expected if i not in data]
                 if missing and data and self.verbose:
                     self._log("warning", f"{read.what}: no valid reply from ID {missing}")

@@ -1,8 +1,9 @@
 """The dynamixel_handler node: parameters, start-up on the bus, the loop thread, publishing.
 
-The bus loop runs on its own thread at ``loop_rate``; the executor thread only runs subscription
-callbacks, which validate and queue work for the loop (they never touch the bus). Publishing
-happens on the loop thread right after each read, so ``stamp`` is the read time.
+The bus loop runs on its own thread at ``loop_rate`` and takes the command topics itself
+(``intake.py``); the executor threads run services, actions and parameter callbacks, which queue
+work for the loop (they never touch the bus). Each loop's messages are built and published on the
+publishing thread (``outbox.py``); ``stamp`` is the time the loop's reads went out.
 """
 from __future__ import annotations
 
