@@ -349,7 +349,8 @@ class Handler:
     # A step in four phases, so that a caller can overlap one loop's reads on the wire with work
     # that needs no bus (the node takes the next commands and publishes the previous states then):
     #   begin_step     reconnect, watchdog arming, queued operations (``prepare``)
-    #   send_step      the pending writes, then the reads due; the last read is left on the wire
+    #   send_step      the pending writes (send_writes), then the reads due (send_reads); the last
+    #                  read is left on the wire
     #   complete_step  its replies gathered, Fast Sync Read fallback, pings of silent servos, ping state
     #   finish_step    replies stored in the table, read logs, tripped watchdogs re-armed
     # Any bus transaction in between first waits for the read on the wire (``DynamixelBus``).
@@ -384,8 +385,21 @@ class Handler:
         report.write_s += time.perf_counter() - t0
 
     def send_step(self, report: StepReport) -> None:
-        report.phase = 2
+        self.send_writes(report)
+        self.send_reads(report)
+
+    def send_writes(self, report: StepReport) -> None:
+        """The first half of ``send_step``: what is pending goes on the wire."""
         self._send_writes(report)
+
+    def await_replies(self, report: StepReport) -> None:
+        """Wait until the replies of ``report``'s reads are in (``complete_step`` does the rest)."""
+        for _, pending, _ in report.reads:
+            pending.result()
+
+    def send_reads(self, report: StepReport) -> None:
+        """The second half of ``send_step``: the reads due; the last one is left on the wire."""
+        report.phase = 2
         report.read_s = -time.perf_counter()
         report.stamp = time.time()
         report.seq = self.table.seq

@@ -227,11 +227,14 @@ class DynamixelHandlerNode(Node):
                 report = self.handler.begin_step()
                 begin_s += 0.2 * (time.monotonic() - t0 - begin_s)
                 if prev is not None:
-                    self.handler.complete_step(prev)
+                    self.handler.await_replies(prev)
                     if self.intake.poll():  # commands that came while the replies were due
                         self.handler.prepare(report)
+                self.handler.send_writes(report)  # the goals first; what follows runs while they are on the wire
+                if prev is not None:
+                    self.handler.complete_step(prev)
                 reading = self.external_ports.step() if self.external_ports is not None else None
-                self.handler.send_step(report)
+                self.handler.send_reads(report)
                 if prev is not None:
                     finished, prev = prev, None
                     self._end_step(finished)
