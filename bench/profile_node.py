@@ -39,7 +39,7 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
     ("packet build (instruction, CRC)", ("build_instruction", "sync_write_params", "sync_read_params", "crc16",
                                          "stuff (")),
     ("reply parsing (status stream, fast reply)", ("StatusStream", "FastReply", "unstuff")),
-    ("loop sleep until next period", ("Event.wait", "Condition.wait")),
+    ("sleep (until the next period, or until the replies are due)", ("Event.wait", "Condition.wait")),
     ("publish (rclpy serialisation + DDS)", ("Publisher.publish", "publish (rclpy")),
     ("message building (convert.py)", ("ros/convert.py",)),
     ("units (pulse <-> physical)", ("units.py", "ServoTable.units", "ServoTable.pulses", "ServoTable.known")),
@@ -57,7 +57,7 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
 BLOCKED: list[tuple[str, str]] = [
     ("SerialPort.read_until", "bus wait (blocked in select on the port)"),
     ("_pause_before_retry", "retry pause after a failed transaction (dyn_comm/inerval_msec)"),
-    ("CommandIntake.wait", "loop sleep until next period (woken by a command)"),
+    ("CommandIntake.wait", "sleep until the next period (woken by a command)"),
 ]
 
 
