@@ -584,6 +584,9 @@ class Handler:
             self.log.warning(f"ID {table.ids[pos]}: no response (ping false)")
         for pos in np.flatnonzero(back):
             self.log.info(f"ID {table.ids[pos]}: answers again")
+            # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
+            # the next commands are written
+            self._to_arm.add(table.ids[pos])
         # every loop without a reply counts, also the loops between the pings of a servo that
         # already stopped answering: the removal comes after no_response_id_auto_remove_count loops
         table.no_response[silent | (~table.ping & ~answered)] += 1

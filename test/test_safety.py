@@ -66,6 +66,26 @@ def test_device_vanishing_is_reported_survived_and_reconnected(tmp_path):
         assert rig.close() == 0
 
 
+def test_a_servo_silent_past_its_watchdog_takes_commands_as_soon_as_it_answers_again():
+    """While a servo does not hear the bus its watchdog trips, and a tripped servo refuses goals. When
+    it answers again the handler clears and re-arms the watchdog before the next commands, instead
+    of waiting for the next periodic watchdog check (here: never, extra dynamic items read once)."""
+    rig = Rig({1: X, 2: X540}, "default/bus_watchdog:=100.0", "pub_ratio/extra.dynamic_items:=0",
+              "pub_ratio/status:=5")
+    try:
+        rig.sim.set_silent(2)
+        rig.wait(lambda: not rig.debug_of(2)["ping"], what="ID 2 ping false")
+        time.sleep(0.3)  # three watchdog periods without an instruction
+        rig.sim.set_silent(2, False)
+        rig.wait(lambda: rig.debug_of(2)["ping"], what="ID 2 answering again")
+        rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[2], position_deg=[25.0]))
+        rig.wait(lambda: rig.sim.servo(2).read("goal_position") == 2048 + round(25.0 * 4096 / 360), timeout=5,
+                 what="the goal accepted by the servo that came back")
+        assert rig.sim.servo(2).read("bus_watchdog") == 5
+    finally:
+        assert rig.close() == 0
+
+
 def test_dummy_servos_mix_with_real_ones_and_follow_commands():
     # ID 2 exists on the bus too: the dummy wins and the real servo is never addressed
     rig = Rig({1: X, 2: X540}, "init/dummy_servo_list:=[2, 7, 300]", "init/servo_auto_search.max_id:=3",
