@@ -356,7 +356,6 @@ class Handler:
     # Any bus transaction in between first waits for the read on the wire (``DynamixelBus``).
     def begin_step(self) -> StepReport:
         report = StepReport(loop=self.loop_count, phase=1)
-        self.loop_count += 1
         self.prepare(report)
         return report
 
@@ -400,6 +399,7 @@ class Handler:
     def send_reads(self, report: StepReport) -> None:
         """The second half of ``send_step``: the reads due; the last one is left on the wire."""
         report.phase = 2
+        self.loop_count = report.loop + 1  # a loop that failed before its reads keeps its number
         report.read_s = -time.perf_counter()
         report.stamp = time.time()
         report.seq = self.table.seq
