@@ -25,7 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -118,6 +118,47 @@ def table(rows: list[Row]) -> str:
     return "\n".join(out)
 
 
+def key(row: Row) -> tuple:
+    return (row.baudrate, row.latency_ms, row.n, row.fast_read)
+
+
+def _median(values: list[float]) -> float:
+    finite = sorted(v for v in values if math.isfinite(v))
+    if not finite:
+        return float("nan")
+    mid = len(finite) // 2
+    return finite[mid] if len(finite) % 2 else 0.5 * (finite[mid - 1] + finite[mid])
+
+
+def median_rows(rows: list[Row]) -> list[Row]:
+    """One row per bus, servo count and read method: every figure the median of its runs."""
+    groups: dict[tuple, list[Row]] = {}
+    for row in rows:
+        groups.setdefault(key(row), []).append(row)
+    out = []
+    for runs in groups.values():
+        if len(runs) == 1:
+            out.append(runs[0])
+            continue
+        first = runs[0]
+        row = Row(first.baudrate, first.latency_ms, first.n, first.fast_read, first.wire_hz,
+                  _median([r.sdk_hz for r in runs]), _median([r.sdk_cpu for r in runs]),
+                  max(r.sdk_failures for r in runs))
+        for attr in ("max_", "at100"):
+            results = [getattr(r, attr) for r in runs if getattr(r, attr) is not None]
+            if results:
+                merged = NodeResult()
+                for f in fields(NodeResult):
+                    values = [getattr(x, f.name) for x in results]
+                    if all(isinstance(v, (int, float)) for v in values):
+                        setattr(merged, f.name, type(values[0])(_median([float(v) for v in values])))
+                merged.error = "; ".join(x.error for x in results if x.error)
+                setattr(row, attr, merged)
+        # the ratios of the median row are those of the median rates, not medians of ratios
+        out.append(row)
+    return out
+
+
 def targets(rows: list[Row]) -> list[str]:
     lines = []
     for r in rows:
@@ -145,6 +186,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--n", default=None, help="servo counts, e.g. 12 or 1,4,12,30")
     ap.add_argument("--baud", default=None, help="baud rates, e.g. 1000000,4000000")
     ap.add_argument("--latency-ms", default=None, help="adapter latencies, e.g. 0,1")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="measure each row this many times; the table and the targets show the median of the runs")
     ap.add_argument("--json", default=None, help="also write every figure to this file")
     ap.add_argument("--command", choices=("bundle", "control", "none"), default="bundle",
                     help="goal commands: /dynamixel/commands/x (default), /dynamixel/command/x/position_control, "
@@ -180,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
                     for i in range(1, n + 1):
                         sim.write(i, "return_delay_time", 0)  # as the node sets it (default/return_delay_time)
                     try:
-                        for fast in (False, True):
+                        for fast, rep in [(f, k) for k in range(a.repeat) for f in (False, True)]:
                             row = Row(baudrate, latency_s * 1000, n, fast, wire.cycle(n, baudrate, latency_s, fast).rate_hz)
                             sdk = sdk_run(path, n, baudrate, latency_s, fast, sdk_window)
                             row.sdk_hz, row.sdk_cpu, row.sdk_failures = sdk["rate_hz"], sdk["cpu_percent"], sdk["failures"]
@@ -195,7 +238,9 @@ def main(argv: list[str] | None = None) -> int:
                                 else:
                                     row.max_ = res
                             rows.append(row)
-                            print(f"[{time.monotonic() - began:5.0f}s] ({priority}) {baudrate // 1_000_000} Mbps, latency "
+                            print(f"[{time.monotonic() - began:5.0f}s] ({priority}) "
+                                  + (f"run {rep + 1}/{a.repeat}: " if a.repeat > 1 else "")
+                                  + f"{baudrate // 1_000_000} Mbps, latency "
                                   f"{latency_s * 1000:g} ms, N={n:2d}, fast_read={fast}: wire {row.wire_hz:.0f} Hz, "
                                   f"sdk {row.sdk_hz:.0f} Hz, node {row.max_.rate_hz:.0f} Hz (node start-up {row.max_.startup_s:.1f} s)",
                                   flush=True)
@@ -204,11 +249,20 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         controller.close()
         rclpy.try_shutdown()
+    shown = median_rows(rows)
     print()
-    print(table(rows))
+    if a.repeat > 1:
+        print(f"Median of {a.repeat} runs per row (each run's ratios: /sdk, /wire, cpu% at 100):")
+        for row in shown:
+            runs = [r for r in rows if key(r) == key(row)]
+            print(f"  {row.baudrate // 1_000_000}M lat {row.latency_ms:g} N={row.n:2d} fast={'yes' if row.fast_read else 'no '}: "
+                  + "  ".join(f"{r.node_vs_sdk:.2f} {r.node_vs_wire:.2f} {num(r.at100.cpu_percent if r.at100 else math.nan)}%"
+                              for r in runs))
+        print()
+    print(table(shown))
     print()
-    print("Targets:")
-    print("\n".join(targets(rows)) or "  (the target bus was not measured)")
+    print("Targets" + (f" (medians of {a.repeat} runs)" if a.repeat > 1 else "") + ":")
+    print("\n".join(targets(shown)) or "  (the target bus was not measured)")
     print(f"\ntotal {time.monotonic() - began:.0f} s, load average now {os.getloadavg()[0]:.2f}")
     if a.json:
         with open(a.json, "w") as handle:
