@@ -205,9 +205,10 @@ class DynamixelHandlerNode(Node):
     def _run(self) -> None:
         """The loop. Running flat out (a loop takes longer than a period), each loop's last read is
         left on the wire while the previous loop's states are stored and published and, shortly
-        before its replies are due, the next commands are taken and encoded: the bus then waits on
-        the wire only, not on Python. With time to spare in a period, each loop ends before the
-        sleep, so states go out as soon as they are read."""
+        before its replies are due, the next commands are taken and checked; the goals go out as
+        soon as the replies are in: the bus then waits on the wire, hardly on Python. With time to
+        spare in a period, each loop ends before the sleep, so states go out as soon as they are
+        read, and the sleep is cut short by the first command that arrives (``_sleep_until``)."""
         period = 1.0 / self.config["loop_rate"]
         verbose_ratio = self.config["verbose_ratio"]
         next_t = time.monotonic()
