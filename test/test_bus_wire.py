@@ -462,3 +462,21 @@ def test_stats_delta_gives_the_rates_of_one_period(peer):
     assert period.transactions == 2
     assert period.success_rate == 1.0 and period.full_success_rate == 0.5
     bus.close()
+
+
+def test_a_read_never_sleeps_blindly_past_the_time_its_replies_are_due():
+    """A read that has some of its replies sleeps through the wire time of the rest, but replies
+    that are already overdue (an adapter or servos that buffer and then send in a burst) are
+    waited for on the port instead, so they are taken the moment they arrive."""
+    from dynamixel_handler.bus.port import SLEEP_SLACK_S, blind_sleep_s
+
+    byte_s = 10 / 1_000_000
+    # 42 bytes still to come, all due in 10 ms: sleep through their wire time (less the slack)
+    assert blind_sleep_s(42, byte_s, now=100.0, due=100.010) == pytest.approx(42 * byte_s - SLEEP_SLACK_S)
+    # due in 0.35 ms: sleep no longer than until shortly before then
+    assert blind_sleep_s(42, byte_s, now=100.0, due=100.00035) == pytest.approx(0.00035 - SLEEP_SLACK_S)
+    # already overdue: no blind sleep at all
+    assert blind_sleep_s(42, byte_s, now=100.0, due=99.9999) <= 0
+    assert blind_sleep_s(1000, byte_s, now=100.0, due=100.0) <= 0
+    # with nothing known about when they are due: the wire time alone
+    assert blind_sleep_s(1000, byte_s, now=100.0) == pytest.approx(1000 * byte_s - SLEEP_SLACK_S)

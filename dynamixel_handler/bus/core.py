@@ -354,8 +354,7 @@ class DynamixelBus:
             read = GroupRead(self, packet, expected, fast, what)
             read.sent = self._send_or_lose(packet)
             if read.sent:
-                read.reply_bytes = (8 + sum(size + 4 for _, size in expected) if fast
-                                    else sum(p.STATUS_OVERHEAD + size for _, size in expected))
+                read.reply_bytes = _reply_bytes(expected, fast)
                 read.eta = min(self._wire_free_at + read.reply_bytes * self._port.tx_ms_per_byte / 1000.0
                                + self.reply_lag_s,
                                read.started + self.reply_timeout_ms(len(packet), read.reply_bytes) / 1000.0)
@@ -490,10 +489,14 @@ class DynamixelBus:
         if not expected:
             return {}
         sent_at = time.monotonic() if sent_at is None else sent_at
+        # when the last reply byte should be in: the line is free of what was sent at _wire_free_at
+        # (no other packet goes out while a read is in flight), then the replies and the usual lag
+        due = (self._wire_free_at + _reply_bytes(expected, fast) * self._port.tx_ms_per_byte / 1000.0
+               + self.reply_lag_s)
         try:
             if fast:
-                return self._receive_fast(expected, tx_bytes, sent_at)
-            return self._receive(expected, tx_bytes, sent_at)
+                return self._receive_fast(expected, tx_bytes, sent_at, due)
+            return self._receive(expected, tx_bytes, sent_at, due)
         except (OSError, serial.SerialException) as exc:
             self._lose(exc)
             return None
@@ -519,7 +522,8 @@ class DynamixelBus:
                               + len(packet) * self._port.tx_ms_per_byte / 1000.0)
         return True
 
-    def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float) -> dict[int, p.Status]:
+    def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
+                 due: float | None = None) -> dict[int, p.Status]:
         """Collect stuffed status packets, one per expected ID, each with its own wait.
 
         The first reply gets the full timeout (our packet's wire time included); each
@@ -536,7 +540,7 @@ class DynamixelBus:
         got: dict[int, p.Status] = {}
         while pending:
             data = self._port.read_until(deadline, sum(p.STATUS_OVERHEAD + n for n in pending.values())
-                                         - stream.pending_bytes)
+                                         - stream.pending_bytes, due)
             if not data:
                 break
             self.stats.bytes_rx += len(data)
@@ -556,7 +560,8 @@ class DynamixelBus:
         self.stats.discarded_bytes += stream.discarded_bytes
         return got
 
-    def _receive_fast(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float) -> dict[int, p.Status]:
+    def _receive_fast(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
+                      due: float | None = None) -> dict[int, p.Status]:
         """Collect the single unstuffed fast-read reply and split it by position."""
         reply = p.FastReply(expected)
         total = 8 + sum(size + 4 for _, size in expected)
@@ -565,7 +570,7 @@ class DynamixelBus:
         self.last_timeout_ms = first_ms
         deadline = sent_at + first_ms / 1000.0
         while not reply.complete:
-            data = self._port.read_until(deadline, total - reply.received_bytes)
+            data = self._port.read_until(deadline, total - reply.received_bytes, due)
             if not data:
                 break
             self.stats.bytes_rx += len(data)
@@ -678,6 +683,14 @@ class _Outcome:
         self._bus.last_failure = reason
         if self._bus.verbose:
             self._bus._log("warning", reason)
+
+
+def _reply_bytes(expected: list[tuple[int, int]], fast: bool) -> int:
+    """Bytes on the wire of the replies to a read of ``expected`` ``(id, size)``: one status packet
+    each, or one fast-read packet (header, ID, length, instruction, then ERR ID data CRC each)."""
+    if fast:
+        return 8 + sum(size + 4 for _, size in expected)
+    return sum(p.STATUS_OVERHEAD + size for _, size in expected)
 
 
 def _check_id(dxl_id: int) -> int:

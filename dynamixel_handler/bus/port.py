@@ -181,12 +181,15 @@ class SerialPort:
         if written != len(packet):
             raise serial.SerialException(f"wrote {written} of {len(packet)} bytes")
 
-    def read_until(self, deadline: float, expect: int = 0) -> bytes:
+    def read_until(self, deadline: float, expect: int = 0, due: float | None = None) -> bytes:
         """Bytes available now, or block (no spinning) until some arrive or ``deadline`` passes.
 
         ``expect``: bytes the caller still waits for. Once some have arrived, the rest of them
         cannot arrive sooner than their wire time, so the thread sleeps that long and reads them
-        in one go instead of waking for every status packet. Returns b"" at the deadline.
+        in one go instead of waking for every status packet. ``due``: when the last of them
+        should be in (``time.monotonic()``); the sleep never runs past it, because bytes that are
+        late (an adapter or a servo that buffers) come in a burst: past ``due`` the thread waits
+        for the next bytes instead. Returns b"" at the deadline.
         Raises OSError/SerialException if the device vanished.
         """
         ser = self._port.ser
@@ -210,11 +213,21 @@ class SerialPort:
             if expect > waiting:
                 # wake a little before the last byte is due (a sleep overshoots, the first bytes were
                 # noticed late); the caller's next call catches the rest as it arrives
-                rest_s = (expect - waiting) * self.tx_ms_per_byte / 1000.0 - SLEEP_SLACK_S
+                rest_s = blind_sleep_s(expect - waiting, self.tx_ms_per_byte / 1000.0, time.monotonic(), due)
                 if rest_s > 0:
                     time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
                     waiting = max(waiting, ser.in_waiting)
             return bytes(self._port.readPort(waiting))
+
+
+def blind_sleep_s(missing: int, byte_s: float, now: float, due: float | None = None) -> float:
+    """How long a read that still misses ``missing`` bytes may sleep without looking at the port:
+    until ``SLEEP_SLACK_S`` before their wire time is over, and never past ``SLEEP_SLACK_S`` before
+    ``due`` (when they should all be in). <= 0: do not sleep, wait for the next bytes instead."""
+    rest_s = missing * byte_s - SLEEP_SLACK_S
+    if due is not None:
+        rest_s = min(rest_s, due - SLEEP_SLACK_S - now)
+    return rest_s
 
 
 def check_baudrate(baudrate: int) -> None:
