@@ -207,7 +207,8 @@ class DynamixelHandlerNode(Node):
         """The loop. Running flat out (a loop takes longer than a period), each loop's last read is
         left on the wire while the previous loop's states are stored and published and, shortly
         before its replies are due, the next commands are taken and checked; the goals go out as
-        soon as the replies are in: the bus then waits on the wire, hardly on Python. With time to
+        soon as the replies are in and the next reads right behind them, so the wire is busy while
+        the previous loop is completed: the bus then waits on the wire, hardly on Python. With time to
         spare in a period, each loop ends before the sleep, so states go out as soon as they are
         read, and the sleep is cut short by the first command that arrives (``_sleep_until``)."""
         slack_ns = set_timer_slack()  # wake-ups on time, not up to 50 µs late (timing.py)
@@ -235,13 +236,12 @@ class DynamixelHandlerNode(Node):
                     self.handler.await_replies(prev)
                     if self.intake.poll():  # commands that came while the replies were due
                         self.handler.prepare(report)
-                self.handler.send_writes(report)  # the goals first; what follows runs while they are on the wire
-                if prev is not None:
-                    self.handler.complete_step(prev)
+                self.handler.send_writes(report)  # the goals first, the reads right behind them:
                 reading = self.external_ports.step() if self.external_ports is not None else None
-                self.handler.send_reads(report)
+                self.handler.send_reads(report)   # the wire never waits for the bookkeeping below
                 if prev is not None:
                     finished, prev = prev, None
+                    self.handler.complete_step(finished)
                     self._end_step(finished)
                 prev = report
                 if reading is not None:
