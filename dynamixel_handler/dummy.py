@@ -8,10 +8,11 @@ addressed). ROS-free.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Iterable, Mapping
 
-from .bus import DynamixelBus, GroupRead
+from .bus import DynamixelBus, GroupRead, PreparedWrite
 from .control_table import model_by_number
 from .sim.servo import CLEAR_KEY, VirtualServo
 
@@ -106,11 +107,20 @@ class BusWithDummies:
         return GroupRead.finished(self.sync_read(address, length, ids, fast))
 
     def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
+        return self.send_prepared(self.prepare_sync_write(address, length, data))
+
+    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
+        """As ``DynamixelBus.prepare_sync_write``; the dummies' part is written when it is sent."""
         real = {i: d for i, d in data.items() if i not in self.dummies}
+        prepared = self._bus.prepare_sync_write(address, length, real)
+        dummy = {i: bytes(d) for i, d in data.items() if i in self.dummies}
+        return dataclasses.replace(prepared, dummies=dummy) if dummy else prepared
+
+    def send_prepared(self, prepared: PreparedWrite) -> bool:
         now = time.monotonic()
-        for i, chunk in data.items():
+        for i, chunk in prepared.dummies.items():
             if i in self.dummies:
-                self._dummy(i, now).host_write(address, bytes(chunk), now)
-        if not real:
+                self._dummy(i, now).host_write(prepared.address, chunk, now)
+        if not prepared.packet:
             return True
-        return self._bus.sync_write(address, length, real) if self._real_ok() else False
+        return self._bus.send_prepared(prepared) if self._real_ok() else False

@@ -53,6 +53,11 @@ class StepReport:
     silent: list[int] = field(default_factory=list, repr=False)   # IDs addressed that did not answer
     seq: int = 0                                                  # ServoTable.seq when the reads went out
     phase: int = 0                                                # 1 begun, 2 sent, 3 complete, 4 finished
+    # writes taken ahead of sending (Handler.encode_writes): {(address, size): {id: bytes}} per item,
+    # and their packets, built for ServoTable.version ``built_for``
+    writes: dict = field(default_factory=dict, repr=False)
+    prepared: list = field(default_factory=list, repr=False)
+    built_for: int = -1
 
 
 @dataclass(frozen=True)
@@ -378,10 +383,36 @@ class Handler:
 
     def _send_writes(self, report: StepReport) -> None:
         t0 = time.perf_counter()
-        for (address, size), data in sorted(self._encode_pending().items()):
-            if not self.bus.sync_write(address, size, data):
-                self.log.warning(f"sync write @{address}x{size} to IDs {sorted(data)} failed: {self.bus.last_failure}")
+        self.encode_writes(report)
+        if report.writes and report.built_for != self.table.version:  # servos removed meanwhile
+            self._build_writes(report)
+        prepared, report.prepared, report.writes = report.prepared, [], {}
+        for write in prepared:
+            if not self.bus.send_prepared(write):
+                self.log.warning(f"sync write @{write.address}x{write.length} to IDs "
+                                 f"{sorted((*write.ids, *write.dummies))} failed: {self.bus.last_failure}")
         report.write_s += time.perf_counter() - t0
+
+    def encode_writes(self, report: StepReport) -> None:
+        """Take the pending values and build their sync write packets now; ``send_writes`` sends
+        them (with what became pending meanwhile, a later value of a servo's item winning). The
+        node does this while a read is on the wire, so the packets are ready when it is free."""
+        fresh = self._encode_pending()
+        if not fresh:
+            return
+        for key, data in fresh.items():
+            report.writes.setdefault(key, {}).update(data)
+        self._build_writes(report)
+
+    def _build_writes(self, report: StepReport) -> None:
+        index = self.table.index
+        writes = {key: kept for key, data in report.writes.items()
+                  if (kept := {i: chunk for i, chunk in data.items() if i in index})}
+        if not self.split_write:
+            writes = _merge_adjacent_writes(writes)
+        report.prepared = [self.bus.prepare_sync_write(address, size, data)
+                           for (address, size), data in sorted(writes.items())]
+        report.built_for = self.table.version
 
     def send_step(self, report: StepReport) -> None:
         self.send_writes(report)
@@ -507,7 +538,8 @@ class Handler:
 
     # ---------------------------------------------------------------- writes
     def _encode_pending(self) -> dict[tuple[int, int], dict[int, bytes]]:
-        """The pending values as sync writes ``{(address, size): {id: bytes}}``; the table takes them."""
+        """The pending values as one sync write per item ``{(address, size): {id: bytes}}``; the
+        table takes them."""
         pending = self.pending.take()
         if not pending or not len(self.table):
             return {}
@@ -535,8 +567,6 @@ class Handler:
                 self.table.store(item, np.asarray(positions), np.asarray(written, dtype=np.int64),
                                  self.table.read_time.get(item, 0.0))
                 self.table.note_set(item, [self.table.ids[pos] for pos in positions])
-        if not self.split_write:
-            writes = _merge_adjacent_writes(writes)
         return writes
 
     # ---------------------------------------------------------------- reads

@@ -94,6 +94,49 @@ def test_host_values_set_after_a_read_went_out_are_not_overwritten_by_it(timed_b
     assert handler.table.value("goal_position", 1) == 3000
 
 
+def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(timed_bus):
+    """Flat out, the node builds the goal packets while the previous read is on the wire; a value
+    that comes after that still wins, a servo removed meanwhile is not written, nothing is lost."""
+    sim, bus = timed_bus
+    config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
+                       "pub_ratio/present.position": 1})
+    handler = Handler(bus, config)
+    handler.start()
+
+    def overlapped(before: dict, after: dict | None = None, op=None) -> list[dict[int, int]]:
+        """One loop as the node runs it flat out; the goal positions that reached the wire."""
+        report = handler.begin_step()
+        handler.send_step(report)               # a read left on the wire
+        following = handler.begin_step()
+        for item, values in before.items():
+            handler.pending.put(item, values)
+        handler.encode_writes(following)        # built while the read is on the wire
+        assert following.prepared and bus.inflight_eta is not None
+        for item, values in (after or {}).items():
+            handler.pending.put(item, values)   # came later
+        if op is not None:
+            handler.queue("op", op)
+        handler.prepare(following)
+        sim.clear_log()
+        handler.send_writes(following)
+        handler.send_writes(following)          # sent once only
+        handler.finish_step(report)
+        bus.read(1, OPERATING_MODE, 1)          # answered only after the servos took the writes
+        return [w for _, w in goals_written(sim.log)]
+
+    # a servo removed after the packet was built is left out of it
+    assert overlapped({"goal_position": {1: 1001, 2: 1002, 3: 1003, 4: 1004}},
+                      op=lambda: handler.remove_id(4)) == [{1: 1001, 2: 1002, 3: 1003}]
+    assert sim.servo(4).read("goal_position") != 1004
+    # a later value of the same item wins, other items go in their own write
+    assert overlapped({"goal_position": {1: 2001, 2: 2002, 3: 2003}, "goal_current": {2: 50}},
+                      after={"goal_position": {1: 2111}}) == [{1: 2111, 2: 2002, 3: 2003}]
+    current = [e for e in sim.log if e.instruction == SYNC_WRITE and e.address == 102]
+    assert [e.ids for e in current] == [(2,)]
+    assert [sim.servo(i).read("goal_position") for i in (1, 2, 3)] == [2111, 2002, 2003]
+    assert sim.servo(2).read("goal_current") == 50
+
+
 # ============================================================================ the node, flat out
 def test_flat_out_every_command_reaches_the_wire_in_order_and_the_last_one_stays():
     """loop_rate 2000 on a timed 1 Mbps bus of 6 servos: every loop overruns its period, so each

@@ -5,8 +5,8 @@ groups (sync/bulk, plain and fast), retries per ``dyn_comm/*`` and keeps counter
 Packets are built and parsed by :mod:`.protocol`, which works around the defects of
 ``dynamixel_sdk`` 4.1.0 listed in :mod:`.core`. ROS-free.
 """
-from .core import BusStats, DynamixelBus, GroupRead
+from .core import BusStats, DynamixelBus, GroupRead, PreparedWrite
 from .errors import BusError
 from .port import DYNAMIXEL_BAUDRATES
 
-__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead"]
+__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite"]

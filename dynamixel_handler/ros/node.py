@@ -231,6 +231,8 @@ class DynamixelHandlerNode(Node):
                 t0 = time.monotonic()
                 self.intake.poll()
                 report = self.handler.begin_step()
+                if prev is not None:
+                    self.handler.encode_writes(report)  # the goal packets ready before the line is free
                 begin_s += 0.2 * (time.monotonic() - t0 - begin_s)
                 if prev is not None:
                     self.handler.await_replies(prev)
