@@ -22,10 +22,24 @@ class Diagnostics:
                     return status
         return None
 
-    def wait_level(self, starts: str, level: int, what: str) -> DiagnosticStatus:
+    def wait_level(self, starts: str, level: int, what: str, values: dict[str, str] | None = None) -> DiagnosticStatus:
+        """The latest status of ``starts`` once it has ``level`` and the key/values given (a status
+        published before a change on the bus was read can still be the latest for a period)."""
         def seen() -> bool:
             s = self.latest(starts)
-            return s is not None and _level(s) == level
+            if s is None or _level(s) != level:
+                return False
+            have = {kv.key: kv.value for kv in s.values}
+            return all(have.get(k) == v for k, v in (values or {}).items())
+        self.rig.wait(seen, timeout=15, what=what)
+        return self.latest(starts)
+
+    def wait_value(self, starts: str, key: str, value: str, what: str) -> DiagnosticStatus:
+        """The latest status of ``starts`` once its ``key`` reads ``value`` (levels and values move
+        with the loop; a snapshot taken right after another status changed may be one period old)."""
+        def seen() -> bool:
+            s = self.latest(starts)
+            return s is not None and {kv.key: kv.value for kv in s.values}.get(key) == value
         self.rig.wait(seen, timeout=15, what=what)
         return self.latest(starts)
 
@@ -41,9 +55,10 @@ def test_servo_levels_follow_temperature_hardware_errors_and_silence():
         diag = Diagnostics(rig)
         for i in (1, 2):
             rig.sim.servo(i).pin("present_temperature", 40)
-        first = diag.wait_level("dynamixel_handler: ID 1 (XM430-W350)", OK, "ID 1 OK")
+        first = diag.wait_level("dynamixel_handler: ID 1 (XM430-W350)", OK, "ID 1 OK at 40 degC",
+                                {"temperature [degC]": "40"})
         values = {kv.key: kv.value for kv in first.values}
-        assert values["temperature [degC]"] == "40" and values["temperature limit [degC]"] == "80"
+        assert values["temperature limit [degC]"] == "80"
         assert values["torque"] == "on" and values["ping"] == "true"
         bus = diag.wait_level("dynamixel_handler: bus", OK, "bus OK")
         assert {kv.key for kv in bus.values} >= {"success rate [%]", "loop rate [Hz]", "reconnects", "watchdog trips"}
@@ -66,8 +81,9 @@ def test_servo_levels_follow_temperature_hardware_errors_and_silence():
         err = diag.wait_level("dynamixel_handler: ID 1", ERROR, "ID 1 ERROR when it stops answering")
         assert "no response" in err.message
         assert {kv.key: kv.value for kv in err.values}["ping"] == "false"
-        bus = diag.latest("dynamixel_handler: bus")
-        assert {kv.key: kv.value for kv in bus.values}["servos not answering"] == "1"
+        diag.wait_value("dynamixel_handler: bus", "servos not answering", "1", "the bus counting one silent servo")
+        assert _level(diag.latest("dynamixel_handler: ID 2")) == ERROR  # still its hardware error, and answering
+        assert {kv.key: kv.value for kv in diag.latest("dynamixel_handler: ID 2").values}["ping"] == "true"
         rig.sim.set_silent(1, False)
         diag.wait_level("dynamixel_handler: ID 1", OK, "ID 1 OK when it answers again")
     finally:
