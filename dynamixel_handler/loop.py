@@ -26,6 +26,9 @@ from .servos import PendingWrites, ServoTable
 SPAN_GAP = 24
 #: loops between pings of a servo that stopped answering
 RECHECK_LOOPS = 10
+#: Fast Sync Reads in a row that must stop at a servo which answers the plain Sync Read before it is
+#: taken for firmware without Fast Sync Read (a garbled reply or a neighbour's silence does it once)
+FAST_MISSES_PLAIN = 3
 #: longest wait for a servo to answer again after a reboot instruction [s]
 REBOOT_WAIT_S = 1.0
 #: least time between two attempts to reopen a vanished device [s]
@@ -92,6 +95,7 @@ class Handler:
         self._plans: dict[tuple, list[_Read]] = {}
         self._plans_version = -1
         self._plain_read: set[int] = set()  # IDs that do not answer Fast Sync Read
+        self._fast_misses: dict[int, int] = {}  # ID -> fast reads in a row that stopped at it while it answered plain
         self.fast_read = bool(config["method/fast_read"])
         self.split_read = bool(config["method/split_read"])
         self.split_write = bool(config["method/split_write"])
@@ -468,6 +472,9 @@ class Handler:
         for entry in report.reads:
             read, pending, _ = entry
             data = pending.result()
+            if read.fast and self._fast_misses:
+                for dxl_id in data:  # answered the fast read: a miss before was not its firmware
+                    self._fast_misses.pop(dxl_id, None)
             if read.fast and len(data) < len(read.ids):
                 data = self._read_plain(read, data)
             self.stats_reads += 1
@@ -633,14 +640,22 @@ class Handler:
                 self.remove_id(dxl_id)
 
     def _read_plain(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
-        """Firmware without Fast Sync Read (old Pro "-R", early X and P) ignores it: ask the servos
-        that did not answer with a plain Sync Read, and read those that answer it so from now on."""
+        """Read the servos a Fast Sync Read missed with a plain Sync Read.
+
+        The servos answer a fast read in a chain, which stops at the first one that does not answer
+        (silent, its segment garbled, or firmware without Fast Sync Read: old Pro "-R", early X and
+        P); those after it were only cut off. So only that first one can lack the instruction: if it
+        answers the plain read FAST_MISSES_PLAIN times in a row, it is read so from now on."""
         missing = [i for i in read.ids if i not in data]
         plain = self.bus.sync_read(read.address, read.length, missing)
-        if plain:
-            self.log.info(f"IDs {sorted(plain)}: no answer to Fast Sync Read, read with Sync Read from now on")
-            self._plain_read.update(plain)
-            self._plans.clear()
+        first = missing[0]
+        if first in plain:
+            self._fast_misses[first] = self._fast_misses.get(first, 0) + 1
+            if self._fast_misses[first] >= FAST_MISSES_PLAIN:
+                del self._fast_misses[first]
+                self.log.info(f"ID {first}: no answer to Fast Sync Read, read with Sync Read from now on")
+                self._plain_read.add(first)
+                self._plans.clear()
         return {**data, **plain}
 
     def _plan(self, items: tuple[str, ...], live: np.ndarray) -> list[_Read]:

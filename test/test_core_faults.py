@@ -6,7 +6,7 @@ import math
 
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
-from core_helpers import FAST_SYNC_READ, PING, SYNC_READ, Bench
+from core_helpers import FAST_SYNC_READ, PING, SYNC_READ, XM430, Bench
 from test_core_states import assert_unit
 
 REMOVE_AFTER = 10  # loops
@@ -121,9 +121,66 @@ def test_fast_read_reads_every_servo_and_the_old_pro_with_plain_sync_read():
         recent = b.topics["debug"].all()[-20:]
         assert all(all(m.status.ping) for m in recent)
         assert "no response" not in b.output
-        b.node_proc.wait_for("IDs [4]: no answer to Fast Sync Read, read with Sync Read from now on")
+        b.node_proc.wait_for("ID 4: no answer to Fast Sync Read, read with Sync Read from now on")
         reads = [e for e in b.transactions()[-200:] if e.instruction in (FAST_SYNC_READ, SYNC_READ)]
         assert {e.instruction for e in reads if 1 in e.ids or 3 in e.ids} == {FAST_SYNC_READ}
         assert {e.instruction for e in reads if 4 in e.ids} == {SYNC_READ}
     finally:
         b.close()
+
+
+def test_a_servo_that_breaks_the_fast_read_chain_costs_the_others_nothing_lasting():
+    """In a Fast Sync Read the servos answer in a chain: one that stops answering silences those
+    after it for that read. They must not be taken for firmware without Fast Sync Read (read with
+    the slower plain Sync Read from then on); a servo that really lacks it is still found."""
+    from dynamixel_handler.bus import DynamixelBus
+    from dynamixel_handler.config import defaults, validate
+    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.sim import VirtualBus
+
+    sim = VirtualBus({i: XM430 for i in range(1, 5)})
+    path = sim.start()
+    bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=1)
+    bus.open()
+    try:
+        handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 4,
+                                         "method/fast_read": True, "pub_ratio/present.position": 1}))
+        handler.start()
+
+        def reads() -> dict[int, set[int]]:
+            """Read instructions of the last loop that addressed each ID."""
+            sim.clear_log()
+            handler.step()
+            out: dict[int, set[int]] = {}
+            for e in sim.log:
+                if e.instruction in (FAST_SYNC_READ, SYNC_READ):
+                    for i in e.ids:
+                        out.setdefault(i, set()).add(e.instruction)
+            return out
+
+        assert reads() == {i: {FAST_SYNC_READ} for i in range(1, 5)}
+        sim.servo(1).silent = True       # first in the chain: nobody answers the fast read
+        for _ in range(3):
+            handler.step()
+        assert list(handler.table.ping) == [False, True, True, True]
+        assert reads() == {i: {FAST_SYNC_READ} for i in (2, 3, 4)}
+        sim.servo(1).silent = False
+        for _ in range(12):              # pinged now and then while silent: back within 10 loops
+            handler.step()
+        assert list(handler.table.ping) == [True, True, True, True]
+
+        sim.truncate_next(1)             # one garbled fast reply: ID 3 and 4 cut off once
+        for _ in range(3):
+            handler.step()
+        assert reads() == {i: {FAST_SYNC_READ} for i in range(1, 5)}
+
+        sim.servo(3).write("firmware_version", 40)  # below 45: this X answers only a plain Sync Read
+        for _ in range(4):
+            handler.step()
+        found = reads()
+        assert found[3] == {SYNC_READ}
+        assert found[1] == found[2] == found[4] == {FAST_SYNC_READ}
+        assert list(handler.table.ping) == [True, True, True, True]
+    finally:
+        bus.close()
+        sim.close()
