@@ -56,11 +56,6 @@ class StepReport:
     silent: list[int] = field(default_factory=list, repr=False)   # IDs addressed that did not answer
     seq: int = 0                                                  # ServoTable.seq when the reads went out
     phase: int = 0                                                # 1 begun, 2 sent, 3 complete, 4 finished
-    # writes taken ahead of sending (Handler.encode_writes): {(address, size): {id: bytes}} per item,
-    # and their packets, built for ServoTable.version ``built_for``
-    writes: dict = field(default_factory=dict, repr=False)
-    prepared: list = field(default_factory=list, repr=False)
-    built_for: int = -1
 
 
 @dataclass(frozen=True)
@@ -96,6 +91,12 @@ class Handler:
         self._plans_version = -1
         self._plain_read: set[int] = set()  # IDs that do not answer Fast Sync Read
         self._fast_misses: dict[int, int] = {}  # ID -> fast reads in a row that stopped at it while it answered plain
+        # writes taken from ``pending`` but not sent yet (encode_writes): {(address, size): {id: bytes}}
+        # per item, and their packets, built for ServoTable.version ``_built_for``. Kept here, not in a
+        # StepReport, so that a loop that fails between taking and sending them loses nothing.
+        self._taken: dict[tuple[int, int], dict[int, bytes]] = {}
+        self._prepared: list = []
+        self._built_for = -1
         self.fast_read = bool(config["method/fast_read"])
         self.split_read = bool(config["method/split_read"])
         self.split_write = bool(config["method/split_write"])
@@ -387,36 +388,42 @@ class Handler:
 
     def _send_writes(self, report: StepReport) -> None:
         t0 = time.perf_counter()
-        self.encode_writes(report)
-        if report.writes and report.built_for != self.table.version:  # servos removed meanwhile
-            self._build_writes(report)
-        prepared, report.prepared, report.writes = report.prepared, [], {}
+        self.encode_writes()
+        if self._taken and self._built_for != self.table.version:  # servos removed meanwhile
+            self._build_writes()
+        prepared, self._prepared, self._taken = self._prepared, [], {}
         for write in prepared:
             if not self.bus.send_prepared(write):
                 self.log.warning(f"sync write @{write.address}x{write.length} to IDs "
                                  f"{sorted((*write.ids, *write.dummies))} failed: {self.bus.last_failure}")
         report.write_s += time.perf_counter() - t0
 
-    def encode_writes(self, report: StepReport) -> None:
-        """Take the pending values and build their sync write packets now; ``send_writes`` sends
-        them (with what became pending meanwhile, a later value of a servo's item winning). The
-        node does this while a read is on the wire, so the packets are ready when it is free."""
+    def encode_writes(self) -> None:
+        """Take the pending values and build their sync write packets now; the next
+        ``send_writes`` sends them (with what became pending meanwhile, a later value of a servo's
+        item winning). The node does this while a read is on the wire, so the packets are ready the
+        moment it is free."""
         fresh = self._encode_pending()
         if not fresh:
             return
         for key, data in fresh.items():
-            report.writes.setdefault(key, {}).update(data)
-        self._build_writes(report)
+            self._taken.setdefault(key, {}).update(data)
+        self._build_writes()
 
-    def _build_writes(self, report: StepReport) -> None:
+    @property
+    def writes_ready(self) -> list:
+        """The sync writes built by ``encode_writes`` and not sent yet (``PreparedWrite``)."""
+        return list(self._prepared)
+
+    def _build_writes(self) -> None:
         index = self.table.index
-        writes = {key: kept for key, data in report.writes.items()
+        writes = {key: kept for key, data in self._taken.items()
                   if (kept := {i: chunk for i, chunk in data.items() if i in index})}
         if not self.split_write:
             writes = _merge_adjacent_writes(writes)
-        report.prepared = [self.bus.prepare_sync_write(address, size, data)
-                           for (address, size), data in sorted(writes.items())]
-        report.built_for = self.table.version
+        self._prepared = [self.bus.prepare_sync_write(address, size, data)
+                          for (address, size), data in sorted(writes.items())]
+        self._built_for = self.table.version
 
     def send_step(self, report: StepReport) -> None:
         self.send_writes(report)

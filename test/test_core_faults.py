@@ -31,7 +31,7 @@ def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_
         x.write("operating_mode", 1)
         x.write("goal_velocity", 100)
         debug = bench.topics["debug"]
-        bench.wait(lambda: debug.last().velocity_deg_s.present[0] > 100, what="ID 1 turning")
+        bench.wait(lambda: (m := debug.last()) is not None and m.velocity_deg_s.present[0] > 100, what="ID 1 turning")
 
         start = len(debug)
         bench.sim.set_silent(SILENT_ID, True)
@@ -75,7 +75,7 @@ def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_
                    and not math.isnan(_of(debug.last(), SILENT_ID, "position_deg")),
                    timeout=10, what=f"ID {SILENT_ID} handled and read again")
         status = bench.topics["state/status"]
-        bench.wait(lambda: list(status.last().id_list) == [1, 2, 3, 4] and all(status.last().ping),
+        bench.wait(lambda: (m := status.last()) is not None and list(m.id_list) == [1, 2, 3, 4] and all(m.ping),
                    what="/dynamixel/state/status with every ID and ping true")
         assert abs(_of(debug.last(), SILENT_ID, "position_deg")
                    - bench.sim.servo(SILENT_ID).read("present_position") * 180 / 501923) < 0.01

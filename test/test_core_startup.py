@@ -84,7 +84,8 @@ def _moving_servos(bench: Bench) -> None:
         servo.write("operating_mode", mode)
         servo.write(item, value)
     status = bench.topics["state/status"]
-    bench.wait(lambda: list(status.last().mode) == ["velocity", "position", "current", "velocity"],
+    modes = ["velocity", "position", "current", "velocity"]
+    bench.wait(lambda: (m := status.last()) is not None and list(m.mode) == modes,
                what="the modes in /dynamixel/state/status")
     assert bench.sim.servo(1).read("present_velocity") != 0
 

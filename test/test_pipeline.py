@@ -110,8 +110,8 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
         following = handler.begin_step()
         for item, values in before.items():
             handler.pending.put(item, values)
-        handler.encode_writes(following)        # built while the read is on the wire
-        assert following.prepared and bus.inflight_eta is not None
+        handler.encode_writes()                 # built while the read is on the wire
+        assert handler.writes_ready and bus.inflight_eta is not None
         for item, values in (after or {}).items():
             handler.pending.put(item, values)   # came later
         if op is not None:
@@ -135,6 +135,19 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
     assert [e.ids for e in current] == [(2,)]
     assert [sim.servo(i).read("goal_position") for i in (1, 2, 3)] == [2111, 2002, 2003]
     assert sim.servo(2).read("goal_current") == 50
+
+    # a loop that fails after taking the goals (its report dropped) loses none of them
+    report = handler.begin_step()
+    handler.send_step(report)
+    handler.pending.put("goal_position", {2: 3002})
+    handler.encode_writes()
+    assert handler.writes_ready and not handler.pending
+    handler.finish_step(report)                 # the loop is given up here; the next one:
+    sim.clear_log()
+    handler.step()
+    bus.read(1, OPERATING_MODE, 1)
+    assert [w for _, w in goals_written(sim.log)] == [{2: 3002}]
+    assert sim.servo(2).read("goal_position") == 3002 and not handler.writes_ready
 
 
 # ============================================================================ the node, flat out

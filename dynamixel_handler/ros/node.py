@@ -232,7 +232,7 @@ class DynamixelHandlerNode(Node):
                 self.intake.poll()
                 report = self.handler.begin_step()
                 if prev is not None:
-                    self.handler.encode_writes(report)  # the goal packets ready before the line is free
+                    self.handler.encode_writes()  # the goal packets ready before the line is free
                 begin_s += 0.2 * (time.monotonic() - t0 - begin_s)
                 if prev is not None:
                     self.handler.await_replies(prev)
