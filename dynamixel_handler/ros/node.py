@@ -368,7 +368,7 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     Exit codes: 0 normal stop, 1 start-up failure or a loop that kept failing, 2 bad parameter.
     Shared by the plain node and the lifecycle node.
     """
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    # the ROS environment (discovery range, domain, RMW) is the user's: the node changes none of it
     # the loop thread must get the interpreter lock back soon after the bus answers, even while
     # the publishing thread encodes (Python's default lets a waiting thread wait 5 ms)
     sys.setswitchinterval(SWITCH_INTERVAL_S)
