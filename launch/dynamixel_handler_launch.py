@@ -1,11 +1,13 @@
 """Start the dynamixel_handler node with the installed parameter file.
 
     ros2 launch dynamixel_handler dynamixel_handler_launch.py
-    ros2 launch dynamixel_handler dynamixel_handler_launch.py namespace:=arm device_name:=/dev/ttyUSB1 \
+    ros2 launch dynamixel_handler dynamixel_handler_launch.py name_space:=arm device_name:=/dev/ttyUSB1 \
         params_file:=/path/to/my_robot.yaml
 
-Arguments: ``namespace`` (default none: topics are /dynamixel/...), ``params_file`` (default the
-installed config/config_dynamixel_handler.yaml), ``device_name`` (empty: keep the file's).
+Arguments: ``name_space`` (default none: topics are /dynamixel/...; ``namespace`` is the same
+argument under another name and wins when both are given), ``params_file`` (default the installed
+config/config_dynamixel_handler.yaml), ``device_name`` (empty: keep the file's).
+``launch_dynamixel_handler.py`` is this file under the original handler's name.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -31,8 +33,10 @@ def _handler(context):
 
 def generate_launch_description() -> LaunchDescription:
     return LaunchDescription([
-        DeclareLaunchArgument("namespace", default_value="",
-                              description="namespace of the node and its topics"),
+        DeclareLaunchArgument("name_space", default_value="",
+                              description="namespace of the node and its topics (the original handler's name)"),
+        DeclareLaunchArgument("namespace", default_value=LaunchConfiguration("name_space"),
+                              description="the same as name_space"),
         DeclareLaunchArgument("params_file",
                               default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), "config", CONFIG]),
                               description="parameter file of the node"),

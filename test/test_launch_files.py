@@ -1,6 +1,7 @@
-"""The launch files, checked statically: `launch`/`launch_ros` have no PyPI wheels, so they cannot
-be run here. The XML is parsed; the Python files are compiled and their AST read. Both must start
-executables the package installs, with config files it ships, and be installed to share/."""
+"""The launch files: checked statically (the XML parsed, the Python compiled and its AST read), then
+read as `ros2 launch` would (``launch_runner.py``: the `launch` packages have no PyPI wheels) and
+the nodes they describe started on a virtual bus. The original handler's file and argument names
+(``launch_dynamixel_handler.py``, ``name_space`` ...) work as ours do."""
 from __future__ import annotations
 
 import ast
@@ -10,6 +11,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 LAUNCH = ROOT / "launch"
@@ -17,6 +19,11 @@ SHARE = ROOT / "install" / "dynamixel_handler" / "share" / "dynamixel_handler"
 LIB = ROOT / "install" / "dynamixel_handler" / "lib" / "dynamixel_handler"
 PY_FILES = ["dynamixel_handler_launch.py", "dynamixel_unify_baudrate_launch.py"]
 XML_FILE = "dynamixel_handler_launch.xml"
+#: the original handler's launch and config file names
+CPP_LAUNCH = ["launch_dynamixel_handler.py", "dynamixel_handler_launch.xml", "launch_dynamixel_unify_baudrate.py",
+              "dynamixel_unify_baudrate_launch.xml"]
+CPP_CONFIG = ["config_dynamixel_handler.yaml", "config_dynamixel_handler-fast.yaml",
+              "config_dynamixel_unify_baudrate.yaml"]
 
 
 def console_scripts() -> set[str]:
@@ -34,8 +41,8 @@ def test_xml_launch_starts_the_handler_with_the_shipped_config():
     root = ET.parse(LAUNCH / XML_FILE).getroot()
     assert root.tag == "launch"
     args = {a.get("name"): a.get("default") for a in root.findall("arg")}
-    assert set(args) == {"namespace", "params_file", "device_name"}
-    assert args["namespace"] == "" and args["device_name"] == ""
+    assert set(args) == {"name_space", "namespace", "params_file", "device_name"}
+    assert args["name_space"] == "" and args["namespace"] == "$(var name_space)" and args["device_name"] == ""
     share, config = re.fullmatch(r"\$\(find-pkg-share (\w+)\)/(.+)", args["params_file"]).groups()
     assert share == "dynamixel_handler" and (ROOT / config).is_file()
     nodes = root.findall("node")
@@ -82,7 +89,7 @@ def _value(node: ast.AST, constants: dict[str, str]):
 
 @pytest.mark.parametrize("name,executable,config,arguments", [
     ("dynamixel_handler_launch.py", "dynamixel_handler", "config_dynamixel_handler.yaml",
-     {"namespace", "params_file", "device_name"}),
+     {"name_space", "namespace", "params_file", "device_name"}),
     ("dynamixel_unify_baudrate_launch.py", "dynamixel_unify_baudrate", "config_unify_baudrate.yaml",
      {"params_file", "device_name", "target_baudrate"}),
 ])
@@ -116,9 +123,80 @@ needs_install = pytest.mark.skipif(not SHARE.is_dir(), reason="not built (script
 
 @needs_install
 def test_launch_and_config_files_are_installed_to_share():
-    for name in PY_FILES + [XML_FILE]:
+    for name in PY_FILES + [XML_FILE] + CPP_LAUNCH:
         assert (SHARE / "launch" / name).is_file(), f"{name} not in {SHARE / 'launch'}: run scripts/setup.sh"
-    for config in ("config_dynamixel_handler.yaml", "config_unify_baudrate.yaml"):
+    for config in ["config_unify_baudrate.yaml"] + CPP_CONFIG:
         assert (SHARE / "config" / config).is_file()
-    for executable in ("dynamixel_handler", "dynamixel_unify_baudrate"):
+    for executable in ("dynamixel_handler", "dynamixel_unify_baudrate", "dynamixel_handler_node",
+                       "dynamixel_unify_baudrate_node"):
         assert (LIB / executable).is_file(), f"{executable} not installed: run scripts/setup.sh"
+
+
+# ---------------------------------------------------------------------- read and run as `ros2 launch` does
+@needs_install
+@pytest.mark.parametrize("name", PY_FILES + [XML_FILE] + CPP_LAUNCH)
+def test_every_launch_file_name_describes_an_installed_node_with_a_shipped_config(name, tmp_path):
+    from launch_runner import nodes
+    found = nodes(name, device_name="/dev/ttyUSB7")
+    assert len(found) == 1, found
+    cmd = found[0].command(tmp_path)
+    assert Path(cmd[0]).is_file() and Path(cmd[0]).parent == LIB
+    files = [Path(cmd[i + 1]) for i, a in enumerate(cmd) if a == "--params-file"]
+    assert files[0].parent == SHARE / "config" and files[0].is_file()
+    # device_name given: an override after the file
+    assert yaml.safe_load(files[-1].read_text()) == {"/**": {"ros__parameters": {"device_name": "/dev/ttyUSB7"}}}
+
+
+def _topic_namespaces(node, topic_end: str) -> set[str]:
+    return {name[: -len(topic_end)] for name, _ in node.get_topic_names_and_types() if name.endswith(topic_end)}
+
+
+@needs_install
+@pytest.mark.parametrize("name,arguments", [
+    ("launch_dynamixel_handler.py", {"name_space": "robot1"}),
+    ("dynamixel_handler_launch.xml", {"name_space": "robot1"}),
+    ("dynamixel_handler_launch.py", {"namespace": "robot1"}),
+])
+def test_launched_handler_publishes_under_the_namespace_given(name, arguments, tmp_path):
+    import rclpy
+    from rclpy.node import Node as RosNode
+
+    from dynamixel_handler.sim import VirtualBus
+    from dynamixel_handler_msgs.msg import DxlStates
+    from launch_runner import nodes
+    from ros_helpers import NodeProcess, spin_until
+
+    with VirtualBus({1: 1020}) as sim:
+        (spec,) = nodes(name, device_name=sim.path, **arguments)
+        proc = NodeProcess(spec.command(tmp_path))
+        rclpy.init()
+        try:
+            node = RosNode("launch_test")
+            from rclpy.executors import SingleThreadedExecutor
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            got: list[DxlStates] = []
+            node.create_subscription(DxlStates, "/robot1/dynamixel/states", got.append, 10)
+            assert spin_until(node, executor, lambda: bool(got), timeout=30), proc.output
+            assert list(got[-1].status.id_list) == [1] or list(got[-1].present.id_list) == [1]
+            assert _topic_namespaces(node, "/dynamixel/states") == {"/robot1"}
+            assert "[robot1.dynamixel_handler]" in proc.output
+        finally:
+            node.destroy_node()
+            rclpy.try_shutdown()
+            assert proc.stop() == 0, proc.output
+
+
+@needs_install
+@pytest.mark.parametrize("name", ["launch_dynamixel_unify_baudrate.py", "dynamixel_unify_baudrate_launch.xml"])
+def test_launched_unify_tool_finds_the_servo_once(name, tmp_path):
+    from dynamixel_handler.sim import VirtualBus
+    from launch_runner import nodes
+    from ros_helpers import NodeProcess
+
+    with VirtualBus({1: 1020, 2: 1020}, check_baudrate=True) as sim:
+        (spec,) = nodes(name, device_name=sim.path, target_baudrate="57600")
+        proc = NodeProcess(spec.command(tmp_path))
+        assert proc.wait_exit(timeout=120) == 0, proc.output
+        assert "2 servo(s) found, 2 already at the target" in proc.output, proc.output
+        assert "share" not in proc.output and "Traceback" not in proc.output
