@@ -89,7 +89,7 @@ SCHEMA: tuple[Param, ...] = (
     _p("option/imu_opencr.adjust/flip_z_axis", BOOL, True, "IMU z flip (unused)"),
     _p("max_log_width", INT, 6, "IDs per line in list-like logs"),
     _p("verbose/callback", BOOL, False, "log every accepted command"),
-    *(_p(f"verbose/write_{g}", BOOL, False, f"log {g} writes") for g in ("status", "goal", "gain", "limit")),
+    *(_p(f"verbose/write_{g}", BOOL, False, f"log {g} writes") for g in ("status", "goal", "gain", "limit", "extra")),
     *(_p(f"verbose/read_{g}.{k}", BOOL, False, f"log {g} reads ({'values' if k == 'raw' else 'failures'})")
       for g in _READ_GROUPS for k in ("raw", "err")),
     _p("verbose/read_hardware_error", BOOL, True, "log hardware errors when read"),
@@ -110,6 +110,15 @@ SCHEMA_BY_NAME: dict[str, Param] = {p.name: p for p in SCHEMA}
 # Prefixes whose unknown keys are accepted silently: the original handler's OpenCR IMU option
 # has more keys than this handler reads.
 TOLERATED_PREFIXES = ("option/imu_opencr.",)
+
+# Other spellings of parameters found in the original handler's YAML files (older versions of
+# them among others): the value goes to the parameter(s) on the right unless those are given too.
+ALIASES: dict[str, tuple[str, ...]] = {
+    "dummy_servo_id_list": ("init/dummy_servo_list",),
+    "pub_ratio/extra": ("pub_ratio/extra.dynamic_items", "pub_ratio/extra.static_items"),
+    **{f"verbose/read_{g}/{k}": (f"verbose/read_{g}.{k}",) for g in _READ_GROUPS for k in ("raw", "err")},
+    **{f"option/external_port.verbose/read/{k}": (f"option/external_port.verbose/read.{k}",) for k in ("raw", "err")},
+}
 
 BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000, 6000000, 10500000)
 

@@ -18,7 +18,9 @@ _SCALAR = {
 }
 _READ_ONLY = ("model", "model_number", "protocol_type", "firmware_version", "realtime_tick_s", "moving",
               "moving_status.velocity_profile", "moving_status.following_error", "moving_status.profile_ongoing",
-              "moving_status.in_position", "pwm_slope_percent")
+              "moving_status.in_position")
+#: PWM slope register range (X330 only; unit 3.955 mV/ms, published and taken as the register value)
+PWM_SLOPE_RANGE = (1, 255)
 _DRIVE = ("drive_mode.torque_on_by_goal_update", "drive_mode.profile_configuration", "drive_mode.reverse_mode")
 _RESTORE = ("restore_configuration.ram_restore", "restore_configuration.startup_torque_on")
 
@@ -68,17 +70,28 @@ def apply_extra(c: "Commander", ids: list[int], fields: Mapping[str, Sequence], 
             old = units.decode_shutdown([c._value(dxl_id, "shutdown") or 0])
             flags = {name: bool(shutdown_fields.get(name, [old[name][0]] * len(ids))[k]) for name in old}
             h.write_eeprom(dxl_id, "shutdown", units.encode_shutdown(**flags))
+        if "pwm_slope_percent" in fields and c.finite(what, "pwm_slope_percent", dxl_id, fields["pwm_slope_percent"][k]):
+            slope = round(float(fields["pwm_slope_percent"][k]))
+            if not model.has("pwm_slope"):
+                c.warn(f"{what}: ID {dxl_id} ({model.name}) has no pwm_slope (X330 only): ignored")
+            elif not PWM_SLOPE_RANGE[0] <= slope <= PWM_SLOPE_RANGE[1]:
+                c.warn(f"{what}: ID {dxl_id} 'pwm_slope_percent' = {slope} is out of range "
+                       f"{PWM_SLOPE_RANGE[0]}..{PWM_SLOPE_RANGE[1]}: refused")
+            elif not h.write_eeprom(dxl_id, "pwm_slope", slope):
+                c.warn(f"{what}: ID {dxl_id} writing pwm_slope failed: {h.bus.last_failure}")
         for colour in ("red", "green", "blue"):
             field = f"led.{colour}_percent"
             if field not in fields or not c.finite(what, field, dxl_id, fields[field][k]):
                 continue
             percent = min(max(float(fields[field][k]), 0.0), 100.0)
-            if model.has(f"led_{colour}"):
-                h.write_item(dxl_id, f"led_{colour}", int(round(percent * 2.55)))
-            elif colour == "red" and model.has("led"):
-                h.write_item(dxl_id, "led", 1 if percent > 0 else 0)
+            if model.has(f"led_{colour}"):  # P, Pro: 0..255, rounded half up (50 % -> 128)
+                h.write_item(dxl_id, f"led_{colour}", int(percent * 255.0 / 100.0 + 0.5))
+            elif colour == "red" and model.has("led"):  # X: one LED, on from 50 %
+                h.write_item(dxl_id, "led", 1 if percent >= 50.0 else 0)
             else:
                 c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {colour} LED: ignored")
         if "reboot" in fields and fields["reboot"][k]:
             h.reboot(dxl_id)
             h.read_item(dxl_id, "torque_enable")
+        if h.config["verbose/write_extra"]:
+            c.log.info(f"{what}: ID {dxl_id} extra fields handled: {', '.join(sorted(fields))}")

@@ -178,7 +178,9 @@ class Handler:
         for item, param in (("profile_acceleration", "default/profile_acc"), ("profile_velocity", "default/profile_vel")):
             if model.has(item):
                 pulses = int(units.unit_to_pulse([model], item, [self.config[param]])[0])
-                self.write_item(dxl_id, item, pulses)
+                if not self.write_item(dxl_id, item, pulses):  # e.g. above a P servo's velocity limit
+                    self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {self.config[param]:g} not set "
+                                     f"({item} {pulses} refused: {self.bus.last_failure})")
         self._to_arm.add(dxl_id)
 
     def watchdog_pulses(self) -> int:

@@ -109,7 +109,9 @@ def extra(table: ServoTable) -> Tree:
         "id_list": u16(table.ids),
         "model": [m.name for m in table.models],
         "model_number": u16([m.number for m in table.models]),
-        "protocol_type": u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"), 0)),
+        # the old Pro has no Protocol Type register: it speaks Protocol 2.0 only
+        "protocol_type": u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"),
+                                      [2 if m.series == "PRO" else 0 for m in table.models])),
         "firmware_version": u16(table.pulses("firmware_version")),
         "realtime_tick_s": table.units("realtime_tick"),
         "moving_status": moving_status,
@@ -124,9 +126,9 @@ def extra(table: ServoTable) -> Tree:
         "pwm_slope_percent": np.where(table.known("pwm_slope"), table.pulses("pwm_slope"), np.nan).astype(np.float64),
         "shutdown": {name: np.asarray(flags, bool) & has_shutdown
                      for name, flags in units.decode_shutdown(table.pulses("shutdown")).items()},
-        "led": {"red_percent": np.where(table.known("led_red"), table.pulses("led_red") / 2.55, led),
-                "green_percent": np.where(table.known("led_green"), table.pulses("led_green") / 2.55, np.nan),
-                "blue_percent": np.where(table.known("led_blue"), table.pulses("led_blue") / 2.55, np.nan)},
+        "led": {"red_percent": np.where(table.known("led_red"), table.pulses("led_red") * 100.0 / 255.0, led),
+                "green_percent": np.where(table.known("led_green"), table.pulses("led_green") * 100.0 / 255.0, np.nan),
+                "blue_percent": np.where(table.known("led_blue"), table.pulses("led_blue") * 100.0 / 255.0, np.nan)},
         "bus_watchdog_ms": table.units("bus_watchdog"),
         "reboot": np.zeros(n, dtype=bool),
     }

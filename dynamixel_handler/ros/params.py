@@ -2,7 +2,8 @@
 
 The node is created with ``automatically_declare_parameters_from_overrides=True`` so that every
 name in the user's YAML is visible here: names we do not know get one error line (and are
-ignored), values of the wrong type or range stop start-up with one clear message.
+ignored), other spellings of the original handler's YAML files (``config.ALIASES``) are read as the
+parameter they name, values of the wrong type or range stop start-up with one clear message.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from typing import Any
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.node import Node
 
-from ..config import (BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, STR_ARRAY,
+from ..config import (ALIASES, BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, STR_ARRAY,
                       TOLERATED_PREFIXES, Config, ConfigError, coerce, validate)
 
 _ROS_TYPES = {
@@ -27,6 +28,11 @@ _ROS_OWN = {"use_sim_time", "start_type_description_service"}
 def declare_and_load(node: Node) -> Config:
     """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
     given: dict[str, Any] = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
+    for name in sorted(set(given) & set(ALIASES)):  # the original handler's other spellings
+        value = given.pop(name)
+        node.undeclare_parameter(name)
+        for target in ALIASES[name]:
+            given.setdefault(target, value)
     for name in sorted(given):
         if name in SCHEMA_BY_NAME or name in _ROS_OWN or name.startswith(TOLERATED_PREFIXES):
             continue
@@ -37,7 +43,8 @@ def declare_and_load(node: Node) -> Config:
     for param in SCHEMA:
         if param.name in given:
             value = coerce(param, given[param.name])  # ConfigError names the parameter and the type
-            node.undeclare_parameter(param.name)
+            if node.has_parameter(param.name):  # not when it came under another spelling (ALIASES)
+                node.undeclare_parameter(param.name)
         else:
             value = param.default
         values[param.name] = value
