@@ -78,7 +78,7 @@ class Bench(TopicClient):
     def __init__(self, *params: str, servos: dict[int, int] | None = None, wait_ids: Iterable[int] | None = None,
                  start_node: bool = True, env: dict[str, str] | None = None) -> None:
         self.env = env
-        self.sim = VirtualBus(servos=dict(FOUR_SERVOS if servos is None else servos))
+        self.sim = VirtualBus(servos=dict(FOUR_SERVOS if servos is None else servos), wire_timing=False)
         self.device = self.sim.start()
         self.node_proc: NodeProcess | None = None
         # listen first, so the node's first loops reach us once discovery is done

@@ -22,7 +22,9 @@ class Rig(TopicClient):
                  env: dict[str, str] | None = None) -> None:
         """``expect``: number of IDs the node should handle (default: every simulated servo);
         ``env``: extra environment of the node process."""
-        self.sim = VirtualBus(servos=servos, **(sim_kwargs or {}))
+        # the servos as unboxed (57600 bps, the node's default; answering only at that rate), but
+        # untimed replies: wire timing is opted into per test (``sim_kwargs``)
+        self.sim = VirtualBus(servos=servos, **{"wire_timing": False, **(sim_kwargs or {})})
         path = self.sim.start()
         if before_start is not None:
             before_start(self.sim)

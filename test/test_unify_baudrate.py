@@ -56,7 +56,7 @@ def test_virtual_servo_answers_only_at_its_baud_rate_and_switches_after_the_repl
 
 
 def test_without_the_check_servos_answer_at_any_host_rate():
-    with VirtualBus({1: X}) as sim:
+    with VirtualBus({1: X}, check_baudrate=False) as sim:
         at_rates(sim, {1: 115200})
         assert answering(sim.path, 3_000_000) == {1: X}
 
@@ -179,6 +179,35 @@ def test_sim_command_line_check_baudrate_flag():
         path = proc.stdout.readline().strip()
         assert answering(path, 57600) == {1: X}
         assert answering(path, 1_000_000) == {}
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+@needs_tool
+def test_tool_against_the_default_virtual_bus_finds_each_servo_once(tmp_path):
+    """``scripts/run.sh``'s bus as it starts (no flags): its servos answer at their own 57600 bps
+    only, so the tool sees each of them once and moves them all, with no false ID clash."""
+    state = tmp_path / "bus.json"
+    proc = subprocess.Popen([sys.executable, "-m", "dynamixel_handler.sim", "--quiet", "--state", str(state)],
+                            stdout=subprocess.PIPE, stdin=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        path = proc.stdout.readline().strip()
+        out = run_tool(f"device_name:={path}", "latency_timer:=1", "min_id:=0", "max_id:=6", timeout=60)
+        assert out.returncode == 0, out.text
+        assert "4 servo(s) found, 0 already at the target, 4 moved, 0 failed" in out.text, out.text
+        assert "share this ID" not in out.text and "Traceback" not in out.text
+        assert answering(path, 1_000_000) == {1: X, 2: X540, 3: P, 4: PRO}
+    finally:
+        proc.terminate()
+        proc.wait(10)
+    # the new baud rates were kept in the bus's state file, as a servo keeps its EEPROM
+    proc = subprocess.Popen([sys.executable, "-m", "dynamixel_handler.sim", "--quiet", "--state", str(state)],
+                            stdout=subprocess.PIPE, stdin=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        path = proc.stdout.readline().strip()
+        assert answering(path, 1_000_000) == {1: X, 2: X540, 3: P, 4: PRO}
+        assert answering(path, 57600) == {}
     finally:
         proc.terminate()
         proc.wait(10)

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Dict, List, Mapping, Tuple
 
-from ._facts import EEPROM_END, MODEL_FACTS, OLD_PRO_ITEMS, SIGNED_ITEMS, ModelFacts
+from ._facts import (BAUD_RATES, EEPROM_END, INDIRECT, MODEL_FACTS, OLD_PRO_ITEMS, OPERATING_MODES_OF,
+                     SIGNED_ITEMS, TABLE_SIZE, X330_INDIRECT_DATA_BEFORE_FW52, ModelFacts)
 from ._sdk_files import load_sdk_table
 
 __all__ = ["Item", "Model", "model_by_number", "known_models", "OPERATING_MODES", "SERIES"]
@@ -77,6 +78,26 @@ class Model:
     position_max_pulse: int = 0
     position_min_pulse: int = 0
     external_ports: Tuple[int, ...] = ()
+    #: control-table family: "X" (X430/X540), "X330" (X330, XM335), "P" (P and PRO "-RA"), "OLD_PRO"
+    layout: str = "X"
+    #: Baud Rate register value -> bps
+    baud_rates: Mapping[int, int] = field(default_factory=dict, repr=False)
+    #: Operating Mode register values the firmware accepts
+    operating_modes: Tuple[int, ...] = ()
+    #: indirect blocks as (first Indirect Address, first Indirect Data, entries)
+    indirect: Tuple[Tuple[int, int, int], ...] = ()
+    #: the addresses an Indirect Address may hold (lowest, highest)
+    indirect_targets: Tuple[int, int] = (0, 0)
+    #: bytes of control table (last address + 1)
+    table_size: int = 0
+
+    def indirect_blocks(self, firmware: int) -> Tuple[Tuple[int, int, int], ...]:
+        """The indirect blocks for a firmware version: X330 firmware before v52 had its
+        Indirect Data at 224 instead of 208."""
+        if self.layout == "X330" and firmware < 52 and self.indirect and self.indirect[0][1] == 208:
+            address, _, count = self.indirect[0]
+            return ((address, X330_INDIRECT_DATA_BEFORE_FW52, count),)
+        return self.indirect
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Model):
@@ -110,12 +131,15 @@ def _raw_items(facts: ModelFacts) -> Tuple[Dict[str, Tuple[int, int]], Dict[str,
 def _layout(facts: ModelFacts) -> str:
     if facts.old_pro:
         return "OLD_PRO"
-    return "PRO_RA" if facts.series == "PRO" else facts.series
+    if facts.series == "X" and facts.current_ma == 1.0:  # X330 and XM335: 1 mA per LSB
+        return "X330"
+    return facts.series
 
 
 def _build(number: int, facts: ModelFacts) -> Model:
     rows, _type_info = _raw_items(facts)
-    eeprom_end = EEPROM_END[_layout(facts)]
+    layout = _layout(facts)
+    eeprom_end = EEPROM_END[layout]
     items = {
         name: Item(name, address, size, name in SIGNED_ITEMS, address < eeprom_end)
         for name, (address, size) in sorted(rows.items(), key=lambda kv: kv[1][0])
@@ -127,6 +151,8 @@ def _build(number: int, facts: ModelFacts) -> Model:
         position_scale = 180.0 / facts.half_turn_pulses
         zero, pmin, pmax = 0, -facts.half_turn_pulses, facts.half_turn_pulses
     ports = tuple(n for n in (1, 2, 3, 4) if f"external_port_data_{n}" in items)
+    indirect_key = "XM335" if facts.name.startswith("XM335") else layout
+    blocks, targets = INDIRECT[indirect_key]
     return Model(
         number=number,
         name=facts.name,
@@ -141,6 +167,12 @@ def _build(number: int, facts: ModelFacts) -> Model:
         position_max_pulse=pmax,
         position_min_pulse=pmin,
         external_ports=ports,
+        layout=layout,
+        baud_rates=MappingProxyType(dict(BAUD_RATES[layout])),
+        operating_modes=facts.modes or OPERATING_MODES_OF[layout],
+        indirect=blocks,
+        indirect_targets=targets,
+        table_size=TABLE_SIZE[indirect_key],
     )
 
 

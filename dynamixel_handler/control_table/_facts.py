@@ -66,6 +66,7 @@ class ModelFacts:
     half_turn_pulses: int = 0  # P / PRO: pulses per half revolution; X: 0 (4096 per turn)
     extra_items: Dict[str, Tuple[int, int]] = field(default_factory=dict)
     old_pro: bool = False
+    modes: Optional[Tuple[int, ...]] = None  # operating modes, when not those of the layout
 
 
 def _x(name: str, sdk_file: str, current_ma: float, extra: Optional[Dict] = None) -> ModelFacts:
@@ -78,17 +79,19 @@ def _p(name: str, series: str, sdk_file: str, half_turn: int, extra: Optional[Di
                       P_PWM_FULL_SCALE, half_turn, dict(extra or {}))
 
 
-def _old_pro(name: str, rpm: float, current_ma: float, half_turn: int) -> ModelFacts:
-    return ModelFacts(name, "PRO", None, current_ma, rpm, OLD_PRO_MOTOR_ACCELERATION_RPM2 * rpm,
-                      NAN, half_turn, {}, old_pro=True)
+def _old_pro(name: str, rpm: float, current_ma: float, half_turn: int,
+             acceleration_rpm2: Optional[float] = None, modes: Optional[Tuple[int, ...]] = None) -> ModelFacts:
+    accel = OLD_PRO_MOTOR_ACCELERATION_RPM2 * rpm if acceleration_rpm2 is None else acceleration_rpm2
+    return ModelFacts(name, "PRO", None, current_ma, rpm, accel, NAN, half_turn, {}, old_pro=True, modes=modes)
 
 
 # X items the SDK files leave out but the e-Manual lists: Startup Configuration (60, 1 byte) is
 # documented for X430/X540 from firmware v45 and X330 from v46 (older firmware leaves it
 # reserved). X330 PWM Slope (62) is already in the SDK files. The X "Acceleration Limit" (40) of
 # early e-Manual versions is no longer documented, so X models do not expose it.
-_X430_540_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1)}
-_X330_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1)}
+# Backup Ready (147) exists from firmware v45 (X330: v46) as well; the SDK X files omit it.
+_X430_540_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1), "backup_ready": (147, 1)}
+_X330_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1), "backup_ready": (147, 1)}
 
 _CURRENT_X = 2.69
 _CURRENT_X330 = 1.0
@@ -129,6 +132,9 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     1220: _x("XC330-T288", "xc330_t288.model", _CURRENT_X330, _X330_EXTRA),
     1230: _x("XC330-M181", "xc330_m181.model", _CURRENT_X330, _X330_EXTRA),
     1240: _x("XC330-M288", "xc330_m288.model", _CURRENT_X330, _X330_EXTRA),
+    # XM335-T323 (e-Manual page xm335-t323): the X330 items plus Backup Ready, 1 mA, 0.229 rpm;
+    # its table equals the XC330 one (no SDK file of its own), 28 indirect entries at 168/224.
+    1710: _x("XM335-T323", "xc330_t288.model", _CURRENT_X330, _X330_EXTRA),
     1270: _x("XW430-T333", "xw430_t333.model", _CURRENT_X, _X430_540_EXTRA),
     # XW430-T200 has a table file but is missing from the SDK's number index.
     1280: _x("XW430-T200", "xw430_t200.model", _CURRENT_X, _X430_540_EXTRA),
@@ -140,13 +146,13 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     2100: _p("PM42-010-S260-R", "P", "pm42_010_s260.model", 263187),
     2110: _p("PM54-040-S250-R", "P", "pm54_040_s250.model", 251417),
     2120: _p("PM54-060-S250-R", "P", "pm54_060_s250.model", 251417),
-    # ---- PRO with advanced firmware "-R(A)": P-style table, P units ----------------------------
-    43289: _p("M42-10-S260-R(A)", "PRO", "m42_10_s260_ra.model", 263187),
-    46097: _p("M54-40-S250-R(A)", "PRO", "m54_40_s250_ra.model", 251417),
-    46353: _p("M54-60-S250-R(A)", "PRO", "m54_60_s250_ra.model", 251417),
-    51201: _p("H42-20-S300-R(A)", "PRO", "h42_20_s300_ra.model", 303750),
-    53769: _p("H54-100-S500-R(A)", "PRO", "h54_100_s500_ra.model", 501923),
-    54025: _p("H54-200-S500-R(A)", "PRO", "h54_200_s500_ra.model", 501923),
+    # ---- PRO with advanced firmware "-R(A)": the P table and units, so the P series -------------
+    43289: _p("M42-10-S260-R(A)", "P", "m42_10_s260_ra.model", 263187),
+    46097: _p("M54-40-S250-R(A)", "P", "m54_40_s250_ra.model", 251417),
+    46353: _p("M54-60-S250-R(A)", "P", "m54_60_s250_ra.model", 251417),
+    51201: _p("H42-20-S300-R(A)", "P", "h42_20_s300_ra.model", 303750),
+    53769: _p("H54-100-S500-R(A)", "P", "h54_100_s500_ra.model", 501923),
+    54025: _p("H54-200-S500-R(A)", "P", "h54_200_s500_ra.model", 501923),
     # ---- old PRO "-R" firmware: our own table (OLD_PRO_ITEMS) ------------------------------------
     43288: _old_pro("M42-10-S260-R", 0.00389076, _PRO_42, 131593),
     46096: _old_pro("M54-40-S250-R", 0.00397746, _PRO_54, 125708),
@@ -154,6 +160,15 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     51200: _old_pro("H42-20-S300-R", 0.00329218, _PRO_42, 151875),
     53768: _old_pro("H54-100-S500-R", 0.00199234, _PRO_54, 250961),
     54024: _old_pro("H54-200-S500-R", 0.00199234, _PRO_54, 250961),
+    # L series ("-R" firmware, same table). e-Manual: Goal Velocity scale factor L54-50-S290
+    # 0.00346667, L54-*-S500 0.00199234, L54-30-S400 0.00249657 rpm; resolution 207,692 /
+    # 361,384 / 288,395 pulses per turn. L42-10-S300-R: 4096 pulses per turn, 0.114 rpm per LSB,
+    # Goal Acceleration "214 RPM^2 @ Core Motor" (gear 303.75), velocity and position modes only.
+    35072: _old_pro("L42-10-S300-R", 0.114, _PRO_42, 2048, acceleration_rpm2=214.0 / 303.75, modes=(1, 3)),
+    37896: _old_pro("L54-30-S500-R", 0.00199234, _PRO_54, 180692),
+    37928: _old_pro("L54-30-S400-R", 0.00249657, _PRO_54, 144197),
+    38152: _old_pro("L54-50-S500-R", 0.00199234, _PRO_54, 180692),
+    38176: _old_pro("L54-50-S290-R", 0.00346667, _PRO_54, 103846),
 }
 
 # Old PRO "-R" control table (e-Manual, identical across the six models): name -> (address, size).
@@ -209,12 +224,47 @@ OLD_PRO_ITEMS: Dict[str, Tuple[int, int]] = {
 }
 
 # Items whose value is a two's-complement number. Position limits are signed because P / PRO
-# limits are negative (X limits 0..4095 read the same either way).
+# limits are negative (X limits 0..4095 read the same either way). Bus Watchdog reads -1 once it
+# has tripped (e-Manual: "Bus Watchdog Error"), 1..127 while armed.
 SIGNED_ITEMS = frozenset({
     "homing_offset", "goal_pwm", "goal_current", "goal_velocity", "goal_position",
     "present_pwm", "present_current", "present_load", "present_velocity", "present_position",
     "velocity_trajectory", "position_trajectory", "max_position_limit", "min_position_limit",
+    "bus_watchdog",
 })
 
 # First RAM address per table layout: everything below is EEPROM (writable only with torque off).
-EEPROM_END = {"X": 64, "P": 512, "PRO_RA": 512, "OLD_PRO": 562}
+EEPROM_END = {"X": 64, "X330": 64, "P": 512, "OLD_PRO": 562}
+
+# Baud Rate register value -> bps per layout (e-Manual "Baud Rate(8)"): 0..6 are shared; X430/540
+# add 7 = 4.5M; X330 (and XM335) stop at 4M; P and PRO "-RA" have 8 = 6M and 9 = 10.5M; the old
+# PRO "-R" firmware has 8 = 10.5M.
+_BAUD_COMMON = {0: 9600, 1: 57600, 2: 115200, 3: 1_000_000, 4: 2_000_000, 5: 3_000_000, 6: 4_000_000}
+BAUD_RATES = {
+    "X": {**_BAUD_COMMON, 7: 4_500_000},
+    "X330": dict(_BAUD_COMMON),
+    "P": {**_BAUD_COMMON, 7: 4_500_000, 8: 6_000_000, 9: 10_500_000},
+    "OLD_PRO": {**_BAUD_COMMON, 7: 4_500_000, 8: 10_500_000},
+}
+
+# Operating modes per layout (old PRO "-R": no PWM, no current-based position).
+OPERATING_MODES_OF = {"X": (0, 1, 3, 4, 5, 16), "X330": (0, 1, 3, 4, 5, 16), "P": (0, 1, 3, 4, 5, 16),
+                      "OLD_PRO": (0, 1, 3, 4)}
+
+# Indirect blocks per layout as (first Indirect Address, first Indirect Data, entries), and the
+# addresses an Indirect Address may hold (e-Manual control tables):
+# X430/540: 1-28 at 168/224 and 29-56 at 578/634, targets 64..661. X330: 1-20 at 168, data at 208
+# from firmware v52 (224 before), targets 64..227. XM335: 1-28 at 168/224, targets 64..251.
+# P and PRO "-RA": 1-128 at 168/634 (the addresses in EEPROM), targets 512..1023. Old PRO "-R":
+# 1-256 at 49/634, targets 562..949.
+INDIRECT = {
+    "X": (((168, 224, 28), (578, 634, 28)), (64, 661)),
+    "X330": (((168, 208, 20),), (64, 227)),
+    "XM335": (((168, 224, 28),), (64, 251)),
+    "P": (((168, 634, 128),), (512, 1023)),
+    "OLD_PRO": (((49, 634, 256),), (562, 949)),
+}
+X330_INDIRECT_DATA_BEFORE_FW52 = 224
+
+# Bytes of control table per layout (the last address + 1).
+TABLE_SIZE = {"X": 662, "X330": 228, "XM335": 252, "P": 1024, "OLD_PRO": 1024}

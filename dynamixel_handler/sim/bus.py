@@ -10,6 +10,7 @@ errors, or the whole adapter vanishing and coming back.
 from __future__ import annotations
 
 import collections
+import json
 import os
 import random
 import select
@@ -42,25 +43,39 @@ class LoggedInstruction:
         return p.INSTRUCTION_NAMES.get(self.instruction, f"0x{self.instruction:02X}")
 
 
+FACTORY_BAUDRATE = 57600
+
+
 class VirtualBus:
     """A bus of virtual servos on a pty. ``servos`` maps ID -> model number.
 
-    ``baudrate`` None disables wire timing (replies as fast as possible); with a baud rate,
-    each transaction takes (instruction + reply bytes) * 10 / baud plus ``latency_s`` plus
-    the servos' return delays, so a benchmark sees a real bus's time.
+    By default the servos are as unboxed: factory values, Baud Rate 57600 (1 Mbps on the XM335),
+    and they behave as on a real bus:
 
-    ``check_baudrate`` makes each servo hear only packets sent while the host's port is set to
-    the servo's Baud Rate register (read from the pty, see ``PtyPort.host_baudrate``), as on a
-    real bus; a write to Baud Rate takes effect after its status reply. Off by default: then
-    servos answer at any host baud rate.
+    * ``check_baudrate`` (default on): a servo hears only packets sent while the host's port is
+      set to the speed of its Baud Rate register (read from the pty, see
+      ``PtyPort.host_baudrate``); a write to Baud Rate takes effect after its status reply.
+      Off: servos answer at any host baud rate.
+    * ``wire_timing`` (default on): each transaction takes (instruction + reply bytes) * 10 /
+      line speed plus ``latency_s`` plus the servos' Return Delay Time, the line speed being the
+      one the host set on its port. Off: replies as fast as possible (tests that need speed).
+
+    ``baudrate`` puts every servo at that speed (its Baud Rate register) and times the wire at it
+    even with ``wire_timing`` off; setting the attribute later times the wire from then on.
+    ``state_file``: the servos' EEPROM is loaded from it (when it exists) and ``save_state``
+    writes it, so ID, baud rate and limits survive a restart as on hardware.
     """
 
     def __init__(self, servos: Mapping[int, int] | None = None, baudrate: int | None = None,
                  latency_s: float = 0.0, link: str | None = None,
                  clock: Callable[[], float] = time.monotonic, seed: int | None = None,
-                 log_size: int = 100_000, check_baudrate: bool = False) -> None:
+                 log_size: int = 100_000, check_baudrate: bool = True, wire_timing: bool = True,
+                 state_file: str | None = None) -> None:
         self.baudrate = baudrate
+        self._servo_bps = baudrate
         self.check_baudrate = check_baudrate
+        self.wire_timing = wire_timing
+        self.state_file = state_file
         self._line_bps: int | None = None  # host line speed of the packet being executed
         self.latency_s = latency_s
         self.clock = clock
@@ -84,6 +99,8 @@ class VirtualBus:
         self.refused: collections.deque = collections.deque(maxlen=10_000)
         for servo_id, model in (servos or {}).items():
             self.add_servo(servo_id, model)
+        if state_file and os.path.exists(state_file):
+            self.load_state(state_file)
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> str:
@@ -133,8 +150,48 @@ class VirtualBus:
     def add_servo(self, servo_id: int, model_number: int) -> VirtualServo:
         with self._lock:
             servo = VirtualServo(int(model_number), int(servo_id), self.clock)
+            if self._servo_bps is not None:
+                values = {bps: v for v, bps in servo.baud_rates.items()}
+                if self._servo_bps not in values:
+                    raise ValueError(f"{servo.model.name} cannot run at {self._servo_bps} bps "
+                                     f"(it can: {', '.join(str(b) for b in sorted(values))})")
+                servo.write("baud_rate", values[self._servo_bps])
             self._servos.append(servo)
             return servo
+
+    # ------------------------------------------------------------------ state file
+    def save_state(self, path: str | None = None) -> None:
+        """Write every servo's EEPROM (and control-table backup) to ``path`` (default: the
+        ``state_file``) as JSON, atomically."""
+        path = path or self.state_file
+        if not path:
+            return
+        with self._lock:
+            data = {"servos": [s.state() for s in sorted(self._servos, key=lambda s: s.id)]}
+            for s in self._servos:
+                s.eeprom_changed = False
+        tmp = f"{path}.{os.getpid()}.tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=1)
+        os.replace(tmp, path)
+
+    def load_state(self, path: str) -> None:
+        """Replace the servos by those saved in ``path`` (model, EEPROM, backup), powered up."""
+        with open(path, encoding="utf-8") as f:
+            data = json.load(f)
+        with self._lock:
+            servos = []
+            for entry in data["servos"]:
+                servo = VirtualServo(int(entry["model"]), 1, self.clock)
+                servo.load_state(entry, self.clock())
+                servos.append(servo)
+            self._servos = servos
+
+    @property
+    def eeprom_changed(self) -> bool:
+        """True when a servo's EEPROM changed since the last ``save_state``."""
+        with self._lock:
+            return any(s.eeprom_changed for s in self._servos)
 
     def remove_servo(self, servo_id: int) -> None:
         with self._lock:
@@ -241,7 +298,8 @@ class VirtualBus:
             if not data:
                 continue
             arrival = time.perf_counter()
-            line = self._port.host_baudrate() if self.check_baudrate else None
+            timed = self.wire_timing or self.baudrate is not None
+            line = self._port.host_baudrate() if (self.check_baudrate or timed) else None
             for packet in self._parser.feed(data):
                 self._transact(packet, arrival, line)
             self.stats["crc_errors"] = self._parser.crc_errors
@@ -259,7 +317,7 @@ class VirtualBus:
 
     def _transact(self, packet: p.Packet, arrival: float, line_bps: int | None = None) -> None:
         with self._lock:
-            self._line_bps = line_bps
+            self._line_bps = line_bps if self.check_baudrate else None
             try:
                 replies = self._execute(packet)
             finally:
@@ -271,8 +329,9 @@ class VirtualBus:
             if out and self._garbage:
                 out[0] = (out[0][0], bytes(self._garbage) + out[0][1])
                 self._garbage.clear()
-        if self.baudrate:
-            byte_s = 10.0 / self.baudrate
+        bps = self.baudrate or (line_bps or FACTORY_BAUDRATE if self.wire_timing else None)
+        if bps:
+            byte_s = 10.0 / bps
             start = max(arrival, self._wire_free_at)
             t = start + packet.wire_size * byte_s
             if out:
@@ -298,14 +357,15 @@ class VirtualBus:
 
     # ------------------------------------------------------------------ instructions
     def _hearing(self, packet_id: int) -> list[VirtualServo]:
-        """Servos that hear a packet for ``packet_id``, in ID order (broadcast: all)."""
-        alive = [s for s in self._servos if not s.silent and self._on_line_speed(s)]
+        """Servos that hear a packet for ``packet_id``, in ID order (broadcast: all). A servo
+        set to Protocol 1.0 (Protocol Type 1) ignores Protocol 2.0 packets."""
+        alive = [s for s in self._servos if not s.silent and self._on_line_speed(s) and s.speaks_protocol_2]
         if packet_id == p.BROADCAST_ID:
             return sorted(alive, key=lambda s: s.id)
         return [s for s in alive if s.id == packet_id]
 
     def _secondary(self, packet_id: int) -> list[VirtualServo]:
-        return [s for s in self._servos if not s.silent and self._on_line_speed(s)
+        return [s for s in self._servos if not s.silent and self._on_line_speed(s) and s.speaks_protocol_2
                 and s.model.has("secondary_id") and s.id != packet_id and s._peek("secondary_id") == packet_id]
 
     def _on_line_speed(self, servo: VirtualServo) -> bool:
@@ -390,6 +450,8 @@ class VirtualBus:
             inst = pk.instruction
             if inst == p.ACTION:
                 error = s.action(now)
+            elif inst == p.BACKUP:
+                error = s.backup(pk.params, now)
             elif inst == p.CLEAR:
                 error = s.clear_multi_turn(pk.params, now)
             elif inst == p.REBOOT:
@@ -505,6 +567,7 @@ _HANDLERS = {
     p.FACTORY_RESET: VirtualBus._do_simple,
     p.REBOOT: VirtualBus._do_simple,
     p.CLEAR: VirtualBus._do_simple,
+    p.BACKUP: VirtualBus._do_simple,
     p.SYNC_READ: VirtualBus._do_group_read,
     p.FAST_SYNC_READ: VirtualBus._do_group_read,
     p.BULK_READ: VirtualBus._do_group_read,

@@ -3,6 +3,10 @@
 The first line printed on stdout is the device path to open (flushed at once), so a script
 can do ``DEV=$(dynamixel_handler_sim | head -1)``-style plumbing or read one line from a pipe.
 Faults can be changed while it runs by typing commands on stdin (``help`` lists them).
+
+By default the servos behave like unboxed hardware: factory values, 57600 bps, answering only a
+host whose port is at their own baud rate, with the wire's time simulated. Every flag is in
+``--help`` and in docs/virtual_bus.md.
 """
 
 from __future__ import annotations
@@ -16,6 +20,8 @@ from dynamixel_handler.control_table import known_models, model_by_number
 
 from . import DEFAULT_SERVOS
 from .bus import VirtualBus
+
+SAVE_PERIOD_S = 0.5
 
 COMMANDS_HELP = """commands (one per line on stdin):
   silent ID | answer ID        an ID stops answering / comes back
@@ -74,10 +80,20 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--models", metavar="LIST",
                     help="models for --ids, comma separated; one model applies to all IDs")
     ap.add_argument("--link", metavar="PATH", help="also expose the device as this symlink, e.g. /tmp/ttyDXL")
-    ap.add_argument("--baudrate", type=int, help="simulate wire time at this baud rate (default: no timing)")
+    ap.add_argument("--baudrate", type=int, metavar="BPS",
+                    help="put every servo at this baud rate (its Baud Rate register; default: the "
+                         "factory value, 57600 bps) and time the wire at it")
+    ap.add_argument("--no-wire-timing", action="store_true",
+                    help="reply as fast as possible instead of taking the wire time of each "
+                         "packet and the servos' Return Delay Time (default: timed, as on hardware)")
+    ap.add_argument("--any-baudrate", action="store_true",
+                    help="servos answer a host at any baud rate (default: only at their own Baud "
+                         "Rate register, as on hardware)")
     ap.add_argument("--check-baudrate", action="store_true",
-                    help="servos answer only when the host's port is at their Baud Rate register "
-                         "(default: at any host baud rate)")
+                    help="servos answer only at their own baud rate (the default; kept for scripts)")
+    ap.add_argument("--state", metavar="FILE",
+                    help="load the servos' EEPROM (ID, baud rate, limits, ...) from FILE if it exists "
+                         "and save it there whenever it changes, so it survives a restart")
     ap.add_argument("--latency-ms", type=float, default=0.0, help="extra latency per transaction (ms)")
     ap.add_argument("--silent", type=_id_list, default=[], metavar="LIST", help="IDs that do not answer")
     ap.add_argument("--crc-error-rate", type=float, default=0.0, metavar="P",
@@ -152,9 +168,15 @@ def main(argv: list[str] | None = None) -> int:
         for model in known_models():
             print(f"{model.number:6d}  {model.name}  ({model.series})")
         return 0
+    if args.any_baudrate and args.check_baudrate:
+        ap.error("--any-baudrate and --check-baudrate contradict each other")
     servos = _servos_from(args, ap)
-    bus = VirtualBus(servos, baudrate=args.baudrate, latency_s=args.latency_ms / 1000.0,
-                     link=args.link, seed=args.seed, check_baudrate=args.check_baudrate)
+    try:
+        bus = VirtualBus(servos, baudrate=args.baudrate, latency_s=args.latency_ms / 1000.0,
+                         link=args.link, seed=args.seed, check_baudrate=not args.any_baudrate,
+                         wire_timing=not args.no_wire_timing, state_file=args.state)
+    except (ValueError, OSError, KeyError) as exc:  # a model that cannot run at --baudrate, a bad state file
+        ap.error(str(exc))
     bus.crc_error_rate = args.crc_error_rate
     for sid in args.silent:
         bus.set_silent(sid)
@@ -172,10 +194,13 @@ def main(argv: list[str] | None = None) -> int:
         print("serving; Ctrl-C to stop", file=sys.stderr, flush=True)
     threading.Thread(target=_console, args=(bus, stop, args.quiet), daemon=True).start()
     try:
-        while not stop.wait(0.5):
-            pass
+        while not stop.wait(SAVE_PERIOD_S):
+            if args.state and bus.eeprom_changed:
+                bus.save_state()
     finally:
         bus.close()
+        if args.state:
+            bus.save_state()
     return 0
 
 

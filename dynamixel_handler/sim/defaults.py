@@ -33,8 +33,10 @@ def family(model: Model) -> Family:
     name = model.name
     if model.series == "X":
         fast = not name.startswith("2X")
-        if "330" in name:
-            return Family(104.0 if "M288" in name else 383.0, 1750.0, 5.0, 70.0, 35.0, 48, fast)
+        if name.startswith("XM335"):
+            return Family(53.0, 910.0, 11.1, 140.0, 55.0, 52, fast)
+        if model.layout == "X330":  # firmware v52: the Indirect Data block at 208
+            return Family(104.0 if "M288" in name else 383.0, 1750.0, 5.0, 70.0, 35.0, 52, fast)
         if name.startswith(("XL430", "XC430", "2XL", "2XC")):
             return Family(61.0, math.nan, 12.0, 140.0, 60.0, 48, fast)
         if "540" in name:
@@ -46,9 +48,10 @@ def family(model: Model) -> Family:
         big = "54" in name
         current = 22740.0 if "200" in name else (15900.0 if big else 4500.0)
         return Family(29.0, current, 24.0, 350.0, 150.0, 13, True)
-    # old PRO "-R" firmware: no fast read, no PWM, no drive mode
+    # old PRO "-R" firmware (H, M and L series): no fast read, no PWM, no drive mode
     current = 5000.0 if "54" in name else 1870.0
-    return Family(33.9, current, 24.0, 400.0, 150.0, 25, False)
+    rpm = 29.7 if name.startswith("L42") else 33.9
+    return Family(rpm, current, 24.0, 400.0, 150.0, 25, False)
 
 
 def _pulses(value: float, per_pulse: float, fallback: int) -> int:
@@ -67,7 +70,7 @@ def factory_defaults(model: Model, servo_id: int) -> dict[str, int]:
         "model_information": 0,
         "firmware_version": fam.firmware,
         "id": servo_id,
-        "baud_rate": 1,  # 57600 bps
+        "baud_rate": 3 if model.name.startswith("XM335") else 1,  # e-Manual: 1 Mbps / 57600 bps
         "return_delay_time": 250,  # 500 us
         "drive_mode": 0,
         "operating_mode": 3,
@@ -127,25 +130,3 @@ READ_ONLY = frozenset({
     "velocity_trajectory", "position_trajectory", "present_input_voltage", "present_temperature",
     "backup_ready",
 })
-
-# Valid operating modes per series (old PRO has neither PWM nor current-based position).
-VALID_MODES = {"X": (0, 1, 3, 4, 5, 16), "P": (0, 1, 3, 4, 5, 16), "PRO_RA": (0, 1, 3, 4, 5, 16),
-               "OLD_PRO": (0, 1, 3, 4)}
-
-# Baud rate register -> bits per second, per firmware family (e-Manual): 0..6 are shared; X430/540
-# add 7 = 4.5M; X330 stops at 4M; P and PRO "-RA" have 8 = 6M and 9 = 10.5M; old PRO "-R" has 8 = 10.5M.
-_BAUD_COMMON = {0: 9600, 1: 57600, 2: 115200, 3: 1000000, 4: 2000000, 5: 3000000, 6: 4000000}
-BAUD_RATES = {
-    "X": {**_BAUD_COMMON, 7: 4500000},
-    "X330": dict(_BAUD_COMMON),
-    "P": {**_BAUD_COMMON, 7: 4500000, 8: 6000000, 9: 10500000},
-    "PRO_RA": {**_BAUD_COMMON, 7: 4500000, 8: 6000000, 9: 10500000},
-    "OLD_PRO": {**_BAUD_COMMON, 7: 4500000, 8: 10500000},
-}
-
-
-def baud_rates(model: Model, layout: str) -> dict[int, int]:
-    """Baud rate register value -> bps that ``model`` (control-table ``layout``) accepts."""
-    if layout == "X" and "330" in model.name:
-        return BAUD_RATES["X330"]
-    return BAUD_RATES[layout]

@@ -17,7 +17,10 @@ from ..protocol2 import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE,
                          PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE, WRITE, FrameReader, crc16,
                          frame, stuff, unstuff)
 
+BACKUP = 0x20  # Control Table Backup (store / restore the EEPROM area)
+
 INSTRUCTION_NAMES = {
+    BACKUP: "backup",
     PING: "ping", READ: "read", WRITE: "write", REG_WRITE: "reg_write", ACTION: "action",
     FACTORY_RESET: "factory_reset", REBOOT: "reboot", CLEAR: "clear", STATUS: "status",
     SYNC_READ: "sync_read", SYNC_WRITE: "sync_write", FAST_SYNC_READ: "fast_sync_read",

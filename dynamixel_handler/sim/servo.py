@@ -15,25 +15,17 @@ from typing import Callable
 from dynamixel_handler.control_table import Item, Model, model_by_number
 
 from . import protocol as p
-from .defaults import (MODE_RESET_ITEMS, READ_ONLY, VALID_MODES, baud_rates, factory_defaults,
-                       family)
+from .defaults import MODE_RESET_ITEMS, READ_ONLY, factory_defaults, family
 from .motion import Command, Motor, profile_kind
+from .registers import RegisterFile
 
 POSITION_MODES = (3, 4, 5)
 EXTENDED_MODES = (4, 5)
 X_EXTENDED_GOAL_LIMIT = 1_048_575
 CLEAR_KEY = bytes([0x01, 0x44, 0x58, 0x4C, 0x22])
+BACKUP_KEY = b"CTRL"  # Control Table Backup: 0x01 (store) or 0x02 (restore), then "CTRL"
 LAG_S = 0.05
-_TABLE_SIZE = {"X": 662, "P": 1024, "PRO_RA": 1024, "OLD_PRO": 1024}
 _ANALOG_INPUT = 2048
-
-
-def _layout(model: Model) -> str:
-    if model.series == "X":
-        return "X"
-    if not model.has("drive_mode"):
-        return "OLD_PRO"
-    return "P" if model.series == "P" else "PRO_RA"
 
 
 class VirtualServo:
@@ -41,14 +33,19 @@ class VirtualServo:
 
     def __init__(self, model: Model | int, servo_id: int, clock: Callable[[], float]) -> None:
         self.model: Model = model_by_number(model) if isinstance(model, int) else model
-        self.layout = _layout(self.model)
+        self.layout = self.model.layout
+        self._x = self.model.series == "X"
         self.family = family(self.model)
-        self.baud_rates = baud_rates(self.model, self.layout)
+        self.baud_rates = dict(self.model.baud_rates)
         self._clock = clock
-        self._items = sorted(self.model.items.values(), key=lambda it: it.address)
-        size = max(it.address + it.size for it in self._items)
-        self._regs = bytearray(max(size, _TABLE_SIZE[self.layout]))
         self._defaults = factory_defaults(self.model, servo_id)
+        self._file = RegisterFile(self.model, self._defaults["firmware_version"])
+        self._regs = self._file.regs
+        self._items = self._file.items
+        self._eeprom_end = min((it.address for it in self._items if not it.eeprom), default=len(self._regs))
+        self._backup: bytes | None = None
+        #: set when an EEPROM byte changes (the bus saves its state file then)
+        self.eeprom_changed = False
         self.silent = False
         self._motor = Motor()
         self._port_latch: dict[int, int] = {}
@@ -64,6 +61,7 @@ class VirtualServo:
         self._last_instruction = now
         for name, value in self._defaults.items():
             self._poke(name, value)
+        self._file.factory_indirect()
         self._motor.p = self._fold(float(self.model.position_zero_pulse))
 
     # ------------------------------------------------------------------ public (tests, API)
@@ -107,8 +105,8 @@ class VirtualServo:
         fw = self._peek("firmware_version")
         if not self.family.fast_read:
             return False
-        if self.layout == "X":
-            return fw >= (46 if "330" in self.model.name else 45)
+        if self._x:
+            return fw >= (46 if self.layout == "X330" else 45)
         return fw >= 12
 
     @property
@@ -119,6 +117,11 @@ class VirtualServo:
     def baudrate(self) -> int | None:
         """The line speed (bps) the servo listens at: its Baud Rate register, decoded."""
         return self.baud_rates.get(self._peek("baud_rate"))
+
+    @property
+    def speaks_protocol_2(self) -> bool:
+        """False when Protocol Type is set to 1 (Protocol 1.0, which this bus does not speak)."""
+        return self._get("protocol_type", 2) == 2
 
     @property
     def status_return_level(self) -> int:
@@ -153,37 +156,33 @@ class VirtualServo:
         self._last_instruction = now
 
     def host_read(self, address: int, length: int, now: float) -> tuple[int, bytes]:
-        if length < 0 or address + length > len(self._regs):
-            return p.ERR_ACCESS, b""
         self.refresh(now)
-        return p.ERR_NONE, bytes(self._regs[address:address + length])
+        data = self._file.read(address, length)
+        return (p.ERR_ACCESS, b"") if data is None else (p.ERR_NONE, data)
 
     def check_write(self, address: int, data: bytes) -> tuple[int, list[tuple[Item, int]]]:
-        """Validate a write without applying it; returns (error, [(item, value)])."""
-        end = address + len(data)
-        if not data or end > len(self._regs):
-            return p.ERR_ACCESS, []
-        changes: list[tuple[Item, int]] = []
-        for it in self._items:
-            it_end = it.address + it.size
-            if it_end <= address or it.address >= end:
-                continue
-            if it.address < address or it_end > end:
-                return p.ERR_DATA_LENGTH, []
-            raw = data[it.address - address:it_end - address]
-            changes.append((it, int.from_bytes(raw, "little", signed=it.signed)))
-        if not changes:
-            return p.ERR_ACCESS, []
+        """Validate a write without applying it; returns (error, [(item, value)]).
+
+        Indirect Data bytes count as the items they map; plain Indirect Data storage is
+        returned as pseudo items of one byte."""
+        error, changes, raw = self._file.gather(address, data)
+        if error:
+            return error, []
         torque_on = self._peek("torque_enable") == 1
+        lo, hi = self.model.indirect_targets
         for it, value in changes:
             if it.name in READ_ONLY:
                 return p.ERR_ACCESS, []
             if it.eeprom and torque_on:
                 return p.ERR_ACCESS, []
+            if it.name.startswith("indirect_address_"):
+                if not lo <= value <= hi:
+                    return p.ERR_DATA_RANGE, []
+                continue
             error = self._check_value(it.name, value, changes)
             if error:
                 return error, []
-        return p.ERR_NONE, changes
+        return p.ERR_NONE, changes + [(Item(f"indirect_data_{a}", a, 1, False, False), b) for a, b in raw]
 
     def host_write(self, address: int, data: bytes, now: float) -> int:
         self.refresh(now)
@@ -191,7 +190,12 @@ class VirtualServo:
         if error:
             return error
         for it, value in changes:
-            self._apply(it.name, value, now)
+            if it.name.startswith("indirect_"):
+                self._file.poke(it, value)
+                self.eeprom_changed |= it.eeprom
+            else:
+                self._apply(it.name, value, now)
+                self.eeprom_changed |= it.eeprom
         return p.ERR_NONE
 
     def reg_write(self, address: int, data: bytes, now: float) -> int:
@@ -222,13 +226,18 @@ class VirtualServo:
         return p.ERR_NONE
 
     def reboot(self, now: float) -> None:
-        """Power cycle: RAM back to defaults, multi-turn folded to one turn, errors cleared."""
+        """Power cycle: RAM back to defaults, multi-turn folded to one turn, errors cleared.
+        EEPROM, the Indirect Address entries and a control-table backup are kept."""
         self.refresh(now)
-        ram_start = min((it.address for it in self._items if not it.eeprom), default=len(self._regs))
+        ram_start = self._eeprom_end
+        kept = [(it, self._file.peek(it)) for it in self._file.indirect_addresses]
         self._regs[ram_start:] = bytes(len(self._regs) - ram_start)
+        for it, value in kept:
+            self._file.poke(it, value)
         for name, value in self._defaults.items():
             if self.model.item(name).address >= ram_start:
                 self._poke(name, value)
+        self._poke("backup_ready", 1 if self._backup is not None else 0)
         self._motor.stop()
         self._motor.p = self._fold(self._motor.p)
         self._pending = None
@@ -247,6 +256,63 @@ class VirtualServo:
             keep["baud_rate"] = self._peek("baud_rate")
         for name, value in self._defaults.items():
             self._poke(name, keep.get(name, 1 if name == "id" else value))
+        self._file.factory_indirect()
+        self.eeprom_changed = True
+        self.reboot(now)
+
+    # ------------------------------------------------------------------ backup, state
+    def _eeprom_image(self) -> bytes:
+        """The bytes a backup (and a state file) keeps: the EEPROM area and the Indirect
+        Address entries."""
+        out = bytearray(self._regs[:self._eeprom_end])
+        for it in self._file.indirect_addresses:
+            if it.address >= self._eeprom_end:
+                out += self._regs[it.address:it.address + it.size]
+        return bytes(out)
+
+    def _load_eeprom_image(self, image: bytes) -> None:
+        self._regs[:self._eeprom_end] = image[:self._eeprom_end]
+        k = self._eeprom_end
+        for it in self._file.indirect_addresses:
+            if it.address >= self._eeprom_end:
+                self._regs[it.address:it.address + it.size] = image[k:k + it.size]
+                k += it.size
+
+    def backup(self, params: bytes, now: float) -> int:
+        """Control Table Backup (0x20): 0x01 "CTRL" stores the EEPROM area, 0x02 "CTRL" puts it
+        back. Models without Backup Ready do not know the instruction; torque must be off."""
+        self.refresh(now)
+        if not self.model.has("backup_ready"):
+            return p.ERR_INSTRUCTION
+        if len(params) != 5 or params[1:] != BACKUP_KEY or params[0] not in (0x01, 0x02):
+            return p.ERR_DATA_RANGE
+        if self._peek("torque_enable") == 1:
+            return p.ERR_ACCESS
+        if params[0] == 0x01:
+            self._backup = self._eeprom_image()
+            self._poke("backup_ready", 1)
+        elif self._backup is None:
+            return p.ERR_RESULT_FAIL
+        else:
+            keep = {n: self._peek(n) for n in ("id", "model_number", "firmware_version")}
+            self._load_eeprom_image(self._backup)
+            for name, value in keep.items():  # the servo stays where the host reached it
+                self._poke(name, value)
+        self.eeprom_changed = True
+        return p.ERR_NONE
+
+    def state(self) -> dict:
+        """What survives a power cycle, as JSON-ready values (the bus's ``--state`` file)."""
+        return {"model": self.model.number, "eeprom": self._eeprom_image().hex(),
+                "backup": self._backup.hex() if self._backup is not None else None}
+
+    def load_state(self, state: dict, now: float) -> None:
+        """Power up with a saved EEPROM (and backup), RAM at its defaults."""
+        self._load_eeprom_image(bytes.fromhex(state["eeprom"]))
+        self._poke("model_number", self.model.number)
+        self._poke("firmware_version", self._defaults["firmware_version"])
+        backup = state.get("backup")
+        self._backup = bytes.fromhex(backup) if backup else None
         self.reboot(now)
 
     # ------------------------------------------------------------------ write rules
@@ -257,7 +323,7 @@ class VirtualServo:
                     return v
             return self._get(n)
 
-        x = self.layout == "X"
+        x = self._x
         ranges = {
             "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2),
             "torque_enable": (0, 1), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
@@ -272,7 +338,7 @@ class VirtualServo:
             lo, hi = ranges[name]
             if not lo <= value <= hi:
                 return p.ERR_DATA_RANGE
-        if name == "operating_mode" and value not in VALID_MODES[self.layout]:
+        if name == "operating_mode" and value not in self.model.operating_modes:
             return p.ERR_DATA_RANGE
         if name == "operating_mode" and value == 0 and math.isnan(self.model.current_ma_per_pulse):
             return p.ERR_DATA_RANGE
@@ -280,7 +346,7 @@ class VirtualServo:
             return p.ERR_DATA_RANGE
         if name == "drive_mode" and x and value & ~0x0D:
             return p.ERR_DATA_RANGE
-        if name.startswith("goal_") and self._get("bus_watchdog") == 0xFF:
+        if name.startswith("goal_") and self._get("bus_watchdog") < 0:
             return p.ERR_DATA_RANGE  # goals are read-only after a bus watchdog error
         if name == "torque_enable" and value == 1 and self._shutdown_latched:
             return p.ERR_RESULT_FAIL
@@ -338,11 +404,11 @@ class VirtualServo:
         return self._sign() * self._motor.p + self._get("homing_offset")
 
     def _revolution(self) -> int:
-        return 4096 if self.layout == "X" else 2 * self.model.position_max_pulse
+        return 4096 if self._x else 2 * self.model.position_max_pulse
 
     def _fold(self, raw: float) -> float:
         rev = self._revolution()
-        if self.layout == "X":
+        if self._x:
             return raw % rev
         half = rev // 2
         return ((raw + half) % rev) - half
@@ -382,7 +448,7 @@ class VirtualServo:
         if mode == 1:
             return Command(torque, s * self._get("goal_velocity") * vscale, None, vlim, amax)
         if mode == 16:
-            full = 885.0 if self.layout == "X" else 2009.0
+            full = 885.0 if self._x else 2009.0
             return Command(torque, s * self._get("goal_pwm") / full * vlim, None, vlim, math.inf, LAG_S)
         if mode == 0:
             limit = max(self._get("current_limit"), 1)
@@ -412,7 +478,7 @@ class VirtualServo:
         for goal in ("goal_velocity", "goal_pwm", "goal_current"):
             self._poke(goal, 0)
         self._hold_if_position_mode()
-        self._poke("bus_watchdog", 0xFF)
+        self._poke("bus_watchdog", -1)
 
     def _publish(self, now: float) -> None:
         m, s = self._motor, self._sign()
@@ -437,7 +503,7 @@ class VirtualServo:
             current = int(round(load * limit))
         self._poke("present_current", current)
         self._poke("present_load", int(round(load * 1000)))
-        full = 885 if self.layout == "X" else 2009
+        full = 885 if self._x else 2009
         pwm = self._get("goal_pwm") if (mode == 16 and torque) else int(round((frac_v + 0.1 * frac_a) * full)) if torque else 0
         pwm_limit = self._get("pwm_limit", full)
         self._poke("present_pwm", max(-pwm_limit, min(pwm_limit, pwm)))

@@ -20,24 +20,14 @@ from typing import Any, Iterable, Mapping, Sequence
 from ..bus import DYNAMIXEL_BAUDRATES, BusError, DynamixelBus
 from ..control_table import Model, model_by_number
 
-_COMMON = {9600: 0, 57600: 1, 115200: 2, 1_000_000: 3, 2_000_000: 4, 3_000_000: 5, 4_000_000: 6}
-_X = {**_COMMON, 4_500_000: 7}
-_X330 = dict(_COMMON)
-_P = {**_COMMON, 4_500_000: 7, 6_000_000: 8, 10_500_000: 9}
-_OLD_PRO = {**_COMMON, 4_500_000: 7, 10_500_000: 8}
-
 #: Scan order: the usual rates first, 9600 (slow and rare) last.
 SEARCH_ORDER = (57600, 115200, 1_000_000, 2_000_000, 3_000_000, 4_000_000, 4_500_000, 6_000_000,
                 10_500_000, 9600)
 
 
 def baud_register_values(model: Model) -> dict[int, int]:
-    """``{bps: Baud Rate register value}`` for the rates ``model`` can use."""
-    if model.series == "X":
-        return _X330 if "330" in model.name else _X
-    if not model.has("drive_mode"):  # old PRO "-R" firmware
-        return _OLD_PRO
-    return _P  # P series and PRO "-RA" (P firmware)
+    """``{bps: Baud Rate register value}`` for the rates ``model`` can use (its control table)."""
+    return {bps: value for value, bps in model.baud_rates.items()}
 
 
 def search_rates(min_bps: int, max_bps: int) -> list[int]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import select
+import termios
 import tty
 
 import pytest
@@ -30,13 +31,18 @@ def manual_clock() -> ManualClock:
     return ManualClock()
 
 
+#: the servos at the hosts' 1 Mbps, replies untimed (speed); a test may ask for the defaults
+FAST = {"baudrate": 1_000_000, "wire_timing": False}
+
+
 @pytest.fixture
 def make_bus():
-    """Factory: make_bus({id: model}, **kwargs) -> started VirtualBus, closed at teardown."""
+    """Factory: make_bus({id: model}, **kwargs) -> started VirtualBus, closed at teardown. Unless
+    given, the servos are at 1 Mbps and the wire untimed (``FAST``)."""
     buses: list[VirtualBus] = []
 
     def factory(servos, **kwargs) -> VirtualBus:
-        bus = VirtualBus(servos, **kwargs)
+        bus = VirtualBus(servos, **{**FAST, **kwargs})
         bus.start()
         buses.append(bus)
         return bus
@@ -51,10 +57,10 @@ def make_sdk():
     """Factory: make_sdk(path) -> (PortHandler, PacketHandler) opened at 1 Mbps."""
     ports: list[PortHandler] = []
 
-    def factory(path: str):
+    def factory(path: str, baudrate: int = 1_000_000):
         port = PortHandler(path)
         assert port.openPort()
-        assert port.setBaudRate(1000000)
+        assert port.setBaudRate(baudrate)
         ports.append(port)
         return port, PacketHandler(2.0)
 
@@ -69,9 +75,12 @@ def make_sdk():
 class RawPort:
     """The host side of the pty without any library: bytes in, bytes out."""
 
-    def __init__(self, path: str) -> None:
+    def __init__(self, path: str, baudrate: int = termios.B1000000) -> None:
         self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
         tty.setraw(self.fd)
+        attrs = termios.tcgetattr(self.fd)
+        attrs[4] = attrs[5] = baudrate  # the servos' 1 Mbps (they hear only their own baud rate)
+        termios.tcsetattr(self.fd, termios.TCSANOW, attrs)
 
     def exchange(self, request: bytes, expect: int, timeout: float = 1.0) -> bytes:
         """Send ``request``; return what arrives until ``expect`` bytes or ``timeout``."""

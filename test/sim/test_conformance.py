@@ -116,10 +116,12 @@ def test_factory_reset_keeps_id_and_baud(bus_sdk):
     assert ph.read1ByteTxRx(port, 2, 8) == (3, COMM_SUCCESS, 0)
 
 
-def test_factory_reset_all_moves_to_id_1(make_bus, make_sdk):
+def test_factory_reset_all_moves_to_id_1_at_57600(make_bus, make_sdk):
     bus = make_bus({9: XM430})
     port, ph = make_sdk(bus.path)
     assert ph.factoryReset(port, 9, 0xFF) == (COMM_SUCCESS, 0)
+    assert ph.ping(port, 1)[1] == COMM_RX_TIMEOUT  # the servo now listens at 57600 only
+    assert port.setBaudRate(57600)
     assert ph.ping(port, 1)[1:] == (COMM_SUCCESS, 0)
     assert ph.ping(port, 9)[1] == COMM_RX_TIMEOUT
 

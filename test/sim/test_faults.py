@@ -106,7 +106,7 @@ def test_cli_serves_the_default_bus_and_takes_runtime_commands(make_sdk, tmp_pat
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
     try:
         assert proc.stdout.readline().strip() == link
-        port, ph = make_sdk(link)
+        port, ph = make_sdk(link, 57600)  # unboxed servos: 57600 bps
         assert [ph.ping(port, i)[0] for i in (1, 2, 3, 4)] == [1020, 1120, 2020, 54024]
         proc.stdin.write("silent 3\n")
         proc.stdin.flush()

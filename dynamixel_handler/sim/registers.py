@@ -1,0 +1,107 @@
+"""A servo's control table as bytes: items, indirect addressing, and which bytes a write touches.
+
+The firmware keeps the control table as one byte array; hosts read and write arbitrary spans of
+it. Indirect Data bytes are windows onto other addresses: each Indirect Address entry holds the
+address its Data byte stands for, so a read or write of Indirect Data goes to that address, and a
+Sync/Bulk transfer over the Data block reaches scattered items in one span. An entry that points
+at its own Data byte (the factory value) makes that byte plain storage.
+"""
+
+from __future__ import annotations
+
+from dynamixel_handler.control_table import Item, Model
+
+from . import protocol as p
+
+
+class RegisterFile:
+    """The bytes of one servo's control table, with the item that owns each address."""
+
+    def __init__(self, model: Model, firmware: int) -> None:
+        self.model = model
+        self.blocks = model.indirect_blocks(firmware)
+        self.items: list[Item] = sorted(model.items.values(), key=lambda it: it.address)
+        #: Indirect Address entries (EEPROM: written with torque off, kept over a reboot)
+        self.indirect_addresses: list[Item] = []
+        #: Indirect Data bytes -> the Indirect Address entry that maps them
+        self._map: dict[int, Item] = {}
+        for first_address, first_data, count in self.blocks:
+            for k in range(count):
+                entry = Item(f"indirect_address_{first_address + 2 * k}", first_address + 2 * k, 2, False, True)
+                self.indirect_addresses.append(entry)
+                self._map[first_data + k] = entry
+        end = max([it.address + it.size for it in self.items] + [a + 1 for a in self._map] + [model.table_size])
+        self.regs = bytearray(end)
+        self.owner: list[Item | None] = [None] * end
+        for it in self.items + self.indirect_addresses:
+            for a in range(it.address, it.address + it.size):
+                self.owner[a] = it
+        self._data_lo = min(self._map, default=end)
+        self._data_hi = max(self._map, default=-1)
+
+    # ------------------------------------------------------------------ values
+    def peek(self, it: Item) -> int:
+        return int.from_bytes(self.regs[it.address:it.address + it.size], "little", signed=it.signed)
+
+    def poke(self, it: Item, value: int) -> None:
+        mask = (1 << (8 * it.size)) - 1
+        self.regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
+
+    def factory_indirect(self) -> None:
+        """Every Indirect Address points at its own Data byte (plain storage), as shipped."""
+        for data, entry in self._map.items():
+            self.poke(entry, data)
+
+    def is_indirect_data(self, address: int) -> bool:
+        return address in self._map
+
+    def resolve(self, address: int) -> int:
+        """Where a byte really lives: an Indirect Data byte goes to the address its entry holds."""
+        entry = self._map.get(address)
+        if entry is None:
+            return address
+        target = self.peek(entry)
+        return target if 0 <= target < len(self.regs) and target not in self._map else address
+
+    def _touches_indirect(self, address: int, length: int) -> bool:
+        return address <= self._data_hi and address + length > self._data_lo
+
+    # ------------------------------------------------------------------ host access
+    def read(self, address: int, length: int) -> bytes | None:
+        """The bytes a Read of ``length`` at ``address`` returns; None beyond the table."""
+        if length < 0 or address < 0 or address + length > len(self.regs):
+            return None
+        if not self._touches_indirect(address, length):
+            return bytes(self.regs[address:address + length])
+        return bytes(self.regs[self.resolve(a)] for a in range(address, address + length))
+
+    def gather(self, address: int, data: bytes) -> tuple[int, list[tuple[Item, int]], list[tuple[int, int]]]:
+        """The items a write of ``data`` at ``address`` sets: (error, [(item, value)], [(address,
+        byte)] for plain Indirect Data storage). Every item touched must be written whole."""
+        end = address + len(data)
+        if not data or address < 0 or end > len(self.regs):
+            return p.ERR_ACCESS, [], []
+        if self._touches_indirect(address, len(data)):
+            targets = {self.resolve(address + k): b for k, b in enumerate(data)}
+        else:
+            targets = {address + k: b for k, b in enumerate(data)}
+        changes: list[tuple[Item, int]] = []
+        raw: list[tuple[int, int]] = []
+        seen: set[int] = set()
+        for a in sorted(targets):
+            it = self.owner[a]
+            if it is None:
+                if a in self._map:
+                    raw.append((a, targets[a]))
+                continue
+            if it.address in seen:
+                continue
+            seen.add(it.address)
+            span = range(it.address, it.address + it.size)
+            if any(b not in targets for b in span):
+                return p.ERR_DATA_LENGTH, [], []
+            value = int.from_bytes(bytes(targets[b] for b in span), "little", signed=it.signed)
+            changes.append((it, value))
+        if not changes and not raw:
+            return p.ERR_ACCESS, [], []
+        return p.ERR_NONE, changes, raw
