@@ -59,6 +59,11 @@ SHORTCUTS: Mapping[str, str] = {
     "disable": "disable", "reboot": "reboot",
 }
 MAX_ROTATION = 256.0
+#: X series: Profile Velocity and Profile Acceleration registers take 0..32767 (e-Manual); on the
+#: P series they are bounded by Velocity Limit and Acceleration Limit instead
+X_PROFILE_MAX = 32767
+#: modes that need a current sensor (XL430 / XC430 / 2XL430 have none: Current Limit absent)
+CURRENT_MODES = frozenset({"current", "cur_position"})
 X_MULTI_TURN_GOAL = 1_048_575
 BROADCAST_ID = 254
 
@@ -189,6 +194,8 @@ class Commander:
             turns = int(round(MAX_ROTATION * 360.0 / model.position_deg_per_pulse))
             return max(lo, -turns), min(hi, turns)
         bound_item = MAGNITUDE_LIMIT.get(item)
+        if item.startswith("profile_") and model.series == "X":
+            bound_item = None  # X: the register's own range, not Velocity Limit
         if bound_item is not None and model.has(bound_item):
             bound = self._value(dxl_id, bound_item)
             if bound is not None and bound > 0:
@@ -196,7 +203,7 @@ class Commander:
                     return max(lo, -bound), min(hi, bound)
                 return 0, min(hi, bound)
         if item.startswith("profile_"):
-            return 0, hi
+            return 0, min(hi, X_PROFILE_MAX) if model.series == "X" else hi
         return lo, hi
 
     def _allowed(self, last_times: dict[int, float], param: str, dxl_id: int, action: str) -> bool:
@@ -243,17 +250,16 @@ class Commander:
                 pulses = units.unit_to_pulse([table.model(i) for i, _ in rows], item, [v for _, v in rows])
                 for (dxl_id, value), raw in zip(rows, pulses.tolist()):
                     writes.setdefault(item, {})[dxl_id] = self._clamp(what, field, dxl_id, item, value, raw)
-        # rotation given alone: turns on top of the present goal's angle
+        # rotation given alone: the missing position_deg is 0, so the goal is 360 deg x rotation
         if rotation is not None and "position_deg" not in fields:
             for k, dxl_id in targets:
                 if rotation[k] is None:
                     continue
-                current = self.h.table.units("goal_position")[self.h.table.index[dxl_id]]
-                base = 0.0 if not math.isfinite(current) else math.fmod(current, 360.0)
-                pulses = self.to_pulses(what, "rotation", dxl_id, "goal_position", base + 360.0 * float(rotation[k]))
+                pulses = self.to_pulses(what, "rotation", dxl_id, "goal_position", 360.0 * float(rotation[k]))
                 if pulses is not None:
                     writes.setdefault("goal_position", {})[dxl_id] = pulses
         if writes:
+            self.h.clear_tripped(sorted({i for values in writes.values() for i in values}))
             self.h.pending.put_many(writes.items())
             if self.h.config["verbose/write_goal"]:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
@@ -282,9 +288,22 @@ class Commander:
         targets = self.known_ids(ids, what, series)
         if not targets:
             return
-        # goals meant for another mode are not written where the mode change was refused or failed
-        targets = [(k, dxl_id) for k, dxl_id in targets
-                   if self.h.mode(dxl_id) == mode or self.change_mode(dxl_id, mode, what)]
+        ready = []
+        for k, dxl_id in targets:
+            if self.h.mode(dxl_id) == mode:
+                self.h.deferred.pop(dxl_id, None)  # a later request wins over a waiting mode change
+                ready.append((k, dxl_id))
+                continue
+            outcome = self.change_mode(dxl_id, mode, what)
+            if outcome == "done":
+                ready.append((k, dxl_id))
+            elif outcome == "later":
+                # the mode change and the goals that came with it wait for mode_change_interval_sec
+                one = {f: [v[k]] for f, v in fields.items()}
+                self._defer(dxl_id, "mode_change_interval_sec", f"{what}: ID {dxl_id} (deferred)",
+                            lambda i=dxl_id, one=one: self._control(series, control, [i], one))
+            # "refused"/"failed": goals meant for another mode are not written
+        targets = ready
         if not targets:
             return
 
@@ -301,18 +320,28 @@ class Commander:
         if targets:
             self._goal_writes(what, targets, fields, lambda f, _i: GOAL_FIELDS.get(f))
 
-    def change_mode(self, dxl_id: int, mode: str, what: str) -> bool:
-        """Torque off -> operating mode -> goals restored -> torque back as it was (rate-limited)."""
+    def change_mode(self, dxl_id: int, mode: str, what: str) -> str:
+        """Torque off -> operating mode -> goals and profiles written back -> torque back as it
+        was (safely: goal := present state) -> bus watchdog as the new mode needs.
+        "done", "refused" (the servo has no such mode), "failed" (the bus), or "later": the last
+        change was less than mode_change_interval_sec ago (the caller defers the request)."""
         model = self.h.table.model(dxl_id)
         if mode not in SERIES_MODES[model.series]:
             self.warn(f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored")
-            return False
-        if not self._allowed(self._last_mode_change, "mode_change_interval_sec", dxl_id,
-                             f"{what}: ID {dxl_id} mode change to '{mode}'"):
-            return False
-        keep = {item: self._value(dxl_id, item) for item in ("goal_current", "profile_velocity", "profile_acceleration")
-                if model.has(item)}
-        torque = self._value(dxl_id, "torque_enable")
+            return "refused"
+        if mode in CURRENT_MODES and not model.has("current_limit"):
+            self.warn(f"{what}: ID {dxl_id} ({model.name}) has no current sensor, so no '{mode}' mode: ignored")
+            return "refused"
+        if self._wait_left(self._last_mode_change, "mode_change_interval_sec", dxl_id) > 0:
+            return "later"
+        self._last_mode_change[dxl_id] = time.monotonic()
+        old = self.h.mode(dxl_id)
+        # RAM items the firmware resets on a mode change; the old mode's own goal is left out (it
+        # would mean something else now) and the new mode's goal is set by the safe torque on
+        items = ["goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration"]
+        own = {"pwm": "goal_pwm", "current": "goal_current", "velocity": "goal_velocity"}.get(old or "")
+        keep = {item: self._value(dxl_id, item) for item in items if model.has(item) and item != own}
+        torque = self.h.read_item(dxl_id, "torque_enable")
         if torque:
             self.h.torque_off(dxl_id)
         ok = self.h.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
@@ -321,11 +350,27 @@ class Commander:
                 self.h.write_item(dxl_id, item, value)
         if torque:
             self.h.torque_on(dxl_id)
+        self.h.arm_watchdog(dxl_id)
         if ok:
             self.log.info(f"ID {dxl_id}: operating mode -> {mode}")
         else:
             self.warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {self.h.bus.last_failure}")
-        return ok
+        return "done" if ok else "failed"
+
+    def _wait_left(self, last_times: dict[int, float], param: str, dxl_id: int) -> float:
+        """Seconds until ``param`` seconds have passed since the servo's last such action (0: now)."""
+        last = last_times.get(dxl_id)
+        if last is None:
+            return 0.0
+        return max(0.0, last + self.h.config[param] - time.monotonic())
+
+    def _defer(self, dxl_id: int, param: str, what: str, op: Callable[[], None]) -> None:
+        """Run ``op`` for this servo once ``param`` allows it; a later request replaces it."""
+        left = self._wait_left(self._last_mode_change, param, dxl_id)
+        if dxl_id not in self.h.deferred:
+            self.log.info(f"{what}: the last mode change was less than {param}="
+                          f"{self.h.config[param]:g}s ago: applied in {left:.2f}s")
+        self.h.deferred[dxl_id] = (time.monotonic() + left, what, op)
 
     # ============================================================== status, gains, limits
     def _status(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -347,8 +392,11 @@ class Commander:
                 mode = str(fields["mode"][k]).strip()
                 if mode not in OPERATING_MODES:
                     self.warn(f"{what}: ID {dxl_id} unknown mode '{mode}' (known: {', '.join(OPERATING_MODES)})")
-                elif self.h.mode(dxl_id) != mode:
-                    self.change_mode(dxl_id, mode, what)
+                elif self.h.mode(dxl_id) == mode:
+                    self.h.deferred.pop(dxl_id, None)
+                elif self.change_mode(dxl_id, mode, what) == "later":
+                    self._defer(dxl_id, "mode_change_interval_sec", f"{what}: ID {dxl_id} (deferred)",
+                                lambda i=dxl_id, m=mode: self._status([i], {"mode": [m]}, what))
             if "torque" in fields:
                 if fields["torque"][k]:
                     self.torque_on(dxl_id)
@@ -365,11 +413,17 @@ class Commander:
         """Reboot to clear a hardware error; with ``keep_rotation`` the multi-turn position survives
         through the homing offset. Torque comes back on if it was on, or if the error's shutdown
         switched it off (then the error, not the user, turned it off)."""
+        model = self.h.table.model(dxl_id)
+        error = self.h.read_item(dxl_id, "hardware_error_status")
+        if error is None:
+            self.warn(f"{what}: ID {dxl_id} did not answer the hardware error read: not rebooted")
+            return False
+        if error == 0:
+            self.log.debug(f"{what}: ID {dxl_id} has no hardware error: nothing to clear (not rebooted)")
+            return True
         if not self._allowed(self._last_clear, "clear_error_interval_sec", dxl_id, f"{what}: ID {dxl_id} error clear"):
             return False
-        model = self.h.table.model(dxl_id)
         torque = self._value(dxl_id, "torque_enable")
-        error = self.h.read_item(dxl_id, "hardware_error_status") or 0
         shutdown = self._value(dxl_id, "shutdown")
         torque = bool(torque) or bool(error & (0xFF if shutdown is None else shutdown))
         before = self.h.read_item(dxl_id, "present_position")

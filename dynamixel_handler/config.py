@@ -14,6 +14,8 @@ from typing import Any, Mapping
 # Parameter types, as ROS knows them.
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
 STR_ARRAY = "str[]"
+#: init/dummy_servo_series spellings -> series ("" : the first used series)
+DUMMY_SERIES = {"": "", "x": "X", "p": "P", "pro": "PRO"}
 
 
 @dataclass(frozen=True)
@@ -42,6 +44,8 @@ SCHEMA: tuple[Param, ...] = (
     _p("dyn_comm/inerval_msec", INT, 4, "wait between retries [ms] (name kept as in the original handler)"),
     _p("dyn_comm/verbose", BOOL, False, "log every failed transaction"),
     _p("init/dummy_servo_list", INT_ARRAY, [-1], "IDs handled as dummy servos without hardware (-1: none)"),
+    _p("init/dummy_servo_series", STR_ARRAY, [""],
+       "series of the dummy servos: X, P or Pro, one for all or one per ID of dummy_servo_list (\"\": the first used series)"),
     _p("init/baudrate_auto_set", BOOL, False, "at start-up, find servos at other baud rates and set them to `baudrate`"),
     _p("init/used_servo_series.X", BOOL, True, "handle X series servos"),
     _p("init/used_servo_series.P", BOOL, False, "handle P series servos"),
@@ -179,6 +183,15 @@ class Config:
     def dummy_ids(self) -> list[int]:
         return [i for i in self.values["init/dummy_servo_list"] if 0 <= i <= 252]
 
+    @property
+    def dummy_series(self) -> list[str]:
+        """The series of each of ``dummy_ids`` (X, P or PRO)."""
+        given = [DUMMY_SERIES[s.strip().lower()] or self.used_series[0]
+                 for s in self.values.get("init/dummy_servo_series", [""])]
+        ids = [i for i in self.values["init/dummy_servo_list"] if i != -1]
+        per_id = given if len(given) == len(ids) else [given[0]] * len(ids)
+        return [s for i, s in zip(ids, per_id) if 0 <= i <= 252]
+
     def present_ratio(self, item: str) -> int:
         return self.values[f"pub_ratio/present.{item}"]
 
@@ -201,6 +214,13 @@ def validate(values: Mapping[str, Any]) -> Config:
     need(lo <= hi, f"parameter 'init/servo_auto_search.max_id' ({hi}) is below min_id ({lo})")
     need(v["init/servo_auto_search.retry_times"] >= 0, "parameter 'init/servo_auto_search.retry_times' must be >= 0")
     need(v["init/expected_servo_num"] >= 0, "parameter 'init/expected_servo_num' must be >= 0")
+    series = v.get("init/dummy_servo_series", [""])
+    bad = [s for s in series if s.strip().lower() not in DUMMY_SERIES]
+    need(not bad, f"parameter 'init/dummy_servo_series' has {bad[:3]}: use X, P or Pro")
+    n_dummies = len([i for i in v["init/dummy_servo_list"] if i != -1])
+    need(len(series) in (1, n_dummies),
+         f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
+         f"ID of init/dummy_servo_list ({n_dummies})")
     need(any(v[f"init/used_servo_series.{s}"] for s in ("X", "P", "Pro")),
          "parameters 'init/used_servo_series.{X,P,Pro}' are all false: enable at least one series")
     need(0 < v["loop_rate"] <= 2000, f"parameter 'loop_rate' = {v['loop_rate']} must be 1..2000 Hz")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 from .bus import DynamixelBus, GroupRead, PreparedWrite
 from .control_table import model_by_number
@@ -20,9 +20,11 @@ from .sim.servo import CLEAR_KEY, VirtualServo
 DUMMY_MODEL = {"X": 1020, "P": 2020, "PRO": 54024}  # XM430-W350, PH54-200-S500-R, H54-200-S500-R
 
 
-def make_dummies(ids: Iterable[int], series: str) -> dict[int, VirtualServo]:
-    model = model_by_number(DUMMY_MODEL[series])
-    return {i: VirtualServo(model, i, time.monotonic) for i in ids}
+def make_dummies(ids: Iterable[int], series: str | Sequence[str]) -> dict[int, VirtualServo]:
+    """Dummies of one series, or of the series given per ID."""
+    ids = list(ids)
+    per_id = [series] * len(ids) if isinstance(series, str) else list(series)
+    return {i: VirtualServo(model_by_number(DUMMY_MODEL[s]), i, time.monotonic) for i, s in zip(ids, per_id)}
 
 
 class BusWithDummies:

@@ -43,6 +43,10 @@ def apply_extra(c: "Commander", ids: list[int], fields: Mapping[str, Sequence], 
             if not spec.min_raw <= pulses <= spec.max_raw:
                 c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
                 continue
+            if item == "bus_watchdog":  # the servo keeps this one, whatever its mode (0: off)
+                h.watchdog_user[dxl_id] = pulses
+                h.arm_watchdog(dxl_id)
+                continue
             ok = h.write_eeprom(dxl_id, item, pulses) if spec.eeprom else h.write_item(dxl_id, item, pulses)
             if not ok:
                 c.warn(f"{what}: ID {dxl_id} writing {item} failed: {h.bus.last_failure}")

@@ -33,8 +33,15 @@ FAST_MISSES_PLAIN = 3
 REBOOT_WAIT_S = 1.0
 #: least time between two attempts to reopen a vanished device [s]
 RECONNECT_INTERVAL_S = 1.0
-#: bus watchdog register value of a servo whose watchdog has tripped
-WATCHDOG_TRIPPED = 255
+#: bus watchdog register value (signed) of a servo whose watchdog has tripped
+WATCHDOG_TRIPPED = -1
+#: operating modes in which the bus watchdog is armed: a servo in a position mode holds its goal
+#: by itself, and a watchdog trip in a position mode with a homing offset moves the shaft by the
+#: offset (a firmware fault the original handler works around the same way)
+WATCHDOG_MODES = frozenset({"velocity", "current", "pwm"})
+#: least time between two writes of one EEPROM item of one servo [s]; a value asked for sooner is
+#: written when the time has passed (the latest one asked for)
+EEPROM_WRITE_INTERVAL_S = 1.0
 
 
 class StartupError(RuntimeError):
@@ -109,6 +116,13 @@ class Handler:
         self.watchdog_trips = 0
         self._reported_errors: dict[int, int] = {}
         self._to_arm: set[int] = set()  # servos whose bus watchdog is armed at the next step
+        self._check_watchdogs = False  # bus watchdogs were read: clear the tripped ones at the next step
+        self.watchdog_user: dict[int, int] = {}  # ID -> bus watchdog pulses a command asked for
+        self._eeprom_written: dict[tuple[int, str], float] = {}  # (ID, item) -> time of the last write
+        self._eeprom_deferred: dict[tuple[int, str], int] = {}  # (ID, item) -> value to write when due
+        # ID -> (monotonic time when due, what, operation): per-servo work that must wait (a mode
+        # change asked for too soon after the last one); a later request for the servo replaces it
+        self.deferred: dict[int, tuple[float, str, Callable[[], None]]] = {}
 
     # ================================================================ start-up
     def start(self) -> None:
@@ -122,14 +136,14 @@ class Handler:
         found: dict[int, int] = {}
         for attempt in range(attempts):
             found.update(self.bus.scan(sorted(set(range(lo, hi + 1)) | set(dummies))))
-            enough = len(found) >= expected if expected > 0 else len(found) >= 1
+            enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
             real = sorted(set(found) - set(dummies))
             self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} on {self.bus.device} at "
                           f"{self.bus.baudrate} bps: {len(real)} servo(s) {real}"
                           + (f" + dummies {dummies}" if dummies else ""))
             if enough or not self.bus.is_open:
                 break
-        enough = len(found) >= expected if expected > 0 else len(found) >= 1
+        enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
         if not enough:
             want = f"{expected}" if expected > 0 else "at least 1"
             message = (f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected "
@@ -145,7 +159,7 @@ class Handler:
             except KeyError:
                 self.log.warning(f"ID {dxl_id}: unknown model number {number}, not handled")
                 continue
-            if model.series not in used:
+            if model.series not in used and dxl_id not in dummies:
                 self.log.info(f"ID {dxl_id}: {model.name} is series {model.series}, which "
                               f"init/used_servo_series does not enable: skipped")
                 continue
@@ -155,10 +169,33 @@ class Handler:
         if not len(self.table) and found and not cfg["debug"]:
             raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
                                f"{sorted(found)}: enable their series in init/used_servo_series")
+        if expected > 0 and len(self.table) != expected:
+            message = (f"handling {len(self.table)} servo(s) {list(self.table.ids)} on {self.bus.device}, but "
+                       f"init/expected_servo_num is {expected}: check the IDs on the bus, or set "
+                       "init/expected_servo_num (0: any number)")
+            if not cfg["debug"]:
+                raise StartupError(message)
+            self.log.warning(message + " (debug: running on)")
         for dxl_id in list(self.table.ids):
             self._setup_servo(dxl_id)
 
+    def _usable(self, found: dict[int, int], dummies: Sequence[int]) -> list[int]:
+        """IDs among ``found`` that would be handled: known model of a used series, or a dummy."""
+        used = set(self.config.used_series)
+        out = []
+        for dxl_id, number in found.items():
+            try:
+                series = model_by_number(number).series
+            except KeyError:
+                continue
+            if series in used or dxl_id in dummies:
+                out.append(dxl_id)
+        return out
+
     def _setup_servo(self, dxl_id: int) -> None:
+        """The set-up every servo gets, at start-up and when added later (add_id): hardware error
+        cleared (init/hardware_error_auto_clean), return delay, profile defaults, torque as
+        init/torque_auto_enable says; the bus watchdog when the loop next runs."""
         cfg, model = self.config, self.table.model(dxl_id)
         if cfg["init/hardware_error_auto_clean"]:
             err = self.read_item(dxl_id, "hardware_error_status")
@@ -196,15 +233,38 @@ class Handler:
         ms = max(cfg["default/bus_watchdog"], 3000.0 * every / cfg["loop_rate"])
         return int(min(127, max(1, round(ms / 20.0))))
 
+    def watchdog_for(self, dxl_id: int) -> int:
+        """The bus watchdog this servo should have [20 ms pulses, 0 = off]: the value a command
+        set for it (extra bus_watchdog_ms), else the automatic one (``watchdog_pulses``) in
+        velocity, current and PWM modes, else off."""
+        if dxl_id in self.watchdog_user:
+            return self.watchdog_user[dxl_id]
+        return self.watchdog_pulses() if self.mode(dxl_id) in WATCHDOG_MODES else 0
+
     def arm_watchdog(self, dxl_id: int) -> None:
         """So that a crashed or killed node still stops its servos: the servo stops by itself when
-        no instruction has reached it for the watchdog time (X and P; the old Pro has none)."""
+        no instruction has reached it for the watchdog time (X and P; the old Pro has none). Also
+        clears a tripped watchdog (a tripped servo refuses goals), and switches it off where the
+        servo's mode needs none."""
         if not self.table.model(dxl_id).has("bus_watchdog"):
             return
-        pulses = self.watchdog_pulses()
-        self.write_item(dxl_id, "bus_watchdog", 0)  # also clears a tripped watchdog
+        pulses = self.watchdog_for(dxl_id)
+        if self.table.value("bus_watchdog", dxl_id) != 0:
+            self.write_item(dxl_id, "bus_watchdog", 0)  # first 0: clears a trip, allows a new value
         if pulses:
             self.write_item(dxl_id, "bus_watchdog", pulses)
+
+    def clear_tripped(self, ids: Sequence[int]) -> None:
+        """Before goals go to these servos: a bus watchdog known to have tripped is cleared and
+        armed again, or the servo would refuse the goals."""
+        table = self.table
+        known, values = table.known("bus_watchdog"), table.pulses("bus_watchdog")
+        for dxl_id in ids:
+            pos = table.index.get(dxl_id)
+            if pos is not None and known[pos] and values[pos] < 0:
+                self.watchdog_trips += 1
+                self.log.warning(f"ID {dxl_id}: bus watchdog had tripped: cleared and armed again before the new goal")
+                self.arm_watchdog(dxl_id)
 
     # ================================================================ single-servo helpers
     def read_item(self, dxl_id: int, item: str) -> int | None:
@@ -230,20 +290,75 @@ class Handler:
         return ok
 
     def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
-        """Write an EEPROM item: only if it differs, with torque off for the write and restored after."""
+        """Write one EEPROM item (see ``write_eeprom_many``)."""
         if not self.table.model(dxl_id).has(item):
             return False
-        if self.read_item(dxl_id, item) == pulses:
+        return self.write_eeprom_many(dxl_id, {item: pulses})
+
+    def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> bool:
+        """Write EEPROM items of one servo, sparing its EEPROM: a value equal to the servo's is not
+        written; an item written less than EEPROM_WRITE_INTERVAL_S ago is written when that time
+        has passed (the latest value asked for). Torque goes off for the write and comes back on
+        safely (goals := present state first), so the servo does not jump to an old goal.
+        False if a write failed."""
+        model = self.table.model(dxl_id)
+        now = time.monotonic()
+        todo: dict[str, int] = {}
+        for item, pulses in values.items():
+            if not model.has(item):
+                continue
+            key = (dxl_id, item)
+            if self.read_item(dxl_id, item) == pulses:
+                self._eeprom_deferred.pop(key, None)  # already so: nothing to write, nothing later
+                continue
+            last = self._eeprom_written.get(key)
+            if last is not None and now - last < EEPROM_WRITE_INTERVAL_S:
+                if key not in self._eeprom_deferred:
+                    self.log.info(f"ID {dxl_id}: {item} was written {now - last:.2f}s ago: {item}={pulses} "
+                                  f"is written {EEPROM_WRITE_INTERVAL_S:g}s after it (EEPROM wear)")
+                self._eeprom_deferred[key] = pulses
+                continue
+            self._eeprom_deferred.pop(key, None)
+            todo[item] = pulses
+        if not todo:
             return True
         torque = self.read_item(dxl_id, "torque_enable")
         if torque:
             self.write_item(dxl_id, "torque_enable", 0)
-        ok = self.write_item(dxl_id, item, pulses)
+        ok = True
+        for item, pulses in todo.items():
+            if self.write_item(dxl_id, item, pulses):
+                self._eeprom_written[(dxl_id, item)] = time.monotonic()
+            else:
+                ok = False
+                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {self.bus.last_failure}")
         if torque:
-            self.write_item(dxl_id, "torque_enable", 1)
-        if not ok:
-            self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {self.bus.last_failure}")
+            self.torque_on(dxl_id)
         return ok
+
+    def _run_deferred(self) -> None:
+        """EEPROM values and per-servo operations that had to wait, once their time has come."""
+        now = time.monotonic()
+        if self._eeprom_deferred:
+            due_ids = {i for (i, item) in self._eeprom_deferred
+                       if now - self._eeprom_written.get((i, item), 0.0) >= EEPROM_WRITE_INTERVAL_S}
+            for dxl_id in sorted(due_ids):
+                values = {item: v for (i, item), v in list(self._eeprom_deferred.items()) if i == dxl_id}
+                if dxl_id not in self.table:
+                    for item in values:
+                        self._eeprom_deferred.pop((dxl_id, item), None)
+                    continue
+                self.write_eeprom_many(dxl_id, values)
+        for dxl_id, (when, what, op) in list(self.deferred.items()):
+            if when > now:
+                continue
+            del self.deferred[dxl_id]
+            if dxl_id not in self.table:
+                continue
+            try:
+                op()
+            except Exception as exc:  # an operation must never stop the loop
+                self.log.error(f"{what} failed: {type(exc).__name__}: {exc}")
 
     def reboot(self, dxl_id: int) -> bool:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
@@ -323,14 +438,18 @@ class Handler:
             self.log.warning(f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in init/used_servo_series")
             return False
         self.table.add(dxl_id, model)
-        self._setup_ram(dxl_id)
         self.log.info(f"ID {dxl_id}: {model.name} added")
+        self._setup_servo(dxl_id)  # the same set-up as at start-up
         return True
 
     def remove_id(self, dxl_id: int) -> None:
         if dxl_id in self.table:
             self.table.remove(dxl_id)
             self.pending.drop_ids([dxl_id])
+            self.deferred.pop(dxl_id, None)
+            self.watchdog_user.pop(dxl_id, None)
+            for key in [k for k in self._eeprom_deferred if k[0] == dxl_id]:
+                del self._eeprom_deferred[key]
             self.log.info(f"ID {dxl_id}: removed from the handled servos")
 
     # ================================================================ operations from callbacks
@@ -380,6 +499,11 @@ class Handler:
             dxl_id = self._to_arm.pop()
             if dxl_id in self.table:
                 self.arm_watchdog(dxl_id)
+        if self._check_watchdogs:
+            self._check_watchdogs = False
+            self.check_watchdogs()
+        if self.deferred or self._eeprom_deferred:
+            self._run_deferred()
         self._run_ops()
 
     def apply_now(self) -> None:
@@ -511,7 +635,7 @@ class Handler:
         if len(self.table):
             self._log_reads(report, report.silent)
         if "extra_dynamic" in report.groups:
-            self.check_watchdogs()
+            self._check_watchdogs = True  # at the next step, after this loop's states are out
 
     def _reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second."""
@@ -542,14 +666,16 @@ class Handler:
                 self.arm_watchdog(dxl_id)
 
     def check_watchdogs(self) -> None:
-        """Re-arm watchdogs that tripped (the loop stalled longer than the watchdog time)."""
-        if not self.watchdog_pulses():
-            return
-        for pos, dxl_id in enumerate(self.table.ids):
-            if self.table.known("bus_watchdog")[pos] and self.table.pulses("bus_watchdog")[pos] == WATCHDOG_TRIPPED:
+        """Clear and re-arm watchdogs that tripped (the loop stalled longer than the watchdog
+        time), whoever armed them: a tripped servo refuses goals until then."""
+        for pos, dxl_id in enumerate(list(self.table.ids)):
+            if self.table.known("bus_watchdog")[pos] and self.table.pulses("bus_watchdog")[pos] <= WATCHDOG_TRIPPED:
                 self.watchdog_trips += 1
-                self.log.warning(f"ID {dxl_id}: bus watchdog tripped (no instruction for "
-                                 f"{self.watchdog_pulses() * 20} ms): servo stopped, watchdog re-armed")
+                pulses = self.watchdog_for(dxl_id)
+                again = (f"watchdog re-armed ({self.table.model(dxl_id).bus_watchdog_ms_per_pulse * pulses:g} ms)"
+                         if pulses else "watchdog cleared (off)")
+                self.log.warning(f"ID {dxl_id}: bus watchdog tripped (no instruction within its time): "
+                                 f"servo stopped, {again}")
                 self.arm_watchdog(dxl_id)
 
     # ---------------------------------------------------------------- writes
@@ -633,9 +759,10 @@ class Handler:
             # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
             # the next commands are written
             self._to_arm.add(table.ids[pos])
-        # every loop without a reply counts, also the loops between the pings of a servo that
-        # already stopped answering: the removal comes after no_response_id_auto_remove_count loops
-        table.no_response[silent | (~table.ping & ~answered)] += 1
+        # each read or ping of the servo that got no answer counts (a silent servo is only pinged
+        # every RECHECK_LOOPS loops): the removal comes after no_response_id_auto_remove_count
+        # unanswered requests in a row
+        table.no_response[silent] += 1
         table.no_response[answered] = 0
         table.ping[silent] = False
         table.ping[answered] = True
@@ -716,19 +843,36 @@ class Handler:
 
     # ================================================================ shutdown
     def shutdown(self) -> None:
-        """Stop servos that would keep moving and/or disable torque, as term/* say."""
+        """Leave the servos as term/* say. term/torque_auto_disable: torque off. Otherwise, with
+        term/servo_auto_stop, every servo stops where it is and keeps holding: velocity, current
+        and PWM goals := 0, goal position := present position, then torque off and on again on
+        the servos whose torque is on (that also ends a profile move in progress). The bus
+        watchdogs the handler armed are switched off (the goals that stop the servos are
+        written)."""
         cfg = self.config
         if not self.bus.is_open:
             return
-        for dxl_id in list(self.table.ids):
-            if cfg["term/servo_auto_stop"]:
+        ids = list(self.table.ids)
+        stop = cfg["term/servo_auto_stop"]
+        for dxl_id in ids:
+            if stop:
                 mode = self.mode(dxl_id)
                 neutral = {"velocity": "goal_velocity", "current": "goal_current", "pwm": "goal_pwm"}.get(mode or "")
                 if neutral:
                     self.write_item(dxl_id, neutral, 0)
             if cfg["term/torque_auto_disable"]:
                 self.torque_off(dxl_id)
-            if self.table.model(dxl_id).has("bus_watchdog") and self.watchdog_pulses():
+            elif stop:
+                present = self.read_item(dxl_id, "present_position")
+                if present is not None:
+                    if self.mode(dxl_id) == "position":
+                        present = self._clip_to_position_limits(dxl_id, present)
+                    self.write_item(dxl_id, "goal_position", present)
+                if self.read_item(dxl_id, "torque_enable") == 1:
+                    self.write_item(dxl_id, "torque_enable", 0)
+                    self.write_item(dxl_id, "torque_enable", 1)
+            if (self.table.model(dxl_id).has("bus_watchdog") and dxl_id not in self.watchdog_user
+                    and self.table.value("bus_watchdog", dxl_id)):
                 self.write_item(dxl_id, "bus_watchdog", 0)
 
 

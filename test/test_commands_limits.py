@@ -106,7 +106,8 @@ def test_goals_beyond_the_new_limits_are_clamped_to_them(rig):
     rig.publish("/dynamixel/command/p/position_control",
                 DynamixelControlPPosition(id_list=[3], position_deg=[-179.0], current_ma=[20000.0]))
     wait_reg(rig, 2, "goal_position", PULSES[2][7])
-    wait_reg(rig, 2, "profile_velocity", PULSES[2][6])
+    # X: Profile Velocity takes its register range (0..32767), not the Velocity Limit
+    wait_reg(rig, 2, "profile_velocity", round(500.0 / X_DEG_S))
     wait_reg(rig, 3, "goal_position", PULSES[3][8])
     wait_reg(rig, 3, "goal_current", PULSES[3][4])
     rig.wait_log("ID 2", "'position_deg' = 179", "clamped to 169.9", since=mark)

@@ -205,7 +205,7 @@ def check_extra(msg, sim) -> None:
     ids = list(msg.id_list)
     assert ids == [1, 2, 3, 4]
     servos = [sim.servo(i) for i in ids]
-    assert list(msg.model) == ["XM430-W350", "XM540-W270", "PH54-200-S500-R", "H54-200-S500-R"]
+    assert list(msg.model) == ["X", "X", "P", "Pro"]
     assert list(msg.model_number) == [s.read("model_number") for s in servos] == [XM430, XM540, PH54, H54]
     assert list(msg.firmware_version) == [s.read("firmware_version") for s in servos]
     # integers a series lacks are 0 (the old Pro has no Protocol Type nor Secondary ID)

@@ -35,15 +35,16 @@ def test_sigterm_stops_velocity_servos_and_disables_torque():
 def test_sigkill_leaves_a_velocity_servo_stopped_by_the_bus_watchdog():
     rig = Rig({1: X}, "default/bus_watchdog:=100.0", "term/torque_auto_disable:=false")
     try:
-        assert rig.sim.servo(1).read("bus_watchdog") == 5  # 100 ms / 20 ms
+        assert rig.sim.servo(1).read("bus_watchdog") == 0  # position mode: no watchdog
         _velocity(rig, 1, 90.0)
+        assert rig.sim.servo(1).read("bus_watchdog") == 5  # velocity mode: 100 ms / 20 ms
         rig.node_proc.proc.send_signal(signal.SIGKILL)
         rig.node_proc.proc.wait(10)
         time.sleep(0.6)
         servo = rig.sim.servo(1)
         assert servo.read("torque_enable") == 1  # nobody switched it off...
         assert servo.read("present_velocity") == 0  # ...but it stopped by itself
-        assert servo.read("bus_watchdog") == 255  # tripped, as the e-Manual says
+        assert servo.read("bus_watchdog") == -1  # tripped, as the e-Manual says
     finally:
         rig.close()
 
@@ -73,13 +74,16 @@ def test_a_servo_silent_past_its_watchdog_takes_commands_as_soon_as_it_answers_a
     rig = Rig({1: X, 2: X540}, "default/bus_watchdog:=100.0", "pub_ratio/extra.dynamic_items:=0",
               "pub_ratio/status:=5")
     try:
+        _velocity(rig, 2, 30.0)  # velocity mode: the watchdog is armed
+        assert rig.sim.servo(2).read("bus_watchdog") == 5
         rig.sim.set_silent(2)
         rig.wait(lambda: not rig.debug_of(2)["ping"], what="ID 2 ping false")
         time.sleep(0.3)  # three watchdog periods without an instruction
+        assert rig.sim.servo(2).read("bus_watchdog") == -1
         rig.sim.set_silent(2, False)
         rig.wait(lambda: rig.debug_of(2)["ping"], what="ID 2 answering again")
-        rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[2], position_deg=[25.0]))
-        rig.wait(lambda: rig.sim.servo(2).read("goal_position") == 2048 + round(25.0 * 4096 / 360), timeout=5,
+        rig.publish("/dynamixel/command/x/velocity_control", DynamixelControlXVelocity(id_list=[2], velocity_deg_s=[-20.0]))
+        rig.wait(lambda: rig.sim.servo(2).read("goal_velocity") == round(-20.0 / 1.374), timeout=5,
                  what="the goal accepted by the servo that came back")
         assert rig.sim.servo(2).read("bus_watchdog") == 5
     finally:
@@ -133,7 +137,7 @@ def test_dummy_only_node_without_a_device_publishes_complete_states_and_follows_
         m = full[-1]
         for group in (m.status, m.present, m.goal, m.gain, m.limit, m.error, m.extra):
             assert list(group.id_list) == [3, 4]
-        assert list(m.extra.model) == ["XM430-W350", "XM430-W350"]
+        assert list(m.extra.model) == ["X", "X"]
         assert all(len(getattr(m.present, f)) == 2 for f in ("position_deg", "velocity_deg_s", "current_ma"))
         assert m.limit.max_position_limit_deg[0] > 0 and m.present.input_voltage_v[0] > 0
         pub.publish(DynamixelControlXPosition(id_list=[3, 4], position_deg=[-30.0, 60.0]))
@@ -162,8 +166,11 @@ def test_baudrate_auto_set_moves_servos_at_other_rates_before_the_scan():
 
 
 def test_reboot_and_add_id_keep_the_watchdog_and_profiles_the_handler_set():
-    rig = Rig({1: X, 2: X540}, "clear_error_interval_sec:=0.0", "no_response_id_auto_remove_count:=3")
+    rig = Rig({1: X, 2: X540}, "clear_error_interval_sec:=0.0", "no_response_id_auto_remove_count:=3",
+              "mode_change_interval_sec:=0.0")
     try:
+        _velocity(rig, 1, 10.0)  # velocity mode: the bus watchdog is armed
+        _velocity(rig, 2, 10.0)
         servo = rig.sim.servo(1)
         before = {k: servo.read(k) for k in ("bus_watchdog", "profile_velocity", "profile_acceleration")}
         assert before["bus_watchdog"] > 0 and before["profile_velocity"] > 0

@@ -14,6 +14,8 @@ from ..groups import GAIN, GOAL, LIMIT, MODE_NAMES, PRESENT
 from ..servos import ServoTable
 
 Tree = dict[str, Any]
+#: DynamixelExtra.model holds the series, spelled as the design does
+SERIES_NAMES = {"X": "X", "P": "P", "PRO": "Pro"}
 
 
 def f64(values: np.ndarray) -> array.array:
@@ -107,7 +109,8 @@ def extra(table: ServoTable) -> Tree:
     led = np.where(table.known("led"), table.pulses("led") * 100.0, np.nan)
     return {
         "id_list": u16(table.ids),
-        "model": [m.name for m in table.models],
+        "model": [SERIES_NAMES.get(m.series, m.series) for m in table.models],  # the series (design); the
+        # model itself is model_number (and its name is in the start-up log)
         "model_number": u16([m.number for m in table.models]),
         # the old Pro has no Protocol Type register: it speaks Protocol 2.0 only
         "protocol_type": u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"),

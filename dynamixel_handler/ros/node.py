@@ -98,7 +98,7 @@ class DynamixelHandlerNode(Node):
         bad = [i for i in cfg["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252]
         if bad:
             log.warning(f"init/dummy_servo_list: IDs {bad} are outside 0..252: ignored")
-        self.bus = BusWithDummies(self.wire, make_dummies(cfg.dummy_ids, cfg.used_series[0]))
+        self.bus = BusWithDummies(self.wire, make_dummies(cfg.dummy_ids, cfg.dummy_series))
         self.handler = Handler(self.bus, cfg, self.adapter)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
