@@ -141,3 +141,13 @@ def test_a_default_profile_the_servo_refuses_is_logged():
         assert not [ln for ln in rig.node_proc.lines if "ID 1 " in ln and "not set" in ln]
     finally:
         rig.close()
+
+
+def test_a_command_line_override_ros_drops_for_its_type_gets_one_error_line():
+    """`-p loop_rate:=50.5` against the file's `loop_rate: 100`: ROS drops it without a word and the
+    file's value is used; the node says so (the run ends at the device, which is not a tty)."""
+    proc = NodeProcess(node_command("device_name:=/dev/null", "loop_rate:=50.5"))
+    assert proc.wait_exit(timeout=30) == 1, proc.output
+    errors = [ln for ln in proc.lines if "loop_rate" in ln and "dropped" in ln]
+    assert len(errors) == 1 and errors[0].startswith("[ERROR]") and "using 100" in errors[0], proc.output
+    assert "loop_rate=100" in proc.output

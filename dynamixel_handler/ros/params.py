@@ -8,7 +8,10 @@ parameter they name, values of the wrong type or range stop start-up with one cl
 from __future__ import annotations
 
 import difflib
+import sys
 from typing import Any
+
+import rcl_interfaces.msg
 
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.node import Node
@@ -28,6 +31,7 @@ _ROS_OWN = {"use_sim_time", "start_type_description_service"}
 def declare_and_load(node: Node) -> Config:
     """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
     given: dict[str, Any] = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
+    _report_dropped_overrides(node, given)
     for name in sorted(set(given) & set(ALIASES)):  # the original handler's other spellings
         value = given.pop(name)
         node.undeclare_parameter(name)
@@ -53,6 +57,38 @@ def declare_and_load(node: Node) -> Config:
         node.declare_parameter(param.name, list(value) if isinstance(value, list) else value,
                                descriptor, ignore_override=True)
     return validate(values)
+
+
+def _command_line_parameters(argv: list[str]) -> dict[str, str]:
+    """``-p name:=value`` / ``--param name:=value`` of the ROS arguments in ``argv`` (last one wins)."""
+    out: dict[str, str] = {}
+    ros = False
+    for k, arg in enumerate(argv):
+        if arg == "--ros-args":
+            ros = True
+        elif arg == "--":
+            ros = False
+        elif ros and arg in ("-p", "--param") and k + 1 < len(argv) and ":=" in argv[k + 1]:
+            name, value = argv[k + 1].split(":=", 1)
+            out[name.rsplit(":", 1)[-1]] = value  # "node:name:=value" is for the node named "node"
+    return out
+
+
+def _report_dropped_overrides(node: Node, given: dict[str, Any]) -> None:
+    """ROS drops, without a word, a ``-p name:=value`` whose type differs from the value a
+    ``--params-file`` gives the same parameter (``-p loop_rate:=50.5`` against ``loop_rate: 100``):
+    the file's value is used. Say so, once per parameter."""
+    from rclpy.parameter import Parameter, get_parameter_value
+    for name, text in _command_line_parameters(sys.argv).items():
+        if name not in given:
+            continue
+        wanted = Parameter.from_parameter_msg(rcl_interfaces.msg.Parameter(name=name, value=get_parameter_value(text)))
+        value, got = wanted.value, given[name]
+        value, got = (list(v) if isinstance(v, (list, tuple)) or hasattr(v, "tolist") else v for v in (value, got))
+        if value != got and not (type(value) is int and type(got) is float and float(value) == got):
+            node.get_logger().error(
+                f"parameter '{name}': the command-line value {text!r} was dropped by ROS (its type differs from the "
+                f"parameter file's value): using {given[name]!r}; give it as {type(given[name]).__name__}")
 
 
 def describe(config: Config, width: int = 120) -> list[str]:
