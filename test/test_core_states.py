@@ -209,7 +209,9 @@ def check_extra(msg, sim) -> None:
     assert list(msg.model_number) == [s.read("model_number") for s in servos] == [XM430, XM540, PH54, H54]
     assert list(msg.firmware_version) == [s.read("firmware_version") for s in servos]
     # integers a series lacks are 0 (the old Pro has no Protocol Type nor Secondary ID)
-    assert list(msg.protocol_type) == [register(s, "protocol_type") for s in servos] == [2, 2, 2, 0]
+    # the old Pro (ID 4) has no Protocol Type register: it speaks Protocol 2.0 only
+    assert list(msg.protocol_type[:3]) == [register(s, "protocol_type") for s in servos[:3]] == [2, 2, 2]
+    assert msg.protocol_type[3] == 2
     assert list(msg.shadow_id) == [register(s, "secondary_id") for s in servos] == [7, 255, 9, 0]
     for k, s in enumerate(servos):
         for field, item in (("realtime_tick_s", "realtime_tick"), ("return_delay_time_us", "return_delay_time"),

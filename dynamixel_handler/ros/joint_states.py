@@ -35,7 +35,7 @@ class JointStatePublisher:
                     f"joint_states: joints {missing} map to servos that are not handled: left out")
         reading = read_joints(self.mapping, table)
         msg = JointState()
-        msg.header.stamp = stamp_of(report.stamp)
+        msg.header.stamp = stamp_of(self.node.ros_time(report.stamp))  # the node's clock (use_sim_time)
         msg.name = reading.names
         msg.position = f64(reading.position_rad)
         msg.velocity = f64(reading.velocity_rad_s)

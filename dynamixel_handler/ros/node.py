@@ -3,7 +3,8 @@
 The bus loop runs on its own thread at ``loop_rate`` and takes the command topics itself
 (``intake.py``); the executor threads run services, actions and parameter callbacks, which queue
 work for the loop (they never touch the bus). Each loop's messages are built and published on the
-publishing thread (``outbox.py``); ``stamp`` is the time the loop's reads went out.
+publishing thread (``outbox.py``); ``stamp`` is the time the loop's reads went out, on the node's
+clock (simulated time with ``use_sim_time``), as every other stamp the node publishes.
 """
 from __future__ import annotations
 
@@ -333,18 +334,28 @@ class DynamixelHandlerNode(Node):
         """Hand this loop's messages to the publishing thread (``outbox.py``)."""
         if report.groups or report.present:
             snapshot = self.handler.table.snapshot()
-            self.outbox.put(lambda: self._messages(report, snapshot))
+            stamp = self.ros_time(report.stamp)
+            self.outbox.put(lambda: self._messages(report, snapshot, stamp))
 
-    def _messages(self, report: StepReport, table=None) -> list[tuple[TreePublisher, dict]]:
-        """What this loop read, per topic; a message nobody subscribes to is not even built."""
+    def ros_time(self, wall: float) -> float:
+        """A wall-clock time (``time.time()``, as the loop stamps its reads) on the node's clock, so
+        that with ``use_sim_time`` every stamp follows /clock: the clock's now, less the wall time
+        since. 0 while a simulated clock has not started."""
+        now = self.get_clock().now().nanoseconds * 1e-9
+        return max(0.0, now - max(0.0, time.time() - wall))
+
+    def _messages(self, report: StepReport, table=None, stamp: float | None = None) -> list[tuple[TreePublisher, dict]]:
+        """What this loop read, per topic; a message nobody subscribes to is not even built.
+        ``stamp``: the time of the reads on the node's clock (``ros_time``)."""
         table = self.handler.table if table is None else table
+        stamp = self.ros_time(report.stamp) if stamp is None else stamp
         groups, present_keys = report.groups, report.present
         if not (groups or present_keys):
             return []
         out = []
         parts = convert.Parts(table, present_keys, self.config["pub_outdated_present_value"])
         if self.pub_states.wanted():
-            out.append((self.pub_states, convert.states(table, report.stamp, groups, present_keys, parts=parts,
+            out.append((self.pub_states, convert.states(table, stamp, groups, present_keys, parts=parts,
                                                         outdated_present=self.config["pub_outdated_present_value"])))
         if (present_keys or "status" in groups) and self.pub_debug.wanted():
             out.append((self.pub_debug, convert.debug(table, parts.get("status"))))

@@ -1,0 +1,45 @@
+"""Every stamp the node publishes comes from the node's clock: with `use_sim_time` true they follow
+/clock (a simulator's, a rosbag's), not the wall clock."""
+from __future__ import annotations
+
+import time
+
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from rig import X, Rig
+
+SIM_START = 1000.0  # s: far from any wall-clock time
+
+
+def _seconds(stamp) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def test_stamps_follow_clock_when_use_sim_time_is_true():
+    rig = Rig({1: X}, "use_sim_time:=true", "joint_state.use:=true", "joint_state.names:=[wrist]",
+              "joint_state.ids:=[1]", "diagnostics.period_sec:=0.2")
+    try:
+        joints: list[JointState] = []
+        diagnostics: list[DiagnosticArray] = []
+        with rig._lock:
+            rig.node.create_subscription(JointState, "/joint_states", joints.append, 10)
+            rig.node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 10)
+        sim_now = SIM_START
+        rig.publish("/clock", Clock(clock=Time(sec=int(sim_now))))
+        start = len(rig.states)
+        end = time.monotonic() + 20
+        # the simulated clock runs at a tenth of real time while the node publishes
+        while time.monotonic() < end and not (len(rig.states) > start + 20 and joints and diagnostics):
+            time.sleep(0.02)
+            sim_now += 0.002
+            rig.publish("/clock", Clock(clock=Time(sec=int(sim_now), nanosec=int(sim_now % 1 * 1e9))))
+        assert len(rig.states) > start + 20 and joints and diagnostics, rig.output[-2000:]
+        late = [_seconds(m.stamp) for m in rig.states[start + 10:]]  # well after the first /clock
+        assert all(SIM_START <= t <= sim_now + 0.01 for t in late), (late[:5], sim_now)
+        assert SIM_START <= _seconds(joints[-1].header.stamp) <= sim_now + 0.01
+        assert SIM_START <= _seconds(diagnostics[-1].header.stamp) <= sim_now + 0.01
+    finally:
+        rig.close()
