@@ -175,7 +175,7 @@ class Commander:
         if lo is not None and hi is not None and not lo <= pulses <= hi:
             clamped = min(max(pulses, lo), hi)
             shown = float(units.pulse_to_unit([model], item, [clamped])[0])
-            self.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is beyond the servo's limit: clamped to {shown:g}")
+            self.warn(f"ID {dxl_id} ({model.name}) '{field}' = {value:g} is beyond the servo's limit: clamped to {shown:g}")
             pulses = clamped
         return pulses
 
@@ -278,7 +278,7 @@ class Commander:
                           "and with it the position goal")
                 rotation[k] = None
             elif abs(r) > MAX_ROTATION:
-                self.warn(f"{what}: ID {dxl_id} 'rotation' = {r:g} is beyond ±{MAX_ROTATION:g}: clamped")
+                self.warn(f"ID {dxl_id} 'rotation' = {r:g} is beyond ±{MAX_ROTATION:g}: clamped")
                 rotation[k] = math.copysign(MAX_ROTATION, r)
         return rotation
 
@@ -459,7 +459,7 @@ class Commander:
                     continue
                 value, top = int(values[k]), model.item(item).max_raw
                 if value > top:
-                    self.warn(f"{what}: ID {dxl_id} '{field}' = {value} is beyond {top}: clamped")
+                    self.warn(f"ID {dxl_id} ({model.name}) '{field}' = {value} is beyond {top}: clamped to {top}")
                     value = top
                 writes.setdefault(item, {})[dxl_id] = value
         if writes:

@@ -86,7 +86,14 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         return SUCCESS
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        configured, ids = self.wire.is_open, list(self.handler.table.ids)
         self._safe_stop()
+        if configured:
+            safety = [k for k in ("term/servo_auto_stop", "term/torque_auto_disable") if self.config[k]]
+            self.get_logger().info(f"shut down: loop stopped, IDs {ids} left as {', '.join(safety) or 'they were'}, "
+                                   "device closed")
+        else:
+            self.get_logger().info("shut down: nothing was configured")
         return SUCCESS
 
     def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:

@@ -18,6 +18,7 @@ from typing import Callable
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
 from dynamixel_handler_msgs.msg import (DxlExternalPort, DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
@@ -59,6 +60,32 @@ STOP_CHECK_S = 0.1
 EXECUTOR_THREADS = 6
 
 
+def log_exception(log, what: str, exc: BaseException, fatal: bool = False) -> None:
+    """One ERROR (or FATAL) line naming the exception and where it was raised; the traceback
+    follows at DEBUG level, one log line per line, so every line carries severity and logger name."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    where = f" (at {os.path.basename(frames[-1].filename)}:{frames[-1].lineno} in {frames[-1].name})" if frames else ""
+    (log.fatal if fatal else log.error)(f"{what}: {type(exc).__name__}: {exc}{where}")
+    for block in traceback.format_exception(type(exc), exc, exc.__traceback__, limit=6):
+        for line in block.rstrip().splitlines():
+            log.debug(f"{what}: {line}")
+
+
+def _logger_of(exc: BaseException, fallback):
+    """The logger of the node whose constructor raised ``exc`` (its frame is in the traceback),
+    so that a start-up error carries the node's namespaced name; ``fallback`` if there is none."""
+    tb = exc.__traceback__
+    while tb is not None:
+        obj = tb.tb_frame.f_locals.get("self")
+        if isinstance(obj, Node):
+            try:
+                return obj.get_logger()
+            except Exception:  # the node was not created far enough to have one
+                break
+        tb = tb.tb_next
+    return fallback
+
+
 class _LoggerAdapter:
     """Lets ROS-free modules log through the node's rcutils logger (logging.Logger-like)."""
 
@@ -91,7 +118,8 @@ class DynamixelHandlerNode(Node):
         super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True)
         self.config = cfg = declare_and_load(self)
         log = self.get_logger()
-        log.info("parameters: " + "\n".join(describe(self.config)))
+        for line in describe(self.config):  # one log line each: every line carries the logger's name
+            log.info("parameters: " + line.strip())
         self.adapter = _LoggerAdapter(log)
         self.wire = DynamixelBus(cfg["device_name"], cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
                                  cfg["dyn_comm/retry_num"], float(cfg["dyn_comm/inerval_msec"]),
@@ -258,8 +286,7 @@ class DynamixelHandlerNode(Node):
                 failures += 1
                 prev = None
                 next_t += period
-                self.get_logger().error(
-                    f"loop {self.handler.loop_count}: {type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}")
+                log_exception(self.get_logger(), f"loop {self.handler.loop_count}", exc)
                 if failures >= MAX_LOOP_FAILURES:
                     self.get_logger().fatal(f"the loop failed {failures} times in a row: shutting down safely")
                     self.failed = True
@@ -309,8 +336,7 @@ class DynamixelHandlerNode(Node):
                 try:
                     self.handler.apply_now()
                 except Exception as exc:  # as in the loop: logged, never fatal
-                    self.get_logger().error(f"applying a command between loops: {type(exc).__name__}: {exc}\n"
-                                            f"{traceback.format_exc(limit=4)}")
+                    log_exception(self.get_logger(), "applying a command between loops", exc)
                 break
         remaining = t - time.monotonic()
         if remaining > 0:
@@ -383,8 +409,12 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     # the loop thread must get the interpreter lock back soon after the bus answers, even while
     # the publishing thread encodes (Python's default lets a waiting thread wait 5 ms)
     sys.setswitchinterval(SWITCH_INTERVAL_S)
-    rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
-    log = rclpy.logging.get_logger(NODE_NAME)
+    log = rclpy.logging.get_logger(NODE_NAME)  # until the node (and so its namespace) exists
+    try:
+        rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
+    except _rclpy.RCLError as err:  # e.g. "-p name:=" with no value: one line, not a traceback
+        log.fatal(f"bad ROS arguments: {str(err).split(', at ')[0]}")
+        return 2
     node = None
     # several threads: a waiting move service or action must not stall topics and cancels
     # (callbacks still only queue work for the loop thread)
@@ -394,14 +424,22 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     signal.signal(signal.SIGTERM, lambda *_: stopping.set())
     code = 0
     try:
-        node = make_node()
+        try:
+            node = make_node()
+        except Exception as exc:
+            log = _logger_of(exc, log)  # the node's own (namespaced) logger if it got that far
+            raise
+        log = node.get_logger()
         node.on_failure = stopping.set
         ready(node)
         executor.add_node(node)
         while not stopping.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
         safety = [k for k in ("term/servo_auto_stop", "term/torque_auto_disable") if node.config[k]]
-        log.info("stopping" + (f" ({', '.join(safety)})" if safety else ""))
+        if node.wire.is_open:
+            log.info("stopping" + (f" ({', '.join(safety)})" if safety else ""))
+        else:  # e.g. a lifecycle node never configured
+            log.info("exiting: no device open, nothing to stop")
         if node.failed:
             code = 1
     except ConfigError as err:
@@ -412,6 +450,9 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
         code = 1
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception as exc:  # anything else at start-up: one fatal line, the traceback at debug level
+        log_exception(log, "start-up failed", exc, fatal=True)
+        code = 1
     finally:
         if node is not None:
             try:
