@@ -204,3 +204,48 @@ def test_models_are_hashable_and_compare_by_number():
     assert len({model_by_number(1020), model_by_number(1020)}) == 1
     with pytest.raises(TypeError):
         model_by_number(1020).items["id"] = None  # read-only mapping
+
+
+# ---------------------------------------------------------------------- models beyond the SDK index
+@pytest.mark.parametrize("number,name,half_turn,rpm", [
+    # e-Manual: resolution per turn / 2, Goal Velocity scale factor (rpm per LSB)
+    (35072, "L42-10-S300-R", 2048, 0.114), (37896, "L54-30-S500-R", 180692, 0.00199234),
+    (37928, "L54-30-S400-R", 144197, 0.00249657), (38152, "L54-50-S500-R", 180692, 0.00199234),
+    (38176, "L54-50-S290-R", 103846, 0.00346667)])
+def test_l_series_is_old_pro_with_its_own_scales(number, name, half_turn, rpm):
+    model = model_by_number(number)
+    assert (model.name, model.series, model.layout) == (name, "PRO", "OLD_PRO")
+    assert model.position_max_pulse == half_turn
+    assert model.position_deg_per_pulse == pytest.approx(180.0 / half_turn)
+    assert model.velocity_deg_s_per_pulse == pytest.approx(rpm * 6.0)
+    assert model.item("goal_position").address == 596 and model.item("present_current").address == 621
+    assert model.indirect == ((49, 634, 256),)
+
+
+def test_l42_offers_velocity_and_position_modes_only():
+    assert model_by_number(35072).operating_modes == (1, 3)
+    assert model_by_number(35072).current_ma_per_pulse == pytest.approx(8250 / 2048)
+
+
+@pytest.mark.parametrize("number", PRO_RA)
+def test_pro_ra_is_p_series(number):
+    model = model_by_number(number)
+    assert model.series == "P" and model.layout == "P"
+    assert model.item("goal_position").address == 564
+    assert model.baud_rates[9] == 10_500_000
+
+
+def test_xm335_and_x330_tables():
+    xm335 = model_by_number(1710)
+    assert (xm335.name, xm335.series, xm335.layout) == ("XM335-T323", "X", "X330")
+    assert xm335.current_ma_per_pulse == 1.0 and xm335.indirect == ((168, 224, 28),)
+    assert xm335.item("backup_ready").address == 147 and 7 not in xm335.baud_rates
+    for number in (1190, 1200, 1210, 1220, 1230, 1240):
+        x330 = model_by_number(number)
+        assert x330.layout == "X330" and x330.current_ma_per_pulse == 1.0
+        assert x330.indirect_blocks(52) == ((168, 208, 20),)
+        assert x330.indirect_blocks(48) == ((168, 224, 20),)   # data block before firmware v52
+    xm430 = model_by_number(1020)
+    assert xm430.indirect == ((168, 224, 28), (578, 634, 28)) and xm430.baud_rates[7] == 4_500_000
+    assert model_by_number(2020).indirect == ((168, 634, 128),)
+    assert model_by_number(1280).name == "XW430-T200" and model_by_number(1280).current_ma_per_pulse == 2.69
