@@ -61,12 +61,15 @@ def test_clear_error_reboots_only_the_servos_in_error():
         rig.sim.clear_log()
         rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="CE", id_list=[254]))  # every servo
         wait_reg(rig, 2, "hardware_error_status", 0)
-        # status.error on a healthy servo: nothing to clear, no reboot
+        # status.error on a healthy servo: nothing to clear, no reboot, torque left as it is
+        rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="TOFF", id_list=[3]))
+        wait_reg(rig, 3, "torque_enable", 0)
         rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[1, 3], error=[DynamixelStatus.CLEAR_KEEP_ROT] * 2))
         rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="clear_error", id_list=[1]))
         rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[3], position_deg=[10.0]))
         wait_reg(rig, 3, "goal_position", x_pos(10.0))  # the commands after them were handled
         assert reboots(rig) == [2]
+        assert reg(rig, 3, "torque_enable") == 0
         assert reg(rig, 1, "profile_velocity") == profile  # RAM untouched: no reboot
         rig.wait_log("ID 2: hardware error cleared")
         assert rig.output.count("hardware error cleared") == 1
