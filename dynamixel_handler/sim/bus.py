@@ -390,14 +390,17 @@ class VirtualBus:
         return handler(self, packet, now)
 
     def _status(self, servo: VirtualServo, inst: int, error: int, data: bytes = b"",
-                broadcast: bool = False) -> list[tuple[float, bytes]]:
-        level = servo.status_return_level
+                broadcast: bool = False, before: tuple[int, int] | None = None) -> list[tuple[float, bytes]]:
+        """The servo's reply, if its Status Return Level gives one. ``before``: (ID, level) the
+        servo had when the packet arrived — a write of ID or Status Return Level is answered
+        as the servo was addressed, the new value counts from the next packet."""
+        servo_id, level = before or (servo.id, servo.status_return_level)
         if inst != p.PING:
             if broadcast and inst not in READ_INSTRUCTIONS:
                 return []
             if level == 0 or (level == 1 and inst not in READ_INSTRUCTIONS):
                 return []
-        return [(servo.return_delay_s, p.build_status(servo.id, servo.error_flags(error), data))]
+        return [(servo.return_delay_s, p.build_status(servo_id, servo.error_flags(error), data))]
 
     def _do_ping(self, pk: p.Packet, now: float):
         out = []
@@ -431,6 +434,7 @@ class VirtualBus:
         servos = self._hearing(pk.packet_id)
         quiet = self._secondary(pk.packet_id) if not broadcast else []
         for s in servos + quiet:
+            before = (s.id, s.status_return_level)
             if len(pk.params) < 3:
                 error = p.ERR_DATA_LENGTH
             elif pk.instruction == p.WRITE:
@@ -438,7 +442,7 @@ class VirtualBus:
             else:
                 error = s.reg_write(p.u16(pk.params), pk.params[2:], now)
             if s in servos:
-                out += self._status(s, pk.instruction, error, broadcast=broadcast)
+                out += self._status(s, pk.instruction, error, broadcast=broadcast, before=before)
         return out
 
     def _do_simple(self, pk: p.Packet, now: float):

@@ -215,7 +215,7 @@ def test_bulk_write_across_series(bus_sdk):
 
 def test_status_return_level(bus_sdk):
     bus, port, ph = bus_sdk
-    assert ph.write1ByteTxOnly(port, 1, 68, 1) == COMM_SUCCESS
+    assert ph.write1ByteTxRx(port, 1, 68, 1) == (COMM_SUCCESS, 0)  # answered at the level it arrived at
     assert ph.write1ByteTxRx(port, 1, 65, 1)[0] == COMM_RX_TIMEOUT  # writes no longer answered
     assert ph.read1ByteTxRx(port, 1, 65) == (1, COMM_SUCCESS, 0)
     assert ph.write1ByteTxOnly(port, 1, 68, 0) == COMM_SUCCESS
