@@ -1,6 +1,6 @@
 """Loop benchmark: the node against the wire limit and against a bare dynamixel-sdk loop.
 
-    cd /work/main && source env.sh && python bench/bench_loop.py [--quick] [--json out.json]
+    source env.sh && python bench/bench_loop.py [--quick] [--json out.json]
 
 For each bus (1 and 4 Mbps, adapter latency 0 and 1 ms) and each number of X servos (1, 4, 12,
 30) on the virtual bus with wire timing, it measures:

@@ -1,6 +1,6 @@
 """Where the node's time goes: py-spy samples of the real node process under the benchmark load.
 
-    cd /work/main && source env.sh && .venv/bin/pip install py-spy   # once
+    source env.sh && .venv/bin/pip install py-spy   # once
     python bench/profile_node.py [--n 12] [--baud 1000000] [--latency-ms 0] [--loop-rate 100] [--fast]
                                  [--seconds 6] [--flame out.svg]
 

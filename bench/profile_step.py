@@ -1,6 +1,6 @@
 """CPU cost of one loop, part by part, measured in-process with thread CPU clocks.
 
-    cd /work/main && source env.sh && python bench/profile_step.py [--n 12] [--baud 1000000]
+    source env.sh && python bench/profile_step.py [--n 12] [--baud 1000000]
                                       [--latency-ms 0] [--fast] [--seconds 3] [--cprofile]
 
 The node object is built exactly as ``ros2 run`` builds it (same parameters as ``bench_loop.py``),
