@@ -79,6 +79,9 @@ class Bench(TopicClient):
                  start_node: bool = True, env: dict[str, str] | None = None) -> None:
         self.env = env
         self.sim = VirtualBus(servos=dict(FOUR_SERVOS if servos is None else servos), wire_timing=False)
+        for param in params:  # the servos at the node's baud rate (they answer only at their own)
+            if param.startswith("baudrate:="):
+                self.sim.set_baudrate(int(param.split(":=", 1)[1]))
         self.device = self.sim.start()
         self.node_proc: NodeProcess | None = None
         # listen first, so the node's first loops reach us once discovery is done

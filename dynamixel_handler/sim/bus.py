@@ -151,13 +151,17 @@ class VirtualBus:
         with self._lock:
             servo = VirtualServo(int(model_number), int(servo_id), self.clock)
             if self._servo_bps is not None:
-                values = {bps: v for v, bps in servo.baud_rates.items()}
-                if self._servo_bps not in values:
-                    raise ValueError(f"{servo.model.name} cannot run at {self._servo_bps} bps "
-                                     f"(it can: {', '.join(str(b) for b in sorted(values))})")
-                servo.write("baud_rate", values[self._servo_bps])
+                _set_bps(servo, self._servo_bps)
             self._servos.append(servo)
             return servo
+
+    def set_baudrate(self, bps: int) -> None:
+        """Put every servo at ``bps`` (its Baud Rate register, as if configured earlier) and the
+        servos added later too; wire timing is left as it is."""
+        with self._lock:
+            for servo in self._servos:
+                _set_bps(servo, bps)
+            self._servo_bps = bps
 
     # ------------------------------------------------------------------ state file
     def save_state(self, path: str | None = None) -> None:
@@ -533,6 +537,14 @@ class VirtualBus:
                     self._host_write(s, address, prm[k + 5:k + 5 + length], now)
                 k += 5 + length
         return []
+
+
+def _set_bps(servo: VirtualServo, bps: int) -> None:
+    values = {rate: v for v, rate in servo.baud_rates.items()}
+    if bps not in values:
+        raise ValueError(f"{servo.model.name} cannot run at {bps} bps "
+                         f"(it can: {', '.join(str(b) for b in sorted(values))})")
+    servo.write("baud_rate", values[bps])
 
 
 def _describe(pk: p.Packet, now: float) -> LoggedInstruction:
