@@ -83,7 +83,8 @@ class UnifyBaudrateNode(Node):
         finally:
             bus.close()
         lines = report.summary()
-        (self.log.info if report.ok else self.log.error)("\n".join(lines))
+        for line in lines:  # one log line each: every line carries severity and the node's name
+            (self.log.info if report.ok else self.log.error)(line)
         return EXIT_OK if report.ok else EXIT_FAILED
 
 
@@ -92,7 +93,7 @@ def main(args: list[str] | None = None) -> int:
     try:
         rclpy.init(args=args)
     except Exception as exc:  # malformed --ros-args: rcl says why
-        print(f"[{NODE_NAME}] cannot start: {exc}".splitlines()[0], file=sys.stderr)
+        get_logger(NODE_NAME).fatal(f"cannot start: {str(exc).splitlines()[0].split(', at ')[0]}")
         return EXIT_BAD_PARAMETER
     node = None
     code = EXIT_FAILED
@@ -104,8 +105,8 @@ def main(args: list[str] | None = None) -> int:
         logger.error(str(err))
         code = EXIT_BAD_PARAMETER
     except KeyboardInterrupt:
-        print(f"[{NODE_NAME}] interrupted: servos may be left at different baud rates; run it again",
-              file=sys.stderr)
+        (node.get_logger() if node is not None else get_logger(NODE_NAME)).warning(
+            "interrupted: servos may be left at different baud rates; run it again")
         code = EXIT_INTERRUPTED
     finally:
         if node is not None:
