@@ -33,8 +33,9 @@ def _parameters(node_name: str, names: list[str]) -> dict:
         assert spin_until(node, executor, lambda: client.services_are_ready(), timeout=20)
         future = client.get_parameters(names)
         assert spin_until(node, executor, future.done, timeout=10)
-        return {n: v.integer_value if v.type == 2 else (list(v.integer_array_value) if v.type == 7 else v.bool_value)
-                for n, v in zip(names, future.result().values)}
+        from rclpy.parameter import parameter_value_to_python
+        return {n: (list(v) if isinstance(v := parameter_value_to_python(value), (list, tuple)) else v)
+                for n, value in zip(names, future.result().values)}
     finally:
         rclpy.try_shutdown()
 
@@ -45,6 +46,8 @@ def _parameters(node_name: str, names: list[str]) -> dict:
     ("original_config_dynamixel_handler-fast.yaml",
      {"pub_ratio/extra.static_items": 90130, "pub_ratio/extra.dynamic_items": 90130,
       "init/dummy_servo_list": [2, 3, 7, 9], "verbose/read_status.raw": False}),
+    # ours under the same name, shipped in config/
+    ("../../config/config_dynamixel_handler-fast.yaml", {"method/fast_read": True, "pub_ratio/extra.static_items": 90130}),
 ])
 def test_original_handler_yaml_loads_without_unknown_parameter_lines(name, expected):
     with VirtualBus({1: X}) as sim:

@@ -200,3 +200,11 @@ def test_launched_unify_tool_finds_the_servo_once(name, tmp_path):
         assert proc.wait_exit(timeout=120) == 0, proc.output
         assert "2 servo(s) found, 2 already at the target" in proc.output, proc.output
         assert "share" not in proc.output and "Traceback" not in proc.output
+
+
+def test_package_xml_declares_what_rosdep_must_install_to_run_and_launch():
+    root = ET.parse(ROOT / "package.xml").getroot()
+    run = {e.text for e in root if e.tag in ("depend", "exec_depend")}
+    assert {"rclpy", "launch", "launch_ros", "launch_xml", "ros2launch", "ament_index_python", "dynamixel_handler_msgs",
+            "sensor_msgs", "diagnostic_msgs", "lifecycle_msgs", "action_msgs", "builtin_interfaces", "rcl_interfaces",
+            "rosgraph_msgs", "python3-numpy", "python3-serial", "dynamixel_sdk"} <= run
