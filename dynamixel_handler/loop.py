@@ -123,6 +123,8 @@ class Handler:
         # ID -> (monotonic time when due, what, operation): per-servo work that must wait (a mode
         # change asked for too soon after the last one); a later request for the servo replaces it
         self.deferred: dict[int, tuple[float, str, Callable[[], None]]] = {}
+        #: why operations are not taken now (a lifecycle node that is not active); None: they are
+        self.refuse_ops: str | None = None
 
     # ================================================================ start-up
     def start(self) -> None:
@@ -457,6 +459,13 @@ class Handler:
         """Run ``op`` in the loop thread at the start of the next step (callbacks never touch the bus)."""
         with self._ops_lock:
             self._ops.append((what, op))
+
+    def drop_ops(self) -> int:
+        """Forget the queued operations (the loop does not run); how many there were."""
+        with self._ops_lock:
+            count = len(self._ops)
+            self._ops.clear()
+        return count
 
     def _run_ops(self) -> None:
         while True:

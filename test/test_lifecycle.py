@@ -14,7 +14,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from dynamixel_handler.sim import VirtualBus
-from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelDebug
+from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelDebug, DynamixelShortcut
+from dynamixel_handler_msgs.srv import SetTorque
 
 from ros_helpers import CONFIG, NodeProcess
 
@@ -44,6 +45,8 @@ class Manager:
         self.debug: list[DynamixelDebug] = []
         self.node.create_subscription(DynamixelDebug, "/dynamixel/debug", self.debug.append, 20)
         self.position = self.node.create_publisher(DynamixelControlXPosition, "/dynamixel/command/x/position_control", 10)
+        self.shortcut = self.node.create_publisher(DynamixelShortcut, "/dynamixel/shortcut", 10)
+        self.torque = self.node.create_client(SetTorque, "/dynamixel/set_torque")
         self.lock = threading.Lock()
         self.running = True
         self.thread = threading.Thread(target=self._spin, daemon=True)
@@ -163,6 +166,71 @@ def test_failed_configure_and_activate_leave_the_node_where_it_was():
         sim.set_silent(2, False)
         assert mgr.transition(Transition.TRANSITION_ACTIVATE)
         assert all(sim.servo(i).read("torque_enable") == 1 for i in (1, 2))
+    finally:
+        code = proc.stop(signal.SIGINT)
+        mgr.close()
+        sim.stop()
+    assert code == 0, proc.output
+
+
+def test_transitions_out_of_order_are_refused_and_the_node_keeps_running():
+    sim = VirtualBus(servos={1: X, 2: X})
+    proc = NodeProcess(_command(sim.start()))
+    mgr = Manager()
+    try:
+        proc.wait_for("waiting for the configure transition", timeout=30)
+        assert not mgr.transition(Transition.TRANSITION_ACTIVATE)  # not configured yet
+        assert mgr.state() == State.PRIMARY_STATE_UNCONFIGURED
+        proc.wait_for("transition 'activate' is not possible in state 'unconfigured'")
+        assert sim.log == []  # nothing touched the bus
+
+        assert mgr.transition(Transition.TRANSITION_CONFIGURE)
+        assert not mgr.transition(Transition.TRANSITION_CONFIGURE)  # configure twice
+        assert mgr.state() == State.PRIMARY_STATE_INACTIVE
+        assert mgr.transition(Transition.TRANSITION_ACTIVATE)
+        assert not mgr.transition(Transition.TRANSITION_CLEANUP)  # cleanup while active
+        assert mgr.state() == State.PRIMARY_STATE_ACTIVE
+        proc.wait_for("is not possible in state 'active'")
+        mgr.wait(lambda: mgr.debug and len(mgr.debug[-1].status.id_list) == 2, "states while active", proc)
+        assert proc.proc.poll() is None
+    finally:
+        code = proc.stop(signal.SIGINT)
+        mgr.close()
+        sim.stop()
+    assert code == 0, proc.output
+    assert "Traceback" not in proc.output and "RCLError" not in proc.output
+
+
+def test_commands_while_inactive_are_dropped_not_replayed_at_activate():
+    sim = VirtualBus(servos={1: X, 2: X})
+    proc = NodeProcess(_command(sim.start()))
+    mgr = Manager()
+    try:
+        proc.wait_for("waiting for the configure transition", timeout=30)
+        assert mgr.transition(Transition.TRANSITION_CONFIGURE)
+        where = sim.servo(2).read("present_position")
+        mgr.wait(lambda: mgr.position.get_subscription_count() > 0, "the command subscription", proc)
+        mgr.wait(lambda: mgr.shortcut.get_subscription_count() > 0, "the shortcut subscription", proc)
+        # a move and, after it, a torque off: neither may happen at activate
+        mgr.position.publish(DynamixelControlXPosition(id_list=[2], position_deg=[90.0]))
+        mgr.shortcut.publish(DynamixelShortcut(command="TOFF", id_list=[1]))
+        proc.wait_for("command(s) received while inactive dropped")
+
+        # a service answers with a clear failure instead of waiting for a loop that does not run
+        assert mgr.torque.wait_for_service(timeout_sec=20)
+        answer = mgr._call(mgr.torque, SetTorque.Request(ids=[1], enable=True))
+        assert not answer.success and "not active" in answer.message, answer.message
+        assert sim.servo(1).read("torque_enable") == 0
+
+        assert mgr.transition(Transition.TRANSITION_ACTIVATE)
+        mgr.wait(lambda: mgr.debug and len(mgr.debug[-1].status.id_list) == 2, "states while active", proc)
+        time.sleep(0.5)  # a replayed command would have landed by now
+        assert all(sim.servo(i).read("torque_enable") == 1 for i in (1, 2))
+        assert abs(sim.servo(2).read("goal_position") - where) < 5  # goal := present, not 90 deg
+        assert abs(sim.servo(2).read("present_position") - where) < 5
+        # while active, commands work as before
+        mgr.position.publish(DynamixelControlXPosition(id_list=[2], position_deg=[45.0]))
+        mgr.wait(lambda: abs(mgr.debug[-1].position_deg.present[1] - 45.0) < 1.0, "commands work while active", proc)
     finally:
         code = proc.stop(signal.SIGINT)
         mgr.close()

@@ -80,6 +80,22 @@ class CommandIntake:
         self.taken += len(batch)
         return len(batch)
 
+    def discard(self) -> int:
+        """Take every waiting message of every command topic and drop it, undecoded (a lifecycle
+        node that is not active). Returns the number of messages dropped."""
+        count = 0
+        with self._lock:
+            for entry in self._entries:
+                while True:
+                    try:
+                        got = entry[0].handle.take_message(entry[0].msg_type, self.raw)
+                    except Exception:  # a destroyed handle: nothing more to take
+                        break
+                    if got is None:
+                        break
+                    count += 1
+        return count
+
     def wait(self, timeout_s: float) -> bool:
         """Block, without holding the interpreter lock, until a message waits on a command topic or
         ``timeout_s`` passes; True if one waits. Without detached subscriptions: sleeps, False."""

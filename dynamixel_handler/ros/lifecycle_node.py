@@ -17,7 +17,11 @@ torque and the device closed (unconfigured).
 from __future__ import annotations
 
 import sys
+import time
 
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from ..bus import BusError
@@ -27,6 +31,13 @@ from .node import DynamixelHandlerNode, run
 
 SUCCESS, FAILURE, ERROR = (TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE,
                            TransitionCallbackReturn.ERROR)
+#: transition id -> name, for log lines ("activate", "unconfigured_shutdown", ...)
+TRANSITION_NAMES = {getattr(Transition, n): n[len("TRANSITION_"):].lower() for n in dir(Transition)
+                    if n.startswith("TRANSITION_") and isinstance(getattr(Transition, n), int)}
+#: how often commands that arrive while the loop does not run are taken and dropped [s]
+DRAIN_PERIOD_S = 0.2
+#: least time between two warnings about commands dropped while not active [s]
+DROP_WARN_INTERVAL_S = 1.0
 
 
 class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
@@ -36,6 +47,58 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         super().__init__()  # parameters, publishers, subscriptions, services; no bus access
         # torque comes on at activate, not during the configure scan
         self.handler.config = Config({**self.config.values, "init/torque_auto_enable": False})
+        # a transition the state machine does not have from the current state (activate while
+        # unconfigured, configure twice) fails with an answer, not an exception in the executor
+        self._service_change_state.callback = self._guarded_change_state(self._service_change_state.callback)
+        # commands that arrive while the loop does not run are dropped (with a warning), never
+        # kept for activate; services and the action answer at once
+        self.handler.refuse_ops = "the node is not active (lifecycle state unconfigured): configure and activate it"
+        self._dropped, self._drop_warned = 0, 0.0
+        self.create_timer(DRAIN_PERIOD_S, self._drain_commands)
+
+    # ------------------------------------------------------------------ guards
+    def _guarded_change_state(self, serve):
+        def change_state(req: ChangeState.Request, res: ChangeState.Response) -> ChangeState.Response:
+            label = self._state_machine.current_state[1]
+            allowed = {t[0]: t[1] for t in self._transitions_from_here()}
+            asked = req.transition.label or TRANSITION_NAMES.get(req.transition.id, str(req.transition.id))
+            if (req.transition.label and req.transition.label not in allowed.values()) or \
+                    (not req.transition.label and req.transition.id not in allowed):
+                self.get_logger().warning(
+                    f"change_state: transition '{asked[:80]}' is not possible in state '{label}' "
+                    f"(possible: {', '.join(allowed.values()) or 'none'}): refused, staying {label}")
+                res.success = False
+                return res
+            try:
+                return serve(req, res)
+            except _rclpy.RCLError as err:  # the state machine refused it after all
+                self.get_logger().warning(f"change_state: transition '{asked[:80]}' refused in state '{label}': "
+                                          f"{str(err).splitlines()[0][:120]}")
+                res.success = False
+                return res
+        return change_state
+
+    def _transitions_from_here(self) -> list[tuple[int, str]]:
+        """(id, label) of the transitions the state machine has from the current state."""
+        # each description: (id, label, start id, start label, goal id, goal label)
+        return [(int(d[0]), str(d[1])) for d in self._state_machine.available_transitions]
+
+    def _drain_commands(self) -> None:
+        """While the loop does not run: take the waiting command messages and drop them, with one
+        warning line a second at most (a servo must not move, or lose torque, at activate because
+        of a command sent while the node was inactive)."""
+        if self._thread is not None and self._thread.is_alive():
+            return
+        dropped = self.intake.discard() + self.handler.drop_ops()
+        if not dropped:
+            return
+        self._dropped += dropped
+        now = time.monotonic()
+        if now - self._drop_warned >= DROP_WARN_INTERVAL_S:
+            state = self._state_machine.current_state[1]
+            self.get_logger().warning(f"{self._dropped} command(s) received while {state} dropped "
+                                      "(commands apply only while active)")
+            self._dropped, self._drop_warned = 0, now
 
     # ------------------------------------------------------------------ transitions
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -61,7 +124,9 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
                 self.get_logger().error(f"activate failed: torque on failed on IDs {failed}: "
                                         f"{self.bus.last_failure} (all servos left without torque)")
                 return FAILURE
+            self._drain_commands()  # nothing sent while inactive is replayed now
             self.start_loop()
+            self.handler.refuse_ops = None
         except Exception as exc:
             self.get_logger().error(f"activate: {type(exc).__name__}: {exc}")
             return ERROR
@@ -111,6 +176,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
 
     # ------------------------------------------------------------------ helpers
     def _stop_loop(self) -> None:
+        self.handler.refuse_ops = "the node is not active (lifecycle): activate it first"
         self._stop.set()
         if self._thread is not None:
             self._thread.join(5.0)

@@ -52,6 +52,8 @@ class MoveError(RuntimeError):
 def call_in_loop(handler: Handler, what: str, fn: Callable[[], object], timeout: float = LOOP_TIMEOUT_S):
     """Run ``fn`` on the loop thread and return its result (or raise its exception); MoveError
     when the loop does not take it in time (stopped, or an inactive lifecycle node)."""
+    if handler.refuse_ops:  # e.g. an inactive lifecycle node: answer now, not after the timeout
+        raise MoveError(f"'{what}' refused: {handler.refuse_ops}")
     fut: concurrent.futures.Future = concurrent.futures.Future()
 
     def op() -> None:
