@@ -52,7 +52,7 @@ def main() -> int:
 
     tmp = Path(tempfile.mkdtemp(prefix="dxl_soak_"))
     link = str(tmp / "ttyDXL")
-    sim = VirtualBus(servos={i: 1020 for i in range(1, N_SERVOS + 1)}, link=link)
+    sim = VirtualBus(servos={i: 1020 for i in range(1, N_SERVOS + 1)}, link=link, wire_timing=False)
     sim.start()
     log_path = tmp / "node.log"
     log = open(log_path, "w")
