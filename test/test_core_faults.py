@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 
+from dynamixel_handler.loop import RECHECK_LOOPS
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
 from core_helpers import FAST_SYNC_READ, PING, SYNC_READ, XM430, Bench
 from test_core_states import assert_unit
 
-REMOVE_AFTER = 10  # loops
+REMOVE_AFTER = 10  # unanswered requests
 SILENT_ID = 3      # the PH54
 
 
@@ -43,10 +44,11 @@ def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_
         silent = [m for m in messages if SILENT_ID in _ids(m) and not _of(m, SILENT_ID, "ping")]
         assert silent, "no message with ping false before the removal"
         assert all(_of(m, i, "ping") for m in messages for i in (1, 2, 4))
-        # removed after REMOVE_AFTER loops without reply (one message per loop; the removal loop has
-        # no ID 3): REMOVE_AFTER - 1 messages with ping false, give or take one lost in transit
-        assert REMOVE_AFTER - 3 <= len(silent) <= REMOVE_AFTER, \
-            f"{len(silent)} loops with ping false before the removal, want {REMOVE_AFTER - 1}"
+        # removed after REMOVE_AFTER requests without reply: the failed read, then a ping every
+        # RECHECK_LOOPS loops, so about (REMOVE_AFTER - 1) x RECHECK_LOOPS loops with ping false (one
+        # message per loop, give or take a few lost in transit), not REMOVE_AFTER loops
+        assert (REMOVE_AFTER - 4) * RECHECK_LOOPS <= len(silent) <= REMOVE_AFTER * RECHECK_LOOPS + 2, \
+            f"{len(silent)} loops with ping false before the removal, want ~{(REMOVE_AFTER - 1) * RECHECK_LOOPS}"
         after = messages[messages.index(silent[0]):]
         assert all(_ids(m) == [1, 2, 4] for m in after[len(silent):])
         bench.node_proc.wait_for(f"ID {SILENT_ID}: no response (ping false)")
