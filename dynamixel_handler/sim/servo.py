@@ -22,6 +22,10 @@ from .registers import RegisterFile
 POSITION_MODES = (3, 4, 5)
 EXTENDED_MODES = (4, 5)
 X_EXTENDED_GOAL_LIMIT = 1_048_575
+X_HOMING_MAX = 1_044_479
+X_GAIN_MAX = 16383
+X_GAINS = ("velocity_i_gain", "velocity_p_gain", "position_d_gain", "position_i_gain", "position_p_gain",
+           "feedforward_2nd_gain", "feedforward_1st_gain")
 CLEAR_KEY = bytes([0x01, 0x44, 0x58, 0x4C, 0x22])
 BACKUP_KEY = b"CTRL"  # Control Table Backup: 0x01 (store) or 0x02 (restore), then "CTRL"
 LAG_S = 0.05
@@ -334,6 +338,10 @@ class VirtualServo:
             "max_position_limit": (self.model.position_min_pulse, self.model.position_max_pulse),
             "min_position_limit": (self.model.position_min_pulse, self.model.position_max_pulse),
         }
+        if x:  # X e-Manual ranges
+            ranges.update({name: (0, X_GAIN_MAX) for name in X_GAINS})
+            ranges.update({"homing_offset": (-X_HOMING_MAX, X_HOMING_MAX), "moving_threshold": (0, 1023),
+                           "profile_acceleration": (0, 32767), "profile_velocity": (0, 32767)})
         if name in ranges:
             lo, hi = ranges[name]
             if not lo <= value <= hi:

@@ -257,3 +257,22 @@ def test_eeprom_survives_a_restart_through_the_state_file(make_bus, make_sdk, tm
         assert five.read("baud_rate") == 3  # the 1 Mbps it was at, not the factory 57600
         two = again.servo(2)
         assert two.read_raw(X_IA, 2) == bytes([X_GOAL, 0]) and two.read("backup_ready") == 1
+
+
+# ============================================================================ data range
+@pytest.mark.parametrize("address,size,value", [
+    (20, 4, 1_044_480),   # Homing Offset: -1,044,479 .. 1,044,479
+    (24, 4, 1024),        # Moving Threshold: 0 .. 1,023
+    (84, 2, 16384),       # Position P Gain: 0 .. 16,383
+    (108, 4, 32768),      # Profile Acceleration: 0 .. 32,767
+    (112, 4, 32768),      # Profile Velocity: 0 .. 32,767
+    (11, 1, 2),           # Operating Mode 2 does not exist
+    (8, 1, 8),            # Baud Rate 8 (6 Mbps) is P only
+])
+def test_x_values_out_of_range_get_data_range_error(make_bus, make_sdk, address, size, value):
+    bus = make_bus({1: XM430})
+    port, ph = make_sdk(bus.path)
+    before = bus.servo(1).read_raw(address, size)
+    write = {1: ph.write1ByteTxRx, 2: ph.write2ByteTxRx, 4: ph.write4ByteTxRx}[size]
+    assert write(port, 1, address, value) == (COMM_SUCCESS, p.ERR_DATA_RANGE)
+    assert bus.servo(1).read_raw(address, size) == before
