@@ -152,8 +152,20 @@ class VirtualBus:
             servo = VirtualServo(int(model_number), int(servo_id), self.clock)
             if self._servo_bps is not None:
                 _set_bps(servo, self._servo_bps)
+            self._pair(servo)
             self._servos.append(servo)
             return servo
+
+    def _pair(self, servo: VirtualServo) -> None:
+        """A dual servo (2XL430, 2XC430) is two IDs sharing one Baud Rate: each one added is
+        paired with the first unpaired one of its model, in the order they were added."""
+        if not servo.model.name.startswith("2X"):
+            return
+        for other in self._servos:
+            if other.model.number == servo.model.number and other.partner is None:
+                servo.partner, other.partner = other, servo
+                servo.write("baud_rate", other.read("baud_rate"))
+                return
 
     def set_baudrate(self, bps: int) -> None:
         """Put every servo at ``bps`` (its Baud Rate register, as if configured earlier) and the
@@ -189,7 +201,10 @@ class VirtualBus:
                 servo = VirtualServo(int(entry["model"]), 1, self.clock)
                 servo.load_state(entry, self.clock())
                 servos.append(servo)
-            self._servos = servos
+            self._servos = []
+            for servo in servos:
+                self._pair(servo)
+                self._servos.append(servo)
 
     @property
     def eeprom_changed(self) -> bool:

@@ -50,6 +50,8 @@ class VirtualServo:
         self._backup: bytes | None = None
         #: set when an EEPROM byte changes (the bus saves its state file then)
         self.eeprom_changed = False
+        #: the other axis of a dual servo (2XL430, 2XC430): the two share one Baud Rate
+        self.partner: VirtualServo | None = None
         self.silent = False
         self._motor = Motor()
         self._port_latch: dict[int, int] = {}
@@ -260,6 +262,8 @@ class VirtualServo:
             keep["baud_rate"] = self._peek("baud_rate")
         for name, value in self._defaults.items():
             self._poke(name, keep.get(name, 1 if name == "id" else value))
+        if self.partner is not None:
+            self.partner._poke("baud_rate", self._peek("baud_rate"))
         self._file.factory_indirect()
         self.eeprom_changed = True
         self.reboot(now)
@@ -387,6 +391,9 @@ class VirtualServo:
                     self._poke(reset, self._defaults[reset])
             if value == 3:
                 self._motor.p = self._fold(self._motor.p)
+        elif name == "baud_rate" and self.partner is not None:
+            self.partner._poke("baud_rate", value)
+            self.partner.eeprom_changed = True
         elif name == "bus_watchdog":
             self._last_instruction = now
         elif name == "goal_position":

@@ -276,3 +276,14 @@ def test_x_values_out_of_range_get_data_range_error(make_bus, make_sdk, address,
     write = {1: ph.write1ByteTxRx, 2: ph.write2ByteTxRx, 4: ph.write4ByteTxRx}[size]
     assert write(port, 1, address, value) == (COMM_SUCCESS, p.ERR_DATA_RANGE)
     assert bus.servo(1).read_raw(address, size) == before
+
+
+# ============================================================================ dual servos
+def test_the_two_axes_of_a_2xl430_share_their_baud_rate(make_bus, make_sdk):
+    bus = make_bus({1: 1090, 2: 1090, 3: XM430})  # 2XL430-W250: IDs 1 and 2 are one servo
+    port, ph = make_sdk(bus.path)
+    assert ph.write1ByteTxRx(port, 1, 8, 4) == (COMM_SUCCESS, 0)  # 2 Mbps, answered at 1 Mbps
+    assert ph.ping(port, 2)[1] == COMM_RX_TIMEOUT and ph.ping(port, 3)[1] == COMM_SUCCESS
+    assert port.setBaudRate(2_000_000)
+    assert ph.ping(port, 1) == (1090, COMM_SUCCESS, 0) and ph.ping(port, 2) == (1090, COMM_SUCCESS, 0)
+    assert ph.read1ByteTxRx(port, 2, 8) == (4, COMM_SUCCESS, 0)
