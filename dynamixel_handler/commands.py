@@ -15,6 +15,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 
 from . import units
 from .control_table import OPERATING_MODES, Model
+from .logs import Throttle, cut, some_ids
 from .loop import Handler
 
 #: control topic/field name -> operating mode it needs
@@ -96,6 +97,8 @@ class Commander:
         self.verbose = bool(handler.config["verbose/callback"])
         self._last_mode_change: dict[int, float] = {}
         self._last_clear: dict[int, float] = {}
+        # a warning repeated within a second (same cause, same servo) is counted, not logged
+        self.throttle = Throttle(self.log.warning)
 
     # ============================================================== entry points (any thread)
     def control(self, series: str, control: str, ids: Sequence[int], fields: Fields) -> None:
@@ -120,7 +123,7 @@ class Commander:
     def shortcut(self, command: str, ids: Sequence[int]) -> None:
         action = SHORTCUTS.get(command.strip())
         if action is None:
-            self.log.warning(f"shortcut: unknown command '{command}' (known: {', '.join(SHORTCUTS)})")
+            self.warn(f"shortcut: unknown command '{cut(command)}' (known: {', '.join(SHORTCUTS)})")
             return
         self._queue(f"shortcut {command}", lambda: self._shortcut(action, list(ids)))
 
@@ -131,7 +134,8 @@ class Commander:
 
     # ============================================================== helpers (loop thread)
     def warn(self, msg: str) -> None:
-        self.log.warning(msg)
+        """A warning about a command; the same one within a second is only counted (``Throttle``)."""
+        self.throttle(msg)
 
     def known_ids(self, ids: Iterable[int], what: str, series: str | None = None,
                   allow_all: bool = False) -> list[tuple[int, int]]:
@@ -140,20 +144,28 @@ class Commander:
         ids = list(ids)
         if allow_all and (not ids or ids == [BROADCAST_ID]):
             return list(enumerate(table.ids))
-        out, seen = [], set()
+        last: dict[int, int] = {}  # ID -> index of its last entry (a repeated ID: the last value wins)
+        unknown, other = [], []
         for k, dxl_id in enumerate(ids):
             if dxl_id not in table:
-                self.warn(f"{what}: ID {dxl_id} is not handled: ignored")
+                unknown.append(dxl_id)
                 continue
-            model = table.model(dxl_id)
-            if series is not None and model.series != series:
-                self.warn(f"{what}: ID {dxl_id} is {model.name} (series {model.series}), not {series}: ignored")
+            if series is not None and table.model(dxl_id).series != series:
+                other.append(dxl_id)
                 continue
-            if dxl_id in seen:
-                out = [(kk, ii) for kk, ii in out if ii != dxl_id]  # a repeated ID: the last value wins
-            seen.add(dxl_id)
-            out.append((k, dxl_id))
-        return out
+            last.pop(dxl_id, None)
+            last[dxl_id] = k
+        # one line per kind of bad ID per message, naming a few of them
+        if len(unknown) == 1:
+            self.warn(f"{what}: ID {unknown[0]} is not handled: ignored")
+        elif unknown:
+            self.warn(f"{what}: IDs {some_ids(unknown)} are not handled: ignored")
+        if len(other) == 1:
+            model = table.model(other[0])
+            self.warn(f"{what}: ID {other[0]} is {model.name} (series {model.series}), not {series}: ignored")
+        elif other:
+            self.warn(f"{what}: IDs {some_ids(other)} are not of series {series}: ignored")
+        return [(k, dxl_id) for dxl_id, k in last.items()]
 
     def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool:
         if isinstance(value, float) and not math.isfinite(value):
@@ -391,7 +403,7 @@ class Commander:
             if "mode" in fields:
                 mode = str(fields["mode"][k]).strip()
                 if mode not in OPERATING_MODES:
-                    self.warn(f"{what}: ID {dxl_id} unknown mode '{mode}' (known: {', '.join(OPERATING_MODES)})")
+                    self.warn(f"{what}: ID {dxl_id} unknown mode '{cut(mode)}' (known: {', '.join(OPERATING_MODES)})")
                 elif self.h.mode(dxl_id) == mode:
                     self.h.deferred.pop(dxl_id, None)
                 elif self.change_mode(dxl_id, mode, what) == "later":

@@ -21,7 +21,12 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommand
                                         DynamixelStatus)
 
 from ..commands import Commander, take_fields
+from ..logs import cut
 from .intake import CommandIntake
+
+#: most IDs a command can name (0..252): a longer id_list is refused as a whole, before any work
+#: that grows with its length
+MAX_IDS = 253
 
 CONTROL_TYPES = {
     "X": {"pwm_control": DynamixelControlXPwm, "current_control": DynamixelControlXCurrent,
@@ -85,18 +90,25 @@ class CommandTopics:
             try:
                 callback(msg)
             except Exception as exc:  # a bad message must never take the node down
-                self.log.error(f"/dynamixel/{topic}: command dropped: {type(exc).__name__}: {exc}")
+                self.commander.throttle(f"/dynamixel/{topic}: command dropped: {type(exc).__name__}: {cut(exc)}",
+                                        key=f"{topic} {type(exc).__name__}")
         return run
 
     def _fields(self, what: str, msg: dict) -> tuple[list[int], dict[str, list]]:
-        if len(msg["id_list"]) == 0:  # nothing to do; most parts of a bundle are empty
+        count = len(msg["id_list"])
+        if count == 0:  # nothing to do; most parts of a bundle are empty
+            return [], {}
+        if count > MAX_IDS:
+            self.commander.warn(f"{what}: id_list has {count} IDs, more than the {MAX_IDS} a bus can have: "
+                                "message refused")
             return [], {}
         ids, fields = unpack(msg)
-        return ids, take_fields(what, ids, fields, self.log.warning)
+        return ids, take_fields(what, ids, fields, self.commander.warn)
 
     def _control(self, series: str, control: str, msg, what: str) -> None:
+        # id_list alone switches the servos to the control's mode (and writes no goal)
         ids, fields = self._fields(what, msg)
-        if ids and fields:
+        if ids:
             self.commander.control(series, control, ids, fields)
 
     def _group(self, group: str, msg, what: str) -> None:
@@ -114,4 +126,8 @@ class CommandTopics:
                 self._group(group, msg[group], f"{prefix}.{group}")
 
     def _shortcut(self, msg: dict) -> None:
+        if len(msg["id_list"]) > MAX_IDS:
+            self.commander.warn(f"shortcut: id_list has {len(msg['id_list'])} IDs, more than the {MAX_IDS} a bus "
+                                "can have: message refused")
+            return
         self.commander.shortcut(msg["command"], [int(i) for i in msg["id_list"]])
