@@ -127,7 +127,7 @@ def test_each_kind_of_bad_value_names_the_id_and_field(rig):
     rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="explode"))
     rig.node_proc.wait_for("shortcut: unknown command 'explode'")
     rig.publish("/dynamixel/command/x/current_control", DynamixelControlXCurrent(id_list=[1], current_ma=[1e9]))
-    rig.node_proc.wait_for("ID 1 'current_ma' = 1e+09 is beyond the servo's limit: clamped to")
+    rig.node_proc.wait_for("ID 1 (XM430-W350) 'current_ma' = 1e+09 is beyond the servo's limit: clamped to")
     rig.publish("/dynamixel/command/x/extended_position_control",
                 DynamixelControlXExtendedPosition(id_list=[2], rotation=[1000.0]))
     rig.node_proc.wait_for("ID 2 'rotation' = 1000 is beyond ±256: clamped")
