@@ -9,6 +9,7 @@ from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBu
                            GroupSyncWrite)
 from dynamixel_sdk.protocol2_packet_handler import PKT_ID, PKT_INSTRUCTION, PKT_LENGTH_H, PKT_LENGTH_L, PKT_PARAMETER0
 
+from dynamixel_handler.control_table import known_models, model_by_number
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler.sim import protocol as p
 
@@ -287,3 +288,20 @@ def test_the_two_axes_of_a_2xl430_share_their_baud_rate(make_bus, make_sdk):
     assert port.setBaudRate(2_000_000)
     assert ph.ping(port, 1) == (1090, COMM_SUCCESS, 0) and ph.ping(port, 2) == (1090, COMM_SUCCESS, 0)
     assert ph.read1ByteTxRx(port, 2, 8) == (4, COMM_SUCCESS, 0)
+
+
+# ============================================================================ every model
+@pytest.mark.parametrize("number", [m.number for m in known_models()])
+def test_every_model_answers_with_its_number_and_maps_indirect_data(make_bus, make_sdk, number):
+    bus = make_bus({1: number})
+    port, ph = make_sdk(bus.path)
+    model = model_by_number(number)
+    assert ph.ping(port, 1) == (number, COMM_SUCCESS, 0)
+    assert ph.read2ByteTxRx(port, 1, 0) == (number, COMM_SUCCESS, 0)
+    first_address, first_data, _ = bus.servo(1).model.indirect_blocks(bus.servo(1).read("firmware_version"))[0]
+    goal = model.item("goal_position").address
+    map_indirect(ph, port, 1, first_address, span(goal, 4))
+    assert ph.write1ByteTxRx(port, 1, model.item("torque_enable").address, 1) == (COMM_SUCCESS, 0)
+    target = model.position_zero_pulse + model.position_max_pulse // 4
+    assert ph.write4ByteTxRx(port, 1, first_data, target) == (COMM_SUCCESS, 0)
+    assert bus.servo(1).read("goal_position") == target
