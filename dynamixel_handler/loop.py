@@ -42,6 +42,8 @@ WATCHDOG_MODES = frozenset({"velocity", "current", "pwm"})
 #: least time between two writes of one EEPROM item of one servo [s]; a value asked for sooner is
 #: written when the time has passed (the latest one asked for)
 EEPROM_WRITE_INTERVAL_S = 1.0
+#: longest bus watchdog time the register holds (127 x 20 ms)
+WATCHDOG_MAX_MS = 2540.0
 
 
 class StartupError(RuntimeError):
@@ -111,7 +113,12 @@ class Handler:
         self.stats_full_reads = 0
         self.reconnects = 0
         self.device_lost = False
+        self.device_lost_since: float | None = None  # time.time() when the device was found gone
         self._had_device = False
+        # the loop period the bus watchdog time derives from: the longer of 1 / loop_rate and the
+        # one measured (or, before the first loops, estimated from the wire time of a loop's reads)
+        self.loop_period_s = 0.0
+        self._watchdog_warned = False
         self._next_reconnect = 0.0
         self.watchdog_trips = 0
         self._reported_errors: dict[int, int] = {}
@@ -232,8 +239,43 @@ class Handler:
         every = min((r for r in ratios if r > 0), default=0)
         if every == 0:
             return 0  # nothing is read after start-up: a watchdog would stop every servo
-        ms = max(cfg["default/bus_watchdog"], 3000.0 * every / cfg["loop_rate"])
+        period = max(1.0 / cfg["loop_rate"], self.loop_period_s)
+        ms = max(cfg["default/bus_watchdog"], 3000.0 * every * period)
+        if ms > WATCHDOG_MAX_MS and not self._watchdog_warned:
+            self._watchdog_warned = True
+            self.log.warning(f"bus watchdog: a servo is addressed every {1000 * every * period:.0f} ms, so it needs "
+                             f"{ms:.0f} ms, but the register holds at most {WATCHDOG_MAX_MS:g} ms: set to that, a servo "
+                             "may stop between two loops (lower the bus time per loop: fewer reads, higher baudrate)")
         return int(min(127, max(1, round(ms / 20.0))))
+
+    def note_loop_period(self, seconds: float) -> None:
+        """The loop period measured (or estimated): when it moves the bus watchdog time (longer by a
+        quarter, or shorter by half), the servos that have the automatic one get it anew."""
+        old = self.loop_period_s
+        if old and old / 2 < seconds < old * 1.25:
+            return
+        before = self.watchdog_pulses()
+        self.loop_period_s = seconds
+        if self.watchdog_pulses() != before:
+            self._to_arm.update(i for i in self.table.ids
+                                if i not in self.watchdog_user and self.mode(i) in WATCHDOG_MODES)
+
+    def estimate_loop_s(self) -> float:
+        """Wire time of a loop's reads over every handled servo (instruction and replies at the
+        baud rate, plus the adapter's latency each way): the loop period before one is measured."""
+        if not len(self.table) or not getattr(self.bus, "baudrate", 0):
+            return 0.0
+        items, _, _ = self.due_items(1)
+        if not items:
+            return 0.0
+        live = np.ones(len(self.table), dtype=bool)
+        byte_s = 10.0 / self.bus.baudrate
+        latency_s = 2 * getattr(self.bus, "latency_timer_ms", 1.0) / 1000.0
+        total = 0.0
+        for read in self._plan(tuple(sorted(set(items))), live):
+            n = len(read.ids)
+            total += (14 + n + n * (11 + read.length)) * byte_s + latency_s
+        return total
 
     def watchdog_for(self, dxl_id: int) -> int:
         """The bus watchdog this servo should have [20 ms pulses, 0 = off]: the value a command
@@ -651,8 +693,9 @@ class Handler:
         dummies = getattr(self.bus, "dummies", {})
         if not self.device_lost:
             self.device_lost = True
-            self.log.error(f"{self.bus.device} is gone (unplugged?): reconnecting every {RECONNECT_INTERVAL_S:g}s; "
-                           "states keep being published with ping false")
+            self.device_lost_since = time.time()
+            self.log.error(f"{self.bus.device} is gone (the port hung up: unplugged, or another process reading it?): "
+                           f"reconnecting every {RECONNECT_INTERVAL_S:g}s; states keep being published with ping false")
         for pos, dxl_id in enumerate(self.table.ids):
             if dxl_id not in dummies:
                 self.table.ping[pos] = False
@@ -667,6 +710,7 @@ class Handler:
             self.log.debug(f"reconnect failed: {exc}")
             return
         self.device_lost = False
+        self.device_lost_since = None
         self.reconnects += 1
         self.log.info(f"{self.bus.device} is back: reconnected (reconnect #{self.reconnects})")
         for dxl_id in list(self.table.ids):

@@ -161,7 +161,7 @@ def test_present_items_not_read_this_loop_are_empty_without_outdated_values(outd
                 assert not any(math.isnan(v) for v in getattr(m, field)), f"{source} {field}"
 
 
-VERBOSE = re.compile(r"time=(\d+\.\d+)ms/loop\((\d+\.\d+)ms/read\), success=(\d+\.\d)%\(full=(\d+\.\d)%\)")
+VERBOSE = re.compile(r"time=(\d+\.\d+)ms/loop\((\d+\.\d+)ms/read\), success= *(\d+)%\(full= *(\d+)%\)")
 
 
 def test_verbose_line_every_verbose_ratio_loops_and_success_drops_with_a_silent_servo():

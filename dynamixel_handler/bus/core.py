@@ -613,8 +613,8 @@ class DynamixelBus:
         if not self._port.lost:
             self._port.lost = True
             self.stats.disconnects += 1
-            self._log("error", f"{self.device} stopped working ({exc}); is the adapter unplugged? "
-                               f"Transactions fail until reopen() succeeds.")
+            self._log("error", f"{self.device} stopped working ({exc}): the port hung up (adapter unplugged, or "
+                               "another process reading it?); transactions fail until reopen() succeeds")
         self._port.close()
 
     def _why(self, status: p.Status | None) -> str:

@@ -36,6 +36,7 @@ from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
 from .outbox import Outbox
 from .lean import TreePublisher, lean_publisher, lean_subscription, raw_cdr_usable
+from .loop_stats import LoopStats
 from .params import ConfigError, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
@@ -194,6 +195,8 @@ class DynamixelHandlerNode(Node):
         self.handler.start()
 
     def start_loop(self) -> None:
+        # until the first loops are measured, the bus watchdog time follows the wire time of a loop
+        self.handler.note_loop_period(self.handler.estimate_loop_s())
         self._stop.clear()
         if self.outbox is None:
             self.outbox = Outbox(self.get_logger())
@@ -244,10 +247,9 @@ class DynamixelHandlerNode(Node):
         if slack_ns is None:
             self.get_logger().debug("loop thread: timer slack left at the system default")
         period = 1.0 / self.config["loop_rate"]
-        verbose_ratio = self.config["verbose_ratio"]
+        stats = LoopStats(self.handler, self.wire, self.get_logger(), self.config["loop_rate"],
+                          self.config["verbose_ratio"])
         next_t = time.monotonic()
-        window_start, window_loops, window_read = time.monotonic(), 0, 0.0
-        stats_before = self.wire.stats.copy()
         failures = 0
         prev: StepReport | None = None  # a loop whose last read is still on the wire
         begin_s = 0.0                   # how long taking commands and beginning a step takes (average)
@@ -294,17 +296,7 @@ class DynamixelHandlerNode(Node):
                     if self.on_failure is not None:
                         self.on_failure()
                     return
-            window_loops += 1
-            if finished is not None:
-                window_read += finished.read_s
-            if verbose_ratio and window_loops >= verbose_ratio:
-                elapsed = time.monotonic() - window_start
-                delta = self.wire.stats.delta(stats_before)
-                self.get_logger().info(
-                    f"time={1000 * elapsed / window_loops:.2f}ms/loop({1000 * window_read / window_loops:.2f}ms/read), "
-                    f"success={100 * delta.success_rate:.1f}%(full={100 * delta.full_success_rate:.1f}%)")
-                window_start, window_loops, window_read = time.monotonic(), 0, 0.0
-                stats_before = self.wire.stats.copy()
+            stats.tick(finished)
             now = time.monotonic()
             if prev is None:
                 if next_t > now:

@@ -1,0 +1,91 @@
+"""The loop's statistics line and its rate check, on the loop thread.
+
+The line has the original handler's text and levels: ``time=%2.2fms/loop(%2.2fms/read),
+success=%3.0f%%(full=%3.0f%%)``, ERROR when fewer than 80 % of the transactions got every reply,
+WARN when fewer than 99 % got any, INFO otherwise. It comes every ``verbose_ratio`` loops, and at
+least every ``STATS_MAX_S`` seconds however slow the loop is (``verbose_ratio`` 0: never). While
+the device is gone it says so, and since when, instead of a success rate.
+
+Every ``RATE_WINDOW_S`` the loop period is measured: the bus watchdog time follows it
+(``Handler.note_loop_period``), and a loop that cannot hold ``loop_rate`` is reported once, with
+the rate it does reach and the bus time a loop takes.
+"""
+from __future__ import annotations
+
+import time
+
+from ..loop import Handler, StepReport
+
+#: longest time between two statistics lines [s]
+STATS_MAX_S = 10.0
+#: the loop rate is measured over windows of this length [s]
+RATE_WINDOW_S = 2.0
+#: a loop rate below this share of loop_rate is reported
+RATE_TOLERANCE = 0.9
+
+
+class LoopStats:
+    def __init__(self, handler: Handler, wire, logger, loop_rate: float, verbose_ratio: int) -> None:
+        self.h = handler
+        self.wire = wire
+        self.log = logger
+        self.loop_rate = float(loop_rate)
+        self.verbose_ratio = int(verbose_ratio)
+        now = time.monotonic()
+        self._start, self._loops, self._read, self._reads = now, 0, 0.0, 0
+        self._before = wire.stats.copy()
+        self._rate_start, self._rate_loops, self._rate_read = now, 0, 0.0
+        self.slow_warned = False
+
+    def tick(self, finished: StepReport | None) -> None:
+        """After each loop (``finished``: the loop completed in this pass, if any)."""
+        self._loops += 1
+        self._rate_loops += 1
+        if finished is not None and finished.reads:
+            self._read += finished.read_s
+            self._reads += 1
+            self._rate_read += finished.read_s
+        now = time.monotonic()
+        if now - self._rate_start >= RATE_WINDOW_S:
+            self._check_rate(now)
+        if self.verbose_ratio and (self._loops >= self.verbose_ratio or now - self._start >= STATS_MAX_S):
+            self._line(now)
+
+    def _check_rate(self, now: float) -> None:
+        elapsed, loops = now - self._rate_start, self._rate_loops
+        read_s = self._rate_read / loops
+        self._rate_start, self._rate_loops, self._rate_read = now, 0, 0.0
+        if self.h.device_lost:
+            return
+        period = elapsed / loops
+        self.h.note_loop_period(period)
+        rate = 1.0 / period
+        if rate < RATE_TOLERANCE * self.loop_rate and not self.slow_warned:
+            self.slow_warned = True
+            self.log.warning(
+                f"loop_rate {self.loop_rate:g} Hz cannot be held: {rate:.1f} loops/s ({1000 * period:.1f} ms a "
+                f"loop, {1000 * read_s:.1f} ms of it reading {len(self.h.table)} servo(s) at "
+                f"{getattr(self.wire, 'baudrate', 0)} bps); lower loop_rate, raise baudrate, or read less "
+                "(pub_ratio/*); the bus watchdog follows the loop")
+
+    def _line(self, now: float) -> None:
+        loops = max(1, self._loops)
+        head = (f"time={1000 * (now - self._start) / loops:2.2f}ms/loop"
+                f"({1000 * self._read / max(1, self._reads):2.2f}ms/read), ")
+        if self.h.device_lost and self.h.device_lost_since is not None:
+            since = self.h.device_lost_since
+            self.log.error(head + f"device {self.wire.device} gone since "
+                           f"{time.strftime('%H:%M:%S', time.localtime(since))} ({time.time() - since:.0f} s ago): "
+                           "nothing read, reconnecting")
+        else:
+            delta = self.wire.stats.delta(self._before)
+            partial, full = 100 * delta.success_rate, 100 * delta.full_success_rate
+            line = head + f"success={partial:3.0f}%(full={full:3.0f}%)"
+            if full < 80:
+                self.log.error(line)
+            elif partial < 99:
+                self.log.warning(line)
+            else:
+                self.log.info(line)
+        self._start, self._loops, self._read, self._reads = now, 0, 0.0, 0
+        self._before = self.wire.stats.copy()

@@ -1,0 +1,64 @@
+"""The loop's statistics line (the original handler's text and levels), what it says while the
+device is gone, and a slow bus: the loop reports the rate it can reach, and the bus watchdog
+follows the measured loop instead of tripping on every servo."""
+from __future__ import annotations
+
+import re
+
+from rig import X, Rig
+
+LINE = re.compile(r"\[(INFO|WARN|ERROR)\].*time=\d+\.\d\dms/loop\(\d+\.\d\dms/read\), success= *(\d+)%\(full= *(\d+)%\)$")
+
+
+def _lines(rig: Rig, mark: int = 0) -> list[re.Match]:
+    return [m for m in map(LINE.search, rig.node_proc.lines[mark:]) if m]
+
+
+def test_statistics_line_levels_and_device_gone(tmp_path):
+    link = str(tmp_path / "ttyDXL")
+    rig = Rig({1: X, 2: X, 3: X}, "verbose_ratio:=20", "dyn_comm/retry_num:=0", sim_kwargs={"link": link})
+    try:
+        rig.wait(lambda: _lines(rig), what="a statistics line")
+        first = _lines(rig)[0]
+        assert first.group(1) == "INFO" and first.group(2) == "100" and first.group(3) == "100", first.group(0)
+
+        # one servo of three silent: every read misses one (full 0 %) -> ERROR
+        rig.sim.set_silent(3, True)
+        mark = rig.mark()
+        rig.wait(lambda: any(m.group(1) == "ERROR" and int(m.group(3)) < 80 for m in _lines(rig, mark)),
+                 what="an ERROR statistics line with full < 80 %")
+        rig.sim.set_silent(3, False)
+
+        rig.sim.vanish()
+        mark = rig.mark()
+        line = rig.wait_log("time=", "device", "gone since", "s ago", since=mark, timeout=20)
+        assert "[ERROR]" in line and "success=" not in line, line
+        rig.sim.reappear()
+        rig.node_proc.wait_for("is back: reconnected", timeout=10)
+    finally:
+        assert rig.close() == 0
+
+
+def test_a_slow_bus_warns_once_with_the_rate_it_reaches_and_its_watchdog_follows_the_loop():
+    ids = {i: X for i in range(1, 21)}
+    rig = Rig(ids, "baudrate:=9600", "loop_rate:=100", "default/bus_watchdog:=100.0",
+              "pub_ratio/present.current:=1", "pub_ratio/present.velocity:=1",
+              sim_kwargs={"wire_timing": True, "baudrate": 9600})
+    try:
+        # velocity mode: the bus watchdog is armed
+        from dynamixel_handler_msgs.msg import DynamixelControlXVelocity
+        rig.publish("/dynamixel/command/x/velocity_control",
+                    DynamixelControlXVelocity(id_list=list(ids), velocity_deg_s=[10.0] * len(ids)))
+        line = rig.wait_log("loop_rate 100 Hz cannot be held", "loops/s", "bps", timeout=30)
+        assert "9600 bps" in line and "20 servo(s)" in line, line
+        rig.wait(lambda: all(rig.sim.servo(i).read("operating_mode") == 1 for i in ids), timeout=30,
+                 what="velocity mode")
+        # the watchdog covers three loops of the slow bus, far above the 100 ms asked for
+        rig.wait(lambda: all(rig.sim.servo(i).read("bus_watchdog") * 20 > 3 * 100 for i in ids), timeout=30,
+                 what="bus watchdogs longer than three slow loops")
+        rig.fresh_states(count=10, timeout=60)
+        assert all(rig.sim.servo(i).read("bus_watchdog") > 0 for i in ids)  # none tripped (-1)
+        assert "bus watchdog tripped" not in rig.output
+        assert rig.output.count("cannot be held") == 1
+    finally:
+        assert rig.close() == 0
