@@ -16,31 +16,15 @@ import random
 import select
 import threading
 import time
-from dataclasses import dataclass
 from typing import Callable, Mapping
 
 from . import protocol as p
+from .protocol import LoggedInstruction
 from .servo import VirtualServo
 from .transport import PtyPort, wait_until
 
 INTER_BYTE_TIMEOUT_S = 0.1
 READ_INSTRUCTIONS = (p.READ, p.SYNC_READ, p.FAST_SYNC_READ, p.BULK_READ, p.FAST_BULK_READ)
-
-
-@dataclass(frozen=True)
-class LoggedInstruction:
-    """One instruction packet the bus received with a valid CRC."""
-
-    time: float
-    instruction: int
-    ids: tuple[int, ...]
-    address: int | None
-    length: int | None
-    params: bytes
-
-    @property
-    def name(self) -> str:
-        return p.INSTRUCTION_NAMES.get(self.instruction, f"0x{self.instruction:02X}")
 
 
 FACTORY_BAUDRATE = 57600
@@ -396,7 +380,7 @@ class VirtualBus:
         inst, pid, prm = packet.instruction, packet.packet_id, packet.params
         self.stats["instructions"] += 1
         handler = _HANDLERS.get(inst)
-        entry = _describe(packet, now)
+        entry = p.describe(packet, now)
         self._log.append(entry)
         targets = set(entry.ids) if pid == p.BROADCAST_ID and entry.ids else None
         for servo in self._hearing(pid):
@@ -560,33 +544,6 @@ def _set_bps(servo: VirtualServo, bps: int) -> None:
         raise ValueError(f"{servo.model.name} cannot run at {bps} bps "
                          f"(it can: {', '.join(str(b) for b in sorted(values))})")
     servo.write("baud_rate", values[bps])
-
-
-def _describe(pk: p.Packet, now: float) -> LoggedInstruction:
-    inst, prm = pk.instruction, pk.params
-    ids: tuple[int, ...] = (pk.packet_id,)
-    address = length = None
-    try:
-        if inst in (p.READ,) and len(prm) >= 4:
-            address, length = p.u16(prm), p.u16(prm, 2)
-        elif inst in (p.WRITE, p.REG_WRITE) and len(prm) >= 2:
-            address, length = p.u16(prm), len(prm) - 2
-        elif inst in (p.SYNC_READ, p.FAST_SYNC_READ) and len(prm) >= 4:
-            address, length, ids = p.u16(prm), p.u16(prm, 2), tuple(prm[4:])
-        elif inst == p.SYNC_WRITE and len(prm) >= 4:
-            address, length = p.u16(prm), p.u16(prm, 2)
-            ids = tuple(prm[k] for k in range(4, len(prm), 1 + length)) if length else ()
-        elif inst in (p.BULK_READ, p.FAST_BULK_READ):
-            ids = tuple(prm[k] for k in range(0, len(prm) - 4, 5))
-        elif inst == p.BULK_WRITE:
-            found, k = [], 0
-            while k + 5 <= len(prm):
-                found.append(prm[k])
-                k += 5 + p.u16(prm, k + 3)
-            ids = tuple(found)
-    except IndexError:
-        pass
-    return LoggedInstruction(now, inst, ids, address, length, bytes(prm))
 
 
 _HANDLERS = {

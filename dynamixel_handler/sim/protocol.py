@@ -97,3 +97,47 @@ def u16(data: bytes, offset: int = 0) -> int:
 
 def p16(value: int) -> bytes:
     return bytes([value & 0xFF, (value >> 8) & 0xFF])
+
+
+@dataclass(frozen=True)
+class LoggedInstruction:
+    """One instruction packet the bus received with a valid CRC."""
+
+    time: float
+    instruction: int
+    ids: tuple[int, ...]
+    address: int | None
+    length: int | None
+    params: bytes
+
+    @property
+    def name(self) -> str:
+        return INSTRUCTION_NAMES.get(self.instruction, f"0x{self.instruction:02X}")
+
+
+def describe(pk: Packet, now: float) -> LoggedInstruction:
+    """The log entry of a received packet: its IDs, address and length where it has them."""
+    inst, prm = pk.instruction, pk.params
+    ids: tuple[int, ...] = (pk.packet_id,)
+    address = length = None
+    try:
+        if inst in (READ,) and len(prm) >= 4:
+            address, length = u16(prm), u16(prm, 2)
+        elif inst in (WRITE, REG_WRITE) and len(prm) >= 2:
+            address, length = u16(prm), len(prm) - 2
+        elif inst in (SYNC_READ, FAST_SYNC_READ) and len(prm) >= 4:
+            address, length, ids = u16(prm), u16(prm, 2), tuple(prm[4:])
+        elif inst == SYNC_WRITE and len(prm) >= 4:
+            address, length = u16(prm), u16(prm, 2)
+            ids = tuple(prm[k] for k in range(4, len(prm), 1 + length)) if length else ()
+        elif inst in (BULK_READ, FAST_BULK_READ):
+            ids = tuple(prm[k] for k in range(0, len(prm) - 4, 5))
+        elif inst == BULK_WRITE:
+            found, k = [], 0
+            while k + 5 <= len(prm):
+                found.append(prm[k])
+                k += 5 + u16(prm, k + 3)
+            ids = tuple(found)
+    except IndexError:
+        pass
+    return LoggedInstruction(now, inst, ids, address, length, bytes(prm))
