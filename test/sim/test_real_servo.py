@@ -4,6 +4,9 @@ Level, Registered Write + Action, the three Factory Reset levels, Control Table 
 baud rate and protocol a servo answers at, and the state file. Expected values are the e-Manual's.
 """
 
+import subprocess
+import sys
+
 import pytest
 from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBulkWrite, GroupSyncRead,
                            GroupSyncWrite)
@@ -305,3 +308,19 @@ def test_every_model_answers_with_its_number_and_maps_indirect_data(make_bus, ma
     target = model.position_zero_pulse + model.position_max_pulse // 4
     assert ph.write4ByteTxRx(port, 1, first_data, target) == (COMM_SUCCESS, 0)
     assert bus.servo(1).read("goal_position") == target
+
+
+# ============================================================================ command line
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "dynamixel_handler.sim", *args], capture_output=True,
+                          text=True, timeout=30, stdin=subprocess.DEVNULL)
+
+
+def test_cli_refuses_a_baud_rate_a_model_cannot_use_and_a_broken_state_file(tmp_path):
+    out = run_cli("--servo", "1:XM430-W350", "--baudrate", "6000000")
+    assert out.returncode == 2 and "XM430-W350 cannot run at 6000000 bps" in out.stderr
+    assert "Traceback" not in out.stderr
+    broken = tmp_path / "bus.json"
+    broken.write_text("{not json")
+    out = run_cli("--state", str(broken))
+    assert out.returncode == 2 and "Traceback" not in out.stderr and out.stderr.strip()
