@@ -3,12 +3,14 @@
 Tests, demos and users' CI open it with the real ``dynamixel_sdk`` like a USB adapter::
 
     from dynamixel_handler.sim import VirtualBus
-    with VirtualBus(servos={1: 1020, 2: 1120}) as bus:   # XM430-W350, XM540-W270
+    with VirtualBus(servos={1: 1020, 2: 1120}) as bus:   # XM430-W350, XM540-W270, as unboxed
         port = PortHandler(bus.path)
+        port.openPort(); port.setBaudRate(57600)           # they answer only at their own baud rate
         ...
         bus.servo(1).read("present_position")
 
-Also runnable as a command: ``dynamixel_handler_sim`` (or ``python -m dynamixel_handler.sim``).
+Also runnable as a command: ``dynamixel_handler_sim`` (or ``python -m dynamixel_handler.sim``);
+docs/virtual_bus.md describes what the servos do and every option.
 """
 
 from .bus import LoggedInstruction, VirtualBus
