@@ -186,8 +186,8 @@ def test_sim_command_line_check_baudrate_flag():
 
 @needs_tool
 def test_tool_against_the_default_virtual_bus_finds_each_servo_once(tmp_path):
-    """``scripts/run.sh``'s bus as it starts (no flags): its servos answer at their own 57600 bps
-    only, so the tool sees each of them once and moves them all, with no false ID clash."""
+    """The virtual bus as it starts with no flags: its servos answer at their own 57600 bps only,
+    so the tool sees each of them once and moves them all, with no false ID clash."""
     state = tmp_path / "bus.json"
     proc = subprocess.Popen([sys.executable, "-m", "dynamixel_handler.sim", "--quiet", "--state", str(state)],
                             stdout=subprocess.PIPE, stdin=subprocess.PIPE, text=True, cwd=ROOT)
