@@ -77,7 +77,7 @@ def factory_defaults(model: Model, servo_id: int) -> dict[str, int]:
         "secondary_id": 255,
         "protocol_type": 2,
         "homing_offset": 0,
-        "moving_threshold": 10 if x else 50,
+        "moving_threshold": 10 if x else (20 if model.layout == "P" else 50),  # e-Manual: X 10, P 20
         "temperature_limit": 70 if "330" in model.name else 80,
         "max_voltage_limit": int(fam.max_v),
         "min_voltage_limit": int(fam.min_v),
@@ -89,7 +89,7 @@ def factory_defaults(model: Model, servo_id: int) -> dict[str, int]:
         "min_position_limit": model.position_min_pulse,
         "startup_configuration": 0,
         "pwm_slope": 140,
-        "shutdown": 52 if x else 58,
+        "shutdown": 58 if model.layout == "OLD_PRO" else 52,  # e-Manual: X and P 52
         "torque_enable": 0,
         "led": 0, "led_red": 0, "led_green": 0, "led_blue": 0,
         "status_return_level": 2,
