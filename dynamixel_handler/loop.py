@@ -50,6 +50,10 @@ class StartupError(RuntimeError):
     """Start-up cannot go on; the message says what, why and what to do."""
 
 
+class Interrupted(StartupError):
+    """Start-up stopped because the node was asked to exit (SIGINT/SIGTERM): not a failure."""
+
+
 @dataclass
 class StepReport:
     loop: int
@@ -132,6 +136,8 @@ class Handler:
         self.deferred: dict[int, tuple[float, str, Callable[[], None]]] = {}
         #: why operations are not taken now (a lifecycle node that is not active); None: they are
         self.refuse_ops: str | None = None
+        #: true once the node is asked to exit: start-up (scan, set-up) stops between two steps
+        self.interrupted: Callable[[], bool] = lambda: False
 
     # ================================================================ start-up
     def start(self) -> None:
@@ -144,6 +150,8 @@ class Handler:
         attempts = cfg["init/servo_auto_search.retry_times"] + 1
         found: dict[int, int] = {}
         for attempt in range(attempts):
+            if self.interrupted():
+                raise Interrupted(f"start-up interrupted during the scan (attempt {attempt + 1}/{attempts})")
             found.update(self.bus.scan(sorted(set(range(lo, hi + 1)) | set(dummies))))
             enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
             real = sorted(set(found) - set(dummies))
@@ -186,6 +194,8 @@ class Handler:
                 raise StartupError(message)
             self.log.warning(message + " (debug: running on)")
         for dxl_id in list(self.table.ids):
+            if self.interrupted():
+                raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
             self._setup_servo(dxl_id)
 
     def _usable(self, found: dict[int, int], dummies: Sequence[int]) -> list[int]:
@@ -968,4 +978,4 @@ def mode_value(name: str) -> int:
     return OPERATING_MODES[name]
 
 
-__all__ = ["Handler", "StartupError", "StepReport", "mode_value"]
+__all__ = ["Handler", "Interrupted", "StartupError", "StepReport", "mode_value"]

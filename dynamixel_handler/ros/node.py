@@ -29,7 +29,7 @@ from ..commands import Commander
 from ..dummy import BusWithDummies, make_dummies
 from ..external_ports import ExternalPorts
 from ..tools.baudrate import search_rates, unify_baudrate
-from ..loop import Handler, StartupError, StepReport
+from ..loop import Handler, Interrupted, StartupError, StepReport
 from ..timing import set_timer_slack
 from . import convert, diagnostics, joint_states, services
 from .command_topics import COMMAND_TYPES, CommandTopics
@@ -56,7 +56,7 @@ MAX_EARLY_S = 0.002
 #: between loops, a command is written at once unless the next loop starts within this time [s]
 EARLY_WRITE_MIN_S = 0.0005
 #: longest wait for a command before the loop looks at its stop flag again [s]
-STOP_CHECK_S = 0.1
+STOP_CHECK_S = 0.05
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
 
@@ -412,9 +412,16 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     # (callbacks still only queue work for the loop thread)
     executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
     stopping = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stopping.set())
-    signal.signal(signal.SIGTERM, lambda *_: stopping.set())
+    waker = []  # a guard condition of the node: triggering it ends the executor's wait at once
+
+    def on_signal(*_) -> None:
+        stopping.set()
+        for guard in waker:
+            guard.trigger()
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
     code = 0
+    spinner: _Spinner | None = None
     try:
         try:
             node = make_node()
@@ -422,11 +429,17 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
             log = _logger_of(exc, log)  # the node's own (namespaced) logger if it got that far
             raise
         log = node.get_logger()
-        node.on_failure = stopping.set
+        node.on_failure = on_signal
+        node.handler.interrupted = stopping.is_set  # a signal during the scan or set-up ends it
+        waker.append(node.create_guard_condition(lambda: None))
         ready(node)
         executor.add_node(node)
-        while not stopping.is_set() and rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
+        # the executor spins on a thread of its own, so that the main thread sees a signal at once
+        # (a signal handler only runs on the main thread, between two Python steps)
+        spinner = _Spinner(executor, stopping, on_signal)
+        while not stopping.wait(0.05) and rclpy.ok():
+            pass
+        spinner.join()
         safety = [k for k in ("term/servo_auto_stop", "term/torque_auto_disable") if node.config[k]]
         if node.wire.is_open:
             log.info("stopping" + (f" ({', '.join(safety)})" if safety else ""))
@@ -437,6 +450,8 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     except ConfigError as err:
         log.fatal(f"bad parameter: {err}")
         code = 2
+    except Interrupted as err:  # a signal during start-up: a normal exit
+        log.info(f"{err}: exiting")
     except (BusError, StartupError) as err:
         log.fatal(str(err))
         code = 1
@@ -446,6 +461,9 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
         log_exception(log, "start-up failed", exc, fatal=True)
         code = 1
     finally:
+        stopping.set()
+        if spinner is not None:
+            spinner.join()
         if node is not None:
             try:
                 node.stop()
@@ -456,6 +474,33 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
         if rclpy.ok():
             rclpy.try_shutdown()
     return code
+
+
+class _Spinner:
+    """The executor spun on its own thread until ``stopping``; an exception from a callback is
+    raised again on the main thread by ``join`` (as if the main thread had spun)."""
+
+    def __init__(self, executor, stopping: threading.Event, wake: Callable[[], None]) -> None:
+        self.executor, self.stopping, self.wake = executor, stopping, wake
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._spin, name="executor", daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        try:
+            while not self.stopping.is_set() and rclpy.ok():
+                self.executor.spin_once(timeout_sec=0.5)
+        except BaseException as exc:
+            self.error = exc
+        finally:
+            self.stopping.set()
+
+    def join(self) -> None:
+        self.wake()
+        self.thread.join(2.0)
+        error, self.error = self.error, None
+        if error is not None:
+            raise error
 
 
 def main(args: list[str] | None = None) -> int:

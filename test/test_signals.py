@@ -1,0 +1,62 @@
+"""SIGINT/SIGTERM end the node in every phase: during a long start-up scan (which would otherwise
+go on for minutes), during the servos' set-up, and in the loop; exit code 0, servos left safe."""
+from __future__ import annotations
+
+import signal
+
+import pytest
+
+from dynamixel_handler.sim import VirtualBus
+
+from ros_helpers import NodeProcess, node_command
+
+X = 1020
+
+
+def _node(sim: VirtualBus, *params: str) -> NodeProcess:
+    return NodeProcess(node_command(f"device_name:={sim.start()}", "latency_timer:=1", "verbose_ratio:=0",
+                                    "init/servo_auto_search.min_id:=1", "init/servo_auto_search.max_id:=3",
+                                    *params))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_ends_a_long_start_up_scan(sig):
+    sim = VirtualBus(servos={1: X, 2: X}, wire_timing=False)
+    # three expected, two on the bus: the scan would retry 1000 times (minutes)
+    proc = _node(sim, "init/expected_servo_num:=3", "init/servo_auto_search.retry_times:=1000")
+    try:
+        proc.wait_for("scan 3/1001")
+        code = proc.stop(sig, timeout=10.0)
+    finally:
+        sim.stop()
+    assert code == 0, proc.output
+    assert "start-up interrupted during the scan" in proc.output
+    assert "Traceback" not in proc.output
+
+
+def test_a_signal_ends_the_set_up_of_the_servos_and_leaves_them_safe():
+    sim = VirtualBus(servos={1: X, 2: X, 3: X}, wire_timing=True, baudrate=9600)
+    # at 9600 bps each servo's set-up takes a while: the signal comes in the middle of it
+    proc = _node(sim, "baudrate:=9600", "init/expected_servo_num:=3")
+    try:
+        proc.wait_for("ID 3: XM430-W350")
+        code = proc.stop(signal.SIGINT, timeout=10.0)
+    finally:
+        sim.stop()
+    assert code == 0, proc.output
+    assert "start-up interrupted" in proc.output or "stopping" in proc.output
+    assert all(sim.servo(i).read("torque_enable") == 0 for i in (1, 2, 3))
+
+
+@pytest.mark.parametrize("rate", ["1", "100"])
+def test_a_signal_ends_the_loop_at_any_rate(rate):
+    sim = VirtualBus(servos={1: X, 2: X}, wire_timing=False)
+    proc = _node(sim, f"loop_rate:={rate}")
+    try:
+        proc.wait_for("handled")
+        proc.wait_for("ID 2: XM430-W350")
+        code = proc.stop(signal.SIGINT, timeout=10.0)
+    finally:
+        sim.stop()
+    assert code == 0, proc.output
+    assert "stopping" in proc.output
