@@ -146,11 +146,14 @@ def test_a_default_profile_the_servo_refuses_is_logged():
         rig.close()
 
 
-def test_a_command_line_override_ros_drops_for_its_type_gets_one_error_line():
-    """`-p loop_rate:=50.5` against the file's `loop_rate: 100`: ROS drops it without a word and the
-    file's value is used; the node says so (the run ends at the device, which is not a tty)."""
+def test_a_command_line_override_ros_drops_for_its_type_is_applied_or_stops_start_up():
+    """ROS drops, without a word, a `-p` whose type differs from the params file's value (`-p
+    loop_rate:=50.0` against the file's `loop_rate: 100`). The node applies it in the parameter's
+    type, or stops with one line when it cannot (`-p loop_rate:=50.5`: not an integer)."""
+    proc = NodeProcess(node_command("device_name:=/dev/null", "loop_rate:=50.0"))
+    assert proc.wait_exit(timeout=30) == 1, proc.output  # the run ends at the device, not a tty
+    assert "loop_rate=50," in proc.output and "the command-line value 50.0 applied" in proc.output, proc.output
     proc = NodeProcess(node_command("device_name:=/dev/null", "loop_rate:=50.5"))
-    assert proc.wait_exit(timeout=30) == 1, proc.output
-    errors = [ln for ln in proc.lines if "loop_rate" in ln and "dropped" in ln]
-    assert len(errors) == 1 and errors[0].startswith("[ERROR]") and "using 100" in errors[0], proc.output
-    assert "loop_rate=100" in proc.output
+    assert proc.wait_exit(timeout=30) == 2, proc.output
+    fatal = [ln for ln in proc.lines if ln.startswith("[FATAL]")]
+    assert len(fatal) == 1 and "-p loop_rate:=50.5 cannot be applied" in fatal[0], proc.output

@@ -37,7 +37,7 @@ from .intake import CommandIntake
 from .outbox import Outbox
 from .lean import TreePublisher, lean_publisher, lean_subscription, raw_cdr_usable
 from .loop_stats import LoopStats
-from .params import ConfigError, declare_and_load, describe
+from .params import ConfigError, check_arguments, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"
 #: consecutive failed loop steps after which the node stops the servos and exits
@@ -402,6 +402,10 @@ def run(make_node: Callable[[], Node], ready: Callable[[Node], None], args: list
     # the publishing thread encodes (Python's default lets a waiting thread wait 5 ms)
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     log = rclpy.logging.get_logger(NODE_NAME)  # until the node (and so its namespace) exists
+    problem = check_arguments(sys.argv if args is None else args)
+    if problem is not None:  # one line naming the file and the line, before rcl says less
+        log.fatal(f"bad ROS arguments: {problem}")
+        return 2
     try:
         rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     except _rclpy.RCLError as err:  # e.g. "-p name:=" with no value: one line, not a traceback

@@ -18,6 +18,7 @@ from rclpy.node import Node
 
 from ..config import (ALIASES, BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, STR_ARRAY,
                       TOLERATED_PREFIXES, Config, ConfigError, coerce, validate)
+from ..logs import cut
 
 _ROS_TYPES = {
     BOOL: ParameterType.PARAMETER_BOOL, INT: ParameterType.PARAMETER_INTEGER,
@@ -31,7 +32,7 @@ _ROS_OWN = {"use_sim_time", "start_type_description_service"}
 def declare_and_load(node: Node) -> Config:
     """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
     given: dict[str, Any] = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
-    _report_dropped_overrides(node, given)
+    _apply_command_line(node, given)
     for name in sorted(set(given) & set(ALIASES)):  # the original handler's other spellings
         value = given.pop(name)
         node.undeclare_parameter(name)
@@ -74,21 +75,66 @@ def _command_line_parameters(argv: list[str]) -> dict[str, str]:
     return out
 
 
-def _report_dropped_overrides(node: Node, given: dict[str, Any]) -> None:
-    """ROS drops, without a word, a ``-p name:=value`` whose type differs from the value a
-    ``--params-file`` gives the same parameter (``-p loop_rate:=50.5`` against ``loop_rate: 100``):
-    the file's value is used. Say so, once per parameter."""
+def check_arguments(argv: list[str]) -> str | None:
+    """What is wrong with the ROS arguments before rcl reads them (rcl says only "Couldn't parse"
+    and logs a line of its own): a params file that is missing or is not YAML (file and line), a
+    ``-p name:=`` without a value. None if nothing is found."""
+    import yaml
+    ros = False
+    for k, arg in enumerate(argv):
+        if arg == "--ros-args":
+            ros = True
+        elif arg == "--":
+            ros = False
+        elif ros and arg == "--params-file" and k + 1 < len(argv):
+            path = argv[k + 1]
+            try:
+                with open(path, encoding="utf-8") as f:
+                    yaml.safe_load(f)
+            except OSError as err:
+                return f"params file {cut(path)}: cannot read it: {err.strerror}"
+            except UnicodeDecodeError as err:
+                return f"params file {cut(path)}: not text ({err.reason} at byte {err.start})"
+            except yaml.YAMLError as err:
+                mark = getattr(err, "problem_mark", None)
+                where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+                problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+                return f"params file {cut(path)}: not valid YAML: {where}{problem}"
+        elif ros and arg in ("-p", "--param") and k + 1 < len(argv):
+            rule = argv[k + 1]
+            name, sep, value = rule.partition(":=")
+            if not sep:
+                return f"{arg} {cut(rule)}: not of the form name:=value"
+            if value == "":
+                return f"{arg} {cut(rule)}: no value given (for an empty string: {name}:=''), or leave it out"
+    return None
+
+
+def _apply_command_line(node: Node, given: dict[str, Any]) -> None:
+    """A ``-p name:=value`` of the command line always wins. ROS loses some without a word: one
+    whose type differs from the value a ``--params-file`` gives (``-p loop_rate:=50.0`` against
+    ``loop_rate: 100``), and one that a later params file for ``/**`` overrides when several are
+    given (as ``scripts/run.sh`` does). Such a value is applied here, in the parameter's own type;
+    one that cannot be (``-p baudrate:=fast``) stops start-up with a line naming it and why."""
     from rclpy.parameter import Parameter, get_parameter_value
     for name, text in _command_line_parameters(sys.argv).items():
-        if name not in given:
-            continue
         wanted = Parameter.from_parameter_msg(rcl_interfaces.msg.Parameter(name=name, value=get_parameter_value(text)))
-        value, got = wanted.value, given[name]
-        value, got = (list(v) if isinstance(v, (list, tuple)) or hasattr(v, "tolist") else v for v in (value, got))
-        if value != got and not (type(value) is int and type(got) is float and float(value) == got):
-            node.get_logger().error(
-                f"parameter '{name}': the command-line value {text!r} was dropped by ROS (its type differs from the "
-                f"parameter file's value): using {given[name]!r}; give it as {type(given[name]).__name__}")
+        value = wanted.value
+        value = list(value) if isinstance(value, (list, tuple)) or hasattr(value, "tolist") else value
+        got = given.get(name)
+        got = list(got) if isinstance(got, (list, tuple)) or hasattr(got, "tolist") else got
+        if name in given and (value == got or (type(value) is int and type(got) is float and float(value) == got)):
+            continue
+        param = SCHEMA_BY_NAME.get(name)
+        if param is not None:
+            try:
+                coerce(param, value)
+            except ConfigError as err:
+                raise ConfigError(f"the command-line value -p {name}:={cut(text)} cannot be applied: {err}") from None
+        if name in given:
+            node.get_logger().info(f"parameter '{name}': the command-line value {cut(text)} applied (ROS had kept "
+                                   f"{cut(repr(given[name]))} from a parameter file)")
+        given[name] = value
 
 
 def describe(config: Config, width: int = 120) -> list[str]:
@@ -102,4 +148,4 @@ def describe(config: Config, width: int = 120) -> list[str]:
     return lines
 
 
-__all__ = ["ConfigError", "declare_and_load", "describe"]
+__all__ = ["ConfigError", "check_arguments", "declare_and_load", "describe"]

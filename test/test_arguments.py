@@ -1,0 +1,76 @@
+"""Command-line arguments: a -p override always takes effect, even where ROS would lose it (several
+params files, as scripts/run.sh passes them; a type that differs from the file's), or start-up
+stops with one line saying which one and why; a missing or malformed params file, or `-p name:=`
+without a value, is one FATAL line naming the file and the line, exit code 2."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from dynamixel_handler.sim import VirtualBus
+
+from ros_helpers import CONFIG, ROOT, NodeProcess, node_command
+
+X = 1020
+VIRTUAL_BUS = ROOT / "config" / "config_virtual_bus.yaml"
+
+
+def _as_run_sh(*params: str) -> list[str]:
+    """The node's command line as scripts/run.sh builds it: both params files, then the -p's."""
+    cmd = node_command(*params)
+    k = cmd.index("--params-file") + 2
+    return cmd[:k] + ["--params-file", str(VIRTUAL_BUS)] + cmd[k:]
+
+
+def _fatal_only(proc: NodeProcess) -> str:
+    assert "Traceback" not in proc.output, proc.output
+    assert "[rcl]" not in proc.output, proc.output  # rcl's own "Failed to parse" line is not reached
+    fatal = [line for line in proc.lines if line.startswith("[FATAL]")]
+    assert len(fatal) == 1, proc.output
+    return fatal[0]
+
+
+def test_overrides_win_over_several_params_files():
+    sim = VirtualBus(servos={i: X for i in range(1, 5)}, wire_timing=False)
+    try:
+        proc = NodeProcess(_as_run_sh(f"device_name:={sim.start()}", "init/servo_auto_search.max_id:=3",
+                                      "init/expected_servo_num:=3", "loop_rate:=50.0", "verbose_ratio:=0"))
+        proc.wait_for("handled", timeout=30)
+        proc.wait_for("ID 3: XM430-W350")
+        code = proc.stop()
+    finally:
+        sim.stop()
+    assert code == 0, proc.output
+    assert "of IDs 1..3" in proc.output and "ID 4:" not in proc.output, proc.output
+    assert "loop_rate=50," in proc.output, proc.output
+    assert "parameter 'init/servo_auto_search.max_id': the command-line value 3 applied" in proc.output
+
+
+def test_an_override_that_cannot_be_applied_stops_start_up_with_one_line():
+    proc = NodeProcess(_as_run_sh("device_name:=/dev/null", "baudrate:=fast"))
+    assert proc.wait_exit(timeout=30) == 2, proc.output
+    line = _fatal_only(proc)
+    assert "-p baudrate:=fast cannot be applied" in line and "must be int" in line, line
+
+
+def test_a_missing_params_file_is_one_fatal_line(tmp_path: Path):
+    missing = tmp_path / "nowhere.yaml"
+    proc = NodeProcess(node_command("device_name:=/dev/null", params_file=missing))
+    assert proc.wait_exit(timeout=30) == 2, proc.output
+    line = _fatal_only(proc)
+    assert str(missing) in line and "No such file" in line, line
+
+
+def test_a_malformed_params_file_is_one_fatal_line_naming_the_yaml_line(tmp_path: Path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("dynamixel_handler:\n  ros__parameters:\n    loop_rate: [1, 2\n    baudrate: 57600\n")
+    proc = NodeProcess(node_command("device_name:=/dev/null", params_file=bad))
+    assert proc.wait_exit(timeout=30) == 2, proc.output
+    line = _fatal_only(proc)
+    assert str(bad) in line and "line 4" in line, line
+
+
+def test_an_override_without_a_value_is_one_fatal_line():
+    proc = NodeProcess(node_command("device_name:=", params_file=CONFIG))
+    assert proc.wait_exit(timeout=30) == 2, proc.output
+    line = _fatal_only(proc)
+    assert "device_name:=" in line and "no value" in line, line
