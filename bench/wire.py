@@ -3,7 +3,7 @@
 One cycle is what the benchmark asks of every contender: a Sync Write of Goal Position to N
 servos, then a (Fast) Sync Read of Present Current + Velocity + Position (X series: address 126,
 10 bytes). The packets are built byte for byte with the product's own packet builders (instruction
-side: ``dynamixel_handler.bus.protocol``; status side: ``dynamixel_handler.sim.protocol``), so
+side: ``dynamixel_handler.protocol.host``; status side: ``dynamixel_handler.protocol.servo``), so
 header, length, CRC and byte stuffing are exact for the values used.
 
 Time of a byte on the wire: 1 start + 8 data + 1 stop bit = 10 bits / baud. The adapter's latency
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from dynamixel_handler.bus import protocol as host
-from dynamixel_handler.sim import protocol as servo
+from dynamixel_handler.protocol import host
+from dynamixel_handler.protocol import servo
 
 #: X series: Present Current (126, 2) + Present Velocity (128, 4) + Present Position (132, 4)
 PRESENT_ADDRESS, PRESENT_LENGTH = 126, 10
@@ -57,9 +57,9 @@ def cycle(n_servos: int, baudrate: int, latency_s: float, fast_read: bool, first
     """The exact packets of one cycle over IDs ``first_id .. first_id + n_servos - 1``."""
     ids = list(range(first_id, first_id + n_servos))
     goal = (2048).to_bytes(GOAL_LENGTH, "little")
-    write = host.build_instruction(host.BROADCAST_ID, host.INST_SYNC_WRITE,
+    write = host.build_instruction(host.BROADCAST_ID, host.SYNC_WRITE,
                                    host.sync_write_params(GOAL_ADDRESS, GOAL_LENGTH, [(i, goal) for i in ids]))
-    inst = host.INST_FAST_SYNC_READ if fast_read else host.INST_SYNC_READ
+    inst = host.FAST_SYNC_READ if fast_read else host.SYNC_READ
     read = host.build_instruction(host.BROADCAST_ID, inst, host.sync_read_params(PRESENT_ADDRESS, PRESENT_LENGTH, ids))
     data = _present_bytes()
     if fast_read:

@@ -31,13 +31,13 @@ from common import raise_priority  # noqa: E402
 from node_run import Controller, measure_node  # noqa: E402
 from sim_process import BusProcess  # noqa: E402
 
-from dynamixel_handler.bus import protocol as host  # noqa: E402
+from dynamixel_handler.protocol import host  # noqa: E402
 
-READS = (host.INST_SYNC_READ, host.INST_FAST_SYNC_READ)
+READS = (host.SYNC_READ, host.FAST_SYNC_READ)
 
 
 def reply_bytes(entry) -> int:
-    if entry.instruction == host.INST_FAST_SYNC_READ:
+    if entry.instruction == host.FAST_SYNC_READ:
         return 8 + len(entry.ids) * (entry.length + 4)
     return len(entry.ids) * (host.STATUS_OVERHEAD + entry.length)
 
@@ -57,7 +57,7 @@ def gaps(log, baudrate: int, latency_s: float) -> dict[str, np.ndarray]:
         if prev is not None and prev.instruction in READS:
             reply_to_next.append(entry.time - free)
         if entry.instruction in READS:
-            if prev is not None and prev.instruction == host.INST_SYNC_WRITE:
+            if prev is not None and prev.instruction == host.SYNC_WRITE:
                 idle_before_read.append(max(0.0, entry.time - free))
             end += latency_s + reply_bytes(entry) * byte_s
             if last_read_end is not None:
@@ -122,7 +122,7 @@ def main() -> int:
 
 def commanded(log) -> list:
     """The part of the node's log from its first goal write to its last (start-up excluded)."""
-    writes = [e.time for e in log if e.instruction == host.INST_SYNC_WRITE and e.address == wire.GOAL_ADDRESS]
+    writes = [e.time for e in log if e.instruction == host.SYNC_WRITE and e.address == wire.GOAL_ADDRESS]
     return [e for e in log if writes and writes[0] <= e.time <= writes[-1]]
 
 

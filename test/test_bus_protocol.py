@@ -6,7 +6,7 @@ from dynamixel_sdk.protocol2_packet_handler import Protocol2PacketHandler
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynamixel_handler.bus import protocol as p
+from dynamixel_handler.protocol import host as p
 
 _SDK = Protocol2PacketHandler()
 
@@ -19,13 +19,13 @@ def test_crc_matches_the_sdk_routine(data):
 
 def test_emanual_example_packets():
     # ping ID 1; read present position of ID 1; write goal 512; status of a ping
-    assert p.build_instruction(1, p.INST_PING).hex() == "fffffd0001030001194e"
-    assert p.build_instruction(1, p.INST_READ, bytes([0x84, 0, 4, 0])).hex() == "fffffd0001070002840004001d15"
-    assert p.build_instruction(1, p.INST_WRITE, bytes([0x74, 0, 0, 2, 0, 0])).hex() == \
+    assert p.build_instruction(1, p.PING).hex() == "fffffd0001030001194e"
+    assert p.build_instruction(1, p.READ, bytes([0x84, 0, 4, 0])).hex() == "fffffd0001070002840004001d15"
+    assert p.build_instruction(1, p.WRITE, bytes([0x74, 0, 0, 2, 0, 0])).hex() == \
         "fffffd0001090003740000020000ca89"
     assert p.build_status(1, 0, bytes([6, 4, 0x26])).hex() == "fffffd000107005500060426655d"
     # sync read of IDs 1 and 2 at 132 x 4
-    assert p.build_instruction(0xFE, p.INST_SYNC_READ, p.sync_read_params(132, 4, [1, 2])).hex() == \
+    assert p.build_instruction(0xFE, p.SYNC_READ, p.sync_read_params(132, 4, [1, 2])).hex() == \
         "fffffd00fe090082840004000102cefa"
 
 
@@ -70,7 +70,7 @@ def test_status_stream_drops_bad_crc_and_instruction_echo():
     good = p.build_status(2, 0, b"\x10")
     bad = bytearray(p.build_status(1, 0, b"\x20"))
     bad[-1] ^= 1
-    echo = p.build_instruction(1, p.INST_READ, bytes([146, 0, 1, 0]))
+    echo = p.build_instruction(1, p.READ, bytes([146, 0, 1, 0]))
     stream = p.StatusStream()
     assert stream.feed(echo + bytes(bad) + good) == [p.Status(2, 0, b"\x10")]
     assert stream.crc_errors == 1

@@ -12,7 +12,7 @@ from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
 
 from dynamixel_handler.sim import VirtualBus
-from dynamixel_handler.protocol2 import ERR_DATA_LIMIT
+from dynamixel_handler.protocol import ERR_DATA_LIMIT
 from dynamixel_handler_msgs.msg import DynamixelExtra
 from rig import PRO, P, X, Rig
 from ros_helpers import NodeProcess, node_command, spin_until

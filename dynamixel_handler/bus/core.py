@@ -36,7 +36,7 @@ from typing import Iterable, Iterator, Mapping
 
 import serial
 
-from . import protocol as p
+from ..protocol import host as p
 from .errors import BusError
 from .port import SerialPort
 
@@ -194,7 +194,7 @@ class DynamixelBus:
         """Model number of ``dxl_id``, or None if it does not answer."""
         dxl_id = _check_id(dxl_id)
         with self._transaction() as tx:
-            status = self._unicast(dxl_id, p.INST_PING, b"", _PING_REPLY_PARAMS, retries)
+            status = self._unicast(dxl_id, p.PING, b"", _PING_REPLY_PARAMS, retries)
             if status is None or status.refused:
                 tx.fail(f"ping ID {dxl_id}: {self._why(status)}")
                 return None
@@ -206,7 +206,7 @@ class DynamixelBus:
         """``size`` raw bytes from the control table of ``dxl_id``, or None."""
         dxl_id = _check_id(dxl_id)
         with self._transaction() as tx:
-            status = self._unicast(dxl_id, p.INST_READ, p.u16(address) + p.u16(size), size)
+            status = self._unicast(dxl_id, p.READ, p.u16(address) + p.u16(size), size)
             if status is None or status.refused:
                 tx.fail(f"read ID {dxl_id} @{address}x{size}: {self._why(status)}")
                 return None
@@ -215,29 +215,29 @@ class DynamixelBus:
 
     def write(self, dxl_id: int, address: int, data: bytes) -> bool:
         """Write raw bytes; True when the servo acknowledged (broadcast: when sent)."""
-        return self._write_like(p.INST_WRITE, "write", dxl_id, p.u16(address) + bytes(data))
+        return self._write_like(p.WRITE, "write", dxl_id, p.u16(address) + bytes(data))
 
     def reg_write(self, dxl_id: int, address: int, data: bytes) -> bool:
         """Register a write to be executed by :meth:`action`."""
-        return self._write_like(p.INST_REG_WRITE, "reg_write", dxl_id, p.u16(address) + bytes(data))
+        return self._write_like(p.REG_WRITE, "reg_write", dxl_id, p.u16(address) + bytes(data))
 
     def action(self, dxl_id: int = p.BROADCAST_ID) -> bool:
         """Execute registered writes. A unicast action's status reply is read and consumed here."""
-        return self._write_like(p.INST_ACTION, "action", dxl_id, b"")
+        return self._write_like(p.ACTION, "action", dxl_id, b"")
 
     def reboot(self, dxl_id: int) -> bool:
         """Reboot a servo (it needs a few hundred ms before it answers again)."""
-        return self._write_like(p.INST_REBOOT, "reboot", dxl_id, b"")
+        return self._write_like(p.REBOOT, "reboot", dxl_id, b"")
 
     def clear_multi_turn(self, dxl_id: int) -> bool:
         """Reset the present position to within one turn (Clear instruction, servo must be stopped)."""
-        return self._write_like(p.INST_CLEAR, "clear multi-turn", dxl_id, b"\x01\x44\x58\x4c\x22")
+        return self._write_like(p.CLEAR, "clear multi-turn", dxl_id, b"\x01\x44\x58\x4c\x22")
 
     def factory_reset(self, dxl_id: int, option: int = 0x02) -> bool:
         """Factory reset; option 0xFF all, 0x01 all but ID, 0x02 (default) all but ID and baud rate."""
         if option not in (0x01, 0x02, 0xFF):
             raise ValueError(f"factory reset option must be 0x01, 0x02 or 0xFF, got {option:#x}")
-        return self._write_like(p.INST_FACTORY_RESET, "factory reset", dxl_id, bytes([option]))
+        return self._write_like(p.FACTORY_RESET, "factory reset", dxl_id, bytes([option]))
 
     def _write_like(self, instruction: int, what: str, dxl_id: int, params: bytes) -> bool:
         if dxl_id != p.BROADCAST_ID:
@@ -278,7 +278,7 @@ class DynamixelBus:
         key = (address, length, order, fast)
         packet = self._packets.get(key)
         if packet is None:
-            instruction = p.INST_FAST_SYNC_READ if fast else p.INST_SYNC_READ
+            instruction = p.FAST_SYNC_READ if fast else p.SYNC_READ
             packet = p.build_instruction(p.BROADCAST_ID, instruction, p.sync_read_params(address, length, order))
             if len(self._packets) >= _PACKET_CACHE_SIZE:
                 self._packets.clear()
@@ -292,7 +292,7 @@ class DynamixelBus:
         order = list(requests)
         if not order:
             return {}
-        instruction = p.INST_FAST_BULK_READ if fast else p.INST_BULK_READ
+        instruction = p.FAST_BULK_READ if fast else p.BULK_READ
         params = p.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
         packet = p.build_instruction(p.BROADCAST_ID, instruction, params)
         return self._group_read(packet, [(i, requests[i][1]) for i in order], fast,
@@ -311,7 +311,7 @@ class DynamixelBus:
             return PreparedWrite(address, length, (), b"")
         params = p.sync_write_params(address, length, data.items())
         return PreparedWrite(address, length, tuple(data),
-                             p.build_instruction(p.BROADCAST_ID, p.INST_SYNC_WRITE, params))
+                             p.build_instruction(p.BROADCAST_ID, p.SYNC_WRITE, params))
 
     def send_prepared(self, prepared: "PreparedWrite") -> bool:
         """Send a write built by :meth:`prepare_sync_write`; True when sent (or nothing to send)."""
@@ -326,7 +326,7 @@ class DynamixelBus:
         if not order:
             return True
         params = p.bulk_write_params((i, data[i][0], bytes(data[i][1])) for i in order)
-        return self._broadcast_txn(p.build_instruction(p.BROADCAST_ID, p.INST_BULK_WRITE, params),
+        return self._broadcast_txn(p.build_instruction(p.BROADCAST_ID, p.BULK_WRITE, params),
                                    "bulk write")
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
@@ -437,7 +437,7 @@ class DynamixelBus:
         return self._exchange(packet, [], False) is not None
 
     def _broadcast_ping(self, wanted: list[int]) -> tuple[dict[int, int], bool]:
-        packet = p.build_instruction(p.BROADCAST_ID, p.INST_PING)
+        packet = p.build_instruction(p.BROADCAST_ID, p.PING)
         reply_bytes = p.STATUS_OVERHEAD + _PING_REPLY_PARAMS
         slots = (max(wanted) + 1) * (reply_bytes * self._port.tx_ms_per_byte + BROADCAST_PING_SLOT_MS)
         wait_ms = self.reply_timeout_ms(len(packet), 0) + slots

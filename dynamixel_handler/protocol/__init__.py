@@ -1,5 +1,7 @@
-"""Dynamixel Protocol 2.0 wire facts shared by the bus layer (host side) and the virtual bus
-(servo side): header, instruction and error codes, CRC-16, byte stuffing and packet framing.
+"""Dynamixel Protocol 2.0, the one place for the wire format: header, instruction and error
+codes, CRC-16, byte stuffing, packet framing and the noise-tolerant packet reader (here), the host
+side (``host``: instruction packets, reply parsing, used by the bus layer) and the servo side
+(``servo``: instruction parsing, status and fast-read replies, used by the virtual bus).
 
 Both sides are checked byte for byte against the ROBOTIS e-Manual's example packets (and the bus
 layer's CRC against ``dynamixel_sdk``'s), so sharing this code hides nothing from the tests.
@@ -18,11 +20,26 @@ PING, READ, WRITE, REG_WRITE, ACTION = 0x01, 0x02, 0x03, 0x04, 0x05
 FACTORY_RESET, REBOOT, CLEAR, STATUS = 0x06, 0x08, 0x10, 0x55
 SYNC_READ, SYNC_WRITE, FAST_SYNC_READ = 0x82, 0x83, 0x8A
 BULK_READ, BULK_WRITE, FAST_BULK_READ = 0x92, 0x93, 0x9A
+BACKUP = 0x20  # Control Table Backup (store / restore the EEPROM area)
+
+INSTRUCTION_NAMES = {
+    BACKUP: "backup",
+    PING: "ping", READ: "read", WRITE: "write", REG_WRITE: "reg_write", ACTION: "action",
+    FACTORY_RESET: "factory_reset", REBOOT: "reboot", CLEAR: "clear", STATUS: "status",
+    SYNC_READ: "sync_read", SYNC_WRITE: "sync_write", FAST_SYNC_READ: "fast_sync_read",
+    BULK_READ: "bulk_read", BULK_WRITE: "bulk_write", FAST_BULK_READ: "fast_bulk_read",
+}
 
 # Status error numbers (bits 0..6 of the error byte); bit 7 is the hardware alert
 ERR_NONE, ERR_RESULT_FAIL, ERR_INSTRUCTION, ERR_CRC = 0x00, 0x01, 0x02, 0x03
 ERR_DATA_RANGE, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_ACCESS = 0x04, 0x05, 0x06, 0x07
 ALERT_BIT = 0x80
+
+ERROR_NAMES = {
+    ERR_RESULT_FAIL: "result fail", ERR_INSTRUCTION: "instruction error", ERR_CRC: "CRC error",
+    ERR_DATA_RANGE: "data range error", ERR_DATA_LENGTH: "data length error",
+    ERR_DATA_LIMIT: "data limit error", ERR_ACCESS: "access error",
+}
 
 
 def _crc_table() -> tuple[int, ...]:

@@ -20,27 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
-from ..protocol2 import (BROADCAST_ID, HEADER, MAX_ID, MAX_PACKET_LENGTH, FrameReader, crc16, frame,  # noqa: F401
+from . import (BROADCAST_ID, HEADER, MAX_ID, MAX_PACKET_LENGTH, FrameReader, crc16, frame,  # noqa: F401
                          stuff, unstuff)
-from .. import protocol2 as _p2
-
-INST_PING, INST_READ, INST_WRITE, INST_REG_WRITE = _p2.PING, _p2.READ, _p2.WRITE, _p2.REG_WRITE
-INST_ACTION, INST_FACTORY_RESET, INST_REBOOT, INST_CLEAR = _p2.ACTION, _p2.FACTORY_RESET, _p2.REBOOT, _p2.CLEAR
-INST_STATUS, INST_SYNC_READ, INST_SYNC_WRITE = _p2.STATUS, _p2.SYNC_READ, _p2.SYNC_WRITE
-INST_FAST_SYNC_READ, INST_BULK_READ, INST_BULK_WRITE = _p2.FAST_SYNC_READ, _p2.BULK_READ, _p2.BULK_WRITE
-INST_FAST_BULK_READ = _p2.FAST_BULK_READ
-
-#: Status error numbers (bits 0..6 of the error byte); bit 7 is the hardware alert.
-ERROR_ALERT = 0x80
-ERROR_NAMES = {
-    1: "result fail",
-    2: "instruction error",
-    3: "CRC error",
-    4: "data range error",
-    5: "data length error",
-    6: "data limit error",
-    7: "access error",
-}
+from . import (ACTION, ALERT_BIT, BULK_READ, BULK_WRITE, CLEAR, ERROR_NAMES, FACTORY_RESET,  # noqa: F401
+               FAST_BULK_READ, FAST_SYNC_READ, PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE,
+               WRITE)
 
 #: Bytes of a status packet without parameters: header(4) id len(2) inst err crc(2).
 STATUS_OVERHEAD = 11
@@ -55,7 +39,7 @@ def build_instruction(dxl_id: int, instruction: int, params: bytes = b"") -> byt
 
 def build_status(dxl_id: int, error: int, params: bytes = b"") -> bytes:
     """A stuffed status packet (what a servo sends back); used by tests and tools."""
-    return frame(dxl_id, bytes([INST_STATUS, error]) + bytes(params))
+    return frame(dxl_id, bytes([STATUS, error]) + bytes(params))
 
 
 def u16(value: int) -> bytes:
@@ -68,7 +52,7 @@ def error_text(error: int) -> str:
     number = error & 0x7F
     if number:
         parts.append(ERROR_NAMES.get(number, f"error {number}"))
-    if error & ERROR_ALERT:
+    if error & ALERT_BIT:
         parts.append("hardware alert (read hardware_error_status)")
     return " + ".join(parts) if parts else "ok"
 
@@ -101,7 +85,7 @@ class StatusStream(FrameReader):
     def feed(self, data: bytes) -> list[Status]:
         out: list[Status] = []
         for packet_id, body, wire_size in self.frames(data):
-            if body[0] != INST_STATUS:
+            if body[0] != STATUS:
                 self.discarded_bytes += wire_size
                 continue
             out.append(Status(packet_id, body[1], body[2:]))
@@ -144,7 +128,7 @@ class FastReply:
                 del buf[:start]
             if len(buf) < 8:
                 return
-            if buf[4] == BROADCAST_ID and buf[7] == INST_STATUS:
+            if buf[4] == BROADCAST_ID and buf[7] == STATUS:
                 self._started = True
                 return
             self.discarded_bytes += 1

@@ -1,7 +1,7 @@
 """Dynamixel Protocol 2.0 framing, as a servo sees it.
 
 The simulator must behave like a real servo on the wire. CRC-16, byte stuffing and framing are
-the shared :mod:`dynamixel_handler.protocol2` (checked against the e-Manual's example packets);
+the shared :mod:`dynamixel_handler.protocol` (checked against the e-Manual's example packets);
 this module adds the servo's side: an incremental parser that resynchronises on the
 ``FF FF FD 00`` header after garbage, and status packet builders including the single-packet
 Fast Sync/Bulk Read reply.
@@ -11,21 +11,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..protocol2 import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE, CLEAR,  # noqa: F401
+from . import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE, CLEAR,  # noqa: F401
                          ERR_ACCESS, ERR_CRC, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_INSTRUCTION,
                          ERR_NONE, ERR_RESULT_FAIL, FACTORY_RESET, FAST_BULK_READ, FAST_SYNC_READ, HEADER, MAX_ID,
                          PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE, WRITE, FrameReader, crc16,
-                         frame, stuff, unstuff)
-
-BACKUP = 0x20  # Control Table Backup (store / restore the EEPROM area)
-
-INSTRUCTION_NAMES = {
-    BACKUP: "backup",
-    PING: "ping", READ: "read", WRITE: "write", REG_WRITE: "reg_write", ACTION: "action",
-    FACTORY_RESET: "factory_reset", REBOOT: "reboot", CLEAR: "clear", STATUS: "status",
-    SYNC_READ: "sync_read", SYNC_WRITE: "sync_write", FAST_SYNC_READ: "fast_sync_read",
-    BULK_READ: "bulk_read", BULK_WRITE: "bulk_write", FAST_BULK_READ: "fast_bulk_read",
-}
+                         frame, stuff, unstuff, BACKUP, INSTRUCTION_NAMES)
 
 
 

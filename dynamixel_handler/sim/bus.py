@@ -18,8 +18,8 @@ import threading
 import time
 from typing import Callable, Mapping
 
-from . import protocol as p
-from .protocol import LoggedInstruction
+from ..protocol import servo as p
+from ..protocol.servo import LoggedInstruction
 from .servo import VirtualServo
 from .transport import PtyPort, wait_until
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dynamixel_handler.control_table import Item, Model
 
-from . import protocol as p
+from ..protocol import servo as p
 
 
 class RegisterFile:

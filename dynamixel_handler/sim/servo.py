@@ -14,7 +14,7 @@ from typing import Callable
 
 from dynamixel_handler.control_table import Item, Model, model_by_number
 
-from . import protocol as p
+from ..protocol import servo as p
 from .defaults import MODE_RESET_ITEMS, READ_ONLY, factory_defaults, family
 from .motion import Command, Motor, profile_kind
 from .registers import RegisterFile

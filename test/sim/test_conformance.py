@@ -5,7 +5,7 @@ from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBu
                            GroupSyncRead, GroupSyncWrite)
 
 from dynamixel_handler.control_table import model_by_number
-from dynamixel_handler.sim import protocol as p
+from dynamixel_handler.protocol import servo as p
 
 XM430, XM540, XH540, XL330, PH54, H54_OLD, H54_RA = 1020, 1120, 1100, 1200, 2020, 54024, 54025
 ALL = {1: XM430, 2: XM540, 3: XH540, 4: XL330, 5: PH54, 6: H54_OLD, 7: H54_RA}

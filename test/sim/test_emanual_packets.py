@@ -7,7 +7,7 @@ are set up through the simulator's API first.
 
 import pytest
 
-from dynamixel_handler.sim import protocol as p
+from dynamixel_handler.protocol import servo as p
 
 
 def h(text: str) -> bytes:

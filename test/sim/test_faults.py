@@ -6,7 +6,7 @@ import sys
 
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, PortHandler
 
-from dynamixel_handler.sim import protocol as p
+from dynamixel_handler.protocol import servo as p
 
 XM430 = 1020
 

@@ -3,7 +3,7 @@
 import pytest
 from dynamixel_sdk import COMM_SUCCESS
 
-from dynamixel_handler.sim import protocol as p
+from dynamixel_handler.protocol import servo as p
 
 XM430, XM540, PH54 = 1020, 1120, 2020
 

@@ -2,7 +2,7 @@
 
 from hypothesis import given, strategies as st
 
-from dynamixel_handler.sim import protocol as p
+from dynamixel_handler.protocol import servo as p
 
 
 def h(text: str) -> bytes:

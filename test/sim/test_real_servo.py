@@ -14,7 +14,7 @@ from dynamixel_sdk.protocol2_packet_handler import PKT_ID, PKT_INSTRUCTION, PKT_
 
 from dynamixel_handler.control_table import known_models, model_by_number
 from dynamixel_handler.sim import VirtualBus
-from dynamixel_handler.sim import protocol as p
+from dynamixel_handler.protocol import servo as p
 
 XM430, XL330, PH54, H54_OLD = 1020, 1200, 2020, 54024
 # X430/540: Indirect Address 1 at 168, Indirect Data 1 at 224 (e-Manual). X330 firmware v52: 208.
