@@ -12,7 +12,7 @@ import dataclasses
 import time
 from typing import Iterable, Mapping, Sequence
 
-from .bus import DynamixelBus, GroupRead, PreparedWrite
+from .bus import BusStats, DynamixelBus, GroupRead, PreparedWrite
 from .control_table import model_by_number
 from .sim.servo import CLEAR_KEY, VirtualServo
 
@@ -34,8 +34,42 @@ class BusWithDummies:
         self._bus = bus
         self.dummies = dict(dummies)
 
-    def __getattr__(self, name: str):
-        return getattr(self._bus, name)
+    # ------------------------------------------------------------ the real bus's own parts
+    @property
+    def device(self) -> str:
+        return self._bus.device
+
+    @property
+    def baudrate(self) -> int:
+        return self._bus.baudrate
+
+    @property
+    def latency_timer_ms(self) -> float:
+        return self._bus.latency_timer_ms
+
+    @property
+    def inflight_eta(self) -> float | None:
+        return self._bus.inflight_eta
+
+    @property
+    def last_failure(self) -> str:
+        return self._bus.last_failure
+
+    @property
+    def stats(self) -> BusStats:
+        return self._bus.stats
+
+    def open(self) -> None:
+        self._bus.open()
+
+    def close(self) -> None:
+        self._bus.close()
+
+    def reopen(self) -> None:
+        self._bus.reopen()
+
+    def set_baudrate(self, baudrate: int) -> None:
+        self._bus.set_baudrate(baudrate)
 
     # ------------------------------------------------------------ helpers
     def _split(self, ids: Iterable[int]) -> tuple[list[int], list[int]]:

@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import units
-from .bus import DynamixelBus
+from .bus import ServoBus
 from .config import Config
 from .control_table import OPERATING_MODES, model_by_number
 from .groups import GROUP_ITEMS, GROUP_RATIO_PARAM, MODE_NAMES, PRESENT, due
@@ -91,7 +91,7 @@ class _Read:
 class Handler:
     """Owns the servos of one bus."""
 
-    def __init__(self, bus: DynamixelBus, config: Config, logger: logging.Logger | None = None) -> None:
+    def __init__(self, bus: ServoBus, config: Config, logger: logging.Logger | None = None) -> None:
         self.bus = bus
         self.config = config
         self.log = logger or logging.getLogger("dynamixel_handler")
@@ -145,7 +145,7 @@ class Handler:
         cfg = self.config
         self._had_device = self.bus.is_open
         lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
-        dummies = sorted(getattr(self.bus, "dummies", {}))
+        dummies = sorted(self.bus.dummies)
         expected = cfg["init/expected_servo_num"]
         attempts = cfg["init/servo_auto_search.retry_times"] + 1
         found: dict[int, int] = {}
@@ -273,14 +273,14 @@ class Handler:
     def estimate_loop_s(self) -> float:
         """Wire time of a loop's reads over every handled servo (instruction and replies at the
         baud rate, plus the adapter's latency each way): the loop period before one is measured."""
-        if not len(self.table) or not getattr(self.bus, "baudrate", 0):
+        if not len(self.table) or not self.bus.baudrate:
             return 0.0
         items, _, _ = self.due_items(1)
         if not items:
             return 0.0
         live = np.ones(len(self.table), dtype=bool)
         byte_s = 10.0 / self.bus.baudrate
-        latency_s = 2 * getattr(self.bus, "latency_timer_ms", 1.0) / 1000.0
+        latency_s = 2 * self.bus.latency_timer_ms / 1000.0
         total = 0.0
         for read in self._plan(tuple(sorted(set(items))), live):
             n = len(read.ids)
@@ -545,7 +545,7 @@ class Handler:
     #                  read is left on the wire
     #   complete_step  its replies gathered, Fast Sync Read fallback, pings of silent servos, ping state
     #   finish_step    replies stored in the table, read logs, tripped watchdogs re-armed
-    # Any bus transaction in between first waits for the read on the wire (``DynamixelBus``).
+    # Any bus transaction in between first waits for the read on the wire (``ServoBus``).
     def begin_step(self) -> StepReport:
         report = StepReport(loop=self.loop_count, phase=1)
         self.prepare(report)
@@ -646,7 +646,7 @@ class Handler:
     @property
     def reply_eta(self) -> float | None:
         """``time.monotonic()`` by which the read left on the wire should be answered (None: none is)."""
-        return getattr(self.bus, "inflight_eta", None)
+        return self.bus.inflight_eta
 
     def complete_step(self, report: StepReport) -> None:
         if report.phase >= 3:
@@ -700,7 +700,7 @@ class Handler:
 
     def _reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second."""
-        dummies = getattr(self.bus, "dummies", {})
+        dummies = self.bus.dummies
         if not self.device_lost:
             self.device_lost = True
             self.device_lost_since = time.time()

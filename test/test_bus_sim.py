@@ -166,3 +166,17 @@ def test_adapter_unplugged_and_plugged_back(tmp_path):
         dxl.reopen()
         assert dxl.ping(1) == 1020
         dxl.close()
+
+
+def test_the_serial_bus_and_the_dummy_bus_are_the_same_kind_of_bus(sim, bus):
+    """The handler talks to either through ServoBus; the dummy bus forwards nothing implicitly."""
+    from dynamixel_handler.bus import ServoBus
+    from dynamixel_handler.dummy import BusWithDummies, make_dummies
+
+    mixed = BusWithDummies(bus, make_dummies([9], "X"))
+    assert isinstance(bus, ServoBus) and isinstance(mixed, ServoBus)
+    assert not hasattr(BusWithDummies, "__getattr__")
+    assert mixed.device == bus.device and mixed.baudrate == bus.baudrate and mixed.stats is bus.stats
+    assert mixed.scan([1, 2, 9]) == {1: 1020, 2: 1120, 9: 1020}
+    assert dict(bus.dummies) == {} and list(mixed.dummies) == [9]
+    assert mixed.read(1, 132, 4) == sim.servo(1).read_raw(132, 4)

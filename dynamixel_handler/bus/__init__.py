@@ -2,11 +2,16 @@
 
 ``DynamixelBus`` opens the adapter, pings/scans, reads and writes single servos and
 groups (sync/bulk, plain and fast), retries per ``dyn_comm/*`` and keeps counters.
-Packets are built and parsed by :mod:`.protocol`, which works around the defects of
-``dynamixel_sdk`` 4.1.0 listed in :mod:`.core`. ROS-free.
+Packets are built and parsed by :mod:`..protocol.host`, which works around the defects of
+``dynamixel_sdk`` 4.1.0 listed in :mod:`.core`. ``ServoBus`` (:mod:`.api`) is the interface the
+handler uses, which ``DynamixelBus`` and the dummy-servo bus both implement. ROS-free.
 """
-from .core import BusStats, DynamixelBus, GroupRead, PreparedWrite
+from .api import ServoBus
+from .core import DynamixelBus
 from .errors import BusError
 from .port import DYNAMIXEL_BAUDRATES
+from .stats import BusStats
+from .transport import GroupRead
+from .writes import PreparedWrite
 
-__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite"]
+__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite", "ServoBus"]

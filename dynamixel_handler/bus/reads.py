@@ -1,0 +1,152 @@
+"""Group reads of ``DynamixelBus``: (fast) sync read, left on the wire or waited for, bulk read,
+and the scan (broadcast ping, or one ping per ID)."""
+from __future__ import annotations
+
+import time
+from typing import Iterable, Mapping
+
+import serial
+
+from ..protocol import host as p
+from .transport import GroupRead, Transport, _check_id, _reply_bytes, _unique_ids
+
+#: Scans of more IDs than this use one broadcast ping instead of a ping per ID.
+BROADCAST_SCAN_MIN_IDS = 5
+#: Time slot each ID gets in a broadcast ping reply train, on top of its packet's wire time.
+BROADCAST_PING_SLOT_MS = 3.0
+PING_REPLY_PARAMS = 3
+#: sync read packets kept built (the loop asks for the same few reads over and over)
+_PACKET_CACHE_SIZE = 64
+
+
+class Reads(Transport):
+    """The group reads and pings (a mixin of ``DynamixelBus``)."""
+
+    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
+        """Model number of ``dxl_id``, or None if it does not answer."""
+        dxl_id = _check_id(dxl_id)
+        with self._transaction() as tx:
+            status = self._unicast(dxl_id, p.PING, b"", PING_REPLY_PARAMS, retries)
+            if status is None or status.refused:
+                tx.fail(f"ping ID {dxl_id}: {self._why(status)}")
+                return None
+            tx.ok(1, 1)
+            self.firmware_versions[dxl_id] = status.params[2]
+            return status.params[0] | (status.params[1] << 8)
+
+    def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
+        """Same item from many servos in one instruction; returns the IDs that answered.
+
+        A silent servo costs one reply wait and never empties the others' data. The
+        instruction is retried only when nobody answered. ``fast`` uses Fast Sync Read
+        (X firmware 45+, P 12+): one unstuffed reply for all servos.
+        """
+        return self.start_sync_read(address, length, ids, fast).result()
+
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
+        """Send a sync read and return at once; ``result()`` of the returned read waits for the
+        replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
+        bus; any other transaction first waits for this read to end, so none is ever lost.
+        """
+        order = tuple(_unique_ids(ids))
+        if not order:
+            return GroupRead.finished({})
+        key = (address, length, order, fast)
+        packet = self._packets.get(key)
+        if packet is None:
+            instruction = p.FAST_SYNC_READ if fast else p.SYNC_READ
+            packet = p.build_instruction(p.BROADCAST_ID, instruction, p.sync_read_params(address, length, order))
+            if len(self._packets) >= _PACKET_CACHE_SIZE:
+                self._packets.clear()
+            self._packets[key] = packet
+        return self._start_group_read(packet, [(i, length) for i in order], fast,
+                                      f"{'fast ' if fast else ''}sync read @{address}x{length}")
+
+    def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:
+        """Different ``(address, size)`` per servo in one instruction; returns the IDs that answered."""
+        requests = {_check_id(i): (int(a), int(n)) for i, (a, n) in requests.items()}
+        order = list(requests)
+        if not order:
+            return {}
+        instruction = p.FAST_BULK_READ if fast else p.BULK_READ
+        params = p.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
+        packet = p.build_instruction(p.BROADCAST_ID, instruction, params)
+        return self._group_read(packet, [(i, requests[i][1]) for i in order], fast,
+                                f"{'fast ' if fast else ''}bulk read")
+
+    def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
+        """``{id: model_number}`` of the servos among ``ids`` that answer a ping.
+
+        Wide ranges use one broadcast ping (replies come in ID order, so its wait grows
+        with the highest ID); if that reply train was garbled (collisions, CRC errors)
+        the IDs not found are pinged one by one. Unicast scan pings are not retried.
+        """
+        wanted = sorted(_unique_ids(ids))
+        if not wanted:
+            return {}
+        if broadcast is None:
+            broadcast = len(wanted) >= BROADCAST_SCAN_MIN_IDS
+        found: dict[int, int] = {}
+        garbled = True
+        if broadcast:
+            found, garbled = self._broadcast_ping(wanted)
+        if garbled:
+            for dxl_id in wanted:
+                if dxl_id not in found:
+                    model = self.ping(dxl_id, retries=0)
+                    if model is not None:
+                        found[dxl_id] = model
+        return dict(sorted(found.items()))
+
+    def _group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
+                    what: str) -> dict[int, bytes]:
+        return self._start_group_read(packet, expected, fast, what).result()
+
+    def _start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
+                          what: str) -> GroupRead:
+        with self._lock:
+            self._settle()
+            read = GroupRead(self, packet, expected, fast, what)
+            read.sent = self._send_or_lose(packet)
+            if read.sent:
+                read.reply_bytes = _reply_bytes(expected, fast)
+                read.eta = min(self._wire_free_at + read.reply_bytes * self._port.tx_ms_per_byte / 1000.0
+                               + self.reply_lag_s,
+                               read.started + self.reply_timeout_ms(len(packet), read.reply_bytes) / 1000.0)
+                self._inflight = read
+            return read
+
+    def _broadcast_ping(self, wanted: list[int]) -> tuple[dict[int, int], bool]:
+        packet = p.build_instruction(p.BROADCAST_ID, p.PING)
+        reply_bytes = p.STATUS_OVERHEAD + PING_REPLY_PARAMS
+        slots = (max(wanted) + 1) * (reply_bytes * self._port.tx_ms_per_byte + BROADCAST_PING_SLOT_MS)
+        wait_ms = self.reply_timeout_ms(len(packet), 0) + slots
+        found: dict[int, int] = {}
+        with self._transaction() as tx:
+            stream = p.StatusStream()
+            if not self._send_or_lose(packet):
+                tx.fail(f"broadcast ping: {self._why(None)}")
+                return {}, False
+            self.last_timeout_ms = wait_ms
+            deadline = time.monotonic() + wait_ms / 1000.0
+            try:
+                while len(found) < len(wanted):
+                    data = self._port.read_until(deadline)
+                    if not data:
+                        break
+                    self.stats.bytes_rx += len(data)
+                    for status in stream.feed(data):
+                        if len(status.params) == PING_REPLY_PARAMS and status.dxl_id in wanted:
+                            self._note_status(status)
+                            self.firmware_versions[status.dxl_id] = status.params[2]
+                            found[status.dxl_id] = status.params[0] | (status.params[1] << 8)
+            except (OSError, serial.SerialException) as exc:
+                self._lose(exc)
+            garbled = bool(stream.crc_errors or stream.discarded_bytes or stream.pending_bytes)
+            self.stats.crc_errors += stream.crc_errors
+            self.stats.discarded_bytes += stream.discarded_bytes + stream.pending_bytes
+            if found:
+                tx.ok(1, 1)
+            else:
+                tx.fail("broadcast ping: no servo answered")
+            return found, garbled
