@@ -12,9 +12,9 @@ import math
 import time
 from typing import Callable, Iterable, Mapping, Sequence
 
-
 from . import units
 from .control_table import OPERATING_MODES, Model
+from .extra_commands import apply_extra
 from .logs import Throttle, cut, some_ids
 from .loop import Handler
 
@@ -117,7 +117,6 @@ class Commander:
         self._queue(what, lambda: self._status(list(ids), fields, what))
 
     def extra(self, ids: Sequence[int], fields: Fields, what: str = "extra") -> None:
-        from .extra_commands import apply_extra
         self._queue(what, lambda: apply_extra(self, list(ids), fields, what))
 
     def shortcut(self, command: str, ids: Sequence[int]) -> None:

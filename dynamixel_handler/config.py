@@ -11,6 +11,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from .errors import ConfigError
+from .joints import joint_map
+
 # Parameter types, as ROS knows them.
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
 STR_ARRAY = "str[]"
@@ -127,10 +130,6 @@ ALIASES: dict[str, tuple[str, ...]] = {
 BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000, 6000000, 10500000)
 
 
-class ConfigError(ValueError):
-    """A parameter value the node cannot start with; the message says which and why."""
-
-
 def coerce(param: Param, value: Any) -> Any:
     """Return ``value`` as ``param``'s type, or raise ConfigError (ints pass as floats and back
     when integral, so `loop_rate: 100.0` and `profile_vel: 1000` both load)."""
@@ -237,7 +236,6 @@ def validate(values: Mapping[str, Any]) -> Config:
     need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
     need(math.isfinite(v["diagnostics.period_sec"]) and v["diagnostics.period_sec"] >= 0,
          "parameter 'diagnostics.period_sec' must be a finite value >= 0 (0: off)")
-    from .joints import joint_map  # late: joints.py imports ConfigError from here
     joint_map(v)  # raises ConfigError naming the joint_state parameter at fault
     return Config(v)
 

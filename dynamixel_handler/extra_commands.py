@@ -3,12 +3,24 @@ flattened with a dot (``drive_mode.reverse_mode``); a bit-field register is read
 changed, and written back, so fields not given keep their value."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Mapping, Sequence
+import logging
+from typing import Iterable, Mapping, Protocol, Sequence
 
 from . import units
+from .loop import Handler
 
-if TYPE_CHECKING:
-    from .commands import Commander
+
+class Checks(Protocol):
+    """What the extra command needs of ``commands.Commander`` (its checks and warnings)."""
+
+    h: Handler
+    log: logging.Logger | logging.LoggerAdapter
+
+    def warn(self, msg: str) -> None: ...
+    def known_ids(self, ids: Iterable[int], what: str, series: str | None = None,
+                  allow_all: bool = False) -> list[tuple[int, int]]: ...
+    def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool: ...
+    def _value(self, dxl_id: int, item: str) -> int | None: ...
 
 #: field -> (item, EEPROM write needs torque off)
 _SCALAR = {
@@ -25,7 +37,7 @@ _DRIVE = ("drive_mode.torque_on_by_goal_update", "drive_mode.profile_configurati
 _RESTORE = ("restore_configuration.ram_restore", "restore_configuration.startup_torque_on")
 
 
-def apply_extra(c: "Commander", ids: list[int], fields: Mapping[str, Sequence], what: str) -> None:
+def apply_extra(c: Checks, ids: list[int], fields: Mapping[str, Sequence], what: str) -> None:
     for name in fields:
         if name in _READ_ONLY:
             c.warn(f"{what}: '{name}' is read-only: ignored")

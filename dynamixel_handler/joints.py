@@ -17,7 +17,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .config import ConfigError
+from .errors import ConfigError
 from .servos import ServoTable
 
 DEG = math.pi / 180.0

@@ -19,6 +19,7 @@ from . import units
 from .bus import ServoBus
 from .config import Config
 from .control_table import OPERATING_MODES, model_by_number
+from .errors import Interrupted, StartupError
 from .groups import GROUP_ITEMS, GROUP_RATIO_PARAM, MODE_NAMES, PRESENT, due
 from .servos import PendingWrites, ServoTable
 
@@ -44,14 +45,6 @@ WATCHDOG_MODES = frozenset({"velocity", "current", "pwm"})
 EEPROM_WRITE_INTERVAL_S = 1.0
 #: longest bus watchdog time the register holds (127 x 20 ms)
 WATCHDOG_MAX_MS = 2540.0
-
-
-class StartupError(RuntimeError):
-    """Start-up cannot go on; the message says what, why and what to do."""
-
-
-class Interrupted(StartupError):
-    """Start-up stopped because the node was asked to exit (SIGINT/SIGTERM): not a failure."""
 
 
 @dataclass
