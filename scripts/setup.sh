@@ -85,9 +85,11 @@ fi
 
 # ---------------------------------------------------------------- 4. build both packages
 # colcon does not descend into a folder that is itself a package (the repo root is one), so the
-# message package is named explicitly.
+# message package is named explicitly. dev/control_msgs: a development-only control_msgs
+# (FollowJointTrajectory) for machines without a ROS install; never part of the shipped packages.
 SRC_HASH="$(cd "$ROOT" && hash_of package.xml setup.py setup.cfg dynamixel_handler_msgs/CMakeLists.txt dynamixel_handler_msgs/package.xml \
-  $(ls dynamixel_handler_msgs/*/* config/* launch/* 2>/dev/null | sort) <(ls dynamixel_handler_msgs/*/* config launch 2>/dev/null) \
+  $(ls dynamixel_handler_msgs/*/* config/* launch/* dev/control_msgs/*.* dev/control_msgs/*/* 2>/dev/null | sort) \
+  <(ls dynamixel_handler_msgs/*/* config launch dev/control_msgs/*/* 2>/dev/null) \
   <(echo "$REQ_HASH"))"
 if [ $FORCE = 1 ] || [ ! -f "$ROOT/install/setup.bash" ] || [ "$(cat "$ROOT/install/.source-hash" 2>/dev/null)" != "$SRC_HASH" ]; then
   say "building dynamixel_handler_msgs and dynamixel_handler with colcon (first time ~1-2 min)"
@@ -98,7 +100,7 @@ if [ $FORCE = 1 ] || [ ! -f "$ROOT/install/setup.bash" ] || [ "$(cat "$ROOT/inst
     source "$VENV/bin/activate"
     export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV"
     export MAKEFLAGS="-j$(nproc)"
-    colcon --log-base log build --symlink-install --base-paths . dynamixel_handler_msgs \
+    colcon --log-base log build --symlink-install --base-paths . dynamixel_handler_msgs dev/control_msgs \
       --event-handlers console_cohesion- status- summary+ \
       --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release \
       > "$ROOT/log/colcon-last.txt" 2>&1 || {
@@ -119,7 +121,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE=\${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 source "$VENV/bin/activate"
 export AMENT_PREFIX_PATH="$VENV\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}"
 source "$ROOT/install/setup.bash"
-export LD_LIBRARY_PATH="$ROOT/install/dynamixel_handler_msgs/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
+export LD_LIBRARY_PATH="$ROOT/install/dynamixel_handler_msgs/lib:$ROOT/install/control_msgs/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
 export PATH="$ROOT/install/dynamixel_handler/lib/dynamixel_handler:\$PATH"
 EOF
 say "ready: source env.sh"
