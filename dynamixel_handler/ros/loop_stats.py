@@ -6,9 +6,9 @@ WARN when fewer than 99 % got any, INFO otherwise. It comes every ``verbose_rati
 least every ``STATS_MAX_S`` seconds however slow the loop is (``verbose_ratio`` 0: never). While
 the device is gone it says so, and since when, instead of a success rate.
 
-Every ``RATE_WINDOW_S`` the loop period is measured: the bus watchdog time follows it
-(``Handler.note_loop_period``), and a loop that cannot hold ``loop_rate`` is reported once, with
-the rate it does reach and the bus time a loop takes.
+Every ``RATE_WINDOW_S`` the loop period is measured: the bus watchdog time follows what two
+windows in a row show (``Handler.note_loop_period``), and a loop that cannot hold ``loop_rate`` is
+reported once, with the rate it does reach and the bus time a loop takes.
 """
 from __future__ import annotations
 
@@ -20,6 +20,8 @@ from ..loop import Handler, StepReport
 STATS_MAX_S = 10.0
 #: the loop rate is measured over windows of this length [s]
 RATE_WINDOW_S = 2.0
+#: ... and at least this many loops
+RATE_WINDOW_LOOPS = 3
 #: a loop rate below this share of loop_rate is reported
 RATE_TOLERANCE = 0.9
 
@@ -34,8 +36,9 @@ class LoopStats:
         now = time.monotonic()
         self._start, self._loops, self._read, self._reads = now, 0, 0.0, 0
         self._before = wire.stats.copy()
-        self._rate_start, self._rate_loops, self._rate_read = now, 0, 0.0
+        self._rate_start, self._rate_loops, self._rate_read, self._rate_reads = now, 0, 0.0, 0
         self.slow_warned = False
+        self._last_period: float | None = None  # the window before: one slow window alone is not trusted
 
     def tick(self, finished: StepReport | None) -> None:
         """After each loop (``finished``: the loop completed in this pass, if any)."""
@@ -45,28 +48,34 @@ class LoopStats:
             self._read += finished.read_s
             self._reads += 1
             self._rate_read += finished.read_s
+            self._rate_reads += 1
         now = time.monotonic()
-        if now - self._rate_start >= RATE_WINDOW_S:
+        if now - self._rate_start >= RATE_WINDOW_S and self._rate_loops >= RATE_WINDOW_LOOPS:
             self._check_rate(now)
         if self.verbose_ratio and (self._loops >= self.verbose_ratio or now - self._start >= STATS_MAX_S):
             self._line(now)
 
     def _check_rate(self, now: float) -> None:
         elapsed, loops = now - self._rate_start, self._rate_loops
-        read_s = self._rate_read / loops
-        self._rate_start, self._rate_loops, self._rate_read = now, 0, 0.0
+        read_s = self._rate_read / max(1, self._rate_reads)
+        self._rate_start, self._rate_loops, self._rate_read, self._rate_reads = now, 0, 0.0, 0
         if self.h.device_lost:
             return
-        period = elapsed / loops
+        measured, last = elapsed / loops, self._last_period
+        self._last_period = measured
+        if last is None:  # the first window holds the start (watchdogs armed, first commands)
+            return
+        period = min(measured, last)  # what two windows in a row show
         self.h.note_loop_period(period)
         rate = 1.0 / period
         if rate < RATE_TOLERANCE * self.loop_rate and not self.slow_warned:
             self.slow_warned = True
+            wire_s = self.h.estimate_loop_s()
             self.log.warning(
                 f"loop_rate {self.loop_rate:g} Hz cannot be held: {rate:.1f} loops/s ({1000 * period:.1f} ms a "
-                f"loop, {1000 * read_s:.1f} ms of it reading {len(self.h.table)} servo(s) at "
-                f"{getattr(self.wire, 'baudrate', 0)} bps); lower loop_rate, raise baudrate, or read less "
-                "(pub_ratio/*); the bus watchdog follows the loop")
+                f"loop; the reads of {len(self.h.table)} servo(s) at {getattr(self.wire, 'baudrate', 0)} bps take "
+                f"{1000 * wire_s:.1f} ms of wire a loop, the reads measured {1000 * read_s:.1f} ms); lower loop_rate, "
+                "raise baudrate, or read less (pub_ratio/*); the bus watchdog follows the loop")
 
     def _line(self, now: float) -> None:
         loops = max(1, self._loops)

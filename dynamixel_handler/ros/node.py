@@ -302,9 +302,12 @@ class DynamixelHandlerNode(Node):
                 if next_t > now:
                     self._sleep_until(next_t)
                 else:
-                    next_t = now  # overran: start the next loop now, don't try to catch up
+                    # overran: the next loop starts now; up to one period late is made up by the
+                    # loops after it (so scheduling jitter under load does not lower the rate),
+                    # more is not caught up
+                    next_t = max(next_t, now - period)
             else:
-                next_t = now
+                next_t = max(next_t, now - period)
                 eta = self.handler.reply_eta
                 if eta is not None:  # take the next commands as late as the replies allow
                     wake = eta - min(MAX_EARLY_S, 1.5 * begin_s + EARLY_MARGIN_S)
