@@ -31,7 +31,7 @@ from ..external_ports import ExternalPorts
 from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, Interrupted, StartupError, StepReport
 from ..timing import set_timer_slack
-from . import convert, diagnostics, joint_states, services
+from . import convert, diagnostics, joint_commands, joint_states, services
 from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
 from .outbox import Outbox
@@ -141,6 +141,8 @@ class DynamixelHandlerNode(Node):
         self._create_subscriptions()
         # called on the loop thread after each step's state publishing (joint states, diagnostics)
         self.step_hooks = [h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]
+        # joint_commands, joint_trajectory, follow_joint_trajectory: the trajectory follower is a hook too
+        self.step_hooks += [h for h in (joint_commands.attach(self),) if h is not None]
         self.motion_services = services.attach(self)  # set_torque, move_to, move_joints
 
     # ------------------------------------------------------------------ wiring
@@ -280,8 +282,10 @@ class DynamixelHandlerNode(Node):
                 if reading is not None:
                     self._publish_external(reading)
                 next_t += period
-                if next_t > time.monotonic() or self.handler.reply_eta is None:
-                    finished, prev = prev, None  # time to spare: this loop ends now, then the sleep
+                # time to spare, or late by less than a period (made up by the loops after it): this
+                # loop ends now; only a loop that keeps taking longer than a period runs flat out
+                if next_t + period > time.monotonic() or self.handler.reply_eta is None:
+                    finished, prev = prev, None
                     self._end_step(finished)
                 failures = 0
             except Exception as exc:  # keep the loop alive; the context says where it broke
@@ -307,7 +311,7 @@ class DynamixelHandlerNode(Node):
                     # more is not caught up
                     next_t = max(next_t, now - period)
             else:
-                next_t = max(next_t, now - period)
+                next_t = now
                 eta = self.handler.reply_eta
                 if eta is not None:  # take the next commands as late as the replies allow
                     wake = eta - min(MAX_EARLY_S, 1.5 * begin_s + EARLY_MARGIN_S)
