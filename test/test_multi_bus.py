@@ -25,7 +25,8 @@ ROBOT_YAML = """\
     device_name: {left}
     latency_timer: 1
     verbose_ratio: 0
-    init/servo_auto_search: {{min_id: 1, max_id: 3}}
+    init/servo_auto_search: {{min_id: 1, max_id: 3, retry_times: 5}}
+    init/expected_servo_num: 2
     joint_state: {{use: true, names: [left_shoulder, left_elbow], ids: [1, 2]}}
     diagnostics: {{period_sec: 0.3}}
 /right/dynamixel_handler:
@@ -33,7 +34,8 @@ ROBOT_YAML = """\
     device_name: {right}
     latency_timer: 1
     verbose_ratio: 0
-    init/servo_auto_search: {{min_id: 1, max_id: 3}}
+    init/servo_auto_search: {{min_id: 1, max_id: 3, retry_times: 5}}
+    init/expected_servo_num: 1
     joint_state: {{use: true, names: [right_shoulder], ids: [1]}}
     diagnostics: {{period_sec: 0.3}}
 """
