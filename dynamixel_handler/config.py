@@ -111,6 +111,12 @@ SCHEMA: tuple[Param, ...] = (
     _p("joint_state.directions", INT_ARRAY, [1], "+1/-1 per joint (one value: every joint); joint = dir*(servo-offset)"),
     _p("joint_state.offsets_deg", FLOAT_ARRAY, [0.0], "servo angle at the joint's zero [deg] per joint (one value: every joint)"),
     _p("diagnostics.period_sec", FLOAT, 1.0, "publish diagnostic_msgs/DiagnosticArray on /diagnostics every this many seconds (0: off)"),
+    _p("trajectory.path_tolerance_deg", FLOAT, 0.0,
+       "joint trajectories: largest distance from the path while running, unless the goal gives one [deg] (0: not checked)"),
+    _p("trajectory.goal_tolerance_deg", FLOAT, 1.0,
+       "joint trajectories: largest distance from the last point at the end, unless the goal gives one [deg] (0: not checked)"),
+    _p("trajectory.goal_time_sec", FLOAT, 1.0,
+       "joint trajectories: time allowed after the end to come within the goal tolerance, unless the goal gives one [s]"),
 )
 SCHEMA_BY_NAME: dict[str, Param] = {p.name: p for p in SCHEMA}
 
@@ -236,6 +242,8 @@ def validate(values: Mapping[str, Any]) -> Config:
     need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
     need(math.isfinite(v["diagnostics.period_sec"]) and v["diagnostics.period_sec"] >= 0,
          "parameter 'diagnostics.period_sec' must be a finite value >= 0 (0: off)")
+    for name in ("trajectory.path_tolerance_deg", "trajectory.goal_tolerance_deg", "trajectory.goal_time_sec"):
+        need(math.isfinite(v[name]) and v[name] >= 0, f"parameter '{name}' = {v[name]} must be a finite value >= 0")
     joint_map(v)  # raises ConfigError naming the joint_state parameter at fault
     return Config(v)
 

@@ -1,0 +1,149 @@
+"""Joint goals by name in SI units -> the Commander's checked writes. ROS-free.
+
+``joint_commands`` (sensor_msgs/JointState, as ros2_control's topic-based hardware interface
+publishes) and the trajectory follower name joints, give radians, rad/s and amperes, and leave a
+field empty when they do not command it. What a joint is given picks its servo's mode:
+
+======================  ==============================================================
+given                   the servo
+======================  ==============================================================
+position                position control (a servo in extended or current-based position
+                        mode keeps its mode: the goal is a position there too)
+position + effort       current-based position control (X series): effort = current limit
+velocity                velocity control
+effort                  current control
+======================  ==============================================================
+
+(a velocity given with a position is not a goal of its own: the position governs.) The servo
+angle follows ``joint_state.*``: ``servo deg = direction x joint deg + offset_deg``. Everything
+then goes through ``Commander.control`` / ``Commander.goal``: known IDs, series and modes, NaN
+refused, limits clamped, mode changes rate-limited, one warning line per cause.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from .commands import Commander
+from .joints import JointMap
+
+RAD = 180.0 / math.pi
+#: modes whose goal is a position and that a position command keeps (multi-turn, current-limited)
+KEPT_POSITION_MODES = ("ex_position", "cur_position")
+
+
+class JointGoals:
+    """Joint commands by name for one handler (``command`` from any thread; work in the loop)."""
+
+    def __init__(self, commander: Commander, mapping: JointMap) -> None:
+        self.commander = commander
+        self.h = commander.h
+        self.mapping = mapping
+
+    def check(self, what: str, names: Sequence[str], position: Sequence[float], velocity: Sequence[float],
+              effort: Sequence[float]) -> str | None:
+        """Why a command cannot be taken (one line, for the log), or None. A field is given for
+        every name or empty; names are mapped joints, each named once."""
+        if not len(names):
+            return f"{what}: no joint names: refused"
+        for field, values in (("position", position), ("velocity", velocity), ("effort", effort)):
+            if len(values) and len(values) != len(names):
+                return f"{what}: {len(values)} {field} values for {len(names)} joint names: refused"
+        if not (len(position) or len(velocity) or len(effort)):
+            return f"{what}: no position, velocity or effort given: nothing to do"
+        unknown = [n for n in names if n not in self.mapping.names]
+        if unknown:
+            shown = ", ".join(repr(n[:40]) for n in unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
+            return f"{what}: unknown joint names {shown} (known: {', '.join(self.mapping.names)}): refused"
+        if len(set(names)) != len(names):
+            return f"{what}: a joint is named twice in {list(names)[:10]}: refused"
+        return None
+
+    def command(self, what: str, names: Sequence[str], position: Sequence[float] = (), velocity: Sequence[float] = (),
+                effort: Sequence[float] = ()) -> bool:
+        """Queue the command for the loop thread; False (and one warning) when it is refused whole."""
+        problem = self.check(what, names, position, velocity, effort)
+        if problem is not None:
+            self.commander.warn(problem)
+            return False
+        names, position, velocity, effort = list(names), list(position), list(velocity), list(effort)
+        self.h.queue(what, lambda: self._apply(what, names, position, velocity, effort))
+        return True
+
+    def _apply(self, what: str, names: list[str], position: list[float], velocity: list[float],
+               effort: list[float]) -> None:
+        """Loop thread: joint units -> servo units, grouped by series and control, to the Commander."""
+        table = self.h.table
+        m = self.mapping
+        batches: dict[tuple[str, str], tuple[list[int], dict[str, list[float]]]] = {}
+        unhandled = []
+        for k, name in enumerate(names):
+            j = m.names.index(name)
+            dxl_id, sign = m.ids[j], m.directions[j]
+            if dxl_id not in table:
+                unhandled.append(name)
+                continue
+            fields: dict[str, float] = {}
+            pos = position[k] if position else None
+            vel = velocity[k] if velocity else None
+            eff = effort[k] if effort else None
+            if pos is not None:
+                fields["position_deg"] = float(pos) * RAD * sign + m.offsets_deg[j]
+                if eff is not None:
+                    control = "current_base_position_control"
+                    fields["current_ma"] = abs(float(eff)) * 1000.0
+                elif self.h.mode(dxl_id) in KEPT_POSITION_MODES:
+                    control = "goal"
+                else:
+                    control = "position_control"
+            elif vel is not None:
+                control = "velocity_control"
+                fields["velocity_deg_s"] = float(vel) * RAD * sign
+            else:
+                control = "current_control"
+                fields["current_ma"] = float(eff) * 1000.0 * sign
+            series = table.model(dxl_id).series if control != "goal" else ""
+            ids, cols = batches.setdefault((series, control), ([], {}))
+            ids.append(dxl_id)
+            for f, v in fields.items():
+                cols.setdefault(f, []).append(v)
+        if unhandled:
+            self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
+        for (series, control), (ids, cols) in batches.items():
+            if any(len(v) != len(ids) for v in cols.values()):
+                continue  # cannot happen: one control means the same fields for every joint of a batch
+            if control == "goal":
+                self.commander.goal(ids, cols, what=what)
+            else:
+                self.commander.control(series, control, ids, cols)
+
+    def hold(self, what: str, names: Sequence[str]) -> None:
+        """Stop the joints where they are: goal position := present position (loop thread next step)."""
+        ids = [self.mapping.id_of(n) for n in names]
+
+        def op() -> None:
+            table = self.h.table
+            present = table.units("present_position")
+            keep = [(i, float(present[table.index[i]])) for i in ids
+                    if i in table and math.isfinite(present[table.index[i]])]
+            if keep:
+                self.commander.goal([i for i, _ in keep], {"position_deg": [p for _, p in keep]}, what=what)
+        self.h.queue(what, op)
+
+    def present(self, names: Sequence[str]) -> tuple[list[float], list[float]]:
+        """Joint positions [rad] and velocities [rad/s] as last read (NaN: not handled or not read).
+        Loop thread, or any thread that accepts values of one read or the next."""
+        table = self.h.table
+        pos_deg, vel_deg = table.units("present_position"), table.units("present_velocity")
+        pos, vel = [], []
+        for name in names:
+            j = self.mapping.names.index(name)
+            p = table.index.get(self.mapping.ids[j])
+            if p is None:
+                pos.append(math.nan)
+                vel.append(math.nan)
+                continue
+            sign, offset = self.mapping.directions[j], self.mapping.offsets_deg[j]
+            pos.append(sign * (float(pos_deg[p]) - offset) / RAD)
+            vel.append(sign * float(vel_deg[p]) / RAD)
+        return pos, vel

@@ -1,0 +1,143 @@
+"""Joints commanded by name: ``joint_commands`` (sensor_msgs/JointState), ``~/joint_trajectory``
+(trajectory_msgs/JointTrajectory) and, when ``control_msgs`` is importable, the
+``~/follow_joint_trajectory`` action (control_msgs/FollowJointTrajectory, ``trajectory_action.py``).
+
+``joint_commands`` is what ros2_control's ``joint_state_topic_hardware_interface`` publishes
+(its ``joint_commands_topic``; states go to its ``joint_states_topic`` from ``joint_states``), so a
+URDF naming that plugin puts ros2_control's controllers and MoveIt on the servos. Trajectories are
+followed by the loop thread (``trajectory.Follower``, a step hook), interpolated at the loop rate.
+Everything needs ``joint_state.use`` and a joint map; commands go through the Commander's checks.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
+
+from ..joint_goals import JointGoals
+from ..joints import JointMap, joint_map
+from ..trajectory import Follower, Job, Tolerances, TrajectoryError, make_points
+
+DEG = math.pi / 180.0
+#: why a trajectory is refused: its joints, or the rest of it (FollowJointTrajectory's two codes)
+BAD_JOINTS, BAD_GOAL = "joints", "goal"
+
+
+class TrajectoryRefused(ValueError):
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
+
+
+def duration_s(d) -> float:
+    return float(d.sec) + float(d.nanosec) * 1e-9
+
+
+class JointCommands:
+    """The topics, the follower hook and (optionally) the action of one node."""
+
+    def __init__(self, node, mapping: JointMap) -> None:
+        self.node = node
+        self.log = node.get_logger()
+        self.mapping = mapping
+        self.goals = JointGoals(node.commander, mapping)
+        cfg = node.config
+        self.default_path_rad = float(cfg["trajectory.path_tolerance_deg"]) * DEG
+        self.default_goal_rad = float(cfg["trajectory.goal_tolerance_deg"]) * DEG
+        self.default_goal_time = float(cfg["trajectory.goal_time_sec"])
+        self.follower = Follower(self.goals, 1.0 / float(cfg["loop_rate"]), node.adapter)
+        node.create_subscription(JointState, "joint_commands", self._on_joint_commands, 10)
+        node.create_subscription(JointTrajectory, "~/joint_trajectory", self._on_trajectory, 10)
+        self.action = None
+        try:
+            from . import trajectory_action
+        except ImportError as err:  # control_msgs is not installed: everything else works
+            self.log.info(f"control_msgs is not available ({err}): no follow_joint_trajectory action "
+                          "(joint_commands and joint_trajectory work)")
+        else:
+            self.action = trajectory_action.attach(node, self)
+
+    # ------------------------------------------------------------------ joint_commands
+    def _on_joint_commands(self, msg: JointState) -> None:
+        try:
+            self.goals.command("joint_commands", list(msg.name), list(msg.position), list(msg.velocity),
+                               list(msg.effort))
+        except Exception as exc:  # a bad message must never take the node down
+            self.log.error(f"joint_commands: dropped: {type(exc).__name__}: {exc}")
+
+    # ------------------------------------------------------------------ trajectories
+    def job(self, what: str, traj: JointTrajectory, path_tol=(), goal_tol=(), goal_time: float = 0.0) -> Job:
+        """A checked job for the follower; TrajectoryRefused (kind and one line) otherwise."""
+        names = list(traj.joint_names)
+        if not names:
+            raise TrajectoryRefused(BAD_JOINTS, "the trajectory names no joints")
+        unknown = [n for n in names if n not in self.mapping.names]
+        if unknown:
+            raise TrajectoryRefused(BAD_JOINTS, f"unknown joints {[n[:40] for n in unknown[:5]]} "
+                                                f"(this handler's joints: {', '.join(self.mapping.names)})")
+        if len(set(names)) != len(names):
+            raise TrajectoryRefused(BAD_JOINTS, f"a joint is named twice in {names[:10]}")
+        table = self.node.handler.table
+        unhandled = [n for n in names if self.mapping.id_of(n) not in table]
+        if unhandled:
+            raise TrajectoryRefused(BAD_JOINTS, f"joints {unhandled} map to servos that are not handled")
+        pts = traj.points
+        try:
+            points = make_points(len(names), [duration_s(p.time_from_start) for p in pts],
+                                 [p.positions for p in pts], [p.velocities for p in pts],
+                                 [p.accelerations for p in pts])
+        except TrajectoryError as err:
+            raise TrajectoryRefused(BAD_GOAL, str(err)) from None
+        path = self._tolerances("path_tolerance", names, path_tol, self.default_path_rad)
+        goal = self._tolerances("goal_tolerance", names, goal_tol, self.default_goal_rad)
+        stamp = duration_s(traj.header.stamp)
+        now_wall = time.time()
+        if stamp > 0:  # a start time on the node's clock
+            start_wall = now_wall + (stamp - self.node.get_clock().now().nanoseconds * 1e-9)
+            if start_wall + points[-1].t < now_wall:
+                raise TrajectoryRefused(BAD_GOAL, f"the trajectory ended {now_wall - start_wall - points[-1].t:.2f} s "
+                                                  "ago (header.stamp + the last time_from_start is in the past)")
+        else:
+            start_wall = now_wall
+        tol = Tolerances(path=path, goal=goal,
+                         goal_time=goal_time if goal_time > 0 else self.default_goal_time)
+        return Job(what, names, points, tol, start_wall)
+
+    def _tolerances(self, what: str, names: list[str], given, default: float):
+        out = np.full(len(names), default)
+        for tol in given:
+            if tol.name not in names:
+                raise TrajectoryRefused(BAD_GOAL, f"{what} names joint '{tol.name[:40]}', which is not in the trajectory")
+            if not math.isfinite(tol.position):
+                raise TrajectoryRefused(BAD_GOAL, f"{what} of {tol.name}: position {tol.position} is not a number")
+            if tol.position > 0:
+                out[names.index(tol.name)] = tol.position
+            elif tol.position < 0:  # -1: erased, not checked
+                out[names.index(tol.name)] = 0.0
+        return out
+
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        try:
+            if not msg.points:  # as joint_trajectory_controller: an empty trajectory stops where the joints are
+                active = self.follower.active
+                if active is not None:
+                    self.follower.stop(active, "cancelled", "stopped by an empty trajectory")
+                else:
+                    self.goals.hold("joint_trajectory (empty: hold)", [n for n in msg.joint_names if n in self.mapping.names])
+                return
+            self.follower.start(self.job("joint_trajectory", msg))
+        except TrajectoryRefused as err:
+            self.goals.commander.warn(f"joint_trajectory: refused: {err}")
+        except Exception as exc:  # a bad message must never take the node down
+            self.log.error(f"joint_trajectory: dropped: {type(exc).__name__}: {exc}")
+
+
+def attach(node) -> Follower | None:
+    """The follower hook when ``joint_state.use`` is on (the mapping is checked at parameter load)."""
+    if not node.config["joint_state.use"]:
+        return None
+    node.joint_commands = JointCommands(node, joint_map(node.config.values))
+    return node.joint_commands.follower

@@ -1,0 +1,108 @@
+"""``~/follow_joint_trajectory`` (control_msgs/action/FollowJointTrajectory), served by the node.
+
+MoveIt's simple controller manager (``type: FollowJointTrajectory``, ``action_ns:
+follow_joint_trajectory`` under a controller named as this node) drives the servos through it
+without ros2_control. Importing this module needs ``control_msgs``; ``joint_commands.py`` leaves
+the action out (one info line) where it is missing.
+
+Every goal is accepted and then checked: a goal the handler cannot follow is aborted at once with
+``INVALID_JOINTS`` (names not mapped, repeated, servo not handled, multi-DOF joints) or
+``INVALID_GOAL`` (points, times, tolerances, a trajectory already over) and an ``error_string``
+saying why. A running goal ends with
+
+- ``SUCCESSFUL`` (succeeded): every joint within its goal tolerance after the last point's time;
+- ``PATH_TOLERANCE_VIOLATED`` (aborted): a joint left its path tolerance while running;
+- ``GOAL_TOLERANCE_VIOLATED`` (aborted): not within the goal tolerance ``goal_time_tolerance``
+  after the end;
+- cancelled (``SUCCESSFUL``, cancelled): the joints hold where they are;
+- preempted by a newer goal or ``joint_trajectory`` message (``SUCCESSFUL``, aborted, the
+  ``error_string`` says so): the newer trajectory starts from where the joints are.
+
+Feedback (desired, actual and error positions and velocities) goes out at ``FEEDBACK_HZ``.
+"""
+from __future__ import annotations
+
+import math
+
+from control_msgs.action import FollowJointTrajectory
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from .. import trajectory as tr
+from .convert import stamp_of
+from .joint_commands import BAD_JOINTS, TrajectoryRefused, duration_s
+
+#: feedback messages per second while a goal runs (at most one per read of the positions)
+FEEDBACK_HZ = 20.0
+R = FollowJointTrajectory.Result
+
+CODES = {tr.SUCCEEDED: R.SUCCESSFUL, tr.PATH_VIOLATED: R.PATH_TOLERANCE_VIOLATED,
+         tr.GOAL_VIOLATED: R.GOAL_TOLERANCE_VIOLATED, tr.PREEMPTED: R.SUCCESSFUL, tr.CANCELLED: R.SUCCESSFUL,
+         tr.ABORTED: R.INVALID_GOAL}
+
+
+class TrajectoryAction:
+    def __init__(self, node, commands) -> None:
+        self.node = node
+        self.commands = commands
+        self.follower = commands.follower
+        self.log = node.get_logger()
+        self.server = ActionServer(node, FollowJointTrajectory, "~/follow_joint_trajectory",
+                                   execute_callback=self._execute, goal_callback=lambda _g: GoalResponse.ACCEPT,
+                                   cancel_callback=lambda _g: CancelResponse.ACCEPT,
+                                   callback_group=ReentrantCallbackGroup())
+
+    def _execute(self, goal_handle) -> FollowJointTrajectory.Result:
+        g = goal_handle.request
+        result = FollowJointTrajectory.Result()
+        try:
+            if g.multi_dof_trajectory.joint_names or g.multi_dof_trajectory.points:
+                raise TrajectoryRefused(BAD_JOINTS, "multi-DOF joints are not handled (servos are single joints)")
+            job = self.commands.job("follow_joint_trajectory", g.trajectory, g.path_tolerance, g.goal_tolerance,
+                                    duration_s(g.goal_time_tolerance))
+        except TrajectoryRefused as err:
+            result.error_code = R.INVALID_JOINTS if err.kind == BAD_JOINTS else R.INVALID_GOAL
+            result.error_string = str(err)
+            self.log.warning(f"follow_joint_trajectory: refused: {err}")
+            goal_handle.abort()
+            return result
+        self.follower.start(job)
+        period = 1.0 / FEEDBACK_HZ
+        sent = None
+        while not job.done.wait(period):
+            if goal_handle.is_cancel_requested:
+                self.follower.stop(job, tr.CANCELLED, "cancelled: holding where the joints are")
+                break
+            if self.node._stop.is_set():
+                self.follower.stop(job, tr.ABORTED, "the bus loop stopped")
+                break
+            if job.last is not None and job.last is not sent:
+                sent = job.last
+                goal_handle.publish_feedback(self._feedback(job))
+        result.error_code = CODES[job.outcome]
+        result.error_string = job.message
+        if job.outcome == tr.SUCCEEDED:
+            goal_handle.succeed()
+        elif job.outcome == tr.CANCELLED and goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        else:
+            goal_handle.abort()
+        return result
+
+    def _feedback(self, job: tr.Job) -> FollowJointTrajectory.Feedback:
+        t, verdict, present, velocity = job.last
+        fb = FollowJointTrajectory.Feedback()
+        fb.header.stamp = stamp_of(self.node.ros_time(job.start_wall + t))
+        fb.joint_names = job.names
+        desired = verdict.desired
+        fb.desired = JointTrajectoryPoint(positions=desired.positions.tolist(), velocities=desired.velocities.tolist())
+        fb.actual = JointTrajectoryPoint(positions=[float(p) for p in present], velocities=[float(v) for v in velocity])
+        fb.error = JointTrajectoryPoint(
+            positions=[float(a - d) if math.isfinite(a) else math.nan for a, d in zip(present, desired.positions)],
+            velocities=[float(a - d) if math.isfinite(a) else math.nan for a, d in zip(velocity, desired.velocities)])
+        return fb
+
+
+def attach(node, commands) -> TrajectoryAction:
+    return TrajectoryAction(node, commands)

@@ -1,0 +1,238 @@
+"""Joints by name: joint_commands (ros2_control's topic-based hardware interface), the
+joint_trajectory topic and the follow_joint_trajectory action, through the real node on the
+virtual bus. Positions are read back from the simulated servos' registers."""
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Duration
+from rclpy.action import ActionClient
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointTolerance
+from dynamixel_handler.trajectory import Trajectory, make_points
+
+from rig import X, X540, Rig
+
+R = FollowJointTrajectory.Result
+JOINTS = ("joint_state.use:=true", "joint_state.names:=[pan, tilt]", "joint_state.ids:=[1, 2]",
+          "joint_state.directions:=[1, -1]", "joint_state.offsets_deg:=[0.0, 10.0]")
+ACTION = "/dynamixel_handler/follow_joint_trajectory"
+
+
+@pytest.fixture(scope="module")
+def rig():
+    r = Rig({1: X, 2: X540}, *JOINTS, "loop_rate:=100", "baudrate:=1000000",
+            sim_kwargs={"baudrate": 1_000_000})
+    yield r
+    assert r.close() == 0
+
+
+def servo_deg(rig: Rig, dxl_id: int, item: str = "present_position") -> float:
+    servo = rig.sim.servo(dxl_id)
+    return (servo.read(item) - servo.model.position_zero_pulse) * servo.model.position_deg_per_pulse
+
+
+def joint_rad(rig: Rig, name: str, item: str = "present_position") -> float:
+    """The joint angle a simulated servo's register says (pan: ID 1 as is; tilt: ID 2 flipped, zero at 10 deg)."""
+    if name == "pan":
+        return math.radians(servo_deg(rig, 1, item))
+    return -math.radians(servo_deg(rig, 2, item) - 10.0)
+
+
+def point(t: float, positions, velocities=(), accelerations=()) -> JointTrajectoryPoint:
+    return JointTrajectoryPoint(positions=list(positions), velocities=list(velocities),
+                                accelerations=list(accelerations),
+                                time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9))))
+
+
+def client(rig: Rig) -> ActionClient:
+    if not hasattr(rig, "fjt"):
+        with rig._lock:
+            rig.fjt = ActionClient(rig.node, FollowJointTrajectory, ACTION)
+        assert rig.fjt.wait_for_server(timeout_sec=10)
+    return rig.fjt
+
+
+def send(rig: Rig, goal: FollowJointTrajectory.Goal, feedback: list | None = None):
+    fut = client(rig).send_goal_async(goal, feedback_callback=(lambda m: feedback.append(m.feedback)) if feedback is not None else None)
+    rig.wait(fut.done, what="the goal accepted")
+    handle = fut.result()
+    assert handle.accepted
+    return handle
+
+
+def result_of(rig: Rig, handle, timeout: float = 20.0):
+    fut = handle.get_result_async()
+    rig.wait(fut.done, timeout=timeout, what="the goal's result")
+    return fut.result().status, fut.result().result
+
+
+def settle(rig: Rig, positions: dict[str, float]) -> None:
+    """Put the joints at ``positions`` [rad] with joint_commands and wait until they are there."""
+    rig.publish("/joint_commands", JointState(name=list(positions), position=list(positions.values())))
+    rig.wait(lambda: all(abs(joint_rad(rig, n) - p) < 0.01 for n, p in positions.items()), timeout=15,
+             what=f"joints at {positions}")
+
+
+def test_joint_commands_by_name_move_the_servos_to_the_commanded_radians(rig):
+    rig.publish("/joint_commands", JointState(name=["tilt", "pan"], position=[0.3, -0.5]))
+    rig.wait(lambda: abs(joint_rad(rig, "tilt", "goal_position") - 0.3) < 0.002
+             and abs(joint_rad(rig, "pan", "goal_position") + 0.5) < 0.002, what="goal registers set")
+    # tilt: servo angle = -1 x 0.3 rad + 10 deg
+    assert servo_deg(rig, 2, "goal_position") == pytest.approx(10.0 - math.degrees(0.3), abs=0.1)
+    rig.wait(lambda: abs(joint_rad(rig, "pan") + 0.5) < 0.01 and abs(joint_rad(rig, "tilt") - 0.3) < 0.01,
+             what="the servos at the commanded radians")
+    assert rig.sim.servo(1).read("operating_mode") == 3  # position only: position control
+
+
+def test_joint_command_velocity_only_switches_to_velocity_mode(rig):
+    try:
+        rig.publish("/joint_commands", JointState(name=["pan"], velocity=[0.5]))
+        rig.wait(lambda: rig.sim.servo(1).read("operating_mode") == 1, timeout=15, what="velocity mode")
+        servo = rig.sim.servo(1)
+        rig.wait(lambda: servo.read("goal_velocity") * servo.model.velocity_deg_s_per_pulse
+                 == pytest.approx(math.degrees(0.5), abs=0.3), what="goal velocity 0.5 rad/s")
+    finally:
+        rig.publish("/joint_commands", JointState(name=["pan"], velocity=[0.0]))
+    # back to position: the next position command changes the mode again (after mode_change_interval_sec)
+    rig.publish("/joint_commands", JointState(name=["pan"], position=[0.0]))
+    rig.wait(lambda: rig.sim.servo(1).read("operating_mode") == 3, timeout=15, what="position mode again")
+
+
+def test_unknown_names_and_bad_lengths_are_refused_with_one_line(rig):
+    before = {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)}
+    mark = rig.mark()
+    rig.publish("/joint_commands", JointState(name=["pan", "elbow"], position=[1.0, 1.0]))
+    line = rig.wait_log("unknown joint names 'elbow'", since=mark)
+    assert "refused" in line
+    rig.publish("/joint_commands", JointState(name=["pan", "tilt"], position=[1.0]))
+    rig.wait_log("1 position values for 2 joint names: refused", since=mark)
+    rig.publish("/joint_commands", JointState(name=["pan"], position=[float("nan")]))
+    rig.wait_log("'position_deg' = nan refused", since=mark)
+    rig.fresh_states(count=5)
+    assert {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)} == before
+    assert rig.node_proc.proc.poll() is None
+
+
+def test_a_three_point_trajectory_is_followed_with_the_timing_of_time_from_start(rig):
+    settle(rig, {"pan": 0.0, "tilt": 0.0})
+    feedback: list = []
+    start_in = 0.5  # header.stamp in the future: the test knows the path's time axis exactly
+    stamp = time.time() + start_in
+    traj = JointTrajectory(joint_names=["pan", "tilt"],
+                           points=[point(0.5, [0.4, -0.2], [0.6, -0.3]), point(1.0, [0.8, 0.1], [0.2, 0.3]),
+                                   point(1.5, [0.6, 0.3], [0.0, 0.0])])
+    traj.header.stamp.sec, traj.header.stamp.nanosec = int(stamp), int((stamp % 1) * 1e9)
+    samples: list[tuple[float, float, float]] = []
+    stop = threading.Event()
+
+    def sample() -> None:  # the simulated servos' registers against the wall clock
+        while not stop.is_set():
+            samples.append((time.time(), joint_rad(rig, "pan"), joint_rad(rig, "tilt")))
+            time.sleep(0.005)
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
+    try:
+        handle = send(rig, FollowJointTrajectory.Goal(trajectory=traj), feedback)
+        status, result = result_of(rig, handle)
+    finally:
+        stop.set()
+        sampler.join()
+    assert result.error_code == R.SUCCESSFUL, result.error_string
+    assert status == 4  # SUCCEEDED
+    assert feedback and list(feedback[-1].joint_names) == ["pan", "tilt"]
+    # the interpolated path (cubic: positions and velocities given), from where the joints were
+    pts = make_points(2, [0.5, 1.0, 1.5], [[0.4, -0.2], [0.8, 0.1], [0.6, 0.3]],
+                      [[0.6, -0.3], [0.2, 0.3], [0.0, 0.0]], [[], [], []])
+    path = Trajectory(pts, np.zeros(2))
+    during = [(t - stamp, p, q) for t, p, q in samples if 0.0 <= t - stamp <= 1.5]
+    assert len(during) > 50
+    errors = [max(abs(p - path.sample(t).positions[0]), abs(q - path.sample(t).positions[1])) for t, p, q in during]
+    print(f"\ntrajectory tracking: {len(during)} register samples, max error {max(errors):.4f} rad "
+          f"({math.degrees(max(errors)):.2f} deg), mean {np.mean(errors):.4f} rad")
+    assert max(errors) < 0.05
+    # nothing moved before header.stamp
+    before = [(p, q) for t, p, q in samples if t - stamp < -0.05]
+    assert before and all(abs(p) < 0.01 and abs(q) < 0.01 for p, q in before)
+    assert joint_rad(rig, "pan") == pytest.approx(0.6, abs=0.02)
+    assert joint_rad(rig, "tilt") == pytest.approx(0.3, abs=0.02)
+
+
+def test_invalid_goals_are_refused_with_the_codes_and_a_reason(rig):
+    def outcome(traj: JointTrajectory):
+        return result_of(rig, send(rig, FollowJointTrajectory.Goal(trajectory=traj)))
+
+    status, result = outcome(JointTrajectory(joint_names=["pan", "elbow"], points=[point(1.0, [0.0, 0.0])]))
+    assert status == 6 and result.error_code == R.INVALID_JOINTS  # ABORTED
+    assert "elbow" in result.error_string
+    status, result = outcome(JointTrajectory(joint_names=["pan"], points=[point(1.0, [0.1]), point(0.5, [0.2])]))
+    assert result.error_code == R.INVALID_GOAL and "does not come after" in result.error_string
+    status, result = outcome(JointTrajectory(joint_names=["pan", "tilt"], points=[point(1.0, [0.1])]))
+    assert result.error_code == R.INVALID_GOAL and "1 positions for 2 joints" in result.error_string
+
+
+def test_preemption_and_cancel(rig):
+    settle(rig, {"pan": 0.0})
+    slow = JointTrajectory(joint_names=["pan"], points=[point(4.0, [1.5])])
+    first = send(rig, FollowJointTrajectory.Goal(trajectory=slow))
+    rig.wait(lambda: joint_rad(rig, "pan") > 0.1, what="the first goal under way")
+    second = send(rig, FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=["pan"],
+                                                                              points=[point(4.0, [-1.0])])))
+    status, result = result_of(rig, first)
+    assert status == 6 and result.error_code == R.SUCCESSFUL and "preempted" in result.error_string
+    rig.wait(lambda: joint_rad(rig, "pan") < 0.0, what="the second goal moving the other way")
+    second.cancel_goal_async()
+    status, result = result_of(rig, second)
+    assert status == 5  # CANCELED
+    held = joint_rad(rig, "pan")
+    time.sleep(0.5)
+    assert joint_rad(rig, "pan") == pytest.approx(held, abs=0.02)  # holds where it was
+    assert held > -0.9
+
+
+def test_path_tolerance_violation_when_a_joint_is_held_back(rig):
+    settle(rig, {"pan": 0.0, "tilt": 0.0})
+    servo = rig.sim.servo(2)
+    servo.pin("present_position", servo.read("present_position"))  # tilt cannot move
+    try:
+        goal = FollowJointTrajectory.Goal(
+            trajectory=JointTrajectory(joint_names=["pan", "tilt"], points=[point(1.0, [0.5, 0.5])]),
+            path_tolerance=[JointTolerance(name="tilt", position=0.1)])
+        status, result = result_of(rig, send(rig, goal))
+    finally:
+        servo.pin("present_position", None)
+    assert status == 6 and result.error_code == R.PATH_TOLERANCE_VIOLATED
+    assert "tilt" in result.error_string and "path tolerance 0.1" in result.error_string
+
+
+def test_goal_time_violation(rig):
+    settle(rig, {"pan": 0.0, "tilt": 0.0})
+    servo = rig.sim.servo(1)
+    servo.pin("present_position", servo.read("present_position"))  # pan stays short of the goal
+    try:
+        goal = FollowJointTrajectory.Goal(
+            trajectory=JointTrajectory(joint_names=["pan"], points=[point(0.5, [0.3])]),
+            goal_tolerance=[JointTolerance(name="pan", position=0.02)], goal_time_tolerance=Duration(nanosec=300_000_000))
+        status, result = result_of(rig, send(rig, goal))
+    finally:
+        servo.pin("present_position", None)
+    assert status == 6 and result.error_code == R.GOAL_TOLERANCE_VIOLATED
+    assert "pan" in result.error_string
+
+
+def test_joint_trajectory_topic(rig):
+    settle(rig, {"pan": 0.0, "tilt": 0.0})
+    rig.publish("/dynamixel_handler/joint_trajectory",
+                JointTrajectory(joint_names=["tilt"], points=[point(0.3, [0.2]), point(0.6, [-0.4])]))
+    rig.wait(lambda: abs(joint_rad(rig, "tilt") + 0.4) < 0.01, what="tilt at the trajectory's end")
+    mark = rig.mark()
+    rig.publish("/dynamixel_handler/joint_trajectory", JointTrajectory(joint_names=["knee"], points=[point(0.3, [0.2])]))
+    rig.wait_log("joint_trajectory: refused: unknown joints ['knee']", since=mark)
+
