@@ -28,6 +28,7 @@ from ..bus import BusError, DynamixelBus
 from ..commands import Commander
 from ..dummy import BusWithDummies, make_dummies
 from ..external_ports import ExternalPorts
+from .. import serial_ports
 from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, Interrupted, StartupError, StepReport
 from ..timing import set_timer_slack
@@ -122,7 +123,10 @@ class DynamixelHandlerNode(Node):
         for line in describe(self.config):  # one log line each: every line carries the logger's name
             log.info("parameters: " + line.strip())
         self.adapter = _LoggerAdapter(log)
-        self.wire = DynamixelBus(cfg["device_name"], cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
+        device, chosen = self._device()  # serial:<USB serial number> -> the adapter
+        if chosen is not None:
+            log.info(chosen)
+        self.wire = DynamixelBus(device, cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
                                  cfg["dyn_comm/retry_num"], float(cfg["dyn_comm/inerval_msec"]),
                                  verbose=cfg["dyn_comm/verbose"], logger=self.adapter)
         bad = [i for i in cfg["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252]
@@ -144,6 +148,15 @@ class DynamixelHandlerNode(Node):
         # joint_commands, joint_trajectory, follow_joint_trajectory: the trajectory follower is a hook too
         self.step_hooks += [h for h in (joint_commands.attach(self),) if h is not None]
         self.motion_services = services.attach(self)  # set_torque, move_to, move_joints
+
+    def _device(self) -> tuple[str, str | None]:
+        try:
+            return serial_ports.resolve(self.config["device_name"])
+        except StartupError as err:  # as for a missing device: debug and dummy-only runs go on
+            if not (self.config["debug"] or self.config.dummy_ids):
+                raise
+            self.get_logger().warning(f"{err} (running without the device)")
+            return self.config["device_name"], None
 
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
