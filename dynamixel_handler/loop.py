@@ -264,12 +264,16 @@ class Handler:
                                 if i not in self.watchdog_user and self.mode(i) in WATCHDOG_MODES)
 
     def estimate_loop_s(self) -> float:
-        """Wire time of a loop's reads over every handled servo (instruction and replies at the
-        baud rate, plus the adapter's latency each way): the loop period before one is measured."""
+        """Wire time of the reads over every handled servo (instruction and replies at the baud
+        rate, plus the adapter's latency each way) per loop, on average over the loops between two
+        reads of the most often read items: the loop period before one is measured."""
         if not len(self.table) or not self.bus.baudrate:
             return 0.0
-        items, _, _ = self.due_items(1)
-        if not items:
+        cfg = self.config
+        ratios = [cfg.present_ratio(k) for k in PRESENT] + [cfg[p] for p in GROUP_RATIO_PARAM.values()]
+        every = min((r for r in ratios if r > 0), default=0)
+        items, _, _ = self.due_items(every)  # the loop that reads the most often read items
+        if not every or not items:
             return 0.0
         live = np.ones(len(self.table), dtype=bool)
         byte_s = 10.0 / self.bus.baudrate
@@ -278,7 +282,7 @@ class Handler:
         for read in self._plan(tuple(sorted(set(items))), live):
             n = len(read.ids)
             total += (14 + n + n * (11 + read.length)) * byte_s + latency_s
-        return total
+        return total / every  # per loop, on average
 
     def watchdog_for(self, dxl_id: int) -> int:
         """The bus watchdog this servo should have [20 ms pulses, 0 = off]: the value a command
