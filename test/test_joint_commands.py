@@ -236,3 +236,17 @@ def test_joint_trajectory_topic(rig):
     rig.publish("/dynamixel_handler/joint_trajectory", JointTrajectory(joint_names=["knee"], points=[point(0.3, [0.2])]))
     rig.wait_log("joint_trajectory: refused: unknown joints ['knee']", since=mark)
 
+
+
+def test_position_with_effort_is_current_based_position_with_that_current_limit(rig):
+    # last in this file: tilt stays in current-based position mode
+    rig.publish("/joint_commands", JointState(name=["tilt"], position=[0.1], effort=[0.5]))
+    servo = rig.sim.servo(2)
+    rig.wait(lambda: servo.read("operating_mode") == 5, timeout=15, what="current-based position mode")
+    rig.wait(lambda: abs(servo.read("goal_current") * servo.model.current_ma_per_pulse - 500.0) < 5.0,
+             what="goal current 0.5 A")
+    rig.wait(lambda: abs(joint_rad(rig, "tilt") - 0.1) < 0.01, what="tilt at 0.1 rad")
+    # a position alone now keeps the mode (as for a servo set up in it)
+    rig.publish("/joint_commands", JointState(name=["tilt"], position=[-0.1]))
+    rig.wait(lambda: abs(joint_rad(rig, "tilt") + 0.1) < 0.01, what="tilt at -0.1 rad")
+    assert servo.read("operating_mode") == 5
