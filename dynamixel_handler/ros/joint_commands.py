@@ -71,6 +71,8 @@ class JointCommands:
     # ------------------------------------------------------------------ trajectories
     def job(self, what: str, traj: JointTrajectory, path_tol=(), goal_tol=(), goal_time: float = 0.0) -> Job:
         """A checked job for the follower; TrajectoryRefused (kind and one line) otherwise."""
+        if self.node.handler.refuse_ops:  # e.g. an inactive lifecycle node: the loop would never follow it
+            raise TrajectoryRefused(BAD_GOAL, f"not now: {self.node.handler.refuse_ops}")
         names = list(traj.joint_names)
         if not names:
             raise TrajectoryRefused(BAD_JOINTS, "the trajectory names no joints")

@@ -23,6 +23,7 @@ Feedback (desired, actual and error positions and velocities) goes out at ``FEED
 from __future__ import annotations
 
 import math
+import time
 
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -35,6 +36,8 @@ from .joint_commands import BAD_JOINTS, TrajectoryRefused, duration_s
 
 #: feedback messages per second while a goal runs (at most one per read of the positions)
 FEEDBACK_HZ = 20.0
+#: a goal whose end has not been judged this long after its goal time ends (no reads) [s]
+STALE_S = 2.0
 R = FollowJointTrajectory.Result
 
 CODES = {tr.SUCCEEDED: R.SUCCESSFUL, tr.PATH_VIOLATED: R.PATH_TOLERANCE_VIOLATED,
@@ -76,6 +79,11 @@ class TrajectoryAction:
                 break
             if self.node._stop.is_set():
                 self.follower.stop(job, tr.ABORTED, "the bus loop stopped")
+                break
+            late = time.time() - (job.start_wall + job.points[-1].t + job.tolerances.goal_time)
+            if late > STALE_S:  # the end was never judged: no present positions came in (device gone?)
+                self.follower.stop(job, tr.GOAL_VIOLATED, f"no present positions were read for {STALE_S:g} s after "
+                                                          "the goal time: the goal cannot be confirmed")
                 break
             if job.last is not None and job.last is not sent:
                 sent = job.last
