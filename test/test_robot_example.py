@@ -28,7 +28,7 @@ def test_follow_trajectory_example_succeeds_and_saves_its_plot(tmp_path):
     assert "result: SUCCESSFUL" in out.stdout
     worst = float(re.search(r"max \|commanded - present\|: ([\d.]+) rad", out.stdout).group(1))
     print(f"\nexample trajectory: max |commanded - present| {worst:.4f} rad")
-    assert worst < 0.1
+    assert worst < 0.2
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     assert "stopping" in (tmp_path / "handler.log").read_text()  # the handler was stopped, servos made safe
 
