@@ -237,16 +237,22 @@ def slow_bus(VirtualBus, s: float) -> None:
                 "verbose_ratio:=300")
     node.wait_for("handled", timeout=120)
     velocity_mode(list(range(1, 21)))
-    node.wait_for("cannot be held", timeout=300)
+    try:
+        node.wait_for("cannot be held", timeout=60)
+    except SystemExit:  # a node that does not say so
+        pass
+    settled = len(node.lines)
     time.sleep(3 * s)
     t1 = time.monotonic()
     rate, gap = loop_figures(sim, t1 - 2 * s, t1)
     lines = [line for _, line in node.lines]
     trips = sum("bus watchdog tripped" in line or "had tripped" in line for line in lines)
+    later = sum("bus watchdog tripped" in line or "had tripped" in line for line in lines[settled:])
     warned = [line for line in lines if "cannot be held" in line]
     stats = [line for line in lines if "ms/loop(" in line]
     wd = sorted({sim.servo(i).read("bus_watchdog") for i in range(1, 21)})
-    print(f"{'9600bps_20':14s} loop={rate:6.2f} Hz gap={gap:7.1f} ms trips={trips} watchdog pulses={wd}")
+    print(f"{'9600bps_20':14s} loop={rate:6.2f} Hz gap={gap:7.1f} ms trips={trips} ({later} in the last {3 * s:.0f} s) "
+          f"watchdog pulses={wd}")
     print(f"{'':14s} {warned[0].split(': ', 1)[-1] if warned else 'no rate warning'}")
     print(f"{'':14s} stats lines: {len(stats)} in {3 * s:.0f} s; last: {stats[-1].split(': ', 1)[-1] if stats else '-'}")
     code, exit_s = node.stop()
