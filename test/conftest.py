@@ -25,3 +25,33 @@ def _claim_domain() -> str:
 
 
 os.environ["ROS_DOMAIN_ID"] = _claim_domain()
+
+
+# ---------------------------------------------------------------- markers
+# `scripts/test.sh -m "not slow"` is the inner loop (about half the suite's time); `-m sim` the
+# ROS-free virtual-bus and bus-layer tests; `-m ros` everything that runs a node or rclpy.
+import pytest  # noqa: E402
+
+#: modules whose tests start node processes many times or run for seconds each
+SLOW_MODULES = frozenset({
+    "test_loop_report", "test_load", "test_pipeline", "test_ros_cli", "test_examples", "test_fuzz_commands",
+    "test_wire_faults", "test_multi_bus", "test_signals", "test_hostile_input", "test_diagnostics",
+    "test_launch_files", "test_services", "test_lifecycle", "test_safety", "test_unify_baudrate",
+    "test_node_params", "test_core_startup", "test_compat_params",
+})
+#: ROS-free modules outside test/sim that drive the bus layer or the virtual bus
+SIM_MODULES = frozenset({"test_bus_sim", "test_bus_wire", "test_bus_protocol"})
+_ROS_NAMES = ("rclpy", "Rig", "Bench", "NodeProcess", "TopicClient")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        module = getattr(item, "module", None)
+        name = module.__name__.rsplit(".", 1)[-1] if module else ""
+        # the command suites run on both message paths; the rclpy-objects run is the slow repeat
+        if name in SLOW_MODULES or "[rclpy objects]" in item.nodeid:
+            item.add_marker(pytest.mark.slow)
+        if "sim" in item.path.parts or name in SIM_MODULES:
+            item.add_marker(pytest.mark.sim)
+        if module is not None and any(n in vars(module) for n in _ROS_NAMES):
+            item.add_marker(pytest.mark.ros)
