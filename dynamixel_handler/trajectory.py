@@ -224,13 +224,13 @@ class Follower:
             self._end(old, PREEMPTED, "preempted by a newer trajectory", hold=False)
         return old
 
-    def stop(self, job: Job, outcome: str, message: str) -> None:
-        """End ``job`` (cancel, node stopping) and hold the joints where they are."""
+    def stop(self, job: Job, outcome: str, message: str, hold: bool = True) -> None:
+        """End ``job`` (cancel, node stopping: the joints hold where they are; a joint command: not)."""
         with self._lock:
             if self.active is not job:
                 return
             self.active = None
-        self._end(job, outcome, message, hold=True)
+        self._end(job, outcome, message, hold=hold)
 
     def _end(self, job: Job, outcome: str, message: str, hold: bool) -> None:
         job.outcome, job.message = outcome, message
@@ -261,7 +261,9 @@ class Follower:
                     return
         if job.run is not None and now + self.period_s >= job.start_wall:
             target = job.run.trajectory.sample(now + self.period_s - job.start_wall)
-            self.goals.command(job.what, job.names, position=target.positions.tolist())
+            with self._lock:  # a job stopped meanwhile queues nothing after what stopped it
+                if self.active is job:
+                    self.goals.command(job.what, job.names, position=target.positions.tolist())
 
     def _finish(self, job: Job, outcome: str, message: str, hold: bool) -> None:
         with self._lock:

@@ -197,6 +197,17 @@ def test_preemption_and_cancel(rig):
     assert held > -0.9
 
 
+def test_a_joint_command_ends_a_running_trajectory_of_that_joint(rig):
+    settle(rig, {"pan": 0.0})
+    handle = send(rig, FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=["pan"],
+                                                                              points=[point(4.0, [1.5])])))
+    rig.wait(lambda: joint_rad(rig, "pan") > 0.1, what="the goal under way")
+    rig.publish("/joint_commands", JointState(name=["pan"], position=[-0.3]))
+    status, result = result_of(rig, handle)
+    assert status == 6 and "preempted by joint_commands" in result.error_string
+    rig.wait(lambda: abs(joint_rad(rig, "pan") + 0.3) < 0.01, what="pan at the joint command's position")
+
+
 def test_path_tolerance_violation_when_a_joint_is_held_back(rig):
     settle(rig, {"pan": 0.0, "tilt": 0.0})
     servo = rig.sim.servo(2)

@@ -19,7 +19,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..joint_goals import JointGoals
 from ..joints import JointMap, joint_map
-from ..trajectory import Follower, Job, Tolerances, TrajectoryError, make_points
+from ..trajectory import PREEMPTED, Follower, Job, Tolerances, TrajectoryError, make_points
 
 DEG = math.pi / 180.0
 #: why a trajectory is refused: its joints, or the rest of it (FollowJointTrajectory's two codes)
@@ -63,8 +63,12 @@ class JointCommands:
     # ------------------------------------------------------------------ joint_commands
     def _on_joint_commands(self, msg: JointState) -> None:
         try:
-            self.goals.command("joint_commands", list(msg.name), list(msg.position), list(msg.velocity),
-                               list(msg.effort))
+            names, fields = list(msg.name), (list(msg.position), list(msg.velocity), list(msg.effort))
+            active = self.follower.active  # a command for a joint of a running trajectory ends it first
+            if (active is not None and set(active.names) & set(names)
+                    and self.goals.check("joint_commands", names, *fields) is None):
+                self.follower.stop(active, PREEMPTED, "preempted by joint_commands", hold=False)
+            self.goals.command("joint_commands", names, *fields)
         except Exception as exc:  # a bad message must never take the node down
             self.log.error(f"joint_commands: dropped: {type(exc).__name__}: {exc}")
 
