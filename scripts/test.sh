@@ -9,4 +9,9 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 # shellcheck disable=SC1091
 set +u; source "$ROOT/env.sh"; set -u
 cd "$ROOT"
-exec python -m pytest -q -p no:cacheprovider "$@" test
+# the whole test folder unless a test file or folder is named
+paths=(test)
+for arg in "$@"; do
+  case "$arg" in -*) ;; *) [ -e "$arg" ] && paths=() ;; esac
+done
+exec python -m pytest -q -p no:cacheprovider "$@" "${paths[@]}"
