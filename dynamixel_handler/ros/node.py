@@ -217,6 +217,8 @@ class DynamixelHandlerNode(Node):
             self.outbox = Outbox(self.get_logger())
         self._thread = threading.Thread(target=self._run, name="dynamixel_loop", daemon=True)
         self._thread.start()
+        self.get_logger().info(f"loop running: {len(self.handler.table)} servo(s) at "
+                               f"{self.config['loop_rate']} Hz")
 
     def _unify_baudrate(self) -> None:
         """init/baudrate_auto_set: move servos found at other rates to `baudrate` before the scan."""
