@@ -159,9 +159,7 @@ class Handler:
             message = (f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected "
                        f"{want}: check power, wiring, IDs ({lo}..{hi}) and baudrate "
                        "(init/baudrate_auto_set can find servos at other rates)")
-            if not cfg["debug"]:
-                raise StartupError(message)
-            self.log.warning(message + " (debug: running on)")
+            self._startup_problem(message)
         used = set(cfg.used_series)
         for dxl_id, number in sorted(found.items()):
             try:
@@ -183,13 +181,17 @@ class Handler:
             message = (f"handling {len(self.table)} servo(s) {list(self.table.ids)} on {self.bus.device}, but "
                        f"init/expected_servo_num is {expected}: check the IDs on the bus, or set "
                        "init/expected_servo_num (0: any number)")
-            if not cfg["debug"]:
-                raise StartupError(message)
-            self.log.warning(message + " (debug: running on)")
+            self._startup_problem(message)
         for dxl_id in list(self.table.ids):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
             self._setup_servo(dxl_id)
+
+    def _startup_problem(self, message: str) -> None:
+        """Start-up cannot go on (StartupError), unless the debug parameter says to run on anyway."""
+        if not self.config["debug"]:
+            raise StartupError(message)
+        self.log.warning(message + " (debug: running on)")
 
     def _usable(self, found: dict[int, int], dummies: Sequence[int]) -> list[int]:
         """IDs among ``found`` that would be handled: known model of a used series, or a dummy."""
