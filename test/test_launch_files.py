@@ -168,7 +168,8 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
 
     with VirtualBus({1: 1020}) as sim:
         (spec,) = nodes(name, device_name=sim.path, **arguments)
-        proc = NodeProcess(spec.command(tmp_path))
+        # the shipped file scans once; on a loaded machine one lost ping would end the start-up
+        proc = NodeProcess(spec.command(tmp_path) + ["-p", "init/servo_auto_search.retry_times:=20"])
         rclpy.init()
         try:
             node = RosNode("launch_test")

@@ -22,11 +22,13 @@ def test_statistics_line_levels_and_device_gone(tmp_path):
         first = _lines(rig)[0]
         assert first.group(1) == "INFO" and first.group(2) == "100" and first.group(3) == "100", first.group(0)
 
-        # one servo of three silent: every read misses one (full 0 %) -> ERROR
+        # two servos of three silent: every read misses them (full 0 %) -> ERROR
+        rig.sim.set_silent(2, True)
         rig.sim.set_silent(3, True)
         mark = rig.mark()
         rig.wait(lambda: any(m.group(1) == "ERROR" and int(m.group(3)) < 80 for m in _lines(rig, mark)),
                  what="an ERROR statistics line with full < 80 %")
+        rig.sim.set_silent(2, False)
         rig.sim.set_silent(3, False)
 
         rig.sim.vanish()
