@@ -39,8 +39,15 @@ def publish(kind: str, rate: float, seconds: float) -> None:
     """Runs in a process of its own: publish one kind of hostile traffic at ``rate`` Hz."""
     import rclpy
     from rclpy.node import Node
-    from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsX, DynamixelControlXPosition,
-                                            DynamixelGoal, DynamixelShortcut, DynamixelStatus)
+
+    from dynamixel_handler_msgs.msg import (
+        DxlCommandsAll,
+        DxlCommandsX,
+        DynamixelControlXPosition,
+        DynamixelGoal,
+        DynamixelShortcut,
+        DynamixelStatus,
+    )
     rclpy.init()
     node = Node(f"abuse_{kind}")
     if kind == "huge":

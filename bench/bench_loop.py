@@ -53,8 +53,8 @@ os.environ["ROS_DOMAIN_ID"] = claim_domain()
 
 import wire  # noqa: E402
 from common import raise_priority  # noqa: E402
-from sim_process import BusProcess  # noqa: E402
 from node_run import Controller, NodeResult, measure_node  # noqa: E402
+from sim_process import BusProcess  # noqa: E402
 
 X_MODEL = 1020  # XM430-W350
 

@@ -37,7 +37,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-
 from common import Periods, cpu_seconds, machine_cpu_seconds
 from wire import GOAL_ADDRESS, PRESENT_ADDRESS
 

@@ -25,12 +25,11 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+import node_run  # noqa: E402
 from bench_loop import X_MODEL  # noqa: E402  (also claims the ROS domain before rclpy starts)
+from common import coarse_physics, hardware_priority, raise_priority  # noqa: E402
 
 from dynamixel_handler.sim import VirtualBus  # noqa: E402
-
-import node_run  # noqa: E402
-from common import coarse_physics, hardware_priority, raise_priority  # noqa: E402
 
 #: (bucket, any of these substrings in a frame) checked from the innermost frame outwards
 BUCKETS: list[tuple[str, tuple[str, ...]]] = [

@@ -27,10 +27,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bench_loop import X_MODEL  # noqa: E402  (also claims the ROS domain before rclpy starts)
-
 from common import coarse_physics, hardware_priority  # noqa: E402
 from node_run import GOAL_BASE, GOAL_CYCLE, SHIPPED_CONFIG, X_DEG_PER_PULSE, X_ZERO, node_params  # noqa: E402
-
 
 CONTROLLER = "controller: publish the command (not the node; subtracted)"
 WAIT = "sync read: wait, syscalls, reply parsing (+ bus wait)"

@@ -15,8 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from dynamixel_handler.protocol import host
-from dynamixel_handler.protocol import servo
+from dynamixel_handler.protocol import host, servo
 
 #: X series: Present Current (126, 2) + Present Velocity (128, 4) + Present Position (132, 4)
 PRESENT_ADDRESS, PRESENT_LENGTH = 126, 10

@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 import matplotlib
+
 matplotlib.use("Agg")  # files only, no display needed
 import matplotlib.pyplot as plt  # noqa: E402
 import rclpy  # noqa: E402

@@ -18,8 +18,18 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Dict, List, Mapping, Tuple
 
-from ._facts import (BAUD_RATES, EEPROM_END, INDIRECT, MODEL_FACTS, OLD_PRO_ITEMS, OPERATING_MODES_OF,
-                     SIGNED_ITEMS, TABLE_SIZE, X330_INDIRECT_DATA_BEFORE_FW52, ModelFacts)
+from ._facts import (
+    BAUD_RATES,
+    EEPROM_END,
+    INDIRECT,
+    MODEL_FACTS,
+    OLD_PRO_ITEMS,
+    OPERATING_MODES_OF,
+    SIGNED_ITEMS,
+    TABLE_SIZE,
+    X330_INDIRECT_DATA_BEFORE_FW52,
+    ModelFacts,
+)
 from ._sdk_files import load_sdk_table
 
 __all__ = ["Item", "Model", "model_by_number", "known_models", "OPERATING_MODES", "SERIES"]

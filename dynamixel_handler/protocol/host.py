@@ -20,11 +20,34 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
-from . import (BROADCAST_ID, HEADER, MAX_ID, MAX_PACKET_LENGTH, FrameReader, crc16, frame,  # noqa: F401
-                         stuff, unstuff)
-from . import (ACTION, ALERT_BIT, BULK_READ, BULK_WRITE, CLEAR, ERROR_NAMES, FACTORY_RESET,  # noqa: F401
-               FAST_BULK_READ, FAST_SYNC_READ, PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE,
-               WRITE)
+from . import (  # noqa: F401
+    ACTION,
+    ALERT_BIT,
+    BROADCAST_ID,
+    BULK_READ,
+    BULK_WRITE,
+    CLEAR,
+    ERROR_NAMES,
+    FACTORY_RESET,
+    FAST_BULK_READ,
+    FAST_SYNC_READ,
+    HEADER,
+    MAX_ID,
+    MAX_PACKET_LENGTH,
+    PING,
+    READ,
+    REBOOT,
+    REG_WRITE,
+    STATUS,
+    SYNC_READ,
+    SYNC_WRITE,
+    WRITE,
+    FrameReader,
+    crc16,
+    frame,
+    stuff,
+    unstuff,
+)
 
 #: Bytes of a status packet without parameters: header(4) id len(2) inst err crc(2).
 STATUS_OVERHEAD = 11

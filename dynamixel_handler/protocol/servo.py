@@ -11,12 +11,42 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from . import (ACTION, ALERT_BIT, BROADCAST_ID, BULK_READ, BULK_WRITE, CLEAR,  # noqa: F401
-                         ERR_ACCESS, ERR_CRC, ERR_DATA_LENGTH, ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_INSTRUCTION,
-                         ERR_NONE, ERR_RESULT_FAIL, FACTORY_RESET, FAST_BULK_READ, FAST_SYNC_READ, HEADER, MAX_ID,
-                         PING, READ, REBOOT, REG_WRITE, STATUS, SYNC_READ, SYNC_WRITE, WRITE, FrameReader, crc16,
-                         frame, stuff, unstuff, BACKUP, INSTRUCTION_NAMES)
-
+from . import (  # noqa: F401
+    ACTION,
+    ALERT_BIT,
+    BACKUP,
+    BROADCAST_ID,
+    BULK_READ,
+    BULK_WRITE,
+    CLEAR,
+    ERR_ACCESS,
+    ERR_CRC,
+    ERR_DATA_LENGTH,
+    ERR_DATA_LIMIT,
+    ERR_DATA_RANGE,
+    ERR_INSTRUCTION,
+    ERR_NONE,
+    ERR_RESULT_FAIL,
+    FACTORY_RESET,
+    FAST_BULK_READ,
+    FAST_SYNC_READ,
+    HEADER,
+    INSTRUCTION_NAMES,
+    MAX_ID,
+    PING,
+    READ,
+    REBOOT,
+    REG_WRITE,
+    STATUS,
+    SYNC_READ,
+    SYNC_WRITE,
+    WRITE,
+    FrameReader,
+    crc16,
+    frame,
+    stuff,
+    unstuff,
+)
 
 
 def build_packet(packet_id: int, instruction: int, params: bytes = b"", *, error: int | None = None) -> bytes:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import importlib
 import struct
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 

@@ -9,16 +9,33 @@ from __future__ import annotations
 
 from typing import Callable
 
-from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsPro, DxlCommandsX,
-                                        DynamixelControlPCurrent, DynamixelControlPExtendedPosition,
-                                        DynamixelControlPPosition, DynamixelControlPPwm, DynamixelControlPVelocity,
-                                        DynamixelControlProCurrent, DynamixelControlProExtendedPosition,
-                                        DynamixelControlProPosition, DynamixelControlProVelocity,
-                                        DynamixelControlXCurrent, DynamixelControlXCurrentBasePosition,
-                                        DynamixelControlXExtendedPosition, DynamixelControlXPosition,
-                                        DynamixelControlXPwm, DynamixelControlXVelocity, DynamixelExtra,
-                                        DynamixelGain, DynamixelGoal, DynamixelLimit, DynamixelShortcut,
-                                        DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DxlCommandsAll,
+    DxlCommandsP,
+    DxlCommandsPro,
+    DxlCommandsX,
+    DynamixelControlPCurrent,
+    DynamixelControlPExtendedPosition,
+    DynamixelControlPPosition,
+    DynamixelControlPPwm,
+    DynamixelControlProCurrent,
+    DynamixelControlProExtendedPosition,
+    DynamixelControlProPosition,
+    DynamixelControlProVelocity,
+    DynamixelControlPVelocity,
+    DynamixelControlXCurrent,
+    DynamixelControlXCurrentBasePosition,
+    DynamixelControlXExtendedPosition,
+    DynamixelControlXPosition,
+    DynamixelControlXPwm,
+    DynamixelControlXVelocity,
+    DynamixelExtra,
+    DynamixelGain,
+    DynamixelGoal,
+    DynamixelLimit,
+    DynamixelShortcut,
+    DynamixelStatus,
+)
 
 from ..commands import Commander, take_fields
 from ..logs import cut

@@ -19,7 +19,6 @@ import time
 from typing import Any, Callable
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-
 from rclpy.node import Node
 
 from .cdr import Codec, DecodeError

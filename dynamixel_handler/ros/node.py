@@ -21,23 +21,33 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
-from dynamixel_handler_msgs.msg import (DxlExternalPort, DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
-                                        DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DxlExternalPort,
+    DxlStates,
+    DynamixelDebug,
+    DynamixelError,
+    DynamixelExtra,
+    DynamixelGain,
+    DynamixelGoal,
+    DynamixelLimit,
+    DynamixelPresent,
+    DynamixelStatus,
+)
 
+from .. import serial_ports
 from ..bus import BusError, DynamixelBus
 from ..commands import Commander
 from ..dummy import BusWithDummies, make_dummies
 from ..external_ports import ExternalPorts
-from .. import serial_ports
-from ..tools.baudrate import search_rates, unify_baudrate
 from ..loop import Handler, Interrupted, StartupError, StepReport
 from ..timing import set_timer_slack
+from ..tools.baudrate import search_rates, unify_baudrate
 from . import convert, diagnostics, joint_commands, joint_states, services
 from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
-from .outbox import Outbox
 from .lean import TreePublisher, lean_publisher, lean_subscription, raw_cdr_usable
 from .loop_stats import LoopStats
+from .outbox import Outbox
 from .params import ConfigError, check_arguments, declare_and_load, describe
 
 NODE_NAME = "dynamixel_handler"

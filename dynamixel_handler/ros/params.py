@@ -12,12 +12,26 @@ import sys
 from typing import Any
 
 import rcl_interfaces.msg
-
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.node import Node
 
-from ..config import (ALIASES, BOOL, FLOAT, FLOAT_ARRAY, INT, INT_ARRAY, SCHEMA, SCHEMA_BY_NAME, STR, STR_ARRAY,
-                      TOLERATED_PREFIXES, Config, ConfigError, coerce, validate)
+from ..config import (
+    ALIASES,
+    BOOL,
+    FLOAT,
+    FLOAT_ARRAY,
+    INT,
+    INT_ARRAY,
+    SCHEMA,
+    SCHEMA_BY_NAME,
+    STR,
+    STR_ARRAY,
+    TOLERATED_PREFIXES,
+    Config,
+    ConfigError,
+    coerce,
+    validate,
+)
 from ..logs import cut
 
 _ROS_TYPES = {

@@ -377,7 +377,7 @@ class VirtualBus:
 
     def _execute(self, packet: p.Packet) -> list[tuple[float, bytes]]:
         now = self.clock()
-        inst, pid, prm = packet.instruction, packet.packet_id, packet.params
+        inst, pid = packet.instruction, packet.packet_id
         self.stats["instructions"] += 1
         handler = _HANDLERS.get(inst)
         entry = p.describe(packet, now)

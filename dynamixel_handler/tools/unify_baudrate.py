@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import difflib
 import sys
-from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
