@@ -9,9 +9,9 @@ handler uses, which ``DynamixelBus`` and the dummy-servo bus both implement. ROS
 from .api import ServoBus
 from .core import DynamixelBus
 from .errors import BusError
+from .group_read import GroupRead
 from .port import DYNAMIXEL_BAUDRATES
 from .stats import BusStats
-from .transport import GroupRead
 from .writes import PreparedWrite
 
 __all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite", "ServoBus"]

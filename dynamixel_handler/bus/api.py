@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Iterable, Mapping, Protocol, runtime_checkable
 
+from .group_read import GroupRead
 from .stats import BusStats
-from .transport import GroupRead
 from .writes import PreparedWrite
 
 

@@ -31,8 +31,8 @@ from __future__ import annotations
 from typing import Mapping
 
 from ..protocol import host as p
+from .group_read import check_id
 from .reads import Reads
-from .transport import _check_id
 from .writes import Writes
 
 
@@ -46,7 +46,7 @@ class DynamixelBus(Reads, Writes):
 
     def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
         """``size`` raw bytes from the control table of ``dxl_id``, or None."""
-        dxl_id = _check_id(dxl_id)
+        dxl_id = check_id(dxl_id)
         with self._transaction() as tx:
             status = self._unicast(dxl_id, p.READ, p.u16(address) + p.u16(size), size)
             if status is None or status.refused:
@@ -83,7 +83,7 @@ class DynamixelBus(Reads, Writes):
 
     def _write_like(self, instruction: int, what: str, dxl_id: int, params: bytes) -> bool:
         if dxl_id != p.BROADCAST_ID:
-            dxl_id = _check_id(dxl_id)
+            dxl_id = check_id(dxl_id)
         with self._transaction() as tx:
             if dxl_id == p.BROADCAST_ID:
                 sent = self._broadcast(p.build_instruction(dxl_id, instruction, params))

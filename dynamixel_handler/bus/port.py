@@ -12,6 +12,7 @@ import errno
 import os
 import select
 import time
+from typing import Any, Callable
 
 import serial
 from dynamixel_sdk import PortHandler
@@ -27,9 +28,16 @@ DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 
 SLEEP_SLACK_S = 0.0003
 
 
-class _SdkPort(PortHandler):
+class _SdkPort(PortHandler):  # type: ignore[misc]  # dynamixel_sdk has no type information
     """PortHandler that locks the device, keeps one pyserial handle across baud changes,
     and accepts every Dynamixel baud rate (the SDK refuses e.g. 4.5 Mbps)."""
+
+    # set by PortHandler
+    port_name: str
+    baudrate: int
+    is_open: bool
+    ser: Any  # serial.Serial (pyserial has no type information)
+    tx_time_per_byte: float
 
     def getCFlagBaud(self, baudrate: int) -> int:  # noqa: N802 (SDK name)
         return baudrate if baudrate in DYNAMIXEL_BAUDRATES else -1
@@ -73,7 +81,8 @@ def _sysfs_latency_path(device: str) -> str | None:
 class SerialPort:
     """A Dynamixel serial line: exclusive open, raw bytes out, bytes in with a deadline."""
 
-    def __init__(self, device: str, baudrate: int, latency_timer_ms: float, log=None) -> None:
+    def __init__(self, device: str, baudrate: int, latency_timer_ms: float,
+                 log: Callable[[str, str], None] | None = None) -> None:
         self.device = device
         self.baudrate = baudrate
         self.latency_timer_ms = float(latency_timer_ms)
@@ -87,6 +96,13 @@ class SerialPort:
     @property
     def is_open(self) -> bool:
         return self._port is not None and self._port.is_open and not self.lost
+
+    @property
+    def _sdk(self) -> _SdkPort:
+        """The open port; AttributeError when closed (the I/O methods below are used on an open port)."""
+        if self._port is None:
+            raise AttributeError(f"{self.device} is closed")
+        return self._port
 
     def open(self) -> None:
         check_baudrate(self.baudrate)
@@ -118,7 +134,7 @@ class SerialPort:
         self.baudrate = baudrate
         if self.is_open:
             try:
-                self._port.setBaudRate(baudrate)
+                self._sdk.setBaudRate(baudrate)
             except (serial.SerialException, OSError, ValueError) as exc:
                 raise BusError(f"cannot set {self.device} to {baudrate} bps: {exc}") from exc
 
@@ -161,23 +177,23 @@ class SerialPort:
 
     def discard_input(self) -> int:
         """Drop whatever is waiting (late replies of earlier transactions); returns the count."""
-        ser = self._port.ser
+        ser = self._sdk.ser
         dropped = 0
         while True:
             waiting = ser.in_waiting
             if not waiting:
                 return dropped
-            dropped += len(self._port.readPort(waiting))
+            dropped += len(self._sdk.readPort(waiting))
 
     def waiting(self) -> int:
         """Bytes in the input buffer now (0 if the port is closed or gone)."""
         try:
-            return self._port.ser.in_waiting if self.is_open else 0
+            return self._sdk.ser.in_waiting if self.is_open else 0
         except (OSError, serial.SerialException, AttributeError):
             return 0
 
     def write(self, packet: bytes) -> None:
-        written = self._port.writePort(packet)
+        written = self._sdk.writePort(packet)
         if written != len(packet):
             raise serial.SerialException(f"wrote {written} of {len(packet)} bytes")
 
@@ -192,7 +208,7 @@ class SerialPort:
         for the next bytes instead. Returns b"" at the deadline.
         Raises OSError/SerialException if the device vanished.
         """
-        ser = self._port.ser
+        ser = self._sdk.ser
         fd = ser.fileno()
         while True:
             waiting = ser.in_waiting
@@ -205,7 +221,7 @@ class SerialPort:
                     return b""
                 waiting = ser.in_waiting
                 if not waiting:
-                    data = self._port.readPort(1)
+                    data = self._sdk.readPort(1)
                     if data:
                         return bytes(data)
                     # readable but empty: a hung-up device (pyserial raises on most systems)
@@ -217,7 +233,7 @@ class SerialPort:
                 if rest_s > 0:
                     time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
                     waiting = max(waiting, ser.in_waiting)
-            return bytes(self._port.readPort(waiting))
+            return bytes(self._sdk.readPort(waiting))
 
 
 def blind_sleep_s(missing: int, byte_s: float, now: float, due: float | None = None) -> float:

@@ -8,7 +8,8 @@ from typing import Iterable, Mapping
 import serial
 
 from ..protocol import host as p
-from .transport import GroupRead, Transport, _check_id, _reply_bytes, _unique_ids
+from .group_read import GroupRead, check_id, reply_bytes, unique_ids
+from .transport import Transport
 
 #: Scans of more IDs than this use one broadcast ping instead of a ping per ID.
 BROADCAST_SCAN_MIN_IDS = 5
@@ -24,7 +25,7 @@ class Reads(Transport):
 
     def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
         """Model number of ``dxl_id``, or None if it does not answer."""
-        dxl_id = _check_id(dxl_id)
+        dxl_id = check_id(dxl_id)
         with self._transaction() as tx:
             status = self._unicast(dxl_id, p.PING, b"", PING_REPLY_PARAMS, retries)
             if status is None or status.refused:
@@ -48,7 +49,7 @@ class Reads(Transport):
         replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
         bus; any other transaction first waits for this read to end, so none is ever lost.
         """
-        order = tuple(_unique_ids(ids))
+        order = tuple(unique_ids(ids))
         if not order:
             return GroupRead.finished({})
         key = (address, length, order, fast)
@@ -64,7 +65,7 @@ class Reads(Transport):
 
     def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:
         """Different ``(address, size)`` per servo in one instruction; returns the IDs that answered."""
-        requests = {_check_id(i): (int(a), int(n)) for i, (a, n) in requests.items()}
+        requests = {check_id(i): (int(a), int(n)) for i, (a, n) in requests.items()}
         order = list(requests)
         if not order:
             return {}
@@ -81,7 +82,7 @@ class Reads(Transport):
         with the highest ID); if that reply train was garbled (collisions, CRC errors)
         the IDs not found are pinged one by one. Unicast scan pings are not retried.
         """
-        wanted = sorted(_unique_ids(ids))
+        wanted = sorted(unique_ids(ids))
         if not wanted:
             return {}
         if broadcast is None:
@@ -109,7 +110,7 @@ class Reads(Transport):
             read = GroupRead(self, packet, expected, fast, what)
             read.sent = self._send_or_lose(packet)
             if read.sent:
-                read.reply_bytes = _reply_bytes(expected, fast)
+                read.reply_bytes = reply_bytes(expected, fast)
                 read.eta = min(self._wire_free_at + read.reply_bytes * self._port.tx_ms_per_byte / 1000.0
                                + self.reply_lag_s,
                                read.started + self.reply_timeout_ms(len(packet), read.reply_bytes) / 1000.0)

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from typing import Mapping
 
 from ..protocol import host as p
-from .transport import Transport, _check_id
+from .group_read import check_id
+from .transport import Transport
 
 
 @dataclass(frozen=True)
@@ -33,7 +34,7 @@ class Writes(Transport):
         """Check and build a sync write now, to send it later with :meth:`send_prepared` (e.g.
         while a read is on the wire, so that the packet is ready the moment the line is free).
         ValueError for invalid IDs or data lengths, as :meth:`sync_write`."""
-        data = {_check_id(i): bytes(chunk) for i, chunk in data.items()}
+        data = {check_id(i): bytes(chunk) for i, chunk in data.items()}
         if not data:
             return PreparedWrite(address, length, (), b"")
         params = p.sync_write_params(address, length, data.items())
@@ -48,7 +49,7 @@ class Writes(Transport):
 
     def bulk_write(self, data: Mapping[int, tuple[int, bytes]]) -> bool:
         """Different ``(address, bytes)`` per servo in one broadcast packet (no reply); True when sent."""
-        data = {_check_id(i): (int(a), bytes(chunk)) for i, (a, chunk) in data.items()}
+        data = {check_id(i): (int(a), bytes(chunk)) for i, (a, chunk) in data.items()}
         order = list(data)
         if not order:
             return True

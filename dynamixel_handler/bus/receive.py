@@ -1,0 +1,143 @@
+"""Reply gathering of ``Transport`` (a mixin): how long to wait, status packets collected one per
+expected ID or one fast-read reply split by position, the status error bytes noted, and a device
+that stops working mid-run."""
+from __future__ import annotations
+
+import time
+
+import serial
+
+from ..protocol import host as p
+from .group_read import reply_bytes
+from .port import SerialPort
+from .stats import BusStats
+
+
+class Receiving:
+    """The receiving side of one serial line; ``Transport`` sets these attributes."""
+
+    stats: BusStats
+    verbose: bool
+    timeout_margin_ms: float
+    #: the reply wait (ms) computed for the latest transaction
+    last_timeout_ms: float
+    #: status error byte last reported by each servo (0x80 = hardware error present)
+    last_error_bytes: dict[int, int]
+    #: how much later than their wire time replies arrive (learnt, seconds)
+    reply_lag_s: float
+    _port: SerialPort
+    _logger: object
+    _wire_free_at: float
+
+    def reply_timeout_ms(self, tx_bytes: int, rx_bytes: int) -> float:
+        """How long to wait for ``rx_bytes`` of reply after sending ``tx_bytes``.
+
+        Two latency-timer periods (the adapter buffers each direction), the wire time of
+        both packets and a margin for the servo's return delay and host scheduling.
+        """
+        return (2.0 * self._port.effective_latency_ms + (tx_bytes + rx_bytes) * self._port.tx_ms_per_byte
+                + self.timeout_margin_ms)
+
+    def _gather(self, expected: list[tuple[int, int]], tx_bytes: int, fast: bool,
+                sent_at: float | None = None) -> dict[int, p.Status] | None:
+        """The replies to a packet sent at ``sent_at`` (default: just now); None if the port is unusable."""
+        if not expected:
+            return {}
+        sent_at = time.monotonic() if sent_at is None else sent_at
+        # when the last reply byte should be in: the line is free of what was sent at _wire_free_at
+        # (no other packet goes out while a read is in flight), then the replies and the usual lag
+        due = (self._wire_free_at + reply_bytes(expected, fast) * self._port.tx_ms_per_byte / 1000.0
+               + self.reply_lag_s)
+        try:
+            if fast:
+                return self._receive_fast(expected, tx_bytes, sent_at, due)
+            return self._receive(expected, tx_bytes, sent_at, due)
+        except (OSError, serial.SerialException) as exc:
+            self._lose(exc)
+            return None
+        finally:
+            # what was sent before has been answered (or timed out): the line is free now
+            self._wire_free_at = min(self._wire_free_at, time.monotonic())
+
+    def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
+                 due: float | None = None) -> dict[int, p.Status]:
+        """Collect stuffed status packets, one per expected ID, each with its own wait.
+
+        The first reply gets the full timeout (our packet's wire time included); each
+        reply that arrives restarts the wait for the next, so one silent servo costs
+        one reply wait and the others are still collected.
+        """
+        pending = dict(expected)
+        largest = p.STATUS_OVERHEAD + max(size for _, size in expected)
+        first_ms = self.reply_timeout_ms(tx_bytes, largest)
+        gap_s = self.reply_timeout_ms(0, largest) / 1000.0
+        self.last_timeout_ms = first_ms
+        deadline = sent_at + first_ms / 1000.0
+        stream = p.StatusStream()
+        got: dict[int, p.Status] = {}
+        while pending:
+            data = self._port.read_until(deadline, sum(p.STATUS_OVERHEAD + n for n in pending.values())
+                                         - stream.pending_bytes, due)
+            if not data:
+                break
+            self.stats.bytes_rx += len(data)
+            for status in stream.feed(data):
+                size = pending.get(status.dxl_id)
+                if size is None or (len(status.params) != size and not status.refused):
+                    # a late reply of an earlier transaction, or not ours: never take it as the answer
+                    self.stats.discarded_bytes += p.STATUS_OVERHEAD + len(status.params)
+                    continue
+                del pending[status.dxl_id]
+                got[status.dxl_id] = status
+                self._note_status(status)
+                deadline = max(deadline, time.monotonic() + gap_s)
+        if pending:
+            self.stats.timeouts += 1
+        self.stats.crc_errors += stream.crc_errors
+        self.stats.discarded_bytes += stream.discarded_bytes
+        return got
+
+    def _receive_fast(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
+                      due: float | None = None) -> dict[int, p.Status]:
+        """Collect the single unstuffed fast-read reply and split it by position."""
+        reply = p.FastReply(expected)
+        total = 8 + sum(size + 4 for _, size in expected)
+        first_ms = self.reply_timeout_ms(tx_bytes, total)
+        gap_s = self.reply_timeout_ms(0, 4 + max(size for _, size in expected)) / 1000.0
+        self.last_timeout_ms = first_ms
+        deadline = sent_at + first_ms / 1000.0
+        while not reply.complete:
+            data = self._port.read_until(deadline, total - reply.received_bytes, due)
+            if not data:
+                break
+            self.stats.bytes_rx += len(data)
+            reply.feed(data)
+            deadline = max(deadline, time.monotonic() + gap_s)
+        got = reply.segments()
+        for status in got.values():
+            self._note_status(status)
+        if not reply.complete:
+            self.stats.timeouts += 1
+        self.stats.crc_errors += reply.crc_errors
+        self.stats.discarded_bytes += reply.discarded_bytes
+        return got
+
+    def _note_status(self, status: p.Status) -> None:
+        self.last_error_bytes[status.dxl_id] = status.error
+        if status.refused:
+            self.stats.servo_errors += 1
+            if self.verbose:
+                self._log("warning", f"ID {status.dxl_id} refused: {p.error_text(status.error)}")
+
+    def _lose(self, exc: BaseException) -> None:
+        """The device went away mid-run: fail fast from now on until reopen()."""
+        if not self._port.lost:
+            self._port.lost = True
+            self.stats.disconnects += 1
+            self._log("error", f"{self._port.device} stopped working ({exc}): the port hung up (adapter unplugged, or "
+                               "another process reading it?); transactions fail until reopen() succeeds")
+        self._port.close()
+
+    def _log(self, level: str, message: str) -> None:
+        method = getattr(self._logger, level, None) or getattr(self._logger, "info")
+        method(message)
