@@ -38,6 +38,8 @@ class RegisterFile:
                 self.owner[a] = it
         self._data_lo = min(self._map, default=end)
         self._data_hi = max(self._map, default=-1)
+        #: first RAM address: the bytes below are the EEPROM area
+        self.eeprom_end = min((it.address for it in self.items if not it.eeprom), default=end)
 
     # ------------------------------------------------------------------ values
     def peek(self, it: Item) -> int:
@@ -51,6 +53,24 @@ class RegisterFile:
         """Every Indirect Address points at its own Data byte (plain storage), as shipped."""
         for data, entry in self._map.items():
             self.poke(entry, data)
+
+    def eeprom_image(self) -> bytes:
+        """The bytes a backup (and a state file) keeps: the EEPROM area and the Indirect
+        Address entries that lie beyond it."""
+        out = bytearray(self.regs[:self.eeprom_end])
+        for it in self.indirect_addresses:
+            if it.address >= self.eeprom_end:
+                out += self.regs[it.address:it.address + it.size]
+        return bytes(out)
+
+    def load_eeprom_image(self, image: bytes) -> None:
+        """Put back what ``eeprom_image`` returned."""
+        self.regs[:self.eeprom_end] = image[:self.eeprom_end]
+        k = self.eeprom_end
+        for it in self.indirect_addresses:
+            if it.address >= self.eeprom_end:
+                self.regs[it.address:it.address + it.size] = image[k:k + it.size]
+                k += it.size
 
     def is_indirect_data(self, address: int) -> bool:
         return address in self._map
@@ -105,3 +125,31 @@ class RegisterFile:
         if not changes and not raw:
             return p.ERR_ACCESS, [], []
         return p.ERR_NONE, changes, raw
+
+
+class ServoRegisters:
+    """What every part of a virtual servo shares: its model and its values by item name."""
+
+    model: Model
+    _file: RegisterFile
+    _regs: bytearray
+    _x: bool
+    baud_rates: dict[int, int]
+    _shutdown_latched: bool
+
+    def _peek(self, name: str) -> int:
+        it = self.model.item(name)
+        return int.from_bytes(self._regs[it.address:it.address + it.size], "little", signed=it.signed)
+
+    def _poke(self, name: str, value: int) -> None:
+        if not self.model.has(name):
+            return
+        it = self.model.item(name)
+        mask = (1 << (8 * it.size)) - 1
+        self._regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
+
+    def _has(self, name: str) -> bool:
+        return self.model.has(name)
+
+    def _get(self, name: str, default: int = 0) -> int:
+        return self._peek(name) if self.model.has(name) else default

@@ -9,31 +9,26 @@ range error, goals beyond their limits a limit error, and nothing is written on 
 
 from __future__ import annotations
 
-import math
 from typing import Callable
 
 from dynamixel_handler.control_table import Item, Model, model_by_number
 
 from ..protocol import servo as p
 from .defaults import MODE_RESET_ITEMS, READ_ONLY, factory_defaults, family
-from .motion import Command, Motor, profile_kind
+from .memory import ServoMemory
+from .motion import Motor, profile_kind
 from .registers import RegisterFile
+from .write_rules import Changes, check_value
 
-POSITION_MODES = (3, 4, 5)
-EXTENDED_MODES = (4, 5)
-X_EXTENDED_GOAL_LIMIT = 1_048_575
-X_HOMING_MAX = 1_044_479
-X_GAIN_MAX = 16383
-X_GAINS = ("velocity_i_gain", "velocity_p_gain", "position_d_gain", "position_i_gain", "position_p_gain",
-           "feedforward_2nd_gain", "feedforward_1st_gain")
 CLEAR_KEY = bytes([0x01, 0x44, 0x58, 0x4C, 0x22])
-BACKUP_KEY = b"CTRL"  # Control Table Backup: 0x01 (store) or 0x02 (restore), then "CTRL"
-LAG_S = 0.05
-_ANALOG_INPUT = 2048
 
 
-class VirtualServo:
-    """A servo on the virtual bus. Values are in pulses (raw register units)."""
+class VirtualServo(ServoMemory):
+    """A servo on the virtual bus. Values are in pulses (raw register units).
+
+    This class answers the host's instructions; ``ServoMemory`` powers it up, resets it and
+    keeps its EEPROM, ``ServoDynamics`` moves the shaft and writes the present values, and
+    ``write_rules`` decides which written values a servo refuses."""
 
     def __init__(self, model: Model | int, servo_id: int, clock: Callable[[], float]) -> None:
         self.model: Model = model_by_number(model) if isinstance(model, int) else model
@@ -46,7 +41,7 @@ class VirtualServo:
         self._file = RegisterFile(self.model, self._defaults["firmware_version"])
         self._regs = self._file.regs
         self._items = self._file.items
-        self._eeprom_end = min((it.address for it in self._items if not it.eeprom), default=len(self._regs))
+        self._eeprom_end = self._file.eeprom_end
         self._backup: bytes | None = None
         #: set when an EEPROM byte changes (the bus saves its state file then)
         self.eeprom_changed = False
@@ -137,24 +132,6 @@ class VirtualServo:
         """The status packet's error byte: ``error`` plus the alert bit on a hardware error."""
         return error | (p.ALERT_BIT if self._peek("hardware_error_status") else 0)
 
-    # ------------------------------------------------------------------ registers
-    def _peek(self, name: str) -> int:
-        it = self.model.item(name)
-        return int.from_bytes(self._regs[it.address:it.address + it.size], "little", signed=it.signed)
-
-    def _poke(self, name: str, value: int) -> None:
-        if not self.model.has(name):
-            return
-        it = self.model.item(name)
-        mask = (1 << (8 * it.size)) - 1
-        self._regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
-
-    def _has(self, name: str) -> bool:
-        return self.model.has(name)
-
-    def _get(self, name: str, default: int = 0) -> int:
-        return self._peek(name) if self.model.has(name) else default
-
     # ------------------------------------------------------------------ host instructions
     def note_instruction(self, now: float) -> None:
         """An instruction for this servo arrived: feeds the bus watchdog."""
@@ -231,166 +208,18 @@ class VirtualServo:
         self._hold_if_position_mode()
         return p.ERR_NONE
 
-    def reboot(self, now: float) -> None:
-        """Power cycle: RAM back to defaults, multi-turn folded to one turn, errors cleared.
-        EEPROM, the Indirect Address entries and a control-table backup are kept."""
-        self.refresh(now)
-        ram_start = self._eeprom_end
-        kept = [(it, self._file.peek(it)) for it in self._file.indirect_addresses]
-        self._regs[ram_start:] = bytes(len(self._regs) - ram_start)
-        for it, value in kept:
-            self._file.poke(it, value)
-        for name, value in self._defaults.items():
-            if self.model.item(name).address >= ram_start:
-                self._poke(name, value)
-        self._poke("backup_ready", 1 if self._backup is not None else 0)
-        self._motor.stop()
-        self._motor.p = self._fold(self._motor.p)
-        self._pending = None
-        self._shutdown_latched = False
-        self._port_latch.clear()
-        self._boot = now
-        self._last_instruction = now
-        if self._get("startup_configuration") & 0x01:
-            self._apply("torque_enable", 1, now)
-
-    def factory_reset(self, option: int, now: float) -> None:
-        keep = {}
-        if option in (0x01, 0x02):
-            keep["id"] = self._peek("id")
-        if option == 0x02:
-            keep["baud_rate"] = self._peek("baud_rate")
-        for name, value in self._defaults.items():
-            self._poke(name, keep.get(name, 1 if name == "id" else value))
-        if self.partner is not None:
-            self.partner._poke("baud_rate", self._peek("baud_rate"))
-        self._file.factory_indirect()
-        self.eeprom_changed = True
-        self.reboot(now)
-
-    # ------------------------------------------------------------------ backup, state
-    def _eeprom_image(self) -> bytes:
-        """The bytes a backup (and a state file) keeps: the EEPROM area and the Indirect
-        Address entries."""
-        out = bytearray(self._regs[:self._eeprom_end])
-        for it in self._file.indirect_addresses:
-            if it.address >= self._eeprom_end:
-                out += self._regs[it.address:it.address + it.size]
-        return bytes(out)
-
-    def _load_eeprom_image(self, image: bytes) -> None:
-        self._regs[:self._eeprom_end] = image[:self._eeprom_end]
-        k = self._eeprom_end
-        for it in self._file.indirect_addresses:
-            if it.address >= self._eeprom_end:
-                self._regs[it.address:it.address + it.size] = image[k:k + it.size]
-                k += it.size
-
-    def backup(self, params: bytes, now: float) -> int:
-        """Control Table Backup (0x20): 0x01 "CTRL" stores the EEPROM area, 0x02 "CTRL" puts it
-        back. Models without Backup Ready do not know the instruction; torque must be off."""
-        self.refresh(now)
-        if not self.model.has("backup_ready"):
-            return p.ERR_INSTRUCTION
-        if len(params) != 5 or params[1:] != BACKUP_KEY or params[0] not in (0x01, 0x02):
-            return p.ERR_DATA_RANGE
-        if self._peek("torque_enable") == 1:
-            return p.ERR_ACCESS
-        if params[0] == 0x01:
-            self._backup = self._eeprom_image()
-            self._poke("backup_ready", 1)
-        elif self._backup is None:
-            return p.ERR_RESULT_FAIL
-        else:
-            keep = {n: self._peek(n) for n in ("id", "model_number", "firmware_version")}
-            self._load_eeprom_image(self._backup)
-            for name, value in keep.items():  # the servo stays where the host reached it
-                self._poke(name, value)
-        self.eeprom_changed = True
-        return p.ERR_NONE
-
-    def state(self) -> dict:
-        """What survives a power cycle, as JSON-ready values (the bus's ``--state`` file)."""
-        return {"model": self.model.number, "eeprom": self._eeprom_image().hex(),
-                "backup": self._backup.hex() if self._backup is not None else None}
-
-    def load_state(self, state: dict, now: float) -> None:
-        """Power up with a saved EEPROM (and backup), RAM at its defaults."""
-        self._load_eeprom_image(bytes.fromhex(state["eeprom"]))
-        self._poke("model_number", self.model.number)
-        self._poke("firmware_version", self._defaults["firmware_version"])
-        backup = state.get("backup")
-        self._backup = bytes.fromhex(backup) if backup else None
-        self.reboot(now)
-
     # ------------------------------------------------------------------ write rules
-    def _check_value(self, name: str, value: int, changes: list[tuple[Item, int]]) -> int:
-        def new(n: str) -> int:
-            for it, v in changes:
-                if it.name == n:
-                    return v
-            return self._get(n)
-
-        x = self._x
-        ranges = {
-            "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2),
-            "torque_enable": (0, 1), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
-            "temperature_limit": (0, 100), "startup_configuration": (0, 3),
-            "pwm_limit": (0, 885 if x else 2009), "led": (0, 1),
-            "external_port_mode_1": (0, 3), "external_port_mode_2": (0, 3),
-            "external_port_mode_3": (0, 3), "external_port_mode_4": (0, 3),
-            "max_position_limit": (self.model.position_min_pulse, self.model.position_max_pulse),
-            "min_position_limit": (self.model.position_min_pulse, self.model.position_max_pulse),
-        }
-        if x:  # X e-Manual ranges
-            ranges.update({name: (0, X_GAIN_MAX) for name in X_GAINS})
-            ranges.update({"homing_offset": (-X_HOMING_MAX, X_HOMING_MAX), "moving_threshold": (0, 1023),
-                           "profile_acceleration": (0, 32767), "profile_velocity": (0, 32767)})
-        if name in ranges:
-            lo, hi = ranges[name]
-            if not lo <= value <= hi:
-                return p.ERR_DATA_RANGE
-        if name == "operating_mode" and value not in self.model.operating_modes:
-            return p.ERR_DATA_RANGE
-        if name == "operating_mode" and value == 0 and math.isnan(self.model.current_ma_per_pulse):
-            return p.ERR_DATA_RANGE
-        if name == "baud_rate" and value not in self.baud_rates:
-            return p.ERR_DATA_RANGE
-        if name == "drive_mode" and x and value & ~0x0D:
-            return p.ERR_DATA_RANGE
-        if name.startswith("goal_") and self._get("bus_watchdog") < 0:
-            return p.ERR_DATA_RANGE  # goals are read-only after a bus watchdog error
-        if name == "torque_enable" and value == 1 and self._shutdown_latched:
-            return p.ERR_RESULT_FAIL
-        limits = {"goal_pwm": "pwm_limit", "goal_current": "current_limit",
-                  "goal_velocity": "velocity_limit"}
-        if name in limits and self._has(limits[name]) and abs(value) > new(limits[name]):
-            return p.ERR_DATA_LIMIT
-        if name == "goal_position":
-            mode = new("operating_mode")
-            if mode == 3 and not new("min_position_limit") <= value <= new("max_position_limit"):
-                return p.ERR_DATA_LIMIT
-            if mode in EXTENDED_MODES and x and abs(value) > X_EXTENDED_GOAL_LIMIT:
-                return p.ERR_DATA_LIMIT
-        return p.ERR_NONE
+    def _check_value(self, name: str, value: int, changes: Changes) -> int:
+        return check_value(self, name, value, changes)
 
     def _apply(self, name: str, value: int, now: float) -> None:
+        """Store an accepted value and do what the firmware does when that item changes."""
         old = self._get(name)
         self._poke(name, value)
         if name == "torque_enable":
-            if value == 1 and old == 0:
-                if self._get("operating_mode") == 3:
-                    self._motor.p = self._fold(self._motor.p)
-                self._hold_if_position_mode()
-                self._last_instruction = now
-            elif value == 0:
-                self._motor.stop()
+            self._torque_changed(old, value, now)
         elif name == "operating_mode" and value != old:
-            for reset in MODE_RESET_ITEMS:
-                if reset in self._defaults:
-                    self._poke(reset, self._defaults[reset])
-            if value == 3:
-                self._motor.p = self._fold(self._motor.p)
+            self._mode_changed(value)
         elif name == "baud_rate" and self.partner is not None:
             self.partner._poke("baud_rate", value)
             self.partner.eeprom_changed = True
@@ -403,6 +232,14 @@ class VirtualServo:
         elif name.startswith("external_port_data_"):
             self._port_latch[int(name[-1])] = value
 
+    def _mode_changed(self, value: int) -> None:
+        """The e-Manual: a new operating mode puts gains and profiles back to their defaults."""
+        for reset in MODE_RESET_ITEMS:
+            if reset in self._defaults:
+                self._poke(reset, self._defaults[reset])
+        if value == 3:
+            self._motor.p = self._fold(self._motor.p)
+
     def _apply_hardware_error(self, bits: int) -> None:
         if bits & self._get("shutdown", 0xFF):
             self._shutdown_latched = True
@@ -410,136 +247,3 @@ class VirtualServo:
             self._motor.stop()
         elif bits == 0:
             self._shutdown_latched = False
-
-    # ------------------------------------------------------------------ frames and physics
-    def _sign(self) -> float:
-        return -1.0 if self._get("drive_mode") & 0x01 else 1.0
-
-    def _user_position(self) -> float:
-        return self._sign() * self._motor.p + self._get("homing_offset")
-
-    def _revolution(self) -> int:
-        return 4096 if self._x else 2 * self.model.position_max_pulse
-
-    def _fold(self, raw: float) -> float:
-        rev = self._revolution()
-        if self._x:
-            return raw % rev
-        half = rev // 2
-        return ((raw + half) % rev) - half
-
-    def _hold_if_position_mode(self) -> None:
-        if self._get("operating_mode") in POSITION_MODES:
-            self._poke("goal_position", int(round(self._user_position())))
-
-    def _scale(self, kind: str) -> float:
-        per = {"v": self.model.velocity_deg_s_per_pulse, "a": self.model.acceleration_deg_ss_per_pulse}[kind]
-        return per / self.model.position_deg_per_pulse
-
-    def _threshold_pulses(self) -> float:
-        return self._get("moving_threshold") * self._scale("v")
-
-    def _command(self) -> Command:
-        torque = self._get("torque_enable") == 1
-        mode = self._get("operating_mode")
-        s = self._sign()
-        vscale, ascale = self._scale("v"), self._scale("a")
-        vlim = max(self._get("velocity_limit"), 1) * vscale
-        prof_a = self._get("profile_acceleration")
-        amax = prof_a * ascale if prof_a > 0 else math.inf
-        if mode in POSITION_MODES:
-            if self._has("profile_velocity"):
-                pv = self._get("profile_velocity")
-            else:  # old PRO: Goal Velocity caps the position move
-                pv = abs(self._get("goal_velocity"))
-            vmax = min(pv * vscale, vlim) if pv > 0 else vlim
-            if self._get("drive_mode") & 0x04 and pv > 0:  # time-based profile: ms, not velocity
-                span = abs(self._get("goal_position") - self._user_position())
-                accel_ms = min(prof_a, pv // 2) if prof_a > 0 else 0
-                vmax = min(span / max((pv - accel_ms) / 1000.0, 1e-3), vlim) or vlim
-                amax = vmax / (accel_ms / 1000.0) if accel_ms > 0 else math.inf
-            target = (self._get("goal_position") - self._get("homing_offset")) * s
-            return Command(torque, 0.0, target, vmax, amax)
-        if mode == 1:
-            return Command(torque, s * self._get("goal_velocity") * vscale, None, vlim, amax)
-        if mode == 16:
-            full = 885.0 if self._x else 2009.0
-            return Command(torque, s * self._get("goal_pwm") / full * vlim, None, vlim, math.inf, LAG_S)
-        if mode == 0:
-            limit = max(self._get("current_limit"), 1)
-            return Command(torque, s * self._get("goal_current") / limit * vlim, None, vlim, math.inf, LAG_S)
-        return Command(False)
-
-    def _watchdog_deadline(self) -> float | None:
-        wd = self._get("bus_watchdog")
-        if self._get("torque_enable") != 1 or not 1 <= wd <= 127:
-            return None
-        return self._last_instruction + wd * 0.020
-
-    def refresh(self, now: float) -> None:
-        """Advance motion to ``now`` and rewrite every present-value register."""
-        deadline = self._watchdog_deadline()
-        if deadline is not None and deadline < now:
-            self._motor.advance(deadline - self._t, self._command())
-            self._t = max(self._t, deadline)
-            self._trip_watchdog()
-        self._motor.advance(now - self._t, self._command())
-        self._t = max(self._t, now)
-        self._publish(now)
-
-    def _trip_watchdog(self) -> None:
-        """The e-Manual: the servo stops and Bus Watchdog reads -1; goals become read-only."""
-        self._motor.stop()
-        for goal in ("goal_velocity", "goal_pwm", "goal_current"):
-            self._poke(goal, 0)
-        self._hold_if_position_mode()
-        self._poke("bus_watchdog", -1)
-
-    def _publish(self, now: float) -> None:
-        m, s = self._motor, self._sign()
-        torque = self._get("torque_enable") == 1
-        vscale = self._scale("v")
-        vlim = max(self._get("velocity_limit"), 1) * vscale
-        mode = self._get("operating_mode")
-        cmd = self._command()
-        position = self._user_position()
-        self._poke("present_position", int(round(position)))
-        self._poke("position_trajectory", int(round(position)))
-        velocity = s * m.v / vscale
-        self._poke("present_velocity", int(round(velocity)))
-        self._poke("velocity_trajectory", int(round(velocity)))
-        frac_v = s * m.v / vlim
-        frac_a = max(-1.0, min(1.0, s * m.a / (10.0 * vlim)))
-        load = (0.05 * frac_v + 0.3 * frac_a) if torque else 0.0
-        limit = self._get("current_limit", 0)
-        if mode == 0 and torque:
-            current = self._get("goal_current")
-        else:
-            current = int(round(load * limit))
-        self._poke("present_current", current)
-        self._poke("present_load", int(round(load * 1000)))
-        full = 885 if self._x else 2009
-        pwm = self._get("goal_pwm") if (mode == 16 and torque) else int(round((frac_v + 0.1 * frac_a) * full)) if torque else 0
-        pwm_limit = self._get("pwm_limit", full)
-        self._poke("present_pwm", max(-pwm_limit, min(pwm_limit, pwm)))
-        self._poke("present_input_voltage", int(round(self.supply_v * 10)))
-        heat = abs(current) / limit if limit else 0.0
-        self._poke("present_temperature", self.ambient_c + (2 if torque else 0) + int(round(8 * heat)))
-        self._poke("realtime_tick", int((now - self._boot) * 1000) % 32768)
-        in_motion = abs(m.v) > self._threshold_pulses()
-        ongoing = torque and cmd.target_p is not None and not m.at_target(cmd)
-        self._poke("moving", 1 if (in_motion or ongoing) else 0)
-        status = 0
-        if cmd.target_p is not None and torque:
-            if not ongoing:
-                status |= 0x01
-            else:
-                status |= 0x02
-                status |= self._profile_kind << 4
-        self._poke("moving_status", status)
-        for port in self.model.external_ports:
-            mode_p = self._get(f"external_port_mode_{port}")
-            value = {0: _ANALOG_INPUT, 1: self._port_latch.get(port, 0), 2: 1, 3: 0}.get(mode_p, 0)
-            self._poke(f"external_port_data_{port}", value)
-        for name, value in self._pinned.items():
-            self._poke(name, value)

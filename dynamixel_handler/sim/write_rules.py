@@ -1,0 +1,104 @@
+"""The firmware's checks of one written value: the error a servo answers, or none.
+
+A value outside an item's range (an unknown operating mode, baud rate or Status Return Level, a
+gain above its maximum) is a Data Range Error; a goal beyond its limit a Data Limit Error; goals
+after a bus watchdog error a Data Range Error; Torque Enable while a shutdown error is latched a
+Result Fail. ``changes`` are the other items of the same write: a limit written together with a
+goal counts for it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from dynamixel_handler.control_table import Item
+
+from ..protocol import servo as p
+from .registers import ServoRegisters
+
+EXTENDED_MODES = (4, 5)
+X_EXTENDED_GOAL_LIMIT = 1_048_575
+X_HOMING_MAX = 1_044_479
+X_GAIN_MAX = 16383
+X_GAINS = ("velocity_i_gain", "velocity_p_gain", "position_d_gain", "position_i_gain", "position_p_gain",
+           "feedforward_2nd_gain", "feedforward_1st_gain")
+_GOAL_LIMITS = {"goal_pwm": "pwm_limit", "goal_current": "current_limit", "goal_velocity": "velocity_limit"}
+_COMMON_RANGES = {
+    "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2),
+    "torque_enable": (0, 1), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
+    "temperature_limit": (0, 100), "startup_configuration": (0, 3), "led": (0, 1),
+    "external_port_mode_1": (0, 3), "external_port_mode_2": (0, 3),
+    "external_port_mode_3": (0, 3), "external_port_mode_4": (0, 3),
+}
+_X_RANGES = {
+    **{name: (0, X_GAIN_MAX) for name in X_GAINS},
+    "homing_offset": (-X_HOMING_MAX, X_HOMING_MAX), "moving_threshold": (0, 1023),
+    "profile_acceleration": (0, 32767), "profile_velocity": (0, 32767),
+}
+
+Changes = Sequence[tuple[Item, int]]
+
+
+def check_value(servo: ServoRegisters, name: str, value: int, changes: Changes) -> int:
+    """The error code a servo answers to ``value`` written to item ``name`` (ERR_NONE: accepted)."""
+    return (_range_error(servo, name, value) or _setting_error(servo, name, value)
+            or _limit_error(servo, name, value, changes))
+
+
+def _range(servo: ServoRegisters, name: str) -> tuple[int, int] | None:
+    model = servo.model
+    if name in ("max_position_limit", "min_position_limit"):
+        return model.position_min_pulse, model.position_max_pulse
+    if name == "pwm_limit":
+        return 0, 885 if servo._x else 2009
+    if servo._x and name in _X_RANGES:  # X e-Manual ranges
+        return _X_RANGES[name]
+    return _COMMON_RANGES.get(name)
+
+
+def _range_error(servo: ServoRegisters, name: str, value: int) -> int:
+    bounds = _range(servo, name)
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        return p.ERR_DATA_RANGE
+    return p.ERR_NONE
+
+
+def _setting_error(servo: ServoRegisters, name: str, value: int) -> int:
+    """Enumerated settings the model does not have, goals after a watchdog trip, torque on
+    while a shutdown error holds."""
+    if name in ("operating_mode", "baud_rate", "drive_mode"):
+        return p.ERR_NONE if _known_setting(servo, name, value) else p.ERR_DATA_RANGE
+    if name.startswith("goal_") and servo._get("bus_watchdog") < 0:
+        return p.ERR_DATA_RANGE  # goals are read-only after a bus watchdog error
+    if name == "torque_enable" and value == 1 and servo._shutdown_latched:
+        return p.ERR_RESULT_FAIL
+    return p.ERR_NONE
+
+
+def _known_setting(servo: ServoRegisters, name: str, value: int) -> bool:
+    model = servo.model
+    if name == "operating_mode":  # current control needs a current sensor
+        return value in model.operating_modes and not (value == 0 and math.isnan(model.current_ma_per_pulse))
+    if name == "baud_rate":
+        return value in servo.baud_rates
+    return not (servo._x and value & ~0x0D)  # X drive mode: bits 0, 2 and 3
+
+
+def _limit_error(servo: ServoRegisters, name: str, value: int, changes: Changes) -> int:
+    def new(item: str) -> int:
+        for it, v in changes:
+            if it.name == item:
+                return v
+        return servo._get(item)
+
+    limit = _GOAL_LIMITS.get(name)
+    if limit is not None and servo._has(limit) and abs(value) > new(limit):
+        return p.ERR_DATA_LIMIT
+    if name == "goal_position":
+        mode = new("operating_mode")
+        if mode == 3 and not new("min_position_limit") <= value <= new("max_position_limit"):
+            return p.ERR_DATA_LIMIT
+        if mode in EXTENDED_MODES and servo._x and abs(value) > X_EXTENDED_GOAL_LIMIT:
+            return p.ERR_DATA_LIMIT
+    return p.ERR_NONE
