@@ -15,6 +15,7 @@ import argparse
 import signal
 import sys
 import threading
+from typing import Callable
 
 from dynamixel_handler.control_table import known_models, model_by_number
 
@@ -124,50 +125,51 @@ def _servos_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> dict[
     return servos or dict(DEFAULT_SERVOS)
 
 
+def _ok(_done: object) -> None:
+    """A command's answer when it has nothing to say but "ok"."""
+    return None
+
+
+def _list(bus: VirtualBus, rest: list[str]) -> str:
+    return "\n".join(f"ID {i}: {s.model.name} ({s.model.number})" + (" [silent]" if s.silent else "")
+                     for i, s in bus.servos.items())
+
+
+# Run-time commands: name -> what it does (an answer, or None for "ok").
+_COMMANDS: dict[str, Callable[[VirtualBus, list[str]], str | None]] = {
+    "silent": lambda bus, rest: bus.set_silent(int(rest[0]), True),
+    "answer": lambda bus, rest: bus.set_silent(int(rest[0]), False),
+    "crc": lambda bus, rest: setattr(bus, "crc_error_rate", float(rest[0])),
+    "garbage": lambda bus, rest: bus.inject_garbage(int(rest[0])),
+    "truncate": lambda bus, rest: bus.truncate_next(int(rest[0]) if rest else 1),
+    "hwerr": lambda bus, rest: bus.set_hardware_error(int(rest[0]), int(rest[1], 0)),
+    "vanish": lambda bus, rest: bus.vanish(),
+    "reappear": lambda bus, rest: f"device {bus.reappear()}",
+    "add": lambda bus, rest: _ok(bus.add_servo(int(rest[0]), parse_model(rest[1]))),
+    "remove": lambda bus, rest: bus.remove_servo(int(rest[0])),
+    "list": _list,
+    "help": lambda bus, rest: COMMANDS_HELP,
+}
+
+
 def run_command(bus: VirtualBus, line: str) -> str:
     """Apply one run-time command; returns a short human answer."""
     words = line.split()
     if not words:
         return ""
     cmd, rest = words[0].lower(), words[1:]
+    action = _COMMANDS.get(cmd)
+    if action is None:
+        return f"unknown command {cmd!r}; try help"
     try:
-        if cmd in ("silent", "answer"):
-            bus.set_silent(int(rest[0]), cmd == "silent")
-        elif cmd == "crc":
-            bus.crc_error_rate = float(rest[0])
-        elif cmd == "garbage":
-            bus.inject_garbage(int(rest[0]))
-        elif cmd == "truncate":
-            bus.truncate_next(int(rest[0]) if rest else 1)
-        elif cmd == "hwerr":
-            bus.set_hardware_error(int(rest[0]), int(rest[1], 0))
-        elif cmd == "vanish":
-            bus.vanish()
-        elif cmd == "reappear":
-            return f"device {bus.reappear()}"
-        elif cmd == "add":
-            bus.add_servo(int(rest[0]), parse_model(rest[1]))
-        elif cmd == "remove":
-            bus.remove_servo(int(rest[0]))
-        elif cmd == "list":
-            return "\n".join(f"ID {i}: {s.model.name} ({s.model.number})" + (" [silent]" if s.silent else "")
-                             for i, s in bus.servos.items())
-        elif cmd == "help":
-            return COMMANDS_HELP
-        else:
-            return f"unknown command {cmd!r}; try help"
+        answer = action(bus, rest)
     except (IndexError, ValueError, KeyError, argparse.ArgumentTypeError) as exc:
         return f"error: {exc}"
-    return "ok"
+    return "ok" if answer is None else answer
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = build_parser()
-    args = ap.parse_args(argv)
-    if args.list_models:
-        for model in known_models():
-            print(f"{model.number:6d}  {model.name}  ({model.series})")
-        return 0
+def _bus_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> VirtualBus:
+    """The bus the flags describe, faults set, not started yet (a bad flag ends the program)."""
     if args.any_baudrate and args.check_baudrate:
         ap.error("--any-baudrate and --check-baudrate contradict each other")
     servos = _servos_from(args, ap)
@@ -183,6 +185,17 @@ def main(argv: list[str] | None = None) -> int:
     for spec in args.hardware_error:
         sid, bits = spec.split(":", 1)
         bus.set_hardware_error(int(sid), int(bits, 0))
+    return bus
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    if args.list_models:
+        for model in known_models():
+            print(f"{model.number:6d}  {model.name}  ({model.series})")
+        return 0
+    bus = _bus_from(args, ap)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
