@@ -1,0 +1,128 @@
+"""Which items this loop reads, as which sync reads, and how the replies are stored."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..groups import GROUP_ITEMS, GROUP_RATIO_PARAM, PRESENT, due
+from .state import HandlerState
+
+#: items closer than this many bytes are read in one span when method/split_read is false
+SPAN_GAP = 24
+#: Fast Sync Reads in a row that must stop at a servo which answers the plain Sync Read before it is
+#: taken for firmware without Fast Sync Read (a garbled reply or a neighbour's silence does it once)
+FAST_MISSES_PLAIN = 3
+
+
+@dataclass(frozen=True)
+class _Part:
+    item: str
+    offset: int
+    size: int
+    signed: bool
+
+
+
+@dataclass(frozen=True)
+class _Read:
+    address: int
+    length: int
+    ids: tuple[int, ...]
+    parts: tuple[_Part, ...]
+    fast: bool = False
+
+
+class ReadPlan(HandlerState):
+    """Pub ratios -> the items due -> sync reads grouped by control-table layout (cached)."""
+
+    def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
+        cfg = self.config
+        present_keys = {k for k in PRESENT if due(cfg.present_ratio(k), loop)}
+        groups = {g for g, param in GROUP_RATIO_PARAM.items() if due(cfg[param], loop)}
+        items: list[str] = [PRESENT[k][0] for k in PRESENT if k in present_keys]
+        for g in groups:
+            items += [i for i in GROUP_ITEMS[g] if i not in items]
+        return items, present_keys, groups
+
+    def _plan(self, items: tuple[str, ...], live: np.ndarray) -> list[_Read]:
+        """Sync reads for ``items`` over the live servos, grouped by control-table layout (cached)."""
+        if self._plans_version != self.table.version:
+            self._plans.clear()
+            self._plans_version = self.table.version
+        key = (items, live.tobytes())
+        plan = self._plans.get(key)
+        if plan is not None:
+            return plan
+        layouts: dict[tuple, list[int]] = {}
+        for pos, model in enumerate(self.table.models):
+            if not live[pos]:
+                continue
+            sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed)
+                        for i in items if model.has(i))
+            fast = self.fast_read and self.table.ids[pos] not in self._plain_read
+            if sig:
+                layouts.setdefault((fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
+        plan = []
+        for (fast, sig), positions in layouts.items():
+            ids = tuple(self.table.ids[p] for p in positions)
+            for address, length, parts in _spans(sig, self.split_read):
+                plan.append(_Read(address, length, ids, parts, fast))
+        self._plans[key] = plan
+        return plan
+
+    def _read_plain(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
+        """Read the servos a Fast Sync Read missed with a plain Sync Read.
+
+        The servos answer a fast read in a chain, which stops at the first one that does not answer
+        (silent, its segment garbled, or firmware without Fast Sync Read: old Pro "-R", early X and
+        P); those after it were only cut off. So only that first one can lack the instruction: if it
+        answers the plain read FAST_MISSES_PLAIN times in a row, it is read so from now on."""
+        missing = [i for i in read.ids if i not in data]
+        plain = self.bus.sync_read(read.address, read.length, missing)
+        first = missing[0]
+        if first in plain:
+            self._fast_misses[first] = self._fast_misses.get(first, 0) + 1
+            if self._fast_misses[first] >= FAST_MISSES_PLAIN:
+                del self._fast_misses[first]
+                self.log.info(f"ID {first}: no answer to Fast Sync Read, read with Sync Read from now on")
+                self._plain_read.add(first)
+                self._plans.clear()
+        return {**data, **plain}
+
+    def _store(self, read: _Read, data: dict[int, bytes], stamp: float, seq: int | None = None) -> None:
+        """Store replies; values the host set after the read went out (sequence ``seq``) are newer and kept."""
+        index = self.table.index
+        ok_ids = [i for i in read.ids if i in data and i in index]  # an operation may have removed one meanwhile
+        if not ok_ids:
+            return
+        positions = np.fromiter((index[i] for i in ok_ids), dtype=np.int64, count=len(ok_ids))
+        buf = np.frombuffer(b"".join(data[i] for i in ok_ids), dtype=np.uint8).reshape(len(ok_ids), read.length)
+        for part in read.parts:
+            cols = buf[:, part.offset:part.offset + part.size].astype(np.int64)
+            values = cols @ (np.int64(1) << (8 * np.arange(part.size, dtype=np.int64)))
+            if part.signed:
+                half = np.int64(1) << (8 * part.size - 1)
+                values = np.where(values >= half, values - 2 * half, values)
+            newer = self.table.newer_than(part.item, ok_ids, seq) if seq is not None else []
+            if newer:
+                keep = np.array([i not in newer for i in ok_ids])
+                self.table.store(part.item, positions[keep], values[keep], stamp)
+            else:
+                self.table.store(part.item, positions, values, stamp)
+
+
+
+def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool) -> list[tuple[int, int, tuple[_Part, ...]]]:
+    """Cut items (sorted by address) into read spans: one per item, or merged across small gaps."""
+    spans: list[tuple[int, int, list[tuple[str, int, int, bool]]]] = []
+    for item, address, size, signed in sig:
+        if spans and not split and address - (spans[-1][0] + spans[-1][1]) <= SPAN_GAP:
+            start, _, members = spans[-1]
+            end = max(start + spans[-1][1], address + size)
+            spans[-1] = (start, end - start, members + [(item, address, size, signed)])
+        else:
+            spans.append((address, size, [(item, address, size, signed)]))
+    return [(start, length, tuple(_Part(i, a - start, s, sg) for i, a, s, sg in members))
+            for start, length, members in spans]

@@ -1,0 +1,73 @@
+"""One servo at a time: read or write an item, its mode, torque on without a jump."""
+from __future__ import annotations
+
+from .. import units
+from ..groups import MODE_NAMES
+from .state import HandlerState
+
+
+class ServoIO(HandlerState):
+    """Single-servo reads and writes, kept in the servo table."""
+
+    def read_item(self, dxl_id: int, item: str) -> int | None:
+        model = self.table.model(dxl_id)
+        if not model.has(item):
+            return None
+        spec = model.item(item)
+        data = self.bus.read(dxl_id, spec.address, spec.size)
+        if data is None:
+            return None
+        value = int(units.decode(spec, data)[0])
+        self.table.set_value(item, dxl_id, value)
+        return value
+
+    def write_item(self, dxl_id: int, item: str, pulses: int) -> bool:
+        model = self.table.model(dxl_id)
+        if not model.has(item):
+            return False
+        spec = model.item(item)
+        ok = self.bus.write(dxl_id, spec.address, units.encode(spec, [pulses]))
+        if ok:
+            self.table.set_value(item, dxl_id, pulses)
+        return ok
+
+    def mode(self, dxl_id: int) -> str | None:
+        value = self.table.value("operating_mode", dxl_id)
+        if value is None:
+            value = self.read_item(dxl_id, "operating_mode")
+        return MODE_NAMES.get(value) if value is not None else None
+
+    def torque_on(self, dxl_id: int) -> bool:
+        """Enable torque without a jump: goals := present state (position) or neutral, then enable."""
+        mode = self.mode(dxl_id)
+        model = self.table.model(dxl_id)
+        if mode in ("position", "ex_position", "cur_position"):
+            present = self.read_item(dxl_id, "present_position")
+            if present is not None:
+                if mode == "position":
+                    present = self._clip_to_position_limits(dxl_id, present)
+                self.write_item(dxl_id, "goal_position", present)
+        elif mode == "velocity":
+            self.write_item(dxl_id, "goal_velocity", 0)
+        elif mode == "current":
+            self.write_item(dxl_id, "goal_current", 0)
+        elif mode == "pwm":
+            self.write_item(dxl_id, "goal_pwm", 0)
+        ok = self.write_item(dxl_id, "torque_enable", 1)
+        if not ok:
+            self.log.warning(f"ID {dxl_id} ({model.name}): torque on failed: {self.bus.last_failure}")
+        return ok
+
+    def torque_off(self, dxl_id: int) -> bool:
+        return self.write_item(dxl_id, "torque_enable", 0)
+
+    def _clip_to_position_limits(self, dxl_id: int, pulses: int) -> int:
+        lo = self.table.value("min_position_limit", dxl_id)
+        hi = self.table.value("max_position_limit", dxl_id)
+        if lo is None:
+            lo = self.read_item(dxl_id, "min_position_limit")
+        if hi is None:
+            hi = self.read_item(dxl_id, "max_position_limit")
+        if lo is not None and hi is not None and lo <= hi:
+            return min(max(pulses, lo), hi)
+        return pulses

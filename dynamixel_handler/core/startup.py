@@ -1,0 +1,134 @@
+"""Start-up: the scan, the servos kept, the set-up each gets (also when added later)."""
+from __future__ import annotations
+
+from typing import Sequence
+
+from .. import units
+from ..control_table import model_by_number
+from ..errors import Interrupted, StartupError
+from .deferred import Deferred
+from .recovery import Recovery
+
+
+class Startup(Recovery, Deferred):
+    """Scan, expected count, per-servo set-up, add_id."""
+
+    def start(self) -> None:
+        """Scan, keep the servos of the used series, and set each up as the parameters say."""
+        cfg = self.config
+        self._had_device = self.bus.is_open
+        lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
+        dummies = sorted(self.bus.dummies)
+        expected = cfg["init/expected_servo_num"]
+        attempts = cfg["init/servo_auto_search.retry_times"] + 1
+        found: dict[int, int] = {}
+        for attempt in range(attempts):
+            if self.interrupted():
+                raise Interrupted(f"start-up interrupted during the scan (attempt {attempt + 1}/{attempts})")
+            found.update(self.bus.scan(sorted(set(range(lo, hi + 1)) | set(dummies))))
+            enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
+            real = sorted(set(found) - set(dummies))
+            self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} on {self.bus.device} at "
+                          f"{self.bus.baudrate} bps: {len(real)} servo(s) {real}"
+                          + (f" + dummies {dummies}" if dummies else ""))
+            if enough or not self.bus.is_open:
+                break
+        enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
+        if not enough:
+            want = f"{expected}" if expected > 0 else "at least 1"
+            message = (f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected "
+                       f"{want}: check power, wiring, IDs ({lo}..{hi}) and baudrate "
+                       "(init/baudrate_auto_set can find servos at other rates)")
+            self._startup_problem(message)
+        used = set(cfg.used_series)
+        for dxl_id, number in sorted(found.items()):
+            try:
+                model = model_by_number(number)
+            except KeyError:
+                self.log.warning(f"ID {dxl_id}: unknown model number {number}, not handled")
+                continue
+            if model.series not in used and dxl_id not in dummies:
+                self.log.info(f"ID {dxl_id}: {model.name} is series {model.series}, which "
+                              f"init/used_servo_series does not enable: skipped")
+                continue
+            self.table.add(dxl_id, model)
+            kind = "dummy" if dxl_id in dummies else f"model {number}"
+            self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}) handled")
+        if not len(self.table) and found and not cfg["debug"]:
+            raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
+                               f"{sorted(found)}: enable their series in init/used_servo_series")
+        if expected > 0 and len(self.table) != expected:
+            message = (f"handling {len(self.table)} servo(s) {list(self.table.ids)} on {self.bus.device}, but "
+                       f"init/expected_servo_num is {expected}: check the IDs on the bus, or set "
+                       "init/expected_servo_num (0: any number)")
+            self._startup_problem(message)
+        for dxl_id in list(self.table.ids):
+            if self.interrupted():
+                raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
+            self._setup_servo(dxl_id)
+
+    def _startup_problem(self, message: str) -> None:
+        """Start-up cannot go on (StartupError), unless the debug parameter says to run on anyway."""
+        if not self.config["debug"]:
+            raise StartupError(message)
+        self.log.warning(message + " (debug: running on)")
+
+    def _usable(self, found: dict[int, int], dummies: Sequence[int]) -> list[int]:
+        """IDs among ``found`` that would be handled: known model of a used series, or a dummy."""
+        used = set(self.config.used_series)
+        out = []
+        for dxl_id, number in found.items():
+            try:
+                series = model_by_number(number).series
+            except KeyError:
+                continue
+            if series in used or dxl_id in dummies:
+                out.append(dxl_id)
+        return out
+
+    def _setup_servo(self, dxl_id: int) -> None:
+        """The set-up every servo gets, at start-up and when added later (add_id): hardware error
+        cleared (init/hardware_error_auto_clean), return delay, profile defaults, torque as
+        init/torque_auto_enable says; the bus watchdog when the loop next runs."""
+        cfg, model = self.config, self.table.model(dxl_id)
+        if cfg["init/hardware_error_auto_clean"]:
+            err = self.read_item(dxl_id, "hardware_error_status")
+            if err:
+                self.log.warning(f"ID {dxl_id}: hardware error 0x{err:02X} at start-up: clearing it by reboot")
+                self.reboot(dxl_id)
+        delay = int(units.unit_to_pulse([model], "return_delay_time", [cfg["default/return_delay_time"]])[0])
+        self.write_eeprom(dxl_id, "return_delay_time", delay)
+        self._setup_ram(dxl_id)
+        if cfg["init/torque_auto_enable"]:
+            self.torque_on(dxl_id)
+
+    def _setup_ram(self, dxl_id: int) -> None:
+        """Profile defaults now; the bus watchdog when the loop starts (arming it here, servo by
+        servo, would let it trip on the first servos while the last ones are still set up)."""
+        model = self.table.model(dxl_id)
+        for item, param in (("profile_acceleration", "default/profile_acc"), ("profile_velocity", "default/profile_vel")):
+            if model.has(item):
+                pulses = int(units.unit_to_pulse([model], item, [self.config[param]])[0])
+                if not self.write_item(dxl_id, item, pulses):  # e.g. above a P servo's velocity limit
+                    self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {self.config[param]:g} not set "
+                                     f"({item} {pulses} refused: {self.bus.last_failure})")
+        self._to_arm.add(dxl_id)
+
+    def add_id(self, dxl_id: int) -> bool:
+        """Ping ``dxl_id`` and handle it if it answers with a model of a used series."""
+        number = self.bus.ping(dxl_id)
+        if number is None:
+            self.log.warning(f"ID {dxl_id}: no answer to ping, not added")
+            return False
+        try:
+            model = model_by_number(number)
+        except KeyError:
+            self.log.warning(f"ID {dxl_id}: unknown model number {number}, not added")
+            return False
+        if model.series not in self.config.used_series:
+            self.log.warning(f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in init/used_servo_series")
+            return False
+        self.table.add(dxl_id, model)
+        self.log.info(f"ID {dxl_id}: {model.name} added")
+        self._setup_servo(dxl_id)  # the same set-up as at start-up
+        return True

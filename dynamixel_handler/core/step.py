@@ -1,0 +1,182 @@
+"""One loop step in four phases: prepare, send (writes then reads), complete, finish."""
+from __future__ import annotations
+
+import time
+from typing import Sequence
+
+import numpy as np
+
+from .. import units
+from ..groups import GROUP_ITEMS, PRESENT
+from .deferred import Deferred
+from .recovery import Recovery
+from .state import StepReport
+from .write_batch import WriteBatch
+
+#: loops between pings of a servo that stopped answering
+RECHECK_LOOPS = 10
+
+
+class Step(Recovery, Deferred, WriteBatch):
+    """The loop step and its phases; the read logs."""
+
+    def step(self) -> StepReport:
+        """One whole loop: queued operations, pending writes, the reads due, bookkeeping."""
+        report = self.begin_step()
+        self.send_step(report)
+        self.finish_step(report)
+        return report
+
+    # A step in four phases, so that a caller can overlap one loop's reads on the wire with work
+    # that needs no bus (the node takes the next commands and publishes the previous states then):
+    #   begin_step     reconnect, watchdog arming, queued operations (``prepare``)
+    #   send_step      the pending writes (send_writes), then the reads due (send_reads); the last
+    #                  read is left on the wire
+    #   complete_step  its replies gathered, Fast Sync Read fallback, pings of silent servos, ping state
+    #   finish_step    replies stored in the table, read logs, tripped watchdogs re-armed
+    # Any bus transaction in between first waits for the read on the wire (``ServoBus``).
+    def begin_step(self) -> StepReport:
+        report = StepReport(loop=self.loop_count, phase=1)
+        self.prepare(report)
+        return report
+
+    def prepare(self, report: StepReport) -> None:
+        """Reopen a vanished device, arm watchdogs, run the queued operations (commands). Called
+        by ``begin_step``, and again before ``send_step`` for commands that came meanwhile."""
+        if self._had_device and not self.bus.is_open:
+            self._reconnect(report)
+        while self._to_arm:
+            dxl_id = self._to_arm.pop()
+            if dxl_id in self.table:
+                self.arm_watchdog(dxl_id)
+        if self._check_watchdogs:
+            self._check_watchdogs = False
+            self.check_watchdogs()
+        if self.deferred or self._eeprom_deferred:
+            self._run_deferred()
+        self._run_ops()
+
+    def apply_now(self) -> None:
+        """Between loops: run the queued operations and write what they left pending at once."""
+        report = StepReport(loop=self.loop_count)
+        self.prepare(report)
+        self._send_writes(report)
+
+    def send_step(self, report: StepReport) -> None:
+        self.send_writes(report)
+        self.send_reads(report)
+
+    def send_writes(self, report: StepReport) -> None:
+        """The first half of ``send_step``: what is pending goes on the wire."""
+        self._send_writes(report)
+
+    def await_replies(self, report: StepReport) -> None:
+        """Wait until the replies of ``report``'s reads are in (``complete_step`` does the rest)."""
+        for _, pending, _ in report.reads:
+            pending.result()
+
+    def send_reads(self, report: StepReport) -> None:
+        """The second half of ``send_step``: the reads due; the last one is left on the wire."""
+        report.phase = 2
+        self.loop_count = report.loop + 1  # a loop that failed before its reads keeps its number
+        report.read_s = -time.perf_counter()
+        report.stamp = time.time()
+        report.seq = self.table.seq
+        if not len(self.table):
+            return
+        items, report.present, report.groups = self.due_items(report.loop)
+        live = self.table.ping.copy()
+        if items:
+            for read in self._plan(tuple(sorted(set(items))), live):
+                report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
+        # servos that stopped answering are pinged now and then, not read every loop
+        if report.loop % RECHECK_LOOPS == 0:
+            report.recheck = [self.table.ids[pos] for pos in np.flatnonzero(~live)]
+
+    @property
+    def reply_eta(self) -> float | None:
+        """``time.monotonic()`` by which the read left on the wire should be answered (None: none is)."""
+        return self.bus.inflight_eta
+
+    def complete_step(self, report: StepReport) -> None:
+        if report.phase >= 3:
+            return
+        report.phase = 3
+        table = self.table
+        index = table.index
+        addressed = np.zeros(len(table), dtype=bool)
+        answered = np.zeros(len(table), dtype=bool)
+
+        def mark(flags: np.ndarray, ids) -> None:
+            for dxl_id in ids:
+                pos = index.get(dxl_id)
+                if pos is not None:  # an operation may have removed it meanwhile
+                    flags[pos] = True
+
+        for entry in report.reads:
+            read, pending, _ = entry
+            data = pending.result()
+            if read.fast and self._fast_misses:
+                for dxl_id in data:  # answered the fast read: a miss before was not its firmware
+                    self._fast_misses.pop(dxl_id, None)
+            if read.fast and len(data) < len(read.ids):
+                data = self._read_plain(read, data)
+            self.stats_reads += 1
+            if len(data) == len(read.ids):
+                self.stats_full_reads += 1
+            entry[2] = data
+            mark(addressed, read.ids)
+            mark(answered, data)
+        for dxl_id in report.recheck:
+            mark(addressed, [dxl_id])
+            if dxl_id in index and self.bus.ping(dxl_id, retries=0) is not None:
+                mark(answered, [dxl_id])
+        report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
+        self._update_ping(addressed, answered, report)
+        report.read_s += time.perf_counter()
+
+    def finish_step(self, report: StepReport) -> None:
+        if report.phase >= 4:
+            return
+        self.complete_step(report)
+        report.phase = 4
+        for read, _, data in report.reads:
+            if data:
+                self._store(read, data, report.stamp, report.seq)
+        if len(self.table):
+            self._log_reads(report, report.silent)
+        if "extra_dynamic" in report.groups:
+            self._check_watchdogs = True  # at the next step, after this loop's states are out
+
+    def _log_reads(self, report: StepReport, silent: list[int]) -> None:
+        """verbose/read_<group>.{raw,err} and verbose/read_hardware_error, max_log_width IDs a line."""
+        cfg, table = self.config, self.table
+        groups = set(report.groups) | ({"present"} if report.present else set())
+        for group in sorted(groups):
+            key = "extra" if group.startswith("extra") else group
+            if key == "error":
+                continue
+            if cfg.values.get(f"verbose/read_{key}.err") and silent:
+                self.log.warning(f"read {group}: no answer from IDs {silent}")
+            if cfg.values.get(f"verbose/read_{key}.raw"):
+                items = ([PRESENT[k][0] for k in sorted(report.present)] if group == "present"
+                         else list(GROUP_ITEMS[group]))
+                for item in items:
+                    if table.known(item).any():
+                        self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), cfg["max_log_width"]))
+        if "error" in report.groups and cfg["verbose/read_hardware_error"]:
+            bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
+            flags = units.decode_hardware_error(bits)
+            for pos in np.flatnonzero(bits):
+                dxl_id = table.ids[pos]
+                if self._reported_errors.get(dxl_id) != bits[pos]:
+                    causes = [name for name, f in flags.items() if f[pos]]
+                    self.log.error(f"ID {dxl_id}: hardware error {', '.join(causes)} (0x{int(bits[pos]):02X}): "
+                                   "clear it with the shortcut clear_error (CE)")
+            self._reported_errors = {table.ids[pos]: bits[pos] for pos in np.flatnonzero(bits)}
+
+
+
+def _rows(ids: Sequence[int], values: np.ndarray, width: int) -> str:
+    pairs = [f"{i}={v}" for i, v in zip(ids, values.tolist())]
+    return "\n  ".join(", ".join(pairs[k:k + width]) for k in range(0, len(pairs), max(1, width)))

@@ -1,0 +1,100 @@
+"""Pending writes -> one sync write per item (adjacent items merged), built ahead, sent in one go."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .state import HandlerState, StepReport
+
+
+class WriteBatch(HandlerState):
+    """The pending values as prepared sync writes; nothing taken is lost when a loop fails."""
+
+    def _send_writes(self, report: StepReport) -> None:
+        t0 = time.perf_counter()
+        self.encode_writes()
+        if self._taken and self._built_for != self.table.version:  # servos removed meanwhile
+            self._build_writes()
+        prepared, self._prepared, self._taken = self._prepared, [], {}
+        for write in prepared:
+            if not self.bus.send_prepared(write):
+                self.log.warning(f"sync write @{write.address}x{write.length} to IDs "
+                                 f"{sorted((*write.ids, *write.dummies))} failed: {self.bus.last_failure}")
+        report.write_s += time.perf_counter() - t0
+
+    def encode_writes(self) -> None:
+        """Take the pending values and build their sync write packets now; the next
+        ``send_writes`` sends them (with what became pending meanwhile, a later value of a servo's
+        item winning). The node does this while a read is on the wire, so the packets are ready the
+        moment it is free."""
+        fresh = self._encode_pending()
+        if not fresh:
+            return
+        for key, data in fresh.items():
+            self._taken.setdefault(key, {}).update(data)
+        self._build_writes()
+
+    @property
+    def writes_ready(self) -> list:
+        """The sync writes built by ``encode_writes`` and not sent yet (``PreparedWrite``)."""
+        return list(self._prepared)
+
+    def _build_writes(self) -> None:
+        index = self.table.index
+        writes = {key: kept for key, data in self._taken.items()
+                  if (kept := {i: chunk for i, chunk in data.items() if i in index})}
+        if not self.split_write:
+            writes = _merge_adjacent_writes(writes)
+        self._prepared = [self.bus.prepare_sync_write(address, size, data)
+                          for (address, size), data in sorted(writes.items())]
+        self._built_for = self.table.version
+
+    def _encode_pending(self) -> dict[tuple[int, int], dict[int, bytes]]:
+        """The pending values as one sync write per item ``{(address, size): {id: bytes}}``; the
+        table takes them."""
+        pending = self.pending.take()
+        if not pending or not len(self.table):
+            return {}
+        # (address, size) -> {item: {id: pulses}}: one sync write per item and layout
+        writes: dict[tuple[int, int], dict[int, bytes]] = {}
+        index = self.table.index
+        for item, values in pending.items():
+            positions, written = [], []
+            for dxl_id, pulses in values.items():
+                pos = index.get(dxl_id)
+                if pos is None:
+                    continue
+                spec = self.table.models[pos].items.get(item)
+                if spec is None:
+                    continue
+                try:
+                    data = int(pulses).to_bytes(spec.size, "little", signed=spec.signed)
+                except OverflowError:
+                    self.log.error(f"ID {dxl_id}: {item}={pulses} does not fit its {spec.size} bytes: not written")
+                    continue
+                writes.setdefault((spec.address, spec.size), {})[dxl_id] = data
+                positions.append(pos)
+                written.append(pulses)
+            if positions:
+                self.table.store(item, np.asarray(positions), np.asarray(written, dtype=np.int64),
+                                 self.table.read_time.get(item, 0.0))
+                self.table.note_set(item, [self.table.ids[pos] for pos in positions])
+        return writes
+
+
+
+def _merge_adjacent_writes(writes: dict[tuple[int, int], dict[int, bytes]]) -> dict[tuple[int, int], dict[int, bytes]]:
+    """Join writes of back-to-back items that go to the same IDs into one sync write."""
+    merged: dict[tuple[int, int], dict[int, bytes]] = {}
+    last: tuple[int, int] | None = None
+    for (address, size), data in sorted(writes.items()):
+        if last is not None and last[0] + last[1] == address and set(merged[last]) == set(data):
+            joined = {i: merged[last][i] + data[i] for i in data}
+            del merged[last]
+            last = (last[0], last[1] + size)
+            merged[last] = joined
+        else:
+            last = (address, size)
+            merged[last] = dict(data)
+    return merged
