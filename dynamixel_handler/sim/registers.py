@@ -98,33 +98,41 @@ class RegisterFile:
     def gather(self, address: int, data: bytes) -> tuple[int, list[tuple[Item, int]], list[tuple[int, int]]]:
         """The items a write of ``data`` at ``address`` sets: (error, [(item, value)], [(address,
         byte)] for plain Indirect Data storage). Every item touched must be written whole."""
-        end = address + len(data)
-        if not data or address < 0 or end > len(self.regs):
+        if not data or address < 0 or address + len(data) > len(self.regs):
             return p.ERR_ACCESS, [], []
-        if self._touches_indirect(address, len(data)):
-            targets = {self.resolve(address + k): b for k, b in enumerate(data)}
-        else:
-            targets = {address + k: b for k, b in enumerate(data)}
-        changes: list[tuple[Item, int]] = []
-        raw: list[tuple[int, int]] = []
-        seen: set[int] = set()
-        for a in sorted(targets):
-            it = self.owner[a]
-            if it is None:
-                if a in self._map:
-                    raw.append((a, targets[a]))
-                continue
-            if it.address in seen:
-                continue
-            seen.add(it.address)
-            span = range(it.address, it.address + it.size)
-            if any(b not in targets for b in span):
-                return p.ERR_DATA_LENGTH, [], []
-            value = int.from_bytes(bytes(targets[b] for b in span), "little", signed=it.signed)
-            changes.append((it, value))
+        targets = self._targets(address, data)
+        raw = [(a, targets[a]) for a in sorted(targets) if self.owner[a] is None and a in self._map]
+        changes = self._item_values(targets)
+        if changes is None:
+            return p.ERR_DATA_LENGTH, [], []
         if not changes and not raw:
             return p.ERR_ACCESS, [], []
         return p.ERR_NONE, changes, raw
+
+    def _targets(self, address: int, data: bytes) -> dict[int, int]:
+        """Address -> byte a write sets, Indirect Data bytes resolved to where they point."""
+        if self._touches_indirect(address, len(data)):
+            return {self.resolve(address + k): b for k, b in enumerate(data)}
+        return {address + k: b for k, b in enumerate(data)}
+
+    def _item_values(self, targets: dict[int, int]) -> list[tuple[Item, int]] | None:
+        """(item, value) for every item the target bytes touch; None if one is not written whole."""
+        changes: list[tuple[Item, int]] = []
+        for it in self._owners(targets):
+            span = range(it.address, it.address + it.size)
+            if any(b not in targets for b in span):
+                return None
+            changes.append((it, int.from_bytes(bytes(targets[b] for b in span), "little", signed=it.signed)))
+        return changes
+
+    def _owners(self, targets: dict[int, int]) -> list[Item]:
+        """The items owning the target addresses, each once, by address."""
+        found: dict[int, Item] = {}
+        for a in sorted(targets):
+            it = self.owner[a]
+            if it is not None:
+                found.setdefault(it.address, it)
+        return list(found.values())
 
 
 class ServoRegisters:
