@@ -38,7 +38,7 @@ def serial_of_link(name: str) -> str | None:
     return m.group("serial") if m else None
 
 
-def adapters(by_id_dir: str | None = None, comports: Callable[[], Iterable] | None = None) -> list[Adapter]:
+def adapters(by_id_dir: str | None = None, comports: Callable[[], Iterable[object]] | None = None) -> list[Adapter]:
     """Every adapter with a USB serial number: by-id links first, then pyserial's ports not linked."""
     found: list[Adapter] = []
     folder = by_id_dir if by_id_dir is not None else os.environ.get(BY_ID_ENV, BY_ID_DIR)
@@ -51,13 +51,8 @@ def adapters(by_id_dir: str | None = None, comports: Callable[[], Iterable] | No
         if serial is not None:
             path = os.path.join(folder, name)
             found.append(Adapter(serial, path, os.path.realpath(path), "by-id"))
-    if comports is None:
-        try:
-            from serial.tools.list_ports import comports
-        except ImportError:  # pyserial without its tools: the links are all there is
-            comports = list
     seen = {a.tty for a in found}
-    for port in comports():
+    for port in (comports if comports is not None else _pyserial_ports)():
         serial = getattr(port, "serial_number", None)
         device = getattr(port, "device", None)
         if serial and device and os.path.realpath(device) not in seen:
@@ -65,8 +60,17 @@ def adapters(by_id_dir: str | None = None, comports: Callable[[], Iterable] | No
     return found
 
 
+def _pyserial_ports() -> Iterable[object]:
+    try:
+        from serial.tools.list_ports import comports
+    except ImportError:  # pyserial without its tools: the links are all there is
+        return []
+    ports: Iterable[object] = comports()
+    return ports
+
+
 def resolve(device_name: str, by_id_dir: str | None = None,
-            comports: Callable[[], Iterable] | None = None) -> tuple[str, str | None]:
+            comports: Callable[[], Iterable[object]] | None = None) -> tuple[str, str | None]:
     """(the device to open, a line saying which adapter was chosen or None for a plain path).
     StartupError listing the adapters seen when no adapter has that serial number."""
     if not device_name.startswith(PREFIX):
@@ -76,7 +80,7 @@ def resolve(device_name: str, by_id_dir: str | None = None,
         raise StartupError(f"device_name '{device_name}' gives no serial number: write serial:<USB serial number>, "
                            "e.g. serial:FT4TFSJ1 (ls /dev/serial/by-id shows them)")
     every = adapters(by_id_dir, comports)
-    matches = [a for a in every if a.serial == wanted] or [a for a in every if a.serial.lower() == wanted.lower()]
+    matches = _matching(every, wanted)
     if not matches:
         seen = ", ".join(f"{a.serial} ({a.tty})" for a in every) or "none with a USB serial number"
         raise StartupError(f"device_name '{device_name}': no adapter with USB serial number {wanted}; adapters seen: {seen}")
@@ -86,3 +90,8 @@ def resolve(device_name: str, by_id_dir: str | None = None,
     if others:
         line += f"; the same serial number also has {', '.join(others)}"
     return chosen.path, line
+
+
+def _matching(every: list[Adapter], wanted: str) -> list[Adapter]:
+    """The adapters whose serial number is ``wanted``; compared ignoring case when none match exactly."""
+    return [a for a in every if a.serial == wanted] or [a for a in every if a.serial.lower() == wanted.lower()]

@@ -130,16 +130,7 @@ class FrameReader:
         buf = self._buf
         buf += data
         out: list[tuple[int, bytes, int]] = []
-        while True:
-            start = buf.find(HEADER)
-            if start < 0:
-                keep = next((k for k in (3, 2, 1) if len(buf) >= k and buf[-k:] == HEADER[:k]), 0)
-                self.discarded_bytes += len(buf) - keep  # keep a possible partial header at the end
-                del buf[: len(buf) - keep]
-                return out
-            if start:
-                self.discarded_bytes += start
-                del buf[:start]
+        while self._seek_header():
             if len(buf) < 7:
                 return out
             packet_id, length = buf[4], buf[5] | (buf[6] << 8)
@@ -158,3 +149,19 @@ class FrameReader:
             body = unstuff(bytes(buf[7: total - 2]))
             del buf[:total]
             out.append((packet_id, body, total))
+        return out
+
+    def _seek_header(self) -> bool:
+        """Drop the bytes before the next header; False when there is none yet (a possible partial
+        header at the end is kept)."""
+        buf = self._buf
+        start = buf.find(HEADER)
+        if start < 0:
+            keep = next((k for k in (3, 2, 1) if len(buf) >= k and buf[-k:] == HEADER[:k]), 0)
+            self.discarded_bytes += len(buf) - keep
+            del buf[: len(buf) - keep]
+            return False
+        if start:
+            self.discarded_bytes += start
+            del buf[:start]
+        return True

@@ -184,6 +184,11 @@ class FastReply:
         packet_ok = complete and crc16(buf[: end - 2]) == (buf[end - 2] | (buf[end - 1] << 8))
         if complete and not packet_ok:
             self.crc_errors += 1
+        return self._walk(buf, end, packet_ok)
+
+    def _walk(self, buf: bytes, end: int, packet_ok: bool) -> dict[int, Status]:
+        """The segments from the first one on, while each sits where an expected servo's would and
+        (when the whole packet's CRC is not good) its own running CRC is right."""
         found: dict[int, Status] = {}
         pos = 8  # first segment starts at the error byte after INST
         index = 0

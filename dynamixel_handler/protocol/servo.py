@@ -139,25 +139,39 @@ def describe(pk: Packet, now: float) -> LoggedInstruction:
     """The log entry of a received packet: its IDs, address and length where it has them."""
     inst, prm = pk.instruction, pk.params
     ids: tuple[int, ...] = (pk.packet_id,)
-    address = length = None
+    address: int | None = None
+    length: int | None = None
     try:
-        if inst in (READ,) and len(prm) >= 4:
-            address, length = u16(prm), u16(prm, 2)
-        elif inst in (WRITE, REG_WRITE) and len(prm) >= 2:
-            address, length = u16(prm), len(prm) - 2
-        elif inst in (SYNC_READ, FAST_SYNC_READ) and len(prm) >= 4:
-            address, length, ids = u16(prm), u16(prm, 2), tuple(prm[4:])
-        elif inst == SYNC_WRITE and len(prm) >= 4:
-            address, length = u16(prm), u16(prm, 2)
-            ids = tuple(prm[k] for k in range(4, len(prm), 1 + length)) if length else ()
-        elif inst in (BULK_READ, FAST_BULK_READ):
-            ids = tuple(prm[k] for k in range(0, len(prm) - 4, 5))
-        elif inst == BULK_WRITE:
-            found, k = [], 0
-            while k + 5 <= len(prm):
-                found.append(prm[k])
-                k += 5 + u16(prm, k + 3)
-            ids = tuple(found)
+        address, length = _address_and_length(inst, prm)
+        group = _addressed_ids(inst, prm)
+        if group is not None:
+            ids = group
     except IndexError:
         pass
     return LoggedInstruction(now, inst, ids, address, length, bytes(prm))
+
+
+def _address_and_length(inst: int, prm: bytes) -> tuple[int | None, int | None]:
+    if inst in (READ, SYNC_READ, FAST_SYNC_READ, SYNC_WRITE) and len(prm) >= 4:
+        return u16(prm), u16(prm, 2)
+    if inst in (WRITE, REG_WRITE) and len(prm) >= 2:
+        return u16(prm), len(prm) - 2
+    return None, None
+
+
+def _addressed_ids(inst: int, prm: bytes) -> tuple[int, ...] | None:
+    """The IDs a group instruction addresses; None for an instruction to the packet's own ID."""
+    if inst in (SYNC_READ, FAST_SYNC_READ) and len(prm) >= 4:
+        return tuple(prm[4:])
+    if inst == SYNC_WRITE and len(prm) >= 4:
+        length = u16(prm, 2)
+        return tuple(prm[k] for k in range(4, len(prm), 1 + length)) if length else ()
+    if inst in (BULK_READ, FAST_BULK_READ):
+        return tuple(prm[k] for k in range(0, len(prm) - 4, 5))
+    if inst == BULK_WRITE:
+        found, k = [], 0
+        while k + 5 <= len(prm):
+            found.append(prm[k])
+            k += 5 + u16(prm, k + 3)
+        return tuple(found)
+    return None

@@ -103,16 +103,30 @@ def unify_baudrate(bus: DynamixelBus, target: int, ids: Iterable[int], search_ra
         raise ValueError(f"target baud rate {target} is not a Dynamixel baud rate: use one of "
                          f"{', '.join(map(str, DYNAMIXEL_BAUDRATES))}")
     log = log if log is not None else logging.getLogger("dynamixel_handler.baudrate")
-    ids = sorted(set(int(i) for i in ids))
+    wanted = sorted(set(int(i) for i in ids))
     report = UnifyReport(target=target)
     if not _switch(bus, target, report, log):
         report.error = f"the adapter cannot use the target rate {target} bps ({report.skipped_rates[target]})"
         return report
-    for dxl_id, number in bus.scan(ids).items():
+    for dxl_id, number in bus.scan(wanted).items():
         report.servos[dxl_id] = _outcome(dxl_id, number, target, "already")
     report.searched.append(target)
     log.info(f"at {target} bps (target): {_listing(report.servos)}")
-    for rate in search_rates:
+    _search(bus, target, wanted, search_rates, report, log)
+    if not _switch(bus, target, report, log):
+        report.error = f"could not return to {target} bps to verify"
+        return report
+    _verify(bus, report, log)
+    if not report.servos:
+        report.error = (f"no servo answered at any searched rate ({', '.join(map(str, report.searched))} bps) "
+                        f"with an ID in {wanted[0]}..{wanted[-1]}" if wanted else "no IDs to search")
+    return report
+
+
+def _search(bus: DynamixelBus, target: int, ids: list[int], rates: Sequence[int], report: UnifyReport,
+            log: Any) -> None:
+    """Scan at each rate not searched yet and move the servos found there to ``target``."""
+    for rate in rates:
         if rate == target or rate in report.searched or not _switch(bus, rate, report, log):
             continue
         report.searched.append(rate)
@@ -120,14 +134,6 @@ def unify_baudrate(bus: DynamixelBus, target: int, ids: Iterable[int], search_ra
         log.info(f"at {rate} bps: {_listing({i: _outcome(i, n, rate, '') for i, n in found.items()})}")
         for dxl_id, number in found.items():
             _move(bus, dxl_id, number, rate, target, report, log)
-    if not _switch(bus, target, report, log):
-        report.error = f"could not return to {target} bps to verify"
-        return report
-    _verify(bus, report, log)
-    if not report.servos:
-        report.error = (f"no servo answered at any searched rate ({', '.join(map(str, report.searched))} bps) "
-                        f"with an ID in {ids[0]}..{ids[-1]}" if ids else "no IDs to search")
-    return report
 
 
 def _move(bus: DynamixelBus, dxl_id: int, number: int, rate: int, target: int, report: UnifyReport,
@@ -231,15 +237,7 @@ TOOL_PARAMS: Mapping[str, tuple[type, Any, str]] = {
 
 def validate_tool_params(values: Mapping[str, Any]) -> dict[str, Any]:
     """Complete ``values`` with defaults and check them; ValueError with one clear sentence if bad."""
-    out: dict[str, Any] = {}
-    for name, (typ, default, _) in TOOL_PARAMS.items():
-        value = values.get(name, default)
-        if typ is int and isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if not isinstance(value, typ) or isinstance(value, bool):
-            kind = "an integer" if typ is int else "a string"
-            raise ValueError(f"parameter '{name}' must be {kind}, got {type(value).__name__} {value!r}")
-        out[name] = value
+    out = {name: _typed(name, typ, values.get(name, default)) for name, (typ, default, _) in TOOL_PARAMS.items()}
     rates = ", ".join(map(str, DYNAMIXEL_BAUDRATES))
     if not out["device_name"].strip():
         raise ValueError("parameter 'device_name' is empty: set it to the adapter, e.g. /dev/ttyUSB0")
@@ -248,12 +246,26 @@ def validate_tool_params(values: Mapping[str, Any]) -> dict[str, Any]:
                          f"baud rate; use one of {rates}")
     if not 1 <= out["latency_timer"] <= 255:
         raise ValueError(f"parameter 'latency_timer' = {out['latency_timer']} must be 1..255 ms")
+    _check_ids(out)
+    if not search_rates(out["min_search_baudrate"], out["max_search_baudrate"]):
+        raise ValueError(f"no Dynamixel baud rate lies within min_search_baudrate..max_search_baudrate = "
+                         f"{out['min_search_baudrate']}..{out['max_search_baudrate']}; rates are {rates}")
+    return out
+
+
+def _typed(name: str, typ: type, value: Any) -> Any:
+    """``value`` as the parameter's type (a whole float is taken as an int); ValueError if it is not."""
+    if typ is int and isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if not isinstance(value, typ) or isinstance(value, bool):
+        kind = "an integer" if typ is int else "a string"
+        raise ValueError(f"parameter '{name}' must be {kind}, got {type(value).__name__} {value!r}")
+    return value
+
+
+def _check_ids(out: Mapping[str, Any]) -> None:
     for name in ("min_id", "max_id"):
         if not 0 <= out[name] <= 252:
             raise ValueError(f"parameter '{name}' = {out[name]} must be a servo ID, 0..252")
     if out["max_id"] < out["min_id"]:
         raise ValueError(f"parameter 'max_id' = {out['max_id']} is below 'min_id' = {out['min_id']}")
-    if not search_rates(out["min_search_baudrate"], out["max_search_baudrate"]):
-        raise ValueError(f"no Dynamixel baud rate lies within min_search_baudrate..max_search_baudrate = "
-                         f"{out['min_search_baudrate']}..{out['max_search_baudrate']}; rates are {rates}")
-    return out

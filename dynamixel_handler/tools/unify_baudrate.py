@@ -54,7 +54,7 @@ class UnifyBaudrateNode(Node):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True)
         self.log = _Log(self.get_logger())
-        given = {name: p.value for name, p in self.get_parameters_by_prefix("").items() if name not in _ROS_OWN}
+        given = {name: self.get_parameter(name).value for name in self.get_parameters_by_prefix("") if name not in _ROS_OWN}
         for name in sorted(set(given) - set(TOOL_PARAMS)):
             hint = difflib.get_close_matches(name, TOOL_PARAMS, n=1)
             self.log.warning(f"unknown parameter '{name}' ignored" + (f": did you mean '{hint[0]}'?" if hint else ""))
