@@ -1,20 +1,25 @@
-"""The loop's statistics line and its rate check, on the loop thread.
+"""The loop's statistics line and its rate check, on the loop thread. ROS-free.
 
 The line has the original handler's text and levels: ``time=%2.2fms/loop(%2.2fms/read),
 success=%3.0f%%(full=%3.0f%%)``, ERROR when fewer than 80 % of the transactions got every reply,
 WARN when fewer than 99 % got any, INFO otherwise. It comes every ``verbose_ratio`` loops, and at
-least every ``STATS_MAX_S`` seconds however slow the loop is (``verbose_ratio`` 0: never). While
-the device is gone it says so, and since when, instead of a success rate.
+least every ``STATS_MAX_S`` seconds whatever ``verbose_ratio`` is (also 0) and however slow the
+loop is. While the device is gone it says so, and since when, instead of a success rate.
 
 Every ``RATE_WINDOW_S`` the loop period is measured: the bus watchdog time follows what two
 windows in a row show (``Handler.note_loop_period``), and a loop that cannot hold ``loop_rate`` is
 reported once, with the rate it does reach and the bus time a loop takes.
+
+Both lines go to ``emit(kind, level, text)``: kind ``"statistics"`` or ``"rate"``, level one of
+``logging``'s (INFO, WARNING, ERROR).
 """
 from __future__ import annotations
 
+import logging
 import time
+from typing import Callable, Protocol, Sized
 
-from ..loop import Handler, StepReport
+from .bus.stats import BusStats
 
 #: longest time between two statistics lines [s]
 STATS_MAX_S = 10.0
@@ -25,12 +30,48 @@ RATE_WINDOW_LOOPS = 3
 #: a loop rate below this share of loop_rate is reported
 RATE_TOLERANCE = 0.9
 
+#: (kind, level, text): where the statistics line and the rate warning go
+Emit = Callable[[str, int, str], None]
+
+
+class StatsCore(Protocol):
+    """What the statistics need of the ``Handler``."""
+
+    @property
+    def table(self) -> Sized: ...
+    @property
+    def device_lost(self) -> bool: ...
+    @property
+    def device_lost_since(self) -> float | None: ...
+    def note_loop_period(self, seconds: float) -> None: ...
+    def estimate_loop_s(self) -> float: ...
+
+
+class StatsWire(Protocol):
+    """What the statistics need of the bus: its counters, device and baud rate."""
+
+    @property
+    def stats(self) -> BusStats: ...
+    @property
+    def device(self) -> str: ...
+    @property
+    def baudrate(self) -> int: ...
+
+
+class Finished(Protocol):
+    """What the statistics need of a finished loop (``StepReport``)."""
+
+    @property
+    def reads(self) -> Sized: ...
+    @property
+    def read_s(self) -> float: ...
+
 
 class LoopStats:
-    def __init__(self, handler: Handler, wire, logger, loop_rate: float, verbose_ratio: int) -> None:
+    def __init__(self, handler: StatsCore, wire: StatsWire, emit: Emit, loop_rate: float, verbose_ratio: int) -> None:
         self.h = handler
         self.wire = wire
-        self.log = logger
+        self.emit = emit
         self.loop_rate = float(loop_rate)
         self.verbose_ratio = int(verbose_ratio)
         now = time.monotonic()
@@ -40,7 +81,7 @@ class LoopStats:
         self.slow_warned = False
         self._last_period: float | None = None  # the window before: one slow window alone is not trusted
 
-    def tick(self, finished: StepReport | None) -> None:
+    def tick(self, finished: Finished | None) -> None:
         """After each loop (``finished``: the loop completed in this pass, if any)."""
         self._loops += 1
         self._rate_loops += 1
@@ -52,7 +93,7 @@ class LoopStats:
         now = time.monotonic()
         if now - self._rate_start >= RATE_WINDOW_S and self._rate_loops >= RATE_WINDOW_LOOPS:
             self._check_rate(now)
-        if self.verbose_ratio and (self._loops >= self.verbose_ratio or now - self._start >= STATS_MAX_S):
+        if (self.verbose_ratio and self._loops >= self.verbose_ratio) or now - self._start >= STATS_MAX_S:
             self._line(now)
 
     def _check_rate(self, now: float) -> None:
@@ -71,30 +112,27 @@ class LoopStats:
         if rate < RATE_TOLERANCE * self.loop_rate and not self.slow_warned:
             self.slow_warned = True
             wire_s = self.h.estimate_loop_s()
-            self.log.warning(
-                f"loop_rate {self.loop_rate:g} Hz cannot be held: {rate:.1f} loops/s ({1000 * period:.1f} ms a "
-                f"loop; the reads of {len(self.h.table)} servo(s) at {getattr(self.wire, 'baudrate', 0)} bps take "
-                f"{1000 * wire_s:.1f} ms of wire a loop, the reads measured {1000 * read_s:.1f} ms); lower loop_rate, "
-                "raise baudrate, or read less (pub_ratio/*); the bus watchdog follows the loop")
+            self.emit("rate", logging.WARNING,
+                      f"loop_rate {self.loop_rate:g} Hz cannot be held: {rate:.1f} loops/s ({1000 * period:.1f} ms a "
+                      f"loop; the reads of {len(self.h.table)} servo(s) at {self.wire.baudrate} bps take "
+                      f"{1000 * wire_s:.1f} ms of wire a loop, the reads measured {1000 * read_s:.1f} ms); lower "
+                      "loop_rate, raise baudrate, or read less (pub_ratio/*); the bus watchdog follows the loop")
 
     def _line(self, now: float) -> None:
         loops = max(1, self._loops)
         head = (f"time={1000 * (now - self._start) / loops:2.2f}ms/loop"
                 f"({1000 * self._read / max(1, self._reads):2.2f}ms/read), ")
-        if self.h.device_lost and self.h.device_lost_since is not None:
-            since = self.h.device_lost_since
-            self.log.error(head + f"device {self.wire.device} gone since "
-                           f"{time.strftime('%H:%M:%S', time.localtime(since))} ({time.time() - since:.0f} s ago): "
-                           "nothing read, reconnecting")
+        since = self.h.device_lost_since
+        if self.h.device_lost and since is not None:
+            self.emit("statistics", logging.ERROR,
+                      head + f"device {self.wire.device} gone since "
+                      f"{time.strftime('%H:%M:%S', time.localtime(since))} ({time.time() - since:.0f} s ago): "
+                      "nothing read, reconnecting")
         else:
             delta = self.wire.stats.delta(self._before)
             partial, full = 100 * delta.success_rate, 100 * delta.full_success_rate
             line = head + f"success={partial:3.0f}%(full={full:3.0f}%)"
-            if full < 80:
-                self.log.error(line)
-            elif partial < 99:
-                self.log.warning(line)
-            else:
-                self.log.info(line)
+            level = logging.ERROR if full < 80 else logging.WARNING if partial < 99 else logging.INFO
+            self.emit("statistics", level, line)
         self._start, self._loops, self._read, self._reads = now, 0, 0.0, 0
         self._before = self.wire.stats.copy()

@@ -9,8 +9,8 @@ with ``cdr.py``, else as rclpy messages. Messages taken in one step, from any of
 are handled in the order they were published (source timestamp).
 
 The subscriptions are ordinary subscriptions of the node (``ros2 node info`` lists them, QoS as
-before) that are kept out of the executor's sight. If this rclpy does not allow that, they are
-left to the executor and their callbacks do the same work (``detached`` is False).
+before) that are kept out of the executor's sight (``fastpath.detach``). Without the detached
+intake (``fastpath.FastPaths``) they are left to the executor and their callbacks do the same work.
 """
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ import threading
 import time
 from typing import Any, Callable
 
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
+from . import fastpath
 from .cdr import Codec, DecodeError
 from .lean import lean_subscription
 
@@ -28,17 +28,16 @@ Handler = Callable[[dict[str, Any]], None]
 
 
 class CommandIntake:
-    def __init__(self, node: Node, raw: bool) -> None:
+    def __init__(self, node: Node, raw: bool, detached: bool) -> None:
         self.node = node
         self.raw = raw
         self.log = node.get_logger()
-        self.detached = isinstance(getattr(node, "_subscriptions", None), list)
+        self.detached = detached
         self._entries: list[tuple[Any, Codec, Handler, str]] = []
         self._lock = threading.Lock()  # poll() and close() may come from different threads
         self.taken = 0
         self.undecodable = 0
-        self._wait_set = None
-        self._wait_size = 0
+        self._waiter = fastpath.Waiter(node)
 
     def subscribe(self, typ, topic: str, handler: Handler, depth: int = 10) -> None:
         """``handler`` gets the message as a nested dict (``cdr.Codec.decode``'s form)."""
@@ -51,7 +50,7 @@ class CommandIntake:
             lean_subscription(self.node, typ, topic, callback, depth, raw=self.raw)
             return
         sub = lean_subscription(self.node, typ, topic, _never_called, depth, raw=self.raw)
-        self.node._subscriptions.remove(sub)  # the executor does not see it; poll() takes it
+        fastpath.detach(self.node, sub)  # the executor does not see it; poll() takes it
         self._entries.append((sub, codec, handler, topic))
 
     def poll(self) -> int:
@@ -63,7 +62,7 @@ class CommandIntake:
                 sub = entry[0]
                 while True:
                     try:  # close() destroys under the same lock, so no handle guard is needed
-                        got = sub.handle.take_message(sub.msg_type, self.raw)
+                        got = fastpath.take(sub, self.raw)
                     except Exception as exc:  # a destroyed handle or a middleware error: never fatal
                         self.log.error(f"{entry[3]}: take failed: {type(exc).__name__}: {exc}")
                         break
@@ -87,7 +86,7 @@ class CommandIntake:
             for entry in self._entries:
                 while True:
                     try:
-                        got = entry[0].handle.take_message(entry[0].msg_type, self.raw)
+                        got = fastpath.take(entry[0], self.raw)
                     except Exception:  # a destroyed handle: nothing more to take
                         break
                     if got is None:
@@ -102,17 +101,8 @@ class CommandIntake:
             time.sleep(max(0.0, timeout_s))
             return False
         # close() destroys the subscriptions under the same lock, so their handles stay valid here
-        with self._lock, self.node.context.handle:
-            handles = [entry[0].handle for entry in self._entries]
-            if self._wait_set is None or self._wait_size != len(handles):
-                self._wait_set = _rclpy.WaitSet(len(handles), 0, 0, 0, 0, 0, self.node.context.handle)
-                self._wait_size = len(handles)
-            wait_set = self._wait_set
-            wait_set.clear_entities()
-            for handle in handles:
-                wait_set.add_subscription(handle)
-            wait_set.wait(max(0, int(timeout_s * 1e9)))
-            return bool(wait_set.get_ready_entities("subscription"))
+        with self._lock:
+            return self._waiter.wait([entry[0] for entry in self._entries], timeout_s)
 
     def _value(self, codec: Codec, msg, topic: str) -> dict[str, Any] | None:
         if not self.raw:
@@ -131,7 +121,7 @@ class CommandIntake:
 
     def close(self) -> None:
         with self._lock:
-            self._wait_set = None
+            self._waiter.close()
             for sub, *_ in self._entries:
                 try:
                     sub.destroy()

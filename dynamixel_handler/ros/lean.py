@@ -7,16 +7,13 @@ type). Each is a waitable the executor rebuilds into its wait set on every spin;
 """
 from __future__ import annotations
 
-import os
 from typing import Any, Callable
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 
-from .cdr import Codec, Unsupported, self_check
-
-#: environment variable: "0" makes the node use rclpy message objects instead of raw CDR bytes
-RAW_ENV = "DYNAMIXEL_HANDLER_RAW_CDR"
+from .cdr import Codec, Unsupported
+from .fastpath import RAW_ENV
 
 
 def lean_publisher(node: Node, typ, topic: str, depth=10):
@@ -26,19 +23,6 @@ def lean_publisher(node: Node, typ, topic: str, depth=10):
 def lean_subscription(node: Node, typ, topic: str, callback: Callable, depth=10, raw: bool = False):
     return node.create_subscription(typ, topic, callback, depth, raw=raw,
                                     event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-
-
-def raw_cdr_usable(msg_classes, log) -> bool:
-    """Whether the handler may read and write its messages as CDR bytes itself: yes unless
-    ``DYNAMIXEL_HANDLER_RAW_CDR=0`` or the middleware encodes them differently from ``cdr.py``."""
-    if os.environ.get(RAW_ENV, "1").strip() == "0":
-        log.info(f"{RAW_ENV}=0: messages go through rclpy message objects")
-        return False
-    reason = self_check(msg_classes)
-    if reason is not None:
-        log.warning(f"raw CDR disabled, messages go through rclpy message objects ({reason})")
-        return False
-    return True
 
 
 class TreePublisher:
@@ -58,4 +42,4 @@ class TreePublisher:
         self.publisher.publish(self.codec.encode(value) if self.raw else self.codec.to_message(value))
 
 
-__all__ = ["RAW_ENV", "TreePublisher", "Unsupported", "lean_publisher", "lean_subscription", "raw_cdr_usable"]
+__all__ = ["RAW_ENV", "TreePublisher", "Unsupported", "lean_publisher", "lean_subscription"]

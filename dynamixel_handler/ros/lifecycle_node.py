@@ -21,12 +21,12 @@ import time
 
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from ..bus import BusError
 from ..config import Config
 from ..loop import StartupError
+from . import fastpath
 from .node import DynamixelHandlerNode, run
 
 SUCCESS, FAILURE, ERROR = (TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE,
@@ -49,7 +49,9 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         self.handler.config = Config({**self.config.values, "init/torque_auto_enable": False})
         # a transition the state machine does not have from the current state (activate while
         # unconfigured, configure twice) fails with an answer, not an exception in the executor
-        self._service_change_state.callback = self._guarded_change_state(self._service_change_state.callback)
+        if not fastpath.lifecycle_guard(self, self._guarded_change_state):
+            self.get_logger().debug("change_state: this rclpy's LifecycleNode hides its state machine: "
+                                    "transitions out of order are refused by rclpy itself")
         # commands that arrive while the loop does not run are dropped (with a warning), never
         # kept for activate; services and the action answer at once
         self.handler.refuse_ops = "the node is not active (lifecycle state unconfigured): configure and activate it"
@@ -57,10 +59,10 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         self.create_timer(DRAIN_PERIOD_S, self._drain_commands)
 
     # ------------------------------------------------------------------ guards
-    def _guarded_change_state(self, serve):
+    def _guarded_change_state(self, serve, state, transitions):
         def change_state(req: ChangeState.Request, res: ChangeState.Response) -> ChangeState.Response:
-            label = self._state_machine.current_state[1]
-            allowed = {t[0]: t[1] for t in self._transitions_from_here()}
+            label = state()
+            allowed = {t[0]: t[1] for t in transitions()}
             asked = req.transition.label or TRANSITION_NAMES.get(req.transition.id, str(req.transition.id))
             if (req.transition.label and req.transition.label not in allowed.values()) or \
                     (not req.transition.label and req.transition.id not in allowed):
@@ -71,23 +73,18 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
                 return res
             try:
                 return serve(req, res)
-            except _rclpy.RCLError as err:  # the state machine refused it after all
+            except fastpath.RCLError as err:  # the state machine refused it after all
                 self.get_logger().warning(f"change_state: transition '{asked[:80]}' refused in state '{label}': "
                                           f"{str(err).splitlines()[0][:120]}")
                 res.success = False
                 return res
         return change_state
 
-    def _transitions_from_here(self) -> list[tuple[int, str]]:
-        """(id, label) of the transitions the state machine has from the current state."""
-        # each description: (id, label, start id, start label, goal id, goal label)
-        return [(int(d[0]), str(d[1])) for d in self._state_machine.available_transitions]
-
     def _drain_commands(self) -> None:
         """While the loop does not run: take the waiting command messages and drop them, with one
         warning line a second at most (a servo must not move, or lose torque, at activate because
         of a command sent while the node was inactive)."""
-        if self._thread is not None and self._thread.is_alive():
+        if self.loop_running:
             return
         dropped = self.intake.discard() + self.handler.drop_ops()
         if not dropped:
@@ -95,7 +92,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         self._dropped += dropped
         now = time.monotonic()
         if now - self._drop_warned >= DROP_WARN_INTERVAL_S:
-            state = self._state_machine.current_state[1]
+            state = fastpath.lifecycle_state(self)
             self.get_logger().warning(f"{self._dropped} command(s) received while {state} dropped "
                                       "(commands apply only while active)")
             self._dropped, self._drop_warned = 0, now
@@ -177,11 +174,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     # ------------------------------------------------------------------ helpers
     def _stop_loop(self) -> None:
         self.handler.refuse_ops = "the node is not active (lifecycle): activate it first"
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
-            self._thread = None
-        self._close_outbox()
+        self.stop_loop()
 
     def _forget_and_close(self) -> None:
         self._stop_loop()
