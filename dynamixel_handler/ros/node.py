@@ -91,6 +91,8 @@ class DynamixelHandlerNode(Node):
         self.bus = BusWithDummies(self.wire, make_dummies(cfg.dummy_ids, cfg.dummy_series))
         self.handler = Handler(self.bus, cfg, self.adapter)
         self.runner: Runner | None = None  # the loop, while it runs
+        #: the loop was asked to stop (or gave up) and was not started again
+        self.loop_stopped = False
         self.failed = False
         # fault injection for tests and drills: the first N loop steps raise
         self._injected_faults = int(os.environ.get(INJECT_ENV, "0") or 0)
@@ -167,6 +169,7 @@ class DynamixelHandlerNode(Node):
         hooks = Hooks(before_step=self._before_step, take_commands=self.intake.poll, wait_commands=self.intake.wait,
                       states_ready=self._end_step, external_read=self._publish_external, report=self._report,
                       gave_up=self._gave_up)
+        self.loop_stopped = False
         self.runner = Runner(self.handler, self.wire, self.config["loop_rate"], self.config["verbose_ratio"],
                              self.get_logger(), hooks, self.external_ports)
         self.runner.start()
@@ -185,6 +188,7 @@ class DynamixelHandlerNode(Node):
 
     def stop_loop(self) -> None:
         """Stop the loop (nothing left on the wire) and the publishing thread."""
+        self.loop_stopped = True
         if self.runner is not None:
             self.runner.stop()
             self.runner = None
@@ -235,7 +239,7 @@ class DynamixelHandlerNode(Node):
             log.info(text)
 
     def _gave_up(self) -> None:
-        self.failed = True
+        self.failed = self.loop_stopped = True
         if self.on_failure is not None:
             self.on_failure()
 

@@ -261,7 +261,7 @@ class MotionServices:
         self.node = node
         self.log = node.get_logger()
         self.motion = Motion(node.handler, node.commander, joint_map(node.config.values),
-                             running=lambda: not node._stop.is_set())
+                             running=lambda: not node.loop_stopped)
         group = ReentrantCallbackGroup()
         node.create_service(SetTorque, "dynamixel/set_torque", self._on_set_torque, callback_group=group)
         node.create_service(MoveTo, "dynamixel/move_to", self._on_move_to, callback_group=group)

@@ -71,23 +71,7 @@ class TrajectoryAction:
             goal_handle.abort()
             return result
         self.follower.start(job)
-        period = 1.0 / FEEDBACK_HZ
-        sent = None
-        while not job.done.wait(period):
-            if goal_handle.is_cancel_requested:
-                self.follower.stop(job, tr.CANCELLED, "cancelled: holding where the joints are")
-                break
-            if self.node._stop.is_set():
-                self.follower.stop(job, tr.ABORTED, "the bus loop stopped")
-                break
-            late = time.time() - (job.start_wall + job.points[-1].t + job.tolerances.goal_time)
-            if late > STALE_S:  # the end was never judged: no present positions came in (device gone?)
-                self.follower.stop(job, tr.GOAL_VIOLATED, f"no present positions were read for {STALE_S:g} s after "
-                                                          "the goal time: the goal cannot be confirmed")
-                break
-            if job.last is not None and job.last is not sent:
-                sent = job.last
-                goal_handle.publish_feedback(self._feedback(job))
+        self._watch(job, goal_handle)
         result.error_code = CODES[job.outcome]
         result.error_string = job.message
         if job.outcome == tr.SUCCEEDED:
@@ -97,6 +81,26 @@ class TrajectoryAction:
         else:
             goal_handle.abort()
         return result
+
+    def _watch(self, job: tr.Job, goal_handle) -> None:
+        """Feedback while the follower streams the trajectory; a cancel, a stopped loop or an end
+        that is never judged stop it."""
+        sent = None
+        while not job.done.wait(1.0 / FEEDBACK_HZ):
+            if goal_handle.is_cancel_requested:
+                self.follower.stop(job, tr.CANCELLED, "cancelled: holding where the joints are")
+                return
+            if self.node.loop_stopped:
+                self.follower.stop(job, tr.ABORTED, "the bus loop stopped")
+                return
+            late = time.time() - (job.start_wall + job.points[-1].t + job.tolerances.goal_time)
+            if late > STALE_S:  # the end was never judged: no present positions came in (device gone?)
+                self.follower.stop(job, tr.GOAL_VIOLATED, f"no present positions were read for {STALE_S:g} s after "
+                                                          "the goal time: the goal cannot be confirmed")
+                return
+            if job.last is not None and job.last is not sent:
+                sent = job.last
+                goal_handle.publish_feedback(self._feedback(job))
 
     def _feedback(self, job: tr.Job) -> FollowJointTrajectory.Feedback:
         t, verdict, present, velocity = job.last
