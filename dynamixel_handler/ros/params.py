@@ -52,12 +52,7 @@ def declare_and_load(node: Node) -> Config:
         node.undeclare_parameter(name)
         for target in ALIASES[name]:
             given.setdefault(target, value)
-    for name in sorted(given):
-        if name in SCHEMA_BY_NAME or name in _ROS_OWN or name.startswith(TOLERATED_PREFIXES):
-            continue
-        hint = difflib.get_close_matches(name, SCHEMA_BY_NAME, n=1)
-        node.get_logger().error(
-            f"unknown parameter '{name}' ignored" + (f": did you mean '{hint[0]}'?" if hint else ""))
+    _report_unknown(node, given)
     values: dict[str, Any] = {}
     for param in SCHEMA:
         if param.name in given:
@@ -72,6 +67,16 @@ def declare_and_load(node: Node) -> Config:
         node.declare_parameter(param.name, list(value) if isinstance(value, list) else value,
                                descriptor, ignore_override=True)
     return validate(values)
+
+
+def _report_unknown(node: Node, given: dict[str, Any]) -> None:
+    """One error line for each name that is no parameter of the handler (ignored)."""
+    for name in sorted(given):
+        if name in SCHEMA_BY_NAME or name in _ROS_OWN or name.startswith(TOLERATED_PREFIXES):
+            continue
+        hint = difflib.get_close_matches(name, SCHEMA_BY_NAME, n=1)
+        node.get_logger().error(
+            f"unknown parameter '{name}' ignored" + (f": did you mean '{hint[0]}'?" if hint else ""))
 
 
 def _command_line_parameters(argv: list[str]) -> dict[str, str]:
@@ -93,34 +98,46 @@ def check_arguments(argv: list[str]) -> str | None:
     """What is wrong with the ROS arguments before rcl reads them (rcl says only "Couldn't parse"
     and logs a line of its own): a params file that is missing or is not YAML (file and line), a
     ``-p name:=`` without a value. None if nothing is found."""
-    import yaml
     ros = False
     for k, arg in enumerate(argv):
-        if arg == "--ros-args":
-            ros = True
-        elif arg == "--":
-            ros = False
-        elif ros and arg == "--params-file" and k + 1 < len(argv):
-            path = argv[k + 1]
-            try:
-                with open(path, encoding="utf-8") as f:
-                    yaml.safe_load(f)
-            except OSError as err:
-                return f"params file {cut(path)}: cannot read it: {err.strerror}"
-            except UnicodeDecodeError as err:
-                return f"params file {cut(path)}: not text ({err.reason} at byte {err.start})"
-            except yaml.YAMLError as err:
-                mark = getattr(err, "problem_mark", None)
-                where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-                problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-                return f"params file {cut(path)}: not valid YAML: {where}{problem}"
+        if arg in ("--ros-args", "--"):
+            ros = arg == "--ros-args"
+            continue
+        problem = None
+        if ros and arg == "--params-file" and k + 1 < len(argv):
+            problem = _params_file_problem(argv[k + 1])
         elif ros and arg in ("-p", "--param") and k + 1 < len(argv):
-            rule = argv[k + 1]
-            name, sep, value = rule.partition(":=")
-            if not sep:
-                return f"{arg} {cut(rule)}: not of the form name:=value"
-            if value == "":
-                return f"{arg} {cut(rule)}: no value given (for an empty string: {name}:=''), or leave it out"
+            problem = _rule_problem(arg, argv[k + 1])
+        if problem is not None:
+            return problem
+    return None
+
+
+def _params_file_problem(path: str) -> str | None:
+    """Why a params file cannot be read as YAML (file and line), or None."""
+    import yaml
+    try:
+        with open(path, encoding="utf-8") as f:
+            yaml.safe_load(f)
+    except OSError as err:
+        return f"params file {cut(path)}: cannot read it: {err.strerror}"
+    except UnicodeDecodeError as err:
+        return f"params file {cut(path)}: not text ({err.reason} at byte {err.start})"
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        return f"params file {cut(path)}: not valid YAML: {where}{problem}"
+    return None
+
+
+def _rule_problem(flag: str, rule: str) -> str | None:
+    """What is wrong with a ``-p name:=value`` (no ``:=``, no value), or None."""
+    name, sep, value = rule.partition(":=")
+    if not sep:
+        return f"{flag} {cut(rule)}: not of the form name:=value"
+    if value == "":
+        return f"{flag} {cut(rule)}: no value given (for an empty string: {name}:=''), or leave it out"
     return None
 
 
@@ -133,11 +150,8 @@ def _apply_command_line(node: Node, given: dict[str, Any]) -> None:
     from rclpy.parameter import Parameter, get_parameter_value
     for name, text in _command_line_parameters(sys.argv).items():
         wanted = Parameter.from_parameter_msg(rcl_interfaces.msg.Parameter(name=name, value=get_parameter_value(text)))
-        value = wanted.value
-        value = list(value) if isinstance(value, (list, tuple)) or hasattr(value, "tolist") else value
-        got = given.get(name)
-        got = list(got) if isinstance(got, (list, tuple)) or hasattr(got, "tolist") else got
-        if name in given and (value == got or (type(value) is int and type(got) is float and float(value) == got)):
+        value = _plain(wanted.value)
+        if name in given and _same(value, _plain(given.get(name))):
             continue
         param = SCHEMA_BY_NAME.get(name)
         if param is not None:
@@ -149,6 +163,16 @@ def _apply_command_line(node: Node, given: dict[str, Any]) -> None:
             node.get_logger().info(f"parameter '{name}': the command-line value {cut(text)} applied (ROS had kept "
                                    f"{cut(repr(given[name]))} from a parameter file)")
         given[name] = value
+
+
+def _plain(value: Any) -> Any:
+    """Sequences (tuples, arrays) as lists, so that values compare as the user sees them."""
+    return list(value) if isinstance(value, (list, tuple)) or hasattr(value, "tolist") else value
+
+
+def _same(value: Any, got: Any) -> bool:
+    """The command-line value is what ROS kept (an int given for a float parameter included)."""
+    return bool(value == got or (type(value) is int and type(got) is float and float(value) == got))
 
 
 def describe(config: Config, width: int = 120) -> list[str]:

@@ -122,17 +122,8 @@ class Motion:
     def start(self, targets: list[tuple[int, str | None]], positions_deg: Sequence[float], velocity_deg_s: float,
               tolerance_deg: float, timeout_s: float) -> Move:
         """Check the request, hand the goals to the Commander, and return once they are written."""
-        positions = [float(p) for p in positions_deg]
-        if len(positions) != len(targets):
-            raise MoveError(f"{len(positions)} positions for {len(targets)} servos")
-        bad = [name or i for (i, name), p in zip(targets, positions) if not math.isfinite(p)]
-        if bad:
-            raise MoveError(f"positions of {bad} are not finite numbers")
-        if not math.isfinite(velocity_deg_s) or velocity_deg_s < 0:
-            raise MoveError(f"velocity {velocity_deg_s} must be a finite value >= 0")
+        positions = _checked_request(targets, positions_deg, velocity_deg_s)
         ids = [i for i, _ in targets]
-        if len(set(ids)) != len(ids):
-            raise MoveError(f"a servo is named twice in {ids}")
         servo_deg = [self.mapping.to_servo_deg(name, p) if name is not None else p
                      for (_, name), p in zip(targets, positions)]
         move = Move(targets, servo_deg, tolerance_deg if tolerance_deg > 0 else DEFAULT_TOLERANCE_DEG,
@@ -149,16 +140,8 @@ class Motion:
 
     def _command(self, ids: list[int], servo_deg: list[float], velocity: float) -> None:
         """Loop thread: refuse servos that cannot move, then queue the goals per mode and series."""
-        missing = self._unhandled(ids)
-        if missing:
-            raise MoveError(f"IDs {missing} are not handled")
+        self._refuse_unready(ids)
         table = self.h.table
-        silent = [i for i in ids if not table.ping[table.index[i]]]
-        if silent:
-            raise MoveError(f"IDs {silent} do not answer")
-        off = [i for i in ids if not (table.value("torque_enable", i) or self.h.read_item(i, "torque_enable"))]
-        if off:
-            raise MoveError(f"torque is off on IDs {off}: enable it first (set_torque)")
         batches: dict[tuple[str, str], tuple[list[int], list[float]]] = {}
         for i, deg in zip(ids, servo_deg):
             series = table.model(i).series
@@ -175,6 +158,19 @@ class Motion:
                 self.commander.goal(batch_ids, fields, what="move")
             else:
                 self.commander.control(series, "position_control", batch_ids, fields)
+
+    def _refuse_unready(self, ids: list[int]) -> None:
+        """MoveError for servos that are not handled, do not answer or have no torque."""
+        missing = self._unhandled(ids)
+        if missing:
+            raise MoveError(f"IDs {missing} are not handled")
+        table = self.h.table
+        silent = [i for i in ids if not table.ping[table.index[i]]]
+        if silent:
+            raise MoveError(f"IDs {silent} do not answer")
+        off = [i for i in ids if not (table.value("torque_enable", i) or self.h.read_item(i, "torque_enable"))]
+        if off:
+            raise MoveError(f"torque is off on IDs {off}: enable it first (set_torque)")
 
     def _goals(self, ids: list[int]) -> list[float]:
         """Goals the servos go to: written ones, or those still waiting for this step's write."""
@@ -218,8 +214,8 @@ class Motion:
                feedback: Callable[[list[float], list[float]], None] | None = None) -> tuple[int, str, list[float]]:
         """Wait until every servo is within tolerance of its goal, the deadline, a silent servo or
         a cancel; (outcome, message, present positions in the request's frame)."""
+        watch = _Watch(move)
         last_feedback = 0.0
-        silent_since: dict[int, float] = {}
         while True:
             if not self.running():
                 return ERROR, "the bus loop stopped", []
@@ -231,23 +227,61 @@ class Motion:
             if feedback is not None and now - last_feedback >= FEEDBACK_S:
                 feedback(shown, remaining)
                 last_feedback = now
-            names = [name or f"ID {i}" for i, name in move.targets]
-            for k, ok in enumerate(ping):
-                if ok:
-                    silent_since.pop(k, None)
-                else:
-                    silent_since.setdefault(k, now)
-            silent = [names[k] for k, since in sorted(silent_since.items()) if now - since >= SILENT_S]
-            if silent:
-                return ERROR, f"{', '.join(silent)} stopped answering", shown
-            if not silent_since and all(r <= move.tolerance_deg for r in remaining):
-                return REACHED, _with_notes(f"reached within {move.tolerance_deg:g} deg", move), shown
-            if cancelled():
-                return CANCELED, "cancelled: stopped where the servos were", shown
-            if now >= move.deadline:
-                far = [f"{n} {r:.1f} deg away" for n, r in zip(names, remaining) if r > move.tolerance_deg]
-                return TIMED_OUT, _with_notes(f"timed out: {', '.join(far)}", move), shown
+            verdict = watch.verdict(ping, remaining, now, cancelled)
+            if verdict is not None:
+                return verdict[0], verdict[1], shown
             time.sleep(POLL_S)
+
+
+class _Watch:
+    """How a waiting move ends: a servo silent for SILENT_S, every servo within tolerance, a
+    cancel, or the deadline (in that order)."""
+
+    def __init__(self, move: Move) -> None:
+        self.move = move
+        self.names = [name or f"ID {i}" for i, name in move.targets]
+        self.silent_since: dict[int, float] = {}
+
+    def verdict(self, ping: list[bool], remaining: list[float], now: float,
+                cancelled: Callable[[], bool]) -> tuple[int, str] | None:
+        move = self.move
+        silent = self._silent(ping, now)
+        if silent:
+            return ERROR, f"{', '.join(silent)} stopped answering"
+        if not self.silent_since and all(r <= move.tolerance_deg for r in remaining):
+            return REACHED, _with_notes(f"reached within {move.tolerance_deg:g} deg", move)
+        if cancelled():
+            return CANCELED, "cancelled: stopped where the servos were"
+        if now >= move.deadline:
+            far = [f"{n} {r:.1f} deg away" for n, r in zip(self.names, remaining) if r > move.tolerance_deg]
+            return TIMED_OUT, _with_notes(f"timed out: {', '.join(far)}", move)
+        return None
+
+    def _silent(self, ping: list[bool], now: float) -> list[str]:
+        """The servos that have not answered for SILENT_S (one missed read does not count)."""
+        for k, ok in enumerate(ping):
+            if ok:
+                self.silent_since.pop(k, None)
+            else:
+                self.silent_since.setdefault(k, now)
+        return [self.names[k] for k, since in sorted(self.silent_since.items()) if now - since >= SILENT_S]
+
+
+def _checked_request(targets: list[tuple[int, str | None]], positions_deg: Sequence[float],
+                     velocity_deg_s: float) -> list[float]:
+    """The positions as floats; MoveError for a request that cannot be right."""
+    positions = [float(p) for p in positions_deg]
+    if len(positions) != len(targets):
+        raise MoveError(f"{len(positions)} positions for {len(targets)} servos")
+    bad = [name or i for (i, name), p in zip(targets, positions) if not math.isfinite(p)]
+    if bad:
+        raise MoveError(f"positions of {bad} are not finite numbers")
+    if not math.isfinite(velocity_deg_s) or velocity_deg_s < 0:
+        raise MoveError(f"velocity {velocity_deg_s} must be a finite value >= 0")
+    ids = [i for i, _ in targets]
+    if len(set(ids)) != len(ids):
+        raise MoveError(f"a servo is named twice in {ids}")
+    return positions
 
 
 def _with_notes(message: str, move: Move) -> str:
