@@ -249,3 +249,47 @@ def test_xm335_and_x330_tables():
     assert xm430.indirect == ((168, 224, 28), (578, 634, 28)) and xm430.baud_rates[7] == 4_500_000
     assert model_by_number(2020).indirect == ((168, 634, 128),)
     assert model_by_number(1280).name == "XW430-T200" and model_by_number(1280).current_ma_per_pulse == 2.69
+
+
+def test_every_model_carries_the_factory_values_of_its_manual_page():
+    """Model.factory (control_table/_factory.py, one e-Manual page per model) is complete enough
+    for an unboxed servo, and every value fits its item and the model's position range."""
+    for model in known_models():
+        factory = model.factory
+        assert {"moving_threshold", "temperature_limit", "max_voltage_limit", "min_voltage_limit",
+                "shutdown"} <= set(factory), model.name
+        assert factory["min_voltage_limit"] < factory["max_voltage_limit"]
+        for name, value in factory.items():
+            item = model.item(name)
+            assert item.min_raw <= value <= item.max_raw, (model.name, name)
+        if model.layout == "OLD_PRO":
+            continue  # the "-R" pages give no limits or gains
+        assert {"velocity_limit", "max_position_limit", "min_position_limit", "pwm_limit"} <= set(factory)
+        assert model.position_min_pulse <= factory["min_position_limit"] < factory["max_position_limit"] \
+            <= model.position_max_pulse, model.name
+        if model.series == "X":
+            assert "position_p_gain" in factory and "velocity_i_gain" in factory, model.name
+
+
+@pytest.mark.parametrize("number,name,value", [
+    (1020, "velocity_limit", 200), (1030, "velocity_limit", 330),          # x/xm430-w350, x/xm430-w210
+    (1040, "current_limit", 689), (1040, "max_voltage_limit", 300),       # x/xh430-v350
+    (1060, "temperature_limit", 72),                                      # x/xl430-w250
+    (1190, "position_i_gain", 400), (1190, "shutdown", 53),               # x/xl330-m077
+    (1240, "current_limit", 2352),                                        # x/xc330-m288
+    (1710, "baud_rate", 3),                                               # x/xm335-t323
+    (1310, "current_limit", 1188),                                        # x/xw540-h260
+    (2000, "max_position_limit", 303454),                                 # p/ph42-020-s300-r
+    (2010, "acceleration_limit", 4255632),                                # p/ph54-100-s500-r
+    (2100, "velocity_i_gain", 6740),                                      # p/pm42-010-s260-r
+    (46353, "moving_threshold", 50),                                      # pro/m54-60-s250-ra
+    (43288, "max_voltage_limit", 400),                                    # pro/m42-10-s260-r
+])
+def test_factory_values_match_the_manual(number, name, value):
+    assert model_by_number(number).factory[name] == value
+
+
+def test_no_factory_value_where_the_manual_gives_none():
+    assert "velocity_limit" not in model_by_number(54024).factory   # old PRO: "-"
+    assert "position_p_gain" not in model_by_number(54025).factory  # PRO(A): gains "-"
+    assert "current_limit" not in model_by_number(1060).factory     # XL430: no such item

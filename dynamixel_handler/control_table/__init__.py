@@ -3,7 +3,8 @@ EEPROM flags and unit scales, by canonical snake_case item name.
 
 Addresses and sizes of X, P and PRO "-R(A)" models come from the control-table files shipped in
 the ``dynamixel-sdk`` wheel; the old PRO "-R" table, unit scales and the items those files omit
-are ours (``_facts.py``), taken from the ROBOTIS e-Manual. Nothing here talks to hardware.
+are ours (``_facts.py``), taken from the ROBOTIS e-Manual, and so are the factory values of each model
+(``_factory.py``). Nothing here talks to hardware.
 
 An item keeps its canonical name even where a series calls it differently: old PRO "Goal Torque"
 is ``goal_current``, "Torque Limit" is ``current_limit`` and "Goal Acceleration" is
@@ -18,6 +19,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Dict, List, Mapping, Tuple
 
+from ._factory import FACTORY
 from ._facts import (
     BAUD_RATES,
     EEPROM_END,
@@ -100,6 +102,9 @@ class Model:
     indirect_targets: Tuple[int, int] = (0, 0)
     #: bytes of control table (last address + 1)
     table_size: int = 0
+    #: factory (initial) values the e-Manual gives for this model, by item name (limits, gains,
+    #: thresholds, shutdown mask...); items it leaves blank are absent
+    factory: Mapping[str, int] = field(default_factory=dict, repr=False)
 
     def indirect_blocks(self, firmware: int) -> Tuple[Tuple[int, int, int], ...]:
         """The indirect blocks for a firmware version: X330 firmware before v52 had its
@@ -183,6 +188,7 @@ def _build(number: int, facts: ModelFacts) -> Model:
         indirect=blocks,
         indirect_targets=targets,
         table_size=TABLE_SIZE[indirect_key],
+        factory=MappingProxyType({k: v for k, v in FACTORY.get(number, {}).items() if k in items}),
     )
 
 

@@ -69,12 +69,13 @@ class ModelFacts:
     modes: Optional[Tuple[int, ...]] = None  # operating modes, when not those of the layout
 
 
-def _x(name: str, sdk_file: str, current_ma: float, extra: Optional[Dict] = None) -> ModelFacts:
+def _x(name: str, sdk_file: str, current_ma: float, extra: Optional[Dict[str, Tuple[int, int]]] = None) -> ModelFacts:
     return ModelFacts(name, "X", sdk_file, current_ma, X_VELOCITY_RPM, X_ACCELERATION_RPM2,
                       X_PWM_FULL_SCALE, 0, dict(extra or {}))
 
 
-def _p(name: str, series: str, sdk_file: str, half_turn: int, extra: Optional[Dict] = None) -> ModelFacts:
+def _p(name: str, series: str, sdk_file: str, half_turn: int,
+       extra: Optional[Dict[str, Tuple[int, int]]] = None) -> ModelFacts:
     return ModelFacts(name, series, sdk_file, 1.0, P_VELOCITY_RPM, P_ACCELERATION_RPM2,
                       P_PWM_FULL_SCALE, half_turn, dict(extra or {}))
 

@@ -12,7 +12,8 @@ import functools
 import importlib.resources
 import re
 from dataclasses import dataclass
-from typing import Dict, Tuple
+from importlib.resources.abc import Traversable
+from typing import Dict, List, Tuple
 
 # Rows whose names the product never addresses directly (indirect blocks are configured by name
 # elsewhere, and their addresses move with X330 firmware 52, which a model number cannot tell).
@@ -34,8 +35,26 @@ def canonical_name(sdk_name: str) -> str:
     return name
 
 
-def _table_dir():
+def _table_dir() -> Traversable:
     return importlib.resources.files("dynamixel_easy_sdk") / "control_table"
+
+
+def _control_row(cells: List[str], rows: Dict[str, Tuple[int, int]]) -> None:
+    """One ``Address Size Data Name`` row (the header and the skipped names are left out)."""
+    if len(cells) < 3 or not cells[0].isdigit():
+        return  # header row
+    address, size, sdk_name = int(cells[0]), int(cells[1]), cells[2]
+    if not sdk_name.startswith(_SKIPPED_PREFIXES):
+        rows[canonical_name(sdk_name)] = (address, size)
+
+
+def _type_row(cells: List[str], type_info: Dict[str, float]) -> None:
+    """One ``name value`` row of the type info (the header is left out)."""
+    if len(cells) >= 2:
+        try:
+            type_info[cells[0]] = float(cells[1])
+        except ValueError:
+            pass  # header row
 
 
 @functools.lru_cache(maxsize=None)
@@ -47,25 +66,12 @@ def load_sdk_table(file_name: str) -> SdkTable:
     type_info: Dict[str, float] = {}
     for raw_line in text.splitlines():
         line = raw_line.strip()
-        if not line:
-            continue
         if line.startswith("[") and line.endswith("]"):
             section = line[1:-1].strip().lower()
-            continue
-        cells = [c.strip() for c in raw_line.split("\t")]
-        if section == "control table":
-            if len(cells) < 3 or not cells[0].isdigit():
-                continue  # header row
-            address, size, sdk_name = int(cells[0]), int(cells[1]), cells[2]
-            if sdk_name.startswith(_SKIPPED_PREFIXES):
-                continue
-            rows[canonical_name(sdk_name)] = (address, size)
-        elif section == "type info":
-            if len(cells) >= 2:
-                try:
-                    type_info[cells[0]] = float(cells[1])
-                except ValueError:
-                    pass  # header row
+        elif line and section == "control table":
+            _control_row([c.strip() for c in raw_line.split("\t")], rows)
+        elif line and section == "type info":
+            _type_row([c.strip() for c in raw_line.split("\t")], type_info)
     if not rows:
         raise ValueError(f"control table file {file_name} holds no rows")
     return SdkTable(rows=rows, type_info=type_info)

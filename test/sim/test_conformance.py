@@ -59,7 +59,8 @@ def test_write_then_read_goal_position_at_model_address(bus_sdk, sid, number):
 def test_read_model_number_and_limits(bus_sdk):
     bus, port, ph = bus_sdk
     assert ph.read2ByteTxRx(port, 4, 0) == (XL330, COMM_SUCCESS, 0)
-    assert ph.read4ByteTxRx(port, 5, addr(PH54, "max_position_limit")) == (501923, COMM_SUCCESS, 0)
+    # e-Manual p/ph54-200-s500-r: Max Position Limit initial value 501,433 (range +-501,923)
+    assert ph.read4ByteTxRx(port, 5, addr(PH54, "max_position_limit")) == (501433, COMM_SUCCESS, 0)
 
 
 def test_write_errors(bus_sdk):
