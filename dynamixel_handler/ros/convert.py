@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import array
 import math
-from typing import Any, Iterable
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -60,7 +60,7 @@ def present(table: ServoTable, keys: Iterable[str] | None = None) -> Tree:
     return msg
 
 
-def _in_units(table: ServoTable, fields: dict[str, str]) -> Tree:
+def _in_units(table: ServoTable, fields: Mapping[str, str]) -> Tree:
     """id_list and each item of ``fields`` (item -> message field) in physical units."""
     msg: Tree = {"id_list": u16(table.ids)}
     for item, field in fields.items():

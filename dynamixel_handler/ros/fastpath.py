@@ -136,10 +136,13 @@ class Waiter:
 
     def wait(self, subs: Sequence[Subscription], timeout_s: float) -> bool:
         """The caller keeps the subscriptions alive meanwhile; True if one has a message."""
-        with self.node.context.handle:
+        context = self.node.context.handle
+        if context is None:  # rclpy shut down
+            return False
+        with context:
             handles = [sub.handle for sub in subs]
             if self._wait_set is None or self._size != len(handles):
-                self._wait_set = _rclpy.WaitSet(len(handles), 0, 0, 0, 0, 0, self.node.context.handle)
+                self._wait_set = _rclpy.WaitSet(len(handles), 0, 0, 0, 0, 0, context)
                 self._size = len(handles)
             wait_set = self._wait_set
             wait_set.clear_entities()

@@ -56,7 +56,7 @@ class CommandIntake:
     def poll(self) -> int:
         """Take every waiting message of every command topic and hand them over in publish order.
         Returns the number of messages handled."""
-        batch = []
+        batch: list[tuple[int, int, Any, tuple[Any, Codec, Handler, str]]] = []
         with self._lock:
             for entry in self._entries:
                 sub = entry[0]

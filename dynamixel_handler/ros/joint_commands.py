@@ -78,6 +78,23 @@ class JointCommands:
         if self.node.handler.refuse_ops:  # e.g. an inactive lifecycle node: the loop would never follow it
             raise TrajectoryRefused(BAD_GOAL, f"not now: {self.node.handler.refuse_ops}")
         names = list(traj.joint_names)
+        self._check_joints(names)
+        pts = traj.points
+        try:
+            points = make_points(len(names), [duration_s(p.time_from_start) for p in pts],
+                                 [p.positions for p in pts], [p.velocities for p in pts],
+                                 [p.accelerations for p in pts])
+        except TrajectoryError as err:
+            raise TrajectoryRefused(BAD_GOAL, str(err)) from None
+        path = self._tolerances("path_tolerance", names, path_tol, self.default_path_rad)
+        goal = self._tolerances("goal_tolerance", names, goal_tol, self.default_goal_rad)
+        start_wall = self._start_wall(duration_s(traj.header.stamp), points[-1].t)
+        tol = Tolerances(path=path, goal=goal,
+                         goal_time=goal_time if goal_time > 0 else self.default_goal_time)
+        return Job(what, names, points, tol, start_wall)
+
+    def _check_joints(self, names: list[str]) -> None:
+        """TrajectoryRefused unless the joints are known, named once and on handled servos."""
         if not names:
             raise TrajectoryRefused(BAD_JOINTS, "the trajectory names no joints")
         unknown = [n for n in names if n not in self.mapping.names]
@@ -90,27 +107,18 @@ class JointCommands:
         unhandled = [n for n in names if self.mapping.id_of(n) not in table]
         if unhandled:
             raise TrajectoryRefused(BAD_JOINTS, f"joints {unhandled} map to servos that are not handled")
-        pts = traj.points
-        try:
-            points = make_points(len(names), [duration_s(p.time_from_start) for p in pts],
-                                 [p.positions for p in pts], [p.velocities for p in pts],
-                                 [p.accelerations for p in pts])
-        except TrajectoryError as err:
-            raise TrajectoryRefused(BAD_GOAL, str(err)) from None
-        path = self._tolerances("path_tolerance", names, path_tol, self.default_path_rad)
-        goal = self._tolerances("goal_tolerance", names, goal_tol, self.default_goal_rad)
-        stamp = duration_s(traj.header.stamp)
+
+    def _start_wall(self, stamp: float, duration: float) -> float:
+        """When the trajectory starts (``time.time()``): now, or ``header.stamp`` on the node's
+        clock; TrajectoryRefused when it has already ended."""
         now_wall = time.time()
-        if stamp > 0:  # a start time on the node's clock
-            start_wall = now_wall + (stamp - self.node.get_clock().now().nanoseconds * 1e-9)
-            if start_wall + points[-1].t < now_wall:
-                raise TrajectoryRefused(BAD_GOAL, f"the trajectory ended {now_wall - start_wall - points[-1].t:.2f} s "
-                                                  "ago (header.stamp + the last time_from_start is in the past)")
-        else:
-            start_wall = now_wall
-        tol = Tolerances(path=path, goal=goal,
-                         goal_time=goal_time if goal_time > 0 else self.default_goal_time)
-        return Job(what, names, points, tol, start_wall)
+        if stamp <= 0:
+            return now_wall
+        start_wall = now_wall + (stamp - self.node.get_clock().now().nanoseconds * 1e-9)
+        if start_wall + duration < now_wall:
+            raise TrajectoryRefused(BAD_GOAL, f"the trajectory ended {now_wall - start_wall - duration:.2f} s "
+                                              "ago (header.stamp + the last time_from_start is in the past)")
+        return start_wall
 
     def _tolerances(self, what: str, names: list[str], given, default: float):
         out = np.full(len(names), default)
@@ -145,5 +153,8 @@ def attach(node) -> Follower | None:
     """The follower hook when ``joint_state.use`` is on (the mapping is checked at parameter load)."""
     if not node.config["joint_state.use"]:
         return None
-    node.joint_commands = JointCommands(node, joint_map(node.config.values))
+    mapping = joint_map(node.config.values)  # never None with joint_state.use (ConfigError instead)
+    if mapping is None:
+        return None
+    node.joint_commands = JointCommands(node, mapping)
     return node.joint_commands.follower

@@ -47,4 +47,5 @@ def attach(node) -> JointStatePublisher | None:
     """The hook when ``joint_state.use`` is true (the mapping is validated at parameter load)."""
     if not node.config["joint_state.use"]:
         return None
-    return JointStatePublisher(node, joint_map(node.config.values))
+    mapping = joint_map(node.config.values)  # never None with joint_state.use (ConfigError instead)
+    return JointStatePublisher(node, mapping) if mapping is not None else None

@@ -14,7 +14,7 @@ import logging
 import os
 import sys
 import time
-from typing import Any, Callable
+from typing import Any, Callable, cast
 
 from rclpy.node import Node
 
@@ -89,7 +89,7 @@ class DynamixelHandlerNode(Node):
         if bad:
             log.warning(f"init/dummy_servo_list: IDs {bad} are outside 0..252: ignored")
         self.bus = BusWithDummies(self.wire, make_dummies(cfg.dummy_ids, cfg.dummy_series))
-        self.handler = Handler(self.bus, cfg, self.adapter)
+        self.handler = Handler(self.bus, cfg, cast(logging.Logger, self.adapter))  # logging.Logger-like
         self.runner: Runner | None = None  # the loop, while it runs
         #: the loop was asked to stop (or gave up) and was not started again
         self.loop_stopped = False
@@ -101,7 +101,8 @@ class DynamixelHandlerNode(Node):
         self._create_publishers()
         self._create_subscriptions()
         # called on the loop thread after each step's state publishing (joint states, diagnostics)
-        self.step_hooks = [h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]
+        self.step_hooks: list[Callable[[StepReport], None]] = [
+            h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]
         # joint_commands, joint_trajectory, follow_joint_trajectory: the trajectory follower is a hook too
         self.step_hooks += [h for h in (joint_commands.attach(self),) if h is not None]
         self.motion_services = services.attach(self)  # set_torque, move_to, move_joints

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import difflib
 import sys
-from typing import Any
+from typing import Any, cast
 
 import rcl_interfaces.msg
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from ..config import (
     ALIASES,
@@ -45,7 +46,7 @@ _ROS_OWN = {"use_sim_time", "start_type_description_service"}
 
 def declare_and_load(node: Node) -> Config:
     """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
-    given: dict[str, Any] = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
+    given: dict[str, Any] = {name: cast(Parameter, p).value for name, p in node.get_parameters_by_prefix("").items()}
     _apply_command_line(node, given)
     for name in sorted(set(given) & set(ALIASES)):  # the original handler's other spellings
         value = given.pop(name)
@@ -147,7 +148,7 @@ def _apply_command_line(node: Node, given: dict[str, Any]) -> None:
     ``loop_rate: 100``), and one that a later params file for ``/**`` overrides when several are
     given (as ``scripts/run.sh`` does). Such a value is applied here, in the parameter's own type;
     one that cannot be (``-p baudrate:=fast``) stops start-up with a line naming it and why."""
-    from rclpy.parameter import Parameter, get_parameter_value
+    from rclpy.parameter import get_parameter_value
     for name, text in _command_line_parameters(sys.argv).items():
         wanted = Parameter.from_parameter_msg(rcl_interfaces.msg.Parameter(name=name, value=get_parameter_value(text)))
         value = _plain(wanted.value)

@@ -124,7 +124,8 @@ class Motion:
         """Check the request, hand the goals to the Commander, and return once they are written."""
         positions = _checked_request(targets, positions_deg, velocity_deg_s)
         ids = [i for i, _ in targets]
-        servo_deg = [self.mapping.to_servo_deg(name, p) if name is not None else p
+        mapping = self.mapping  # a joint name is only accepted with a mapping (``targets``)
+        servo_deg = [mapping.to_servo_deg(name, p) if name is not None and mapping is not None else p
                      for (_, name), p in zip(targets, positions)]
         move = Move(targets, servo_deg, tolerance_deg if tolerance_deg > 0 else DEFAULT_TOLERANCE_DEG,
                     time.monotonic() + (timeout_s if timeout_s > 0 else DEFAULT_TIMEOUT_S))
@@ -207,7 +208,8 @@ class Motion:
             self.commander.goal([i for i, _ in keep], {"position_deg": [p for _, p in keep]}, what="move cancelled")
 
     def in_request_frame(self, move: Move, servo_deg: Sequence[float]) -> list[float]:
-        return [self.mapping.to_joint_deg(name, d) if name is not None else d
+        mapping = self.mapping
+        return [mapping.to_joint_deg(name, d) if name is not None and mapping is not None else d
                 for (_, name), d in zip(move.targets, servo_deg)]
 
     def follow(self, move: Move, cancelled: Callable[[], bool] = lambda: False,

@@ -98,12 +98,13 @@ class TrajectoryAction:
                 self.follower.stop(job, tr.GOAL_VIOLATED, f"no present positions were read for {STALE_S:g} s after "
                                                           "the goal time: the goal cannot be confirmed")
                 return
-            if job.last is not None and job.last is not sent:
-                sent = job.last
-                goal_handle.publish_feedback(self._feedback(job))
+            last = job.last
+            if last is not None and last is not sent:
+                sent = last
+                goal_handle.publish_feedback(self._feedback(job, last))
 
-    def _feedback(self, job: tr.Job) -> FollowJointTrajectory.Feedback:
-        t, verdict, present, velocity = job.last
+    def _feedback(self, job: tr.Job, last) -> FollowJointTrajectory.Feedback:
+        t, verdict, present, velocity = last
         fb = FollowJointTrajectory.Feedback()
         fb.header.stamp = stamp_of(self.node.ros_time(job.start_wall + t))
         fb.joint_names = job.names
