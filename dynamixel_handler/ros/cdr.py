@@ -95,39 +95,8 @@ class Codec:
         return bytes(out)
 
     def _encode_into(self, out: bytearray, value: Mapping[str, Any]) -> None:
-        pack_into = struct.pack_into
         for name, kind, detail in self.fields:
-            v = value.get(name)
-            if kind == "array":
-                code, size = detail
-                arr = np.empty(0) if v is None else np.asarray(v)
-                n = arr.size
-                pad = -(len(out) - 4) % 4
-                out += b"\x00" * pad
-                out += n.to_bytes(4, "little")
-                if n:
-                    out += b"\x00" * (-(len(out) - 4) % size)
-                    out += arr.astype("<" + code, copy=False).tobytes() if code != "?" else \
-                        arr.astype(np.bool_, copy=False).tobytes()
-            elif kind == "strings":
-                items = () if v is None else v
-                out += b"\x00" * (-(len(out) - 4) % 4)
-                out += len(items).to_bytes(4, "little")
-                for s in items:
-                    _put_string(out, s)
-            elif kind == "message":
-                detail._encode_into(out, {} if v is None else v)
-            elif kind == "string":
-                _put_string(out, "" if v is None else v)
-            else:  # scalar
-                code, size = detail
-                out += b"\x00" * (-(len(out) - 4) % size)
-                start = len(out)
-                out += b"\x00" * size
-                if code == "?":
-                    out[start] = 1 if v else 0
-                elif v is not None:
-                    pack_into("<" + _STRUCT[code], out, start, v)
+            _PUT[kind](out, value.get(name), detail)
 
     # ------------------------------------------------------------------ decoding
     def decode(self, data: bytes) -> dict[str, Any]:
@@ -234,6 +203,49 @@ def _to_array(arr: np.ndarray, code: str):
     out = array.array(_ARRAY_CODES[code])
     out.frombytes(np.ascontiguousarray(arr, dtype="=" + code).tobytes())
     return out
+
+
+def _put_array(out: bytearray, v: Any, detail: tuple[str, int]) -> None:
+    code, size = detail
+    arr = np.empty(0) if v is None else np.asarray(v)
+    n = arr.size
+    out += b"\x00" * (-(len(out) - 4) % 4)
+    out += n.to_bytes(4, "little")
+    if n:
+        out += b"\x00" * (-(len(out) - 4) % size)
+        out += arr.astype("<" + code, copy=False).tobytes() if code != "?" else arr.astype(np.bool_, copy=False).tobytes()
+
+
+def _put_strings(out: bytearray, v: Any, _detail: None) -> None:
+    items = () if v is None else v
+    out += b"\x00" * (-(len(out) - 4) % 4)
+    out += len(items).to_bytes(4, "little")
+    for s in items:
+        _put_string(out, s)
+
+
+def _put_message(out: bytearray, v: Any, detail: Codec) -> None:
+    detail._encode_into(out, {} if v is None else v)
+
+
+def _put_one_string(out: bytearray, v: Any, _detail: None) -> None:
+    _put_string(out, "" if v is None else v)
+
+
+def _put_scalar(out: bytearray, v: Any, detail: tuple[str, int]) -> None:
+    code, size = detail
+    out += b"\x00" * (-(len(out) - 4) % size)
+    start = len(out)
+    out += b"\x00" * size
+    if code == "?":
+        out[start] = 1 if v else 0
+    elif v is not None:
+        struct.pack_into("<" + _STRUCT[code], out, start, v)
+
+
+#: field kind -> its encoder
+_PUT: dict[str, Any] = {"array": _put_array, "strings": _put_strings, "message": _put_message,
+                        "string": _put_one_string, "scalar": _put_scalar}
 
 
 def _put_string(out: bytearray, s: str) -> None:
