@@ -11,7 +11,7 @@ The `ros2` command (ros2cli) and `launch` are not on PyPI, so a machine set up f
     python scripts/ros_cli.py param get /dynamixel_handler loop_rate
     python scripts/ros_cli.py launch launch_dynamixel_handler.py name_space:=robot1 device_name:=/dev/pts/3
 
-`launch` reads the installed launch file as `ros2 launch` would (test/launch_runner.py) and runs the
+`launch` reads the installed launch file as `ros2 launch` would (test/support/launch_runner.py) and runs the
 node it describes in the foreground. Like the other scripts, it keeps DDS discovery on this machine
 unless ROS_AUTOMATIC_DISCOVERY_RANGE is set.
 """
@@ -129,7 +129,7 @@ def param_get(args) -> None:
 
 def launch(args) -> None:
     sys.path.insert(0, str(ROOT / "test"))
-    from launch_runner import nodes
+    from support.launch_runner import nodes
     arguments = dict(a.split(":=", 1) for a in args.arguments)
     found = nodes(args.file, **arguments)
     if len(found) != 1:

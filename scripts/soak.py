@@ -71,7 +71,7 @@ def main() -> int:
         while time.monotonic() < end and node.poll() is None:
             fault = FAULTS[counts["cycles"] % len(FAULTS)]
             out = tmp / f"burst{counts['cycles']}.json"
-            burst = subprocess.Popen([sys.executable, str(ROOT / "test/load_publisher.py"), str(N_SERVOS), "10", "100",
+            burst = subprocess.Popen([sys.executable, str(ROOT / "test/support/load_publisher.py"), str(N_SERVOS), "10", "100",
                                       str(args.burst_s), str(out)])
             time.sleep(1.0)
             counts["faults_injected"] += 1

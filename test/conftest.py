@@ -41,7 +41,7 @@ SLOW_MODULES = frozenset({
 })
 #: ROS-free modules outside test/sim that drive the bus layer or the virtual bus
 SIM_MODULES = frozenset({"test_bus_sim", "test_bus_wire", "test_bus_protocol"})
-_ROS_NAMES = ("rclpy", "Rig", "Bench", "NodeProcess", "TopicClient")
+_ROS_NAMES = ("rclpy", "Rig", "NodeProcess", "TopicClient")
 
 
 def pytest_collection_modifyitems(config, items):

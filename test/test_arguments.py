@@ -8,7 +8,7 @@ from pathlib import Path
 
 from dynamixel_handler.sim import VirtualBus
 
-from ros_helpers import CONFIG, ROOT, NodeProcess, node_command
+from support.ros import CONFIG, ROOT, NodeProcess, node_command
 
 X = 1020
 VIRTUAL_BUS = ROOT / "config" / "config_virtual_bus.yaml"

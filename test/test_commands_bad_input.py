@@ -18,7 +18,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsX, DynamixelC
                                         DynamixelControlXPosition, DynamixelControlXVelocity, DynamixelExtra,
                                         DynamixelGoal, DynamixelLimit, DynamixelShortcut, DynamixelStatus)
 
-from rig import PRO, P, X, X540, Rig
+from support.rig import PRO, P, X, X540, Rig
 
 X_DEG, X_ZERO = 360.0 / 4096, 2048
 X_DEG_S = 0.229 * 6.0

@@ -14,7 +14,7 @@ from dynamixel_handler_msgs.msg import (DynamixelControlPPosition, DynamixelCont
                                         DynamixelControlXVelocity, DynamixelExtra, DynamixelLimit, DynamixelShortcut,
                                         DynamixelStatus)
 
-from rig import P, X, X540, Rig
+from support.rig import P, X, X540, Rig
 
 X_DEG, X_ZERO, X_TURN = 360.0 / 4096, 2048, 4096
 X_DEG_S = 0.229 * 6.0

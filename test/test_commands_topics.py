@@ -22,7 +22,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommand
                                         DynamixelGain, DynamixelGoal, DynamixelStatus)
 
 from dynamixel_handler.ros.lean import RAW_ENV
-from rig import PRO, P, X, X540, Rig
+from support.rig import PRO, P, X, X540, Rig
 
 # ---- e-Manual units per LSB ------------------------------------------------------------------
 # X (XM430-W350, XM540-W270): 4096 pulses a turn, 0 deg at 2048; 0.229 rpm; 214.577 rev/min^2;

@@ -14,8 +14,8 @@ from rclpy.parameter_client import AsyncParameterClient
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler.protocol import ERR_DATA_LIMIT
 from dynamixel_handler_msgs.msg import DynamixelExtra
-from rig import PRO, P, X, Rig
-from ros_helpers import NodeProcess, node_command, spin_until
+from support.rig import PRO, P, X, Rig
+from support.ros import NodeProcess, node_command, spin_until
 
 DATA = Path(__file__).resolve().parent / "data"
 XL330 = 1200  # XL330-M288: the X with a PWM slope register

@@ -7,7 +7,7 @@ import math
 from dynamixel_handler.loop import RECHECK_LOOPS
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
-from core_helpers import FAST_SYNC_READ, PING, SYNC_READ, XM430, Bench
+from support.rig import BASE_PARAMS, FAST_SYNC_READ, FOUR_SERVOS, PING, SYNC_READ, XM430, Rig
 from test_core_states import assert_unit
 
 REMOVE_AFTER = 10  # unanswered requests
@@ -24,8 +24,8 @@ def _of(msg, dxl_id: int, field: str):
 
 
 def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_with_add_id():
-    bench = Bench("pub_ratio/present.position:=1", "pub_ratio/status:=1",
-                  f"no_response_id_auto_remove_count:={REMOVE_AFTER}")
+    bench = Rig(FOUR_SERVOS, "pub_ratio/present.position:=1", "pub_ratio/status:=1",
+                f"no_response_id_auto_remove_count:={REMOVE_AFTER}", base=BASE_PARAMS, state_topics=True)
     try:
         # ID 1 turns at a constant velocity, so its present position changes every loop
         x = bench.sim.servo(1)
@@ -88,7 +88,7 @@ def test_silent_servo_goes_ping_false_is_removed_after_the_count_and_comes_back_
 
 def test_a_short_silence_is_survived_without_removal():
     # no auto removal (the default): a servo silent for a while answers again and is read again
-    bench = Bench("pub_ratio/present.position:=1", "pub_ratio/status:=1", servos={1: 1020, 4: 54024})
+    bench = Rig({1: 1020, 4: 54024}, "pub_ratio/present.position:=1", "pub_ratio/status:=1", base=BASE_PARAMS, state_topics=True)
     try:
         debug = bench.topics["debug"]
         bench.sim.set_silent(4, True)
@@ -109,7 +109,7 @@ def test_a_short_silence_is_survived_without_removal():
 def test_fast_read_reads_every_servo_and_the_old_pro_with_plain_sync_read():
     # method/fast_read: X and P answer Fast Sync Read; the old Pro "-R" firmware has no such
     # instruction, so it must be read with a plain Sync Read instead of going ping false
-    b = Bench("method/fast_read:=true", "pub_ratio/status:=1", "pub_ratio/present.position:=1")
+    b = Rig(FOUR_SERVOS, "method/fast_read:=true", "pub_ratio/status:=1", "pub_ratio/present.position:=1", base=BASE_PARAMS, state_topics=True)
     try:
         pins = {1: 1000, 2: 3000, 3: -250000, 4: 123456}
         for dxl_id, pulses in pins.items():

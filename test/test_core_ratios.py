@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from core_helpers import Bench
+from support.rig import BASE_PARAMS, FOUR_SERVOS, Rig
 
 # present position every loop: one sync read of it (and one /dynamixel/states) per loop, the loop clock
 PRESENT_RATIOS = {"position": 1, "velocity": 2, "current": 3, "pwm": 0, "velocity_trajectory": 0,
@@ -41,7 +41,7 @@ def ratio_params(outdated: bool) -> list[str]:
 
 def run(outdated: bool, loops: int = 150) -> dict:
     """Run the node for about ``loops`` loops after warm-up, stop it, and return what was seen."""
-    bench = Bench(*ratio_params(outdated))
+    bench = Rig(FOUR_SERVOS, *ratio_params(outdated), base=BASE_PARAMS, state_topics=True)
     try:
         start_count = len(bench.topics["states"])
         bench.wait(lambda: len(bench.topics["states"]) >= max(start_count, WARM_UP) + loops, timeout=30,
@@ -165,7 +165,7 @@ VERBOSE = re.compile(r"time=(\d+\.\d+)ms/loop\((\d+\.\d+)ms/read\), success= *(\
 
 
 def test_verbose_line_every_verbose_ratio_loops_and_success_drops_with_a_silent_servo():
-    bench = Bench("verbose_ratio:=20", "pub_ratio/present.position:=1", servos={1: 1020, 3: 2020})
+    bench = Rig({1: 1020, 3: 2020}, "verbose_ratio:=20", "pub_ratio/present.position:=1", base=BASE_PARAMS, state_topics=True)
     try:
         bench.node_proc.wait_for(VERBOSE.search)
         bench.sim.set_silent(3, True)

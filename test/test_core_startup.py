@@ -6,8 +6,8 @@ import pytest
 
 from dynamixel_handler.sim import VirtualBus
 
-from core_helpers import BASE_PARAMS, FOUR_SERVOS, H54, PH54, WRITE, XM430, XM540, Bench
-from ros_helpers import NodeProcess, node_command
+from support.rig import BASE_PARAMS, FOUR_SERVOS, H54, PH54, WRITE, XM430, XM540, Rig
+from support.ros import NodeProcess, node_command
 
 
 def _start_fails(servos: dict[int, int] | None, *params: str, device: str | None = None) -> tuple[int, str, list]:
@@ -76,7 +76,7 @@ def test_bad_parameter_with_a_real_bus(param, needle):
 
 
 # ---------------------------------------------------------------------------------------- SIGINT
-def _moving_servos(bench: Bench) -> None:
+def _moving_servos(bench: Rig) -> None:
     """ID 1 (X) and ID 4 (old Pro) turn in velocity mode, ID 3 (P) pushes in current mode."""
     for dxl_id, mode, item, value in ((1, 1, "goal_velocity", 40), (3, 0, "goal_current", 500),
                                       (4, 1, "goal_velocity", -3000)):
@@ -92,8 +92,8 @@ def _moving_servos(bench: Bench) -> None:
 
 @pytest.mark.parametrize("torque_off, stop", [(True, True), (False, True), (True, False)])
 def test_sigint_exits_0_and_leaves_the_servos_as_term_params_say(torque_off, stop):
-    bench = Bench("pub_ratio/status:=1", f"term/torque_auto_disable:={str(torque_off).lower()}",
-                  f"term/servo_auto_stop:={str(stop).lower()}")
+    bench = Rig(FOUR_SERVOS, "pub_ratio/status:=1", f"term/torque_auto_disable:={str(torque_off).lower()}",
+                f"term/servo_auto_stop:={str(stop).lower()}", base=BASE_PARAMS, state_topics=True)
     try:
         _moving_servos(bench)
         goal_2 = bench.sim.servo(2).read("goal_position")

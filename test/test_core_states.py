@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import pytest
 
 from dynamixel_handler.ros.lean import RAW_ENV
-from core_helpers import H54, PH54, XM430, XM540, Bench
+from support.rig import BASE_PARAMS, FOUR_SERVOS, H54, PH54, XM430, XM540, Rig
 
 
 @dataclass(frozen=True)
@@ -261,7 +261,7 @@ def bench(request):
               "pub_ratio/present.input_voltage:=1", "pub_ratio/present.temperature:=1",
               "pub_ratio/status:=2", "pub_ratio/goal:=2", "pub_ratio/gain:=3", "pub_ratio/limit:=3",
               "pub_ratio/error:=2", "pub_ratio/extra.dynamic_items:=2", "pub_ratio/extra.static_items:=3"]
-    b = Bench(*ratios, env=env)
+    b = Rig(FOUR_SERVOS, *ratios, env=env, base=BASE_PARAMS, state_topics=True)
     try:
         if env:
             b.node_proc.wait_for("rclpy message objects")

@@ -12,7 +12,7 @@ import pytest
 from dynamixel_handler.ros.fastpath import FAST_ENV
 from dynamixel_handler_msgs.msg import DxlCommandsX, DynamixelControlXPosition, DynamixelShortcut
 
-from rig import X, X540, Rig
+from support.rig import X, X540, Rig
 
 #: X series: 4096 pulses a turn, 0° at 2048
 X_ZERO, X_DEG = 2048, 360 / 4096

@@ -22,7 +22,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommand
                                         DynamixelGain, DynamixelGoal, DynamixelLimit, DynamixelShortcut,
                                         DynamixelStatus)
 
-from rig import PRO, P, X, X540, Rig
+from support.rig import PRO, P, X, X540, Rig
 
 IDS = st.sampled_from([0, 1, 2, 3, 4, 9, 252, 253, 254, 65535])
 FLOATS = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),

@@ -12,7 +12,7 @@ from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsX, DynamixelC
                                         DynamixelControlXVelocity, DynamixelGoal, DynamixelShortcut,
                                         DynamixelStatus)
 
-from rig import X, Rig
+from support.rig import X, Rig
 
 XL430 = 1060  # XL430-W250: no current sensor, so no current mode
 POSITION, VELOCITY = 3, 1

@@ -18,7 +18,7 @@ from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import JointTolerance
 from dynamixel_handler.trajectory import Trajectory, make_points
 
-from rig import X, X540, Rig
+from support.rig import X, X540, Rig
 
 R = FollowJointTrajectory.Result
 JOINTS = ("joint_state.use:=true", "joint_state.names:=[pan, tilt]", "joint_state.ids:=[1, 2]",

@@ -136,7 +136,7 @@ def test_launch_and_config_files_are_installed_to_share():
 @needs_install
 @pytest.mark.parametrize("name", PY_FILES + [XML_FILE] + CPP_LAUNCH)
 def test_every_launch_file_name_describes_an_installed_node_with_a_shipped_config(name, tmp_path):
-    from launch_runner import nodes
+    from support.launch_runner import nodes
     found = nodes(name, device_name="/dev/ttyUSB7")
     assert len(found) == 1, found
     cmd = found[0].command(tmp_path)
@@ -163,8 +163,8 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
 
     from dynamixel_handler.sim import VirtualBus
     from dynamixel_handler_msgs.msg import DxlStates
-    from launch_runner import nodes
-    from ros_helpers import NodeProcess, spin_until
+    from support.launch_runner import nodes
+    from support.ros import NodeProcess, spin_until
 
     with VirtualBus({1: 1020}) as sim:
         (spec,) = nodes(name, device_name=sim.path, **arguments)
@@ -192,8 +192,8 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
 @pytest.mark.parametrize("name", ["launch_dynamixel_unify_baudrate.py", "dynamixel_unify_baudrate_launch.xml"])
 def test_launched_unify_tool_finds_the_servo_once(name, tmp_path):
     from dynamixel_handler.sim import VirtualBus
-    from launch_runner import nodes
-    from ros_helpers import NodeProcess
+    from support.launch_runner import nodes
+    from support.ros import NodeProcess
 
     with VirtualBus({1: 1020, 2: 1020}, check_baudrate=True) as sim:
         (spec,) = nodes(name, device_name=sim.path, target_baudrate="57600")

@@ -17,7 +17,7 @@ from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelDebug, DynamixelShortcut
 from dynamixel_handler_msgs.srv import SetTorque
 
-from ros_helpers import CONFIG, NodeProcess
+from support.ros import CONFIG, NodeProcess
 
 X = 1020  # XM430-W350
 

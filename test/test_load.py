@@ -1,6 +1,6 @@
 """Load: 10 publishers x 100 Hz of mixed commands on 12 servos.
 
-The commands come from another process (test/load_publisher.py). Checked against the simulator's
+The commands come from another process (test/support/load_publisher.py). Checked against the simulator's
 instruction log: every goal value on the wire is one that was commanded for that very servo (no
 torn or crossed commands), the last command per servo and item is what the servo holds at the end
 (nothing accepted is lost), the loop keeps its rate and the node's memory does not grow. The soak
@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from rig import X, Rig
+from support.rig import X, Rig
 
 N_SERVOS, N_PUBLISHERS, RATE_HZ, SECONDS = 12, 10, 100, 8.0
 GOAL_POSITION = 116  # X goal position address (e-Manual)
@@ -45,7 +45,7 @@ def test_ten_publishers_at_100_hz_lose_nothing_and_keep_the_rate(tmp_path):
         rig.sim.clear_log()
         mark = len(rig.node_proc.lines)
         out = tmp_path / "sent.json"
-        subprocess.run([sys.executable, str(Path(__file__).with_name("load_publisher.py")), str(N_SERVOS),
+        subprocess.run([sys.executable, str(Path(__file__).parent / "support" / "load_publisher.py"), str(N_SERVOS),
                         str(N_PUBLISHERS), str(RATE_HZ), str(SECONDS), str(out)], check=True, timeout=60)
         time.sleep(1.0)  # the last commands reach the wire
         sent = json.loads(out.read_text())
@@ -89,7 +89,7 @@ def test_sigterm_in_the_middle_of_a_burst_still_runs_the_shutdown_sequence(tmp_p
     import signal
     rig = Rig({i: X for i in range(1, 5)}, "mode_change_interval_sec:=0.0")
     try:
-        burst = subprocess.Popen([sys.executable, str(Path(__file__).with_name("load_publisher.py")), "4", "10", "100",
+        burst = subprocess.Popen([sys.executable, str(Path(__file__).parent / "support" / "load_publisher.py"), "4", "10", "100",
                                   "3", str(tmp_path / "sent.json")])
         rig.wait(lambda: rig.sim.servo(1).read("goal_position") != 2048, timeout=15, what="the burst reaching the wire")
         time.sleep(0.5)
@@ -106,7 +106,7 @@ def test_ids_removed_and_added_while_commands_flow_never_break_the_loop(tmp_path
     from dynamixel_handler_msgs.msg import DynamixelShortcut
     rig = Rig({i: X for i in range(1, 7)}, "mode_change_interval_sec:=0.0", "pub_ratio/status:=3")
     try:
-        burst = subprocess.Popen([sys.executable, str(Path(__file__).with_name("load_publisher.py")), "6", "10", "100",
+        burst = subprocess.Popen([sys.executable, str(Path(__file__).parent / "support" / "load_publisher.py"), "6", "10", "100",
                                   "4", str(tmp_path / "sent.json")])
         time.sleep(1.0)
         for k in range(40):  # membership changes interleaved with the burst's commands

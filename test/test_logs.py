@@ -9,7 +9,7 @@ import signal
 from lifecycle_msgs.msg import State, Transition
 
 from dynamixel_handler.sim import VirtualBus
-from ros_helpers import NodeProcess, node_command
+from support.ros import NodeProcess, node_command
 from test_lifecycle import Manager, _command as lifecycle_command
 
 X, P = 1020, 2020

@@ -12,8 +12,8 @@ from rclpy.node import Node
 
 import dynamixel_handler_msgs.msg as msgs
 
-from msg_fill import filled
-from ros_helpers import spin_until
+from support.msg_fill import filled
+from support.ros import spin_until
 
 HERE = Path(__file__).resolve().parent
 MSG_DIR = HERE.parent / "dynamixel_handler_msgs" / "msg"
@@ -86,7 +86,7 @@ def test_fully_populated_message_round_trips_between_processes(ros_node, type_na
     expected = filled(cls)
     got = []
     node.create_subscription(cls, f"/roundtrip/{type_name}", got.append, 10)
-    pub = subprocess.Popen([sys.executable, str(HERE / "msg_fill.py"), type_name, f"/roundtrip/{type_name}"])
+    pub = subprocess.Popen([sys.executable, str(HERE / "support" / "msg_fill.py"), type_name, f"/roundtrip/{type_name}"])
     try:
         assert spin_until(node, executor, lambda: bool(got), timeout=20), "no message arrived from the other process"
     finally:

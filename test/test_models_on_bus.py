@@ -12,7 +12,7 @@ from dynamixel_handler_msgs.msg import (DynamixelControlPPosition, DynamixelCont
                                         DynamixelControlProVelocity, DynamixelControlXCurrent,
                                         DynamixelControlXPosition)
 
-from rig import Rig
+from support.rig import Rig
 
 XM335, XW430_T200, H54_RA, L54_S290, L42, XC330_T181 = 1710, 1280, 54025, 38176, 35072, 1210
 

@@ -14,7 +14,7 @@ from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelDebug
 from dynamixel_handler_msgs.srv import SetTorque
 
-from ros_helpers import NodeProcess, node_command
+from support.ros import NodeProcess, node_command
 
 X = 1020  # XM430-W350
 

@@ -6,7 +6,7 @@ import textwrap
 
 import yaml
 
-from ros_helpers import CONFIG, NodeProcess, node_command
+from support.ros import CONFIG, NodeProcess, node_command
 
 from dynamixel_handler.config import SCHEMA
 

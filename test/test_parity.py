@@ -16,8 +16,8 @@ from dynamixel_handler_msgs.msg import (DynamixelControlPPosition, DynamixelCont
                                         DynamixelStatus)
 from dynamixel_handler.sim import VirtualBus
 
-from rig import P, PRO, X, X540, Rig
-from ros_helpers import NodeProcess, node_command
+from support.rig import P, PRO, X, X540, Rig
+from support.ros import NodeProcess, node_command
 
 X_DEG, X_ZERO, X_TURN = 360.0 / 4096, 2048, 4096
 X_DEG_S = 1.374

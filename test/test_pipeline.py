@@ -20,7 +20,7 @@ from dynamixel_handler.loop import Handler
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DxlCommandsX
 
-from core_helpers import FAST_SYNC_READ, SYNC_READ, SYNC_WRITE, XM430, Bench
+from support.rig import BASE_PARAMS, FAST_SYNC_READ, SYNC_READ, SYNC_WRITE, XM430, Rig
 
 GOAL_POSITION, PRESENT_POSITION, OPERATING_MODE = 116, 132, 11  # X series (e-Manual)
 X_DEG = 360 / 4096
@@ -155,9 +155,10 @@ def test_flat_out_every_command_reaches_the_wire_in_order_and_the_last_one_stays
     """loop_rate 2000 on a timed 1 Mbps bus of 6 servos: every loop overruns its period, so each
     loop's read is left on the wire while the previous states go out and the next commands come in."""
     ids = list(range(1, 7))
-    bench = Bench("loop_rate:=2000", "baudrate:=1000000", "method/fast_read:=true", "pub_ratio/present.current:=1",
-                  "pub_ratio/present.velocity:=1", "pub_ratio/present.position:=1", "pub_ratio/status:=50",
-                  "pub_ratio/goal:=50", "mode_change_interval_sec:=0.0", servos={i: XM430 for i in ids})
+    bench = Rig({i: XM430 for i in ids}, "loop_rate:=2000", "baudrate:=1000000", "method/fast_read:=true",
+                "pub_ratio/present.current:=1", "pub_ratio/present.velocity:=1", "pub_ratio/present.position:=1",
+                "pub_ratio/status:=50", "pub_ratio/goal:=50", "mode_change_interval_sec:=0.0",
+                before_start=lambda sim: sim.set_baudrate(1_000_000), base=BASE_PARAMS, state_topics=True)
     try:
         bench.sim.baudrate = 1_000_000            # wire timing from now on (the scan ran untimed)
         pub = bench.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 100)
@@ -203,8 +204,8 @@ def test_flat_out_every_command_reaches_the_wire_in_order_and_the_last_one_stays
 def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_loop():
     """loop_rate 2: the first command of a period goes to the wire when it arrives, not at the next
     loop; a second one in the same period goes out with the next loop (at most one extra write)."""
-    bench = Bench("loop_rate:=2", "pub_ratio/present.position:=1", "pub_ratio/status:=0", "pub_ratio/goal:=0",
-                  servos={1: XM430})
+    bench = Rig({1: XM430}, "loop_rate:=2", "pub_ratio/present.position:=1", "pub_ratio/status:=0",
+                "pub_ratio/goal:=0", base=BASE_PARAMS, state_topics=True)
     try:
         pub = bench.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 10)
         bench.wait(lambda: pub.get_subscription_count() > 0, what="the node subscribing")
@@ -239,7 +240,7 @@ def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_l
 def test_flat_out_survives_wire_faults_and_an_unplugged_adapter(tmp_path):
     """The overlapped loop meets CRC errors, noise, truncated replies and a device that vanishes with
     a read on the wire: it logs, keeps publishing, reconnects, and commands still reach the servos."""
-    from rig import P, X, X540, Rig
+    from support.rig import P, X, X540, Rig
     from dynamixel_handler_msgs.msg import DynamixelControlXPosition
 
     rig = Rig({1: X, 2: X540, 3: P}, "loop_rate:=2000", "pub_ratio/status:=5", "pub_ratio/error:=5",

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition
-from rig import X, Rig
+from support.rig import X, Rig
 
 CLI = [sys.executable, str(Path(__file__).resolve().parent.parent / "scripts" / "ros_cli.py")]
 

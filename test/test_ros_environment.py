@@ -15,7 +15,7 @@ import sys
 import pytest
 
 from dynamixel_handler.sim import VirtualBus
-from ros_helpers import CONFIG, NodeProcess
+from support.ros import CONFIG, NodeProcess
 
 X = 1020
 

@@ -9,7 +9,7 @@ import pytest
 
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelControlXVelocity, DynamixelShortcut
 
-from rig import X, X540, Rig
+from support.rig import X, X540, Rig
 
 
 def _velocity(rig: Rig, dxl_id: int, deg_s: float) -> None:
@@ -116,7 +116,7 @@ def test_dummy_only_node_without_a_device_publishes_complete_states_and_follows_
     from rclpy.node import Node
 
     from dynamixel_handler_msgs.msg import DxlStates
-    from ros_helpers import NodeProcess, node_command
+    from support.ros import NodeProcess, node_command
 
     proc = NodeProcess(node_command("device_name:=/dev/ttyDOES_NOT_EXIST", "init/dummy_servo_list:=[3, 4]",
                                     "pub_ratio/status:=3", "pub_ratio/goal:=3", "pub_ratio/limit:=3", "pub_ratio/gain:=3",
@@ -202,7 +202,7 @@ def test_an_exception_in_the_loop_is_logged_and_the_loop_goes_on(monkeypatch):
 
 
 def test_a_loop_that_keeps_failing_stops_the_servos_and_exits_non_zero(monkeypatch):
-    from ros_helpers import NodeProcess, node_command
+    from support.ros import NodeProcess, node_command
     from dynamixel_handler.sim import VirtualBus
 
     monkeypatch.setenv("DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS", "1000")

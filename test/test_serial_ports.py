@@ -11,8 +11,8 @@ from dynamixel_handler.errors import StartupError
 from dynamixel_handler.serial_ports import BY_ID_ENV, resolve, serial_of_link
 from dynamixel_handler.sim import VirtualBus
 
-from ros_helpers import NodeProcess, node_command
-from rig import X, Rig
+from support.ros import NodeProcess, node_command
+from support.rig import X, Rig
 
 FTDI = "usb-FTDI_USB__-__Serial_Converter_{}-if00-port0"
 

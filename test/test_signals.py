@@ -8,7 +8,7 @@ import pytest
 
 from dynamixel_handler.sim import VirtualBus
 
-from ros_helpers import NodeProcess, node_command
+from support.ros import NodeProcess, node_command
 
 X = 1020
 
