@@ -4,8 +4,7 @@ import math
 
 import pytest
 
-from dynamixel_handler.control_table import (
-    OPERATING_MODES, SERIES, Item, Model, known_models, model_by_number)
+from dynamixel_handler.control_table import OPERATING_MODES, SERIES, Item, Model, known_models, model_by_number
 from dynamixel_handler.control_table._sdk_files import load_sdk_table, sdk_model_index
 
 OLD_PRO = (54024, 53768, 51200, 46352, 46096, 43288)
@@ -293,3 +292,10 @@ def test_no_factory_value_where_the_manual_gives_none():
     assert "velocity_limit" not in model_by_number(54024).factory   # old PRO: "-"
     assert "position_p_gain" not in model_by_number(54025).factory  # PRO(A): gains "-"
     assert "current_limit" not in model_by_number(1060).factory     # XL430: no such item
+
+
+def test_xc335_is_not_recognised():
+    """XC335 (model number 1700): no published control table (e-Manual, SDK files) to build one
+    from, so the model stays unknown rather than guessed."""
+    with pytest.raises(KeyError, match="unknown Dynamixel model number 1700"):
+        model_by_number(1700)
