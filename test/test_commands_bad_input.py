@@ -12,13 +12,24 @@ import math
 
 import pytest
 
-from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsX, DynamixelControlPCurrent,
-                                        DynamixelControlPExtendedPosition, DynamixelControlProPosition,
-                                        DynamixelControlXCurrent, DynamixelControlXExtendedPosition,
-                                        DynamixelControlXPosition, DynamixelControlXVelocity, DynamixelExtra,
-                                        DynamixelGoal, DynamixelLimit, DynamixelShortcut, DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DxlCommandsAll,
+    DxlCommandsX,
+    DynamixelControlPCurrent,
+    DynamixelControlPExtendedPosition,
+    DynamixelControlProPosition,
+    DynamixelControlXCurrent,
+    DynamixelControlXExtendedPosition,
+    DynamixelControlXPosition,
+    DynamixelControlXVelocity,
+    DynamixelExtra,
+    DynamixelGoal,
+    DynamixelLimit,
+    DynamixelShortcut,
+    DynamixelStatus,
+)
 
-from support.rig import PRO, P, X, X540, Rig
+from support.rig import PRO, X540, P, Rig, X
 
 X_DEG, X_ZERO = 360.0 / 4096, 2048
 X_DEG_S = 0.229 * 6.0

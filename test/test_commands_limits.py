@@ -6,10 +6,16 @@ from __future__ import annotations
 
 import pytest
 
-from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DynamixelControlPPosition,
-                                        DynamixelControlXPosition, DynamixelLimit, DynamixelShortcut)
+from dynamixel_handler_msgs.msg import (
+    DxlCommandsAll,
+    DxlCommandsP,
+    DynamixelControlPPosition,
+    DynamixelControlXPosition,
+    DynamixelLimit,
+    DynamixelShortcut,
+)
 
-from support.rig import PRO, P, X, X540, Rig
+from support.rig import PRO, X540, P, Rig, X
 
 # e-Manual units per LSB: X 4096 pulses a turn centred on 2048, 0.229 rpm, 2.69 mA, 885 = 100 %;
 # P PH54-200-S500-R +-501,923 = +-180 deg, 0.01 rpm, 1 rev/min^2, 1 mA, 2009 = 100 %;

@@ -5,7 +5,7 @@ import pytest
 
 from dynamixel_handler_msgs.msg import DxlCommandsX, DynamixelControlXPosition, DynamixelShortcut
 
-from support.rig import PRO, P, X, X540, Rig
+from support.rig import PRO, X540, P, Rig, X
 
 
 @pytest.fixture

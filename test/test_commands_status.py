@@ -10,11 +10,17 @@ import time
 
 import pytest
 
-from dynamixel_handler_msgs.msg import (DynamixelControlPPosition, DynamixelControlXExtendedPosition,
-                                        DynamixelControlXVelocity, DynamixelExtra, DynamixelLimit, DynamixelShortcut,
-                                        DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DynamixelControlPPosition,
+    DynamixelControlXExtendedPosition,
+    DynamixelControlXVelocity,
+    DynamixelExtra,
+    DynamixelLimit,
+    DynamixelShortcut,
+    DynamixelStatus,
+)
 
-from support.rig import P, X, X540, Rig
+from support.rig import X540, P, Rig, X
 
 X_DEG, X_ZERO, X_TURN = 360.0 / 4096, 2048, 4096
 X_DEG_S = 0.229 * 6.0

@@ -11,18 +11,34 @@ import math
 
 import pytest
 
-from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsPro, DxlCommandsX,
-                                        DynamixelControlPCurrent, DynamixelControlPExtendedPosition,
-                                        DynamixelControlPPosition, DynamixelControlPPwm, DynamixelControlPVelocity,
-                                        DynamixelControlProCurrent, DynamixelControlProExtendedPosition,
-                                        DynamixelControlProPosition, DynamixelControlProVelocity,
-                                        DynamixelControlXCurrent, DynamixelControlXCurrentBasePosition,
-                                        DynamixelControlXExtendedPosition, DynamixelControlXPosition,
-                                        DynamixelControlXPwm, DynamixelControlXVelocity, DynamixelExtra,
-                                        DynamixelGain, DynamixelGoal, DynamixelStatus)
-
 from dynamixel_handler.ros.lean import RAW_ENV
-from support.rig import PRO, P, X, X540, Rig
+from dynamixel_handler_msgs.msg import (
+    DxlCommandsAll,
+    DxlCommandsP,
+    DxlCommandsPro,
+    DxlCommandsX,
+    DynamixelControlPCurrent,
+    DynamixelControlPExtendedPosition,
+    DynamixelControlPPosition,
+    DynamixelControlPPwm,
+    DynamixelControlProCurrent,
+    DynamixelControlProExtendedPosition,
+    DynamixelControlProPosition,
+    DynamixelControlProVelocity,
+    DynamixelControlPVelocity,
+    DynamixelControlXCurrent,
+    DynamixelControlXCurrentBasePosition,
+    DynamixelControlXExtendedPosition,
+    DynamixelControlXPosition,
+    DynamixelControlXPwm,
+    DynamixelControlXVelocity,
+    DynamixelExtra,
+    DynamixelGain,
+    DynamixelGoal,
+    DynamixelStatus,
+)
+
+from support.rig import PRO, X540, P, Rig, X
 
 # ---- e-Manual units per LSB ------------------------------------------------------------------
 # X (XM430-W350, XM540-W270): 4096 pulses a turn, 0 deg at 2048; 0.229 rpm; 214.577 rev/min^2;

@@ -11,10 +11,11 @@ import rclpy
 from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
 
-from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler.protocol import ERR_DATA_LIMIT
+from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DynamixelExtra
-from support.rig import PRO, P, X, Rig
+
+from support.rig import PRO, P, Rig, X
 from support.ros import NodeProcess, node_command, spin_until
 
 DATA = Path(__file__).resolve().parent / "data"

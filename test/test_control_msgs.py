@@ -15,7 +15,7 @@ from rosidl_adapter.msg import convert_msg_to_idl
 from rosidl_generator_type_description import generate_type_hash
 from sensor_msgs.msg import JointState
 
-from support.rig import X, Rig
+from support.rig import Rig, X
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the reference interface files (control_msgs 5.8.0, jazzy), where this machine has them; their

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import math
 
+from test_core_states import assert_unit
+
 from dynamixel_handler.loop import RECHECK_LOOPS
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
 from support.rig import BASE_PARAMS, FAST_SYNC_READ, FOUR_SERVOS, PING, SYNC_READ, XM430, Rig
-from test_core_states import assert_unit
 
 REMOVE_AFTER = 10  # unanswered requests
 SILENT_ID = 3      # the PH54
@@ -109,7 +110,8 @@ def test_a_short_silence_is_survived_without_removal():
 def test_fast_read_reads_every_servo_and_the_old_pro_with_plain_sync_read():
     # method/fast_read: X and P answer Fast Sync Read; the old Pro "-R" firmware has no such
     # instruction, so it must be read with a plain Sync Read instead of going ping false
-    b = Rig(FOUR_SERVOS, "method/fast_read:=true", "pub_ratio/status:=1", "pub_ratio/present.position:=1", base=BASE_PARAMS, state_topics=True)
+    b = Rig(FOUR_SERVOS, "method/fast_read:=true", "pub_ratio/status:=1", "pub_ratio/present.position:=1",
+            base=BASE_PARAMS, state_topics=True)
     try:
         pins = {1: 1000, 2: 3000, 3: -250000, 4: 123456}
         for dxl_id, pulses in pins.items():

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import pytest
 
 from dynamixel_handler.ros.lean import RAW_ENV
+
 from support.rig import BASE_PARAMS, FOUR_SERVOS, H54, PH54, XM430, XM540, Rig
 
 

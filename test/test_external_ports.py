@@ -5,7 +5,7 @@ import pytest
 
 from dynamixel_handler_msgs.msg import DxlExternalPort
 
-from support.rig import P, X, Rig
+from support.rig import P, Rig, X
 
 XH540 = 1100  # XH540-W270
 

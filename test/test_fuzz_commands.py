@@ -15,14 +15,26 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsP, DxlCommandsX, DynamixelControlPExtendedPosition,
-                                        DynamixelControlProPosition, DynamixelControlXCurrent,
-                                        DynamixelControlXCurrentBasePosition, DynamixelControlXExtendedPosition,
-                                        DynamixelControlXPosition, DynamixelControlXPwm, DynamixelControlXVelocity,
-                                        DynamixelGain, DynamixelGoal, DynamixelLimit, DynamixelShortcut,
-                                        DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DxlCommandsAll,
+    DxlCommandsP,
+    DxlCommandsX,
+    DynamixelControlPExtendedPosition,
+    DynamixelControlProPosition,
+    DynamixelControlXCurrent,
+    DynamixelControlXCurrentBasePosition,
+    DynamixelControlXExtendedPosition,
+    DynamixelControlXPosition,
+    DynamixelControlXPwm,
+    DynamixelControlXVelocity,
+    DynamixelGain,
+    DynamixelGoal,
+    DynamixelLimit,
+    DynamixelShortcut,
+    DynamixelStatus,
+)
 
-from support.rig import PRO, P, X, X540, Rig
+from support.rig import PRO, X540, P, Rig, X
 
 IDS = st.sampled_from([0, 1, 2, 3, 4, 9, 252, 253, 254, 65535])
 FLOATS = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),

@@ -8,11 +8,17 @@ import time
 
 import pytest
 
-from dynamixel_handler_msgs.msg import (DxlCommandsAll, DxlCommandsX, DynamixelControlXPosition,
-                                        DynamixelControlXVelocity, DynamixelGoal, DynamixelShortcut,
-                                        DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DxlCommandsAll,
+    DxlCommandsX,
+    DynamixelControlXPosition,
+    DynamixelControlXVelocity,
+    DynamixelGoal,
+    DynamixelShortcut,
+    DynamixelStatus,
+)
 
-from support.rig import X, Rig
+from support.rig import Rig, X
 
 XL430 = 1060  # XL430-W250: no current sensor, so no current mode
 POSITION, VELOCITY = 3, 1

@@ -10,7 +10,7 @@ import pytest
 
 from dynamixel_handler_msgs.msg import DxlCommandsX, DynamixelControlXPosition, DynamixelShortcut
 
-from support.rig import X, Rig
+from support.rig import Rig, X
 
 X_DEG, X_ZERO = 360.0 / 4096, 2048  # e-Manual: 4096 pulses a turn, 0 deg at 2048
 

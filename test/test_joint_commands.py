@@ -10,15 +10,15 @@ import time
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointTolerance
 from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from control_msgs.action import FollowJointTrajectory
-from control_msgs.msg import JointTolerance
 from dynamixel_handler.trajectory import Trajectory, make_points
 
-from support.rig import X, X540, Rig
+from support.rig import X540, Rig, X
 
 R = FollowJointTrajectory.Result
 JOINTS = ("joint_state.use:=true", "joint_state.names:=[pan, tilt]", "joint_state.ids:=[1, 2]",

@@ -8,8 +8,8 @@ from sensor_msgs.msg import JointState
 from dynamixel_handler.config import ConfigError, defaults, validate
 from dynamixel_handler.control_table import model_by_number
 
+from support.rig import X540, P, Rig, X
 from support.ros import NodeProcess, node_command
-from support.rig import P, X, X540, Rig
 
 
 def _listen(rig: Rig) -> list[JointState]:

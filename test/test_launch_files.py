@@ -163,6 +163,7 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
 
     from dynamixel_handler.sim import VirtualBus
     from dynamixel_handler_msgs.msg import DxlStates
+
     from support.launch_runner import nodes
     from support.ros import NodeProcess, spin_until
 
@@ -192,6 +193,7 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
 @pytest.mark.parametrize("name", ["launch_dynamixel_unify_baudrate.py", "dynamixel_unify_baudrate_launch.xml"])
 def test_launched_unify_tool_finds_the_servo_once(name, tmp_path):
     from dynamixel_handler.sim import VirtualBus
+
     from support.launch_runner import nodes
     from support.ros import NodeProcess
 

@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from support.rig import X, Rig
+from support.rig import Rig, X
 
 N_SERVOS, N_PUBLISHERS, RATE_HZ, SECONDS = 12, 10, 100, 8.0
 GOAL_POSITION = 116  # X goal position address (e-Manual)

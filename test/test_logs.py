@@ -7,10 +7,12 @@ import re
 import signal
 
 from lifecycle_msgs.msg import State, Transition
+from test_lifecycle import Manager
+from test_lifecycle import _command as lifecycle_command
 
 from dynamixel_handler.sim import VirtualBus
+
 from support.ros import NodeProcess, node_command
-from test_lifecycle import Manager, _command as lifecycle_command
 
 X, P = 1020, 2020
 LINE = re.compile(r"^\[(DEBUG|INFO|WARN|ERROR|FATAL)\] \[\d+\.\d+\] \[robot1\.dynamixel_handler\]: \S")

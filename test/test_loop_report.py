@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from support.rig import X, Rig
+from support.rig import Rig, X
 
 LINE = re.compile(r"\[(INFO|WARN|ERROR)\].*time=\d+\.\d\dms/loop\(\d+\.\d\dms/read\), success= *(\d+)%\(full= *(\d+)%\)$")
 

@@ -8,9 +8,13 @@ from __future__ import annotations
 
 import pytest
 
-from dynamixel_handler_msgs.msg import (DynamixelControlPPosition, DynamixelControlProPosition,
-                                        DynamixelControlProVelocity, DynamixelControlXCurrent,
-                                        DynamixelControlXPosition)
+from dynamixel_handler_msgs.msg import (
+    DynamixelControlPPosition,
+    DynamixelControlProPosition,
+    DynamixelControlProVelocity,
+    DynamixelControlXCurrent,
+    DynamixelControlXPosition,
+)
 
 from support.rig import Rig
 

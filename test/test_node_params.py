@@ -6,9 +6,9 @@ import textwrap
 
 import yaml
 
-from support.ros import CONFIG, NodeProcess, node_command
-
 from dynamixel_handler.config import SCHEMA
+
+from support.ros import CONFIG, NodeProcess, node_command
 
 
 def _flatten(tree: dict, prefix: str = "") -> dict:

@@ -10,13 +10,19 @@ from __future__ import annotations
 import signal
 import time
 
-from dynamixel_handler_msgs.msg import (DynamixelControlPPosition, DynamixelControlXCurrent,
-                                        DynamixelControlXExtendedPosition, DynamixelControlXPosition,
-                                        DynamixelControlXVelocity, DynamixelLimit, DynamixelShortcut,
-                                        DynamixelStatus)
 from dynamixel_handler.sim import VirtualBus
+from dynamixel_handler_msgs.msg import (
+    DynamixelControlPPosition,
+    DynamixelControlXCurrent,
+    DynamixelControlXExtendedPosition,
+    DynamixelControlXPosition,
+    DynamixelControlXVelocity,
+    DynamixelLimit,
+    DynamixelShortcut,
+    DynamixelStatus,
+)
 
-from support.rig import P, PRO, X, X540, Rig
+from support.rig import PRO, X540, P, Rig, X
 from support.ros import NodeProcess, node_command
 
 X_DEG, X_ZERO, X_TURN = 360.0 / 4096, 2048, 4096

@@ -240,8 +240,9 @@ def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_l
 def test_flat_out_survives_wire_faults_and_an_unplugged_adapter(tmp_path):
     """The overlapped loop meets CRC errors, noise, truncated replies and a device that vanishes with
     a read on the wire: it logs, keeps publishing, reconnects, and commands still reach the servos."""
-    from support.rig import P, X, X540, Rig
     from dynamixel_handler_msgs.msg import DynamixelControlXPosition
+
+    from support.rig import X540, P, Rig, X
 
     rig = Rig({1: X, 2: X540, 3: P}, "loop_rate:=2000", "pub_ratio/status:=5", "pub_ratio/error:=5",
               "verbose_ratio:=500", sim_kwargs={"link": str(tmp_path / "ttyDXL")})

@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition
-from support.rig import X, Rig
+
+from support.rig import Rig, X
 
 CLI = [sys.executable, str(Path(__file__).resolve().parent.parent / "scripts" / "ros_cli.py")]
 

@@ -15,6 +15,7 @@ import sys
 import pytest
 
 from dynamixel_handler.sim import VirtualBus
+
 from support.ros import CONFIG, NodeProcess
 
 X = 1020

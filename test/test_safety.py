@@ -1,15 +1,12 @@
 """Shutdown safety and survival: SIGTERM, SIGKILL (bus watchdog), a vanished device, dummy servos."""
 from __future__ import annotations
 
-import os
 import signal
 import time
 
-import pytest
-
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelControlXVelocity, DynamixelShortcut
 
-from support.rig import X, X540, Rig
+from support.rig import X540, Rig, X
 
 
 def _velocity(rig: Rig, dxl_id: int, deg_s: float) -> None:
@@ -116,6 +113,7 @@ def test_dummy_only_node_without_a_device_publishes_complete_states_and_follows_
     from rclpy.node import Node
 
     from dynamixel_handler_msgs.msg import DxlStates
+
     from support.ros import NodeProcess, node_command
 
     proc = NodeProcess(node_command("device_name:=/dev/ttyDOES_NOT_EXIST", "init/dummy_servo_list:=[3, 4]",
@@ -202,8 +200,9 @@ def test_an_exception_in_the_loop_is_logged_and_the_loop_goes_on(monkeypatch):
 
 
 def test_a_loop_that_keeps_failing_stops_the_servos_and_exits_non_zero(monkeypatch):
-    from support.ros import NodeProcess, node_command
     from dynamixel_handler.sim import VirtualBus
+
+    from support.ros import NodeProcess, node_command
 
     monkeypatch.setenv("DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS", "1000")
     with VirtualBus(servos={1: X}) as sim:

@@ -11,8 +11,8 @@ from dynamixel_handler.errors import StartupError
 from dynamixel_handler.serial_ports import BY_ID_ENV, resolve, serial_of_link
 from dynamixel_handler.sim import VirtualBus
 
+from support.rig import Rig, X
 from support.ros import NodeProcess, node_command
-from support.rig import X, Rig
 
 FTDI = "usb-FTDI_USB__-__Serial_Converter_{}-if00-port0"
 

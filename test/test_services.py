@@ -9,7 +9,7 @@ from rclpy.action import ActionClient
 from dynamixel_handler_msgs.action import MoveJoints
 from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 
-from support.rig import X, X540, Rig
+from support.rig import X540, Rig, X
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from support.rig import X, Rig
+from support.rig import Rig, X
 
 SIM_START = 1000.0  # s: far from any wall-clock time
 

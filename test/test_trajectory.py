@@ -5,8 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dynamixel_handler.trajectory import (GOAL_VIOLATED, PATH_VIOLATED, RUNNING, SUCCEEDED, Tolerances, Trajectory,
-                                          TrajectoryError, TrajectoryRun, make_points)
+from dynamixel_handler.trajectory import (
+    GOAL_VIOLATED,
+    PATH_VIOLATED,
+    RUNNING,
+    SUCCEEDED,
+    Tolerances,
+    Trajectory,
+    TrajectoryError,
+    TrajectoryRun,
+    make_points,
+)
 
 
 @pytest.mark.parametrize("with_vel,with_acc", [(False, False), (True, False), (True, True)])

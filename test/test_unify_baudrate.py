@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import os
 import shutil
-import sys
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,8 +13,7 @@ import pytest
 from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.sim import VirtualBus
-from dynamixel_handler.tools.baudrate import (baud_register_values, search_rates, unify_baudrate,
-                                              validate_tool_params)
+from dynamixel_handler.tools.baudrate import baud_register_values, search_rates, unify_baudrate, validate_tool_params
 
 ROOT = Path(__file__).resolve().parent.parent
 X, X540, XL330, P, PRO = 1020, 1120, 1200, 2020, 54024  # XM430-W350, XM540-W270, XL330-M288, PH54, H54 (old PRO)

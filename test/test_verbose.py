@@ -1,7 +1,7 @@
 """verbose/* parameters: the log lines a user turns on to see what the handler reads."""
 from __future__ import annotations
 
-from support.rig import X, X540, Rig
+from support.rig import X540, Rig, X
 
 
 def test_raw_reads_failures_and_hardware_errors_are_logged_when_asked():

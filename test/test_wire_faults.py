@@ -9,7 +9,7 @@ import pytest
 
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelShortcut
 
-from support.rig import P, X, X540, Rig
+from support.rig import X540, P, Rig, X
 
 
 @pytest.fixture(scope="module")

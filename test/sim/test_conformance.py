@@ -1,8 +1,7 @@
 """Every instruction through the real dynamixel_sdk host classes, against the virtual bus."""
 
 import pytest
-from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBulkWrite,
-                           GroupSyncRead, GroupSyncWrite)
+from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBulkWrite, GroupSyncRead, GroupSyncWrite
 
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.protocol import servo as p

@@ -1,6 +1,7 @@
 """Framing rules of Protocol 2.0 as the simulator applies them (no pty involved)."""
 
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from dynamixel_handler.protocol import servo as p
 

@@ -8,13 +8,12 @@ import subprocess
 import sys
 
 import pytest
-from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBulkWrite, GroupSyncRead,
-                           GroupSyncWrite)
+from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupBulkRead, GroupBulkWrite, GroupSyncRead, GroupSyncWrite
 from dynamixel_sdk.protocol2_packet_handler import PKT_ID, PKT_INSTRUCTION, PKT_LENGTH_H, PKT_LENGTH_L, PKT_PARAMETER0
 
 from dynamixel_handler.control_table import known_models, model_by_number
-from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler.protocol import servo as p
+from dynamixel_handler.sim import VirtualBus
 
 XM430, XL330, PH54, H54_OLD = 1020, 1200, 2020, 54024
 # X430/540: Indirect Address 1 at 168, Indirect Data 1 at 224 (e-Manual). X330 firmware v52: 208.

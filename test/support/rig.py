@@ -17,8 +17,17 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from dynamixel_handler.protocol import FAST_SYNC_READ, PING, READ, SYNC_READ, SYNC_WRITE, WRITE
 from dynamixel_handler.sim import VirtualBus
-from dynamixel_handler_msgs.msg import (DxlStates, DynamixelDebug, DynamixelError, DynamixelExtra, DynamixelGain,
-                                        DynamixelGoal, DynamixelLimit, DynamixelPresent, DynamixelStatus)
+from dynamixel_handler_msgs.msg import (
+    DxlStates,
+    DynamixelDebug,
+    DynamixelError,
+    DynamixelExtra,
+    DynamixelGain,
+    DynamixelGoal,
+    DynamixelLimit,
+    DynamixelPresent,
+    DynamixelStatus,
+)
 
 from .ros import NodeProcess, TopicClient, node_command
 
