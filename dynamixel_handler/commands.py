@@ -361,7 +361,7 @@ class Commander:
                 self.h.write_item(dxl_id, item, value)
         if torque:
             self.h.torque_on(dxl_id)
-        self.h.arm_watchdog(dxl_id)
+        self.h.arm_after_ops(dxl_id)
         if ok:
             self.log.info(f"ID {dxl_id}: operating mode -> {mode}")
         else:

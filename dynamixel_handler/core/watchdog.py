@@ -95,6 +95,16 @@ class Watchdog(ServoIO, ReadPlan):
         if pulses:
             self.write_item(dxl_id, "bus_watchdog", pulses)
 
+    def arm_after_ops(self, dxl_id: int) -> None:
+        """After a mode change: a mode that needs no watchdog gets it off at once; one that needs
+        it is armed at the start of the next step, once the operations running now are done
+        (armed servo by servo inside a burst of mode changes on a slow bus, the first ones would
+        trip before the last ones are changed)."""
+        if self.watchdog_for(dxl_id):
+            self._to_arm.add(dxl_id)
+        else:
+            self.arm_watchdog(dxl_id)
+
     def clear_tripped(self, ids: Sequence[int]) -> None:
         """Before goals go to these servos: a bus watchdog known to have tripped is cleared and
         armed again, or the servo would refuse the goals."""
