@@ -133,7 +133,8 @@ def pulse_to_unit(models: Sequence[Model], item: str, pulses: ArrayLike) -> np.n
     the quantity (e.g. current on XL430)."""
     plan = _plan(tuple(models), item)
     raw = _as_vector(pulses, len(plan.scale), "pulse_to_unit")
-    return (raw - plan.offset) * plan.scale
+    out: np.ndarray = (raw - plan.offset) * plan.scale
+    return out
 
 
 def unit_to_pulse(models: Sequence[Model], item: str, values: ArrayLike) -> np.ndarray:
@@ -155,7 +156,8 @@ def unit_to_pulse(models: Sequence[Model], item: str, values: ArrayLike) -> np.n
         raise ValueError(f"{item}: model {models[i].name} at index {i} has no such item or unit")
     scaled = vals / plan.scale + plan.offset
     rounded = np.trunc(scaled + np.copysign(0.5, scaled))
-    return np.clip(rounded, plan.lo, plan.hi).astype(np.int64)
+    out: np.ndarray = np.clip(rounded, plan.lo, plan.hi).astype(np.int64)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -220,7 +222,8 @@ def _bits(bits: ArrayLike) -> np.ndarray:
 
 
 def _flag(arr: np.ndarray, bit: int) -> np.ndarray:
-    return (arr >> bit) & 1 == 1
+    out: np.ndarray = (arr >> bit) & 1 == 1
+    return out
 
 
 def decode_hardware_error(bits: ArrayLike) -> Dict[str, np.ndarray]:

@@ -65,25 +65,30 @@ class Deferred(ServoIO):
         """EEPROM values and per-servo operations that had to wait, once their time has come."""
         now = time.monotonic()
         if self._eeprom_deferred:
-            due_ids = {i for (i, item) in self._eeprom_deferred
-                       if now - self._eeprom_written.get((i, item), 0.0) >= EEPROM_WRITE_INTERVAL_S}
-            for dxl_id in sorted(due_ids):
-                values = {item: v for (i, item), v in list(self._eeprom_deferred.items()) if i == dxl_id}
-                if dxl_id not in self.table:
-                    for item in values:
-                        self._eeprom_deferred.pop((dxl_id, item), None)
-                    continue
-                self.write_eeprom_many(dxl_id, values)
+            self._write_due_eeprom(now)
         for dxl_id, (when, what, op) in list(self.deferred.items()):
             if when > now:
                 continue
             del self.deferred[dxl_id]
-            if dxl_id not in self.table:
-                continue
-            try:
-                op()
-            except Exception as exc:  # an operation must never stop the loop
-                self.log.error(f"{what} failed: {type(exc).__name__}: {exc}")
+            if dxl_id in self.table:
+                self._run_op(what, op)
+
+    def _write_due_eeprom(self, now: float) -> None:
+        due_ids = {i for (i, item) in self._eeprom_deferred
+                   if now - self._eeprom_written.get((i, item), 0.0) >= EEPROM_WRITE_INTERVAL_S}
+        for dxl_id in sorted(due_ids):
+            values = {item: v for (i, item), v in list(self._eeprom_deferred.items()) if i == dxl_id}
+            if dxl_id in self.table:
+                self.write_eeprom_many(dxl_id, values)
+            else:
+                for item in values:
+                    self._eeprom_deferred.pop((dxl_id, item), None)
+
+    def _run_op(self, what: str, op: Callable[[], None]) -> None:
+        try:
+            op()
+        except Exception as exc:  # an operation must never stop the loop
+            self.log.error(f"{what} failed: {type(exc).__name__}: {exc}")
 
     def queue(self, what: str, op: Callable[[], None]) -> None:
         """Run ``op`` in the loop thread at the start of the next step (callbacks never touch the bus)."""
@@ -103,7 +108,4 @@ class Deferred(ServoIO):
                 if not self._ops:
                     return
                 what, op = self._ops.popleft()
-            try:
-                op()
-            except Exception as exc:  # an operation must never stop the loop
-                self.log.error(f"{what} failed: {type(exc).__name__}: {exc}")
+            self._run_op(what, op)

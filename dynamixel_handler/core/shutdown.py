@@ -30,13 +30,7 @@ class Shutdown(ServoIO):
             return
         stop = cfg["term/servo_auto_stop"]
         if stop:
-            neutral: dict[str, dict[int, int]] = {}
-            for dxl_id in ids:
-                item = NEUTRAL_GOAL.get(self.mode(dxl_id) or "")
-                if item:
-                    neutral.setdefault(item, {})[dxl_id] = 0
-            for item, values in neutral.items():
-                self.write_group(item, values)
+            self._neutral_goals(ids)
         if cfg["term/torque_auto_disable"]:
             self.write_group("torque_enable", {i: 0 for i in ids})
         elif stop:
@@ -44,6 +38,16 @@ class Shutdown(ServoIO):
         self.write_group("bus_watchdog", {i: 0 for i in ids if i not in self.watchdog_user
                                           and self.table.model(i).has("bus_watchdog")
                                           and self.table.value("bus_watchdog", i)})
+
+    def _neutral_goals(self, ids: list[int]) -> None:
+        """Velocity, current and PWM goals := 0 in the servos of those modes."""
+        neutral: dict[str, dict[int, int]] = {}
+        for dxl_id in ids:
+            item = NEUTRAL_GOAL.get(self.mode(dxl_id) or "")
+            if item:
+                neutral.setdefault(item, {})[dxl_id] = 0
+        for item, values in neutral.items():
+            self.write_group(item, values)
 
     def _hold_where_they_are(self, ids: list[int]) -> None:
         present = self.read_group("present_position", ids)

@@ -17,30 +17,51 @@ class Startup(Recovery, Deferred):
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
         cfg = self.config
         self._had_device = self.bus.is_open
-        lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
         dummies = sorted(self.bus.dummies)
         expected = cfg["init/expected_servo_num"]
+        found = self._scan(dummies, expected)
+        self._keep(found, dummies)
+        if expected > 0 and len(self.table) != expected:
+            message = (f"handling {len(self.table)} servo(s) {list(self.table.ids)} on {self.bus.device}, but "
+                       f"init/expected_servo_num is {expected}: check the IDs on the bus, or set "
+                       "init/expected_servo_num (0: any number)")
+            self._startup_problem(message)
+        for dxl_id in list(self.table.ids):
+            if self.interrupted():
+                raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
+            self._setup_servo(dxl_id)
+
+    def _enough(self, found: dict[int, int], dummies: Sequence[int], expected: int) -> bool:
+        return len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
+
+    def _scan(self, dummies: Sequence[int], expected: int) -> dict[int, int]:
+        """Scan init/servo_auto_search (retry_times more times until enough servos answer):
+        {ID: model number}. Too few ends the start-up (``_startup_problem``)."""
+        cfg = self.config
+        lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
         attempts = cfg["init/servo_auto_search.retry_times"] + 1
         found: dict[int, int] = {}
         for attempt in range(attempts):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted during the scan (attempt {attempt + 1}/{attempts})")
             found.update(self.bus.scan(sorted(set(range(lo, hi + 1)) | set(dummies))))
-            enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
             real = sorted(set(found) - set(dummies))
             self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} on {self.bus.device} at "
                           f"{self.bus.baudrate} bps: {len(real)} servo(s) {real}"
                           + (f" + dummies {dummies}" if dummies else ""))
-            if enough or not self.bus.is_open:
+            if self._enough(found, dummies, expected) or not self.bus.is_open:
                 break
-        enough = len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
-        if not enough:
+        if not self._enough(found, dummies, expected):
             want = f"{expected}" if expected > 0 else "at least 1"
             message = (f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected "
                        f"{want}: check power, wiring, IDs ({lo}..{hi}) and baudrate "
                        "(init/baudrate_auto_set can find servos at other rates)")
             self._startup_problem(message)
-        used = set(cfg.used_series)
+        return found
+
+    def _keep(self, found: dict[int, int], dummies: Sequence[int]) -> None:
+        """Put the servos found that are known models of a used series (or dummies) in the table."""
+        used = set(self.config.used_series)
         for dxl_id, number in sorted(found.items()):
             try:
                 model = model_by_number(number)
@@ -54,18 +75,9 @@ class Startup(Recovery, Deferred):
             self.table.add(dxl_id, model)
             kind = "dummy" if dxl_id in dummies else f"model {number}"
             self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}) handled")
-        if not len(self.table) and found and not cfg["debug"]:
+        if not len(self.table) and found and not self.config["debug"]:
             raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
                                f"{sorted(found)}: enable their series in init/used_servo_series")
-        if expected > 0 and len(self.table) != expected:
-            message = (f"handling {len(self.table)} servo(s) {list(self.table.ids)} on {self.bus.device}, but "
-                       f"init/expected_servo_num is {expected}: check the IDs on the bus, or set "
-                       "init/expected_servo_num (0: any number)")
-            self._startup_problem(message)
-        for dxl_id in list(self.table.ids):
-            if self.interrupted():
-                raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
-            self._setup_servo(dxl_id)
 
     def _startup_problem(self, message: str) -> None:
         """Start-up cannot go on (StartupError), unless the debug parameter says to run on anyway."""

@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 
 from .. import units
 from ..groups import GROUP_ITEMS, PRESENT
 from .deferred import Deferred
+from .read_plan import _Read
 from .recovery import Recovery
 from .state import StepReport
 from .write_batch import WriteBatch
@@ -107,25 +108,15 @@ class Step(Recovery, Deferred, WriteBatch):
         addressed = np.zeros(len(table), dtype=bool)
         answered = np.zeros(len(table), dtype=bool)
 
-        def mark(flags: np.ndarray, ids) -> None:
+        def mark(flags: np.ndarray, ids: Iterable[int]) -> None:
             for dxl_id in ids:
                 pos = index.get(dxl_id)
                 if pos is not None:  # an operation may have removed it meanwhile
                     flags[pos] = True
 
         for entry in report.reads:
-            read, pending, _ = entry
-            data = pending.result()
-            if read.fast and self._fast_misses:
-                for dxl_id in data:  # answered the fast read: a miss before was not its firmware
-                    self._fast_misses.pop(dxl_id, None)
-            if read.fast and len(data) < len(read.ids):
-                data = self._read_plain(read, data)
-            self.stats_reads += 1
-            if len(data) == len(read.ids):
-                self.stats_full_reads += 1
-            entry[2] = data
-            mark(addressed, read.ids)
+            entry[2] = data = self._gather(entry[0], entry[1].result())
+            mark(addressed, entry[0].ids)
             mark(answered, data)
         for dxl_id in report.recheck:
             mark(addressed, [dxl_id])
@@ -134,6 +125,18 @@ class Step(Recovery, Deferred, WriteBatch):
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
         self._update_ping(addressed, answered, report)
         report.read_s += time.perf_counter()
+
+    def _gather(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
+        """One read's replies, completed by a plain Sync Read where a Fast Sync Read stopped short."""
+        if read.fast and self._fast_misses:
+            for dxl_id in data:  # answered the fast read: a miss before was not its firmware
+                self._fast_misses.pop(dxl_id, None)
+        if read.fast and len(data) < len(read.ids):
+            data = self._read_plain(read, data)
+        self.stats_reads += 1
+        if len(data) == len(read.ids):
+            self.stats_full_reads += 1
+        return data
 
     def finish_step(self, report: StepReport) -> None:
         if report.phase >= 4:
@@ -150,31 +153,37 @@ class Step(Recovery, Deferred, WriteBatch):
 
     def _log_reads(self, report: StepReport, silent: list[int]) -> None:
         """verbose/read_<group>.{raw,err} and verbose/read_hardware_error, max_log_width IDs a line."""
-        cfg, table = self.config, self.table
         groups = set(report.groups) | ({"present"} if report.present else set())
         for group in sorted(groups):
-            key = "extra" if group.startswith("extra") else group
-            if key == "error":
-                continue
-            if cfg.values.get(f"verbose/read_{key}.err") and silent:
-                self.log.warning(f"read {group}: no answer from IDs {silent}")
-            if cfg.values.get(f"verbose/read_{key}.raw"):
-                items = ([PRESENT[k][0] for k in sorted(report.present)] if group == "present"
-                         else list(GROUP_ITEMS[group]))
-                for item in items:
-                    if table.known(item).any():
-                        self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), cfg["max_log_width"]))
-        if "error" in report.groups and cfg["verbose/read_hardware_error"]:
-            bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
-            flags = units.decode_hardware_error(bits)
-            for pos in np.flatnonzero(bits):
-                dxl_id = table.ids[pos]
-                if self._reported_errors.get(dxl_id) != bits[pos]:
-                    causes = [name for name, f in flags.items() if f[pos]]
-                    self.log.error(f"ID {dxl_id}: hardware error {', '.join(causes)} (0x{int(bits[pos]):02X}): "
-                                   "clear it with the shortcut clear_error (CE)")
-            self._reported_errors = {table.ids[pos]: bits[pos] for pos in np.flatnonzero(bits)}
+            if group != "error":
+                self._log_group(group, report, silent)
+        if "error" in report.groups and self.config["verbose/read_hardware_error"]:
+            self._log_hardware_errors()
 
+    def _log_group(self, group: str, report: StepReport, silent: list[int]) -> None:
+        cfg, table = self.config, self.table
+        key = "extra" if group.startswith("extra") else group
+        if cfg.values.get(f"verbose/read_{key}.err") and silent:
+            self.log.warning(f"read {group}: no answer from IDs {silent}")
+        if not cfg.values.get(f"verbose/read_{key}.raw"):
+            return
+        items = [PRESENT[k][0] for k in sorted(report.present)] if group == "present" else list(GROUP_ITEMS[group])
+        for item in items:
+            if table.known(item).any():
+                self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), cfg["max_log_width"]))
+
+    def _log_hardware_errors(self) -> None:
+        """One line per servo whose hardware error bits changed to non-zero."""
+        table = self.table
+        bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
+        flags = units.decode_hardware_error(bits)
+        for pos in np.flatnonzero(bits):
+            dxl_id = table.ids[pos]
+            if self._reported_errors.get(dxl_id) != bits[pos]:
+                causes = [name for name, f in flags.items() if f[pos]]
+                self.log.error(f"ID {dxl_id}: hardware error {', '.join(causes)} (0x{int(bits[pos]):02X}): "
+                               "clear it with the shortcut clear_error (CE)")
+        self._reported_errors = {table.ids[pos]: bits[pos] for pos in np.flatnonzero(bits)}
 
 
 def _rows(ids: Sequence[int], values: np.ndarray, width: int) -> str:
