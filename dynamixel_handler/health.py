@@ -56,41 +56,60 @@ def servo_health(table: ServoTable, dxl_id: int, prefix: str = "dynamixel_handle
     pos = table.index[dxl_id]
     model = table.models[pos]
     h = Health(name=f"{prefix}: ID {dxl_id} ({model.name})", hardware_id=f"dynamixel_id_{dxl_id}")
+    _check_ping(h, table, pos)
+    _check_hardware_error(h, table, dxl_id)
+    _check_temperature(h, table, pos)
+    _check_voltage(h, table, pos)
+    _add_state(h, table, dxl_id)
+    return h
+
+
+def _check_ping(h: Health, table: ServoTable, pos: int) -> None:
     ping = bool(table.ping[pos])
     h.values.append(("ping", str(ping).lower()))
     if not ping:
         h.raise_to(ERROR, f"no response for {int(table.no_response[pos])} read(s): check power and wiring")
 
+
+def _check_hardware_error(h: Health, table: ServoTable, dxl_id: int) -> None:
     bits = table.value("hardware_error_status", dxl_id)
     h.values.append(("hardware error", "unknown" if bits is None else f"0x{bits:02X}"))
     if bits:
         causes = [name for name, flag in units.decode_hardware_error([bits]).items() if flag[0]]
         h.raise_to(ERROR, f"hardware error: {', '.join(causes) or f'0x{bits:02X}'} (clear it with clear_error)")
 
+
+def _check_temperature(h: Health, table: ServoTable, pos: int) -> None:
     temp, temp_limit = _value(table, "present_temperature", pos), _value(table, "temperature_limit", pos)
     h.values.append(("temperature [degC]", _fmt(temp)))
     h.values.append(("temperature limit [degC]", _fmt(temp_limit)))
-    if math.isfinite(temp) and math.isfinite(temp_limit):
-        if temp >= temp_limit:
-            h.raise_to(ERROR, f"overheating: {temp:g} degC at or above the limit {temp_limit:g} degC")
-        elif temp >= temp_limit - TEMPERATURE_MARGIN_C:
-            h.raise_to(WARN, f"hot: {temp:g} degC, within {TEMPERATURE_MARGIN_C:g} degC of the limit {temp_limit:g} degC")
+    if not (math.isfinite(temp) and math.isfinite(temp_limit)):
+        return
+    if temp >= temp_limit:
+        h.raise_to(ERROR, f"overheating: {temp:g} degC at or above the limit {temp_limit:g} degC")
+    elif temp >= temp_limit - TEMPERATURE_MARGIN_C:
+        h.raise_to(WARN, f"hot: {temp:g} degC, within {TEMPERATURE_MARGIN_C:g} degC of the limit {temp_limit:g} degC")
 
+
+def _check_voltage(h: Health, table: ServoTable, pos: int) -> None:
     volt = _value(table, "present_input_voltage", pos)
     v_min, v_max = _value(table, "min_voltage_limit", pos), _value(table, "max_voltage_limit", pos)
     h.values.append(("input voltage [V]", _fmt(volt)))
     h.values.append(("voltage limits [V]", f"{_fmt(v_min)}..{_fmt(v_max)}"))
-    if math.isfinite(volt) and math.isfinite(v_min) and math.isfinite(v_max):
-        if volt < v_min or volt > v_max:
-            h.raise_to(ERROR, f"input voltage {volt:.1f} V outside the limits {v_min:.1f}..{v_max:.1f} V")
-        elif volt < v_min + VOLTAGE_MARGIN_V or volt > v_max - VOLTAGE_MARGIN_V:
-            h.raise_to(WARN, f"input voltage {volt:.1f} V close to the limits {v_min:.1f}..{v_max:.1f} V")
+    if not (math.isfinite(volt) and math.isfinite(v_min) and math.isfinite(v_max)):
+        return
+    if volt < v_min or volt > v_max:
+        h.raise_to(ERROR, f"input voltage {volt:.1f} V outside the limits {v_min:.1f}..{v_max:.1f} V")
+    elif volt < v_min + VOLTAGE_MARGIN_V or volt > v_max - VOLTAGE_MARGIN_V:
+        h.raise_to(WARN, f"input voltage {volt:.1f} V close to the limits {v_min:.1f}..{v_max:.1f} V")
 
+
+def _add_state(h: Health, table: ServoTable, dxl_id: int) -> None:
+    """Torque and operating mode as last read: values only, they are no problem by themselves."""
     torque = table.value("torque_enable", dxl_id)
     h.values.append(("torque", "unknown" if torque is None else ("on" if torque else "off")))
     mode = table.value("operating_mode", dxl_id)
     h.values.append(("operating mode", "unknown" if mode is None else str(mode)))
-    return h
 
 
 @dataclass
