@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 from .errors import ConfigError
 from .joints import joint_map
@@ -139,35 +139,60 @@ BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000, 6
 def coerce(param: Param, value: Any) -> Any:
     """Return ``value`` as ``param``'s type, or raise ConfigError (ints pass as floats and back
     when integral, so `loop_rate: 100.0` and `profile_vel: 1000` both load)."""
-    t = param.type
-    def bad() -> ConfigError:
-        return ConfigError(f"parameter '{param.name}' must be {t}, got {value!r} ({type(value).__name__})")
-    if t == BOOL:
-        if isinstance(value, bool):
-            return value
-        raise bad()
-    if t == INT:
-        if isinstance(value, bool):
-            raise bad()
-        if isinstance(value, int):
-            return value
-        if isinstance(value, float) and math.isfinite(value) and value.is_integer():
-            return int(value)
-        raise bad()
-    if t == FLOAT:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise bad()
-        return float(value)
-    if t == STR:
-        if isinstance(value, str):
-            return value
-        raise bad()
-    if t in (INT_ARRAY, FLOAT_ARRAY, STR_ARRAY):
-        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-            raise bad()
-        elem = Param(param.name + "[]", {INT_ARRAY: INT, FLOAT_ARRAY: FLOAT, STR_ARRAY: STR}[t], None, "")
-        return [coerce(elem, v) for v in value]
-    raise bad()
+    convert = _COERCERS.get(param.type)
+    if convert is None:
+        raise _wrong_type(param, value)
+    return convert(param, value)
+
+
+def _wrong_type(param: Param, value: Any) -> ConfigError:
+    return ConfigError(f"parameter '{param.name}' must be {param.type}, got {value!r} ({type(value).__name__})")
+
+
+def _as_bool(param: Param, value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    raise _wrong_type(param, value)
+
+
+def _as_int(param: Param, value: Any) -> int:
+    if isinstance(value, bool):
+        raise _wrong_type(param, value)
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float) and math.isfinite(value) and value.is_integer():
+        return int(value)
+    raise _wrong_type(param, value)
+
+
+def _as_float(param: Param, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _wrong_type(param, value)
+    return float(value)
+
+
+def _as_str(param: Param, value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    raise _wrong_type(param, value)
+
+
+#: array type -> the type of its elements
+_ELEMENT_TYPES = {INT_ARRAY: INT, FLOAT_ARRAY: FLOAT, STR_ARRAY: STR}
+
+
+def _as_list(param: Param, value: Any) -> list[Any]:
+    """Each element coerced to the array's element type; an element at fault is named ``<name>[]``."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise _wrong_type(param, value)
+    elem = Param(param.name + "[]", _ELEMENT_TYPES[param.type], None, "")
+    return [coerce(elem, v) for v in value]
+
+
+_COERCERS: dict[str, Callable[[Param, Any], Any]] = {
+    BOOL: _as_bool, INT: _as_int, FLOAT: _as_float, STR: _as_str,
+    INT_ARRAY: _as_list, FLOAT_ARRAY: _as_list, STR_ARRAY: _as_list,
+}
 
 
 @dataclass(frozen=True)
@@ -204,48 +229,84 @@ class Config:
 def validate(values: Mapping[str, Any]) -> Config:
     """Check ranges and relations; raise ConfigError with one clear line for the first problem."""
     v = dict(values)
-    def need(cond: bool, msg: str) -> None:
-        if not cond:
-            raise ConfigError(msg)
-    need(bool(v["device_name"]), "parameter 'device_name' is empty: give the serial device, e.g. /dev/ttyUSB0")
-    need(v["baudrate"] in BAUDRATES,
-         f"parameter 'baudrate' = {v['baudrate']} is not a Dynamixel baud rate; use one of {', '.join(map(str, BAUDRATES))}")
-    need(0 <= v["latency_timer"] <= 255, f"parameter 'latency_timer' = {v['latency_timer']} must be 0..255 ms")
-    need(v["dyn_comm/retry_num"] >= 0, "parameter 'dyn_comm/retry_num' must be >= 0")
-    need(v["dyn_comm/inerval_msec"] >= 0, "parameter 'dyn_comm/inerval_msec' must be >= 0")
-    lo, hi = v["init/servo_auto_search.min_id"], v["init/servo_auto_search.max_id"]
-    need(0 <= lo <= 252 and 0 <= hi <= 252,
-         f"parameters 'init/servo_auto_search.min_id/max_id' = {lo}/{hi} must be within 0..252")
-    need(lo <= hi, f"parameter 'init/servo_auto_search.max_id' ({hi}) is below min_id ({lo})")
-    need(v["init/servo_auto_search.retry_times"] >= 0, "parameter 'init/servo_auto_search.retry_times' must be >= 0")
-    need(v["init/expected_servo_num"] >= 0, "parameter 'init/expected_servo_num' must be >= 0")
-    series = v.get("init/dummy_servo_series", [""])
-    bad = [s for s in series if s.strip().lower() not in DUMMY_SERIES]
-    need(not bad, f"parameter 'init/dummy_servo_series' has {bad[:3]}: use X, P or Pro")
-    n_dummies = len([i for i in v["init/dummy_servo_list"] if i != -1])
-    need(len(series) in (1, n_dummies),
-         f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
-         f"ID of init/dummy_servo_list ({n_dummies})")
-    need(any(v[f"init/used_servo_series.{s}"] for s in ("X", "P", "Pro")),
-         "parameters 'init/used_servo_series.{X,P,Pro}' are all false: enable at least one series")
-    need(0 < v["loop_rate"] <= 2000, f"parameter 'loop_rate' = {v['loop_rate']} must be 1..2000 Hz")
-    need(v["verbose_ratio"] >= 0, "parameter 'verbose_ratio' must be >= 0")
-    for name, value in v.items():
-        if name.startswith("pub_ratio/") or ".pub_ratio/" in name:
-            need(value >= 0, f"parameter '{name}' = {value} must be >= 0 (0 = read once at start)")
-    for name in ("default/profile_acc", "default/profile_vel", "default/return_delay_time", "default/bus_watchdog",
-                 "mode_change_interval_sec", "clear_error_interval_sec"):
-        need(math.isfinite(v[name]) and v[name] >= 0, f"parameter '{name}' = {v[name]} must be a finite value >= 0")
-    need(v["default/return_delay_time"] <= 508, "parameter 'default/return_delay_time' must be <= 508 us")
-    need(v["default/bus_watchdog"] <= 2540, "parameter 'default/bus_watchdog' must be <= 2540 ms (127 x 20 ms)")
-    need(v["no_response_id_auto_remove_count"] >= 0, "parameter 'no_response_id_auto_remove_count' must be >= 0")
-    need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
-    need(math.isfinite(v["diagnostics.period_sec"]) and v["diagnostics.period_sec"] >= 0,
-         "parameter 'diagnostics.period_sec' must be a finite value >= 0 (0: off)")
-    for name in ("trajectory.path_tolerance_deg", "trajectory.goal_tolerance_deg", "trajectory.goal_time_sec"):
-        need(math.isfinite(v[name]) and v[name] >= 0, f"parameter '{name}' = {v[name]} must be a finite value >= 0")
+    _check_bus(v)
+    _check_scan(v)
+    _check_dummies_and_series(v)
+    _check_loop(v)
+    _check_start_values(v)
+    _check_logs_and_options(v)
     joint_map(v)  # raises ConfigError naming the joint_state parameter at fault
     return Config(v)
+
+
+def _need(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ConfigError(msg)
+
+
+def _check_bus(v: Mapping[str, Any]) -> None:
+    """Device, baud rate, latency timer and retries."""
+    _need(bool(v["device_name"]), "parameter 'device_name' is empty: give the serial device, e.g. /dev/ttyUSB0")
+    _need(v["baudrate"] in BAUDRATES,
+          f"parameter 'baudrate' = {v['baudrate']} is not a Dynamixel baud rate; use one of {', '.join(map(str, BAUDRATES))}")
+    _need(0 <= v["latency_timer"] <= 255, f"parameter 'latency_timer' = {v['latency_timer']} must be 0..255 ms")
+    _need(v["dyn_comm/retry_num"] >= 0, "parameter 'dyn_comm/retry_num' must be >= 0")
+    _need(v["dyn_comm/inerval_msec"] >= 0, "parameter 'dyn_comm/inerval_msec' must be >= 0")
+
+
+def _check_scan(v: Mapping[str, Any]) -> None:
+    """The ID range of the start-up scan, its repetitions and the servos it must find."""
+    lo, hi = v["init/servo_auto_search.min_id"], v["init/servo_auto_search.max_id"]
+    _need(0 <= lo <= 252 and 0 <= hi <= 252,
+          f"parameters 'init/servo_auto_search.min_id/max_id' = {lo}/{hi} must be within 0..252")
+    _need(lo <= hi, f"parameter 'init/servo_auto_search.max_id' ({hi}) is below min_id ({lo})")
+    _need(v["init/servo_auto_search.retry_times"] >= 0, "parameter 'init/servo_auto_search.retry_times' must be >= 0")
+    _need(v["init/expected_servo_num"] >= 0, "parameter 'init/expected_servo_num' must be >= 0")
+
+
+def _check_dummies_and_series(v: Mapping[str, Any]) -> None:
+    """Series names of the dummy servos (one for all or one per ID) and at least one used series."""
+    series = v.get("init/dummy_servo_series", [""])
+    bad = [s for s in series if s.strip().lower() not in DUMMY_SERIES]
+    _need(not bad, f"parameter 'init/dummy_servo_series' has {bad[:3]}: use X, P or Pro")
+    n_dummies = len([i for i in v["init/dummy_servo_list"] if i != -1])
+    _need(len(series) in (1, n_dummies),
+          f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
+          f"ID of init/dummy_servo_list ({n_dummies})")
+    _need(any(v[f"init/used_servo_series.{s}"] for s in ("X", "P", "Pro")),
+          "parameters 'init/used_servo_series.{X,P,Pro}' are all false: enable at least one series")
+
+
+def _check_loop(v: Mapping[str, Any]) -> None:
+    """Loop rate, statistics ratio and every read ratio."""
+    _need(0 < v["loop_rate"] <= 2000, f"parameter 'loop_rate' = {v['loop_rate']} must be 1..2000 Hz")
+    _need(v["verbose_ratio"] >= 0, "parameter 'verbose_ratio' must be >= 0")
+    for name, value in v.items():
+        if name.startswith("pub_ratio/") or ".pub_ratio/" in name:
+            _need(value >= 0, f"parameter '{name}' = {value} must be >= 0 (0 = read once at start)")
+
+
+def _check_start_values(v: Mapping[str, Any]) -> None:
+    """Values written at start-up and the least intervals between mode changes / error clears."""
+    for name in ("default/profile_acc", "default/profile_vel", "default/return_delay_time", "default/bus_watchdog",
+                 "mode_change_interval_sec", "clear_error_interval_sec"):
+        _need_finite_non_negative(v, name)
+    _need(v["default/return_delay_time"] <= 508, "parameter 'default/return_delay_time' must be <= 508 us")
+    _need(v["default/bus_watchdog"] <= 2540, "parameter 'default/bus_watchdog' must be <= 2540 ms (127 x 20 ms)")
+
+
+def _check_logs_and_options(v: Mapping[str, Any]) -> None:
+    """Auto removal, log width, diagnostics period and the trajectory tolerances."""
+    _need(v["no_response_id_auto_remove_count"] >= 0, "parameter 'no_response_id_auto_remove_count' must be >= 0")
+    _need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
+    _need(math.isfinite(v["diagnostics.period_sec"]) and v["diagnostics.period_sec"] >= 0,
+          "parameter 'diagnostics.period_sec' must be a finite value >= 0 (0: off)")
+    for name in ("trajectory.path_tolerance_deg", "trajectory.goal_tolerance_deg", "trajectory.goal_time_sec"):
+        _need_finite_non_negative(v, name)
+
+
+def _need_finite_non_negative(v: Mapping[str, Any], name: str) -> None:
+    _need(math.isfinite(v[name]) and v[name] >= 0, f"parameter '{name}' = {v[name]} must be a finite value >= 0")
 
 
 def defaults() -> dict[str, Any]:
