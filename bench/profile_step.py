@@ -10,6 +10,11 @@ process and taken by the node's command intake at the start of the step, as in t
 timer that reads ``time.thread_time()`` (CPU of this thread only: immune to what else the machine
 runs) and ``time.perf_counter()``; nested parts are counted exclusively. The virtual bus runs in
 this process on a real-time thread; subscribers in this process make DDS really deliver.
+
+``DYNAMIXEL_HANDLER_FAST_PATH`` chooses the node's fast paths as for the node (``ros/fastpath.py``):
+``raw_publish,detached_intake`` measures the loop without the raw CDR intake,
+``raw_intake,detached_intake`` without raw CDR publishing. The detached intake is needed here (the
+node's subscriptions are taken by this loop, no executor spins the node).
 """
 from __future__ import annotations
 
@@ -101,6 +106,9 @@ def main(argv: list[str] | None = None) -> int:
 
     rclpy.init(args=["--ros-args", "--params-file", str(SHIPPED_CONFIG), "--params-file", params])
     node = node_module.DynamixelHandlerNode()
+    if not node.fast.detached_intake:
+        print("profile_step.py needs the detached intake (DYNAMIXEL_HANDLER_FAST_PATH must allow detached_intake)")
+        return 2
     listener = Node("dynamixel_handler_bench_listener")
     for typ, topic in ((DxlStates, "/dynamixel/states"), (DynamixelDebug, "/dynamixel/debug"),
                        (DynamixelPresent, "/dynamixel/state/present")):
