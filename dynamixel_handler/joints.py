@@ -79,26 +79,45 @@ def joint_map(values: Mapping[str, Any]) -> JointMap | None:
     if n != len(ids):
         raise ConfigError(f"parameters 'joint_state.names' ({n} names) and 'joint_state.ids' ({len(ids)} IDs) "
                           "must have the same length")
+    _check_names(names)
+    _check_ids(ids)
+    directions, offsets = _directions(values, n), _offsets_deg(values, n)
+    return JointMap(tuple(names), tuple(int(i) for i in ids), tuple(int(d) for d in directions),
+                    tuple(float(o) for o in offsets))
+
+
+def _check_names(names: list[str]) -> None:
+    """Joint names are non-empty and unique."""
     empty = [k for k, name in enumerate(names) if not name.strip()]
     if empty:
         raise ConfigError(f"parameter 'joint_state.names' has an empty name at index {empty[0]}")
     dup = sorted({name for name in names if names.count(name) > 1})
     if dup:
         raise ConfigError(f"parameter 'joint_state.names' repeats {', '.join(dup)}: joint names must be unique")
+
+
+def _check_ids(ids: list[int]) -> None:
+    """Servo IDs are within 0..252, one joint per servo."""
     bad = [i for i in ids if not 0 <= i <= 252]
     if bad:
         raise ConfigError(f"parameter 'joint_state.ids' has {bad}: servo IDs are 0..252")
     dup_ids = sorted({i for i in ids if ids.count(i) > 1})
     if dup_ids:
         raise ConfigError(f"parameter 'joint_state.ids' repeats {dup_ids}: one joint per servo")
+
+
+def _directions(values: Mapping[str, Any], n: int) -> list:
     directions = _per_joint(values, "joint_state.directions", n)
     if any(d not in (1, -1) for d in directions):
         raise ConfigError(f"parameter 'joint_state.directions' = {directions}: each must be 1 or -1")
+    return directions
+
+
+def _offsets_deg(values: Mapping[str, Any], n: int) -> list:
     offsets = _per_joint(values, "joint_state.offsets_deg", n)
     if not all(math.isfinite(o) for o in offsets):
         raise ConfigError(f"parameter 'joint_state.offsets_deg' = {offsets}: each must be a finite angle")
-    return JointMap(tuple(names), tuple(int(i) for i in ids), tuple(int(d) for d in directions),
-                    tuple(float(o) for o in offsets))
+    return offsets
 
 
 def _per_joint(values: Mapping[str, Any], name: str, n: int) -> list:
@@ -147,10 +166,18 @@ def resolve_targets(mapping: JointMap | None, ids: Sequence[int], names: Sequenc
     if not len(ids) and not len(names):
         raise ValueError("no ids and no joint names given")
     if len(ids):
-        bad = [i for i in ids if not 0 <= int(i) <= 252]
-        if bad:
-            raise ValueError(f"IDs {bad} are outside 0..252")
-        return [(int(i), None) for i in ids]
+        return _targets_by_id(ids)
+    return _targets_by_name(mapping, names)
+
+
+def _targets_by_id(ids: Sequence[int]) -> list[tuple[int, str | None]]:
+    bad = [i for i in ids if not 0 <= int(i) <= 252]
+    if bad:
+        raise ValueError(f"IDs {bad} are outside 0..252")
+    return [(int(i), None) for i in ids]
+
+
+def _targets_by_name(mapping: JointMap | None, names: Sequence[str]) -> list[tuple[int, str | None]]:
     if mapping is None:
         raise ValueError("joint names given but no joint_state.names/ids mapping is configured")
     try:
