@@ -22,7 +22,7 @@ refused, limits clamped, mode changes rate-limited, one warning line per cause.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Sequence, cast
 
 from .commands import Commander
 from .joints import JointMap
@@ -30,6 +30,8 @@ from .joints import JointMap
 RAD = 180.0 / math.pi
 #: modes whose goal is a position and that a position command keeps (multi-turn, current-limited)
 KEPT_POSITION_MODES = ("ex_position", "cur_position")
+#: (series, control) -> (servo IDs, field -> one value per ID): the Commander calls of one command
+_Batches = dict[tuple[str, str], tuple[list[int], dict[str, list[float]]]]
 
 
 class JointGoals:
@@ -51,6 +53,10 @@ class JointGoals:
                 return f"{what}: {len(values)} {field} values for {len(names)} joint names: refused"
         if not (len(position) or len(velocity) or len(effort)):
             return f"{what}: no position, velocity or effort given: nothing to do"
+        return self._names_problem(what, names)
+
+    def _names_problem(self, what: str, names: Sequence[str]) -> str | None:
+        """Why the names cannot be taken: unknown joints or a joint named twice; None when they can."""
         unknown = [n for n in names if n not in self.mapping.names]
         if unknown:
             shown = ", ".join(repr(n[:40]) for n in unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
@@ -75,33 +81,18 @@ class JointGoals:
         """Loop thread: joint units -> servo units, grouped by series and control, to the Commander."""
         table = self.h.table
         m = self.mapping
-        batches: dict[tuple[str, str], tuple[list[int], dict[str, list[float]]]] = {}
+        batches: _Batches = {}
         unhandled = []
         for k, name in enumerate(names):
             j = m.names.index(name)
-            dxl_id, sign = m.ids[j], m.directions[j]
+            dxl_id = m.ids[j]
             if dxl_id not in table:
                 unhandled.append(name)
                 continue
-            fields: dict[str, float] = {}
             pos = position[k] if position else None
             vel = velocity[k] if velocity else None
             eff = effort[k] if effort else None
-            if pos is not None:
-                fields["position_deg"] = float(pos) * RAD * sign + m.offsets_deg[j]
-                if eff is not None:
-                    control = "current_base_position_control"
-                    fields["current_ma"] = abs(float(eff)) * 1000.0
-                elif self.h.mode(dxl_id) in KEPT_POSITION_MODES:
-                    control = "goal"
-                else:
-                    control = "position_control"
-            elif vel is not None:
-                control = "velocity_control"
-                fields["velocity_deg_s"] = float(vel) * RAD * sign
-            else:
-                control = "current_control"
-                fields["current_ma"] = float(eff) * 1000.0 * sign
+            control, fields = self._servo_goal(j, dxl_id, pos, vel, eff)
             series = table.model(dxl_id).series if control != "goal" else ""
             ids, cols = batches.setdefault((series, control), ([], {}))
             ids.append(dxl_id)
@@ -109,6 +100,29 @@ class JointGoals:
                 cols.setdefault(f, []).append(v)
         if unhandled:
             self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
+        self._send(what, batches)
+
+    def _servo_goal(self, j: int, dxl_id: int, pos: float | None, vel: float | None,
+                    eff: float | None) -> tuple[str, dict[str, float]]:
+        """The control of joint ``j`` (servo ``dxl_id``) and its fields in servo units, from the
+        joint's position, velocity and effort (None: not given) as the table of the module says."""
+        m = self.mapping
+        sign = m.directions[j]
+        if pos is not None:
+            fields = {"position_deg": float(pos) * RAD * sign + m.offsets_deg[j]}
+            if eff is not None:
+                fields["current_ma"] = abs(float(eff)) * 1000.0
+                return "current_base_position_control", fields
+            if self.h.mode(dxl_id) in KEPT_POSITION_MODES:
+                return "goal", fields
+            return "position_control", fields
+        if vel is not None:
+            return "velocity_control", {"velocity_deg_s": float(vel) * RAD * sign}
+        # check() takes no command without a field, so effort is given here
+        return "current_control", {"current_ma": float(cast(float, eff)) * 1000.0 * sign}
+
+    def _send(self, what: str, batches: _Batches) -> None:
+        """One Commander call per (series, control): goals of kept modes as plain goals."""
         for (series, control), (ids, cols) in batches.items():
             if any(len(v) != len(ids) for v in cols.values()):
                 continue  # cannot happen: one control means the same fields for every joint of a batch
