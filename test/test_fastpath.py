@@ -12,17 +12,18 @@ import pytest
 from dynamixel_handler.ros.fastpath import FAST_ENV
 from dynamixel_handler_msgs.msg import DxlCommandsX, DynamixelControlXPosition, DynamixelShortcut
 
-from support.rig import X, X540, Rig
+from support.rig import X540, Rig, X
 
 #: X series: 4096 pulses a turn, 0° at 2048
 X_ZERO, X_DEG = 2048, 360 / 4096
 
 CHOICES = {
-    "none": "public rclpy API only; raw_intake off (DYNAMIXEL_HANDLER_FAST_PATH=none); raw_publish off "
-            "(DYNAMIXEL_HANDLER_FAST_PATH=none); detached_intake off (DYNAMIXEL_HANDLER_FAST_PATH=none)",
+    "none": "public rclpy API only; raw_intake off (DYNAMIXEL_HANDLER_FAST_PATH=none): commands go through rclpy "
+            "message objects; raw_publish off (DYNAMIXEL_HANDLER_FAST_PATH=none): states go through rclpy message "
+            "objects; detached_intake off (DYNAMIXEL_HANDLER_FAST_PATH=none): command subscriptions run in the executor",
     "all": "fast paths: raw_intake, raw_publish, detached_intake (rclpy ",
-    "raw_publish": "fast paths: raw_publish; raw_intake off (DYNAMIXEL_HANDLER_FAST_PATH=raw_publish); "
-                   "detached_intake off",
+    "raw_publish": "fast paths: raw_publish; raw_intake off (DYNAMIXEL_HANDLER_FAST_PATH=raw_publish): commands go "
+                   "through rclpy message objects; detached_intake off",
 }
 
 

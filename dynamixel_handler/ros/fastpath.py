@@ -40,6 +40,10 @@ FAST_ENV = "DYNAMIXEL_HANDLER_FAST_PATH"
 RAW_ENV = "DYNAMIXEL_HANDLER_RAW_CDR"
 #: the fast paths, in the order the start-up line names them
 PATHS = ("raw_intake", "raw_publish", "detached_intake")
+#: what the node does instead of a path that is off (the public API)
+INSTEAD = {"raw_intake": "commands go through rclpy message objects",
+           "raw_publish": "states go through rclpy message objects",
+           "detached_intake": "command subscriptions run in the executor"}
 
 #: rcl's error type (a RuntimeError), for one clear line on bad ROS arguments
 RCLError: type[Exception] = getattr(_rclpy, "RCLError", RuntimeError)
@@ -54,7 +58,7 @@ class FastPaths:
     def line(self, why_off: dict[str, str]) -> str:
         used = [p for p in PATHS if getattr(self, p)]
         head = f"fast paths: {', '.join(used)}" if used else "public rclpy API only"
-        off = [f"{p} off ({why_off[p]})" for p in PATHS if p in why_off]
+        off = [f"{p} off ({why_off[p]}): {INSTEAD[p]}" for p in PATHS if p in why_off]
         return head + (f"; {'; '.join(off)}" if off else "") + f" (rclpy {_rclpy_version()})"
 
 
@@ -100,6 +104,7 @@ def choose(node: Node, msg_classes: Sequence[type], log: Any) -> FastPaths:
     if wanted & {"raw_intake", "raw_publish"}:
         reason = self_check(msg_classes)
         if reason is not None:
+            log.warning(f"raw CDR disabled, messages go through rclpy message objects ({reason})")
             for p in ("raw_intake", "raw_publish"):
                 if p in wanted:
                     wanted.discard(p)
