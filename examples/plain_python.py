@@ -33,6 +33,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--device", help="serial device (default: a virtual bus of its own)")
     ap.add_argument("--baudrate", type=int, default=57600)
+    ap.add_argument("--latency-ms", type=float, default=None,
+                    help="the adapter's latency timer (default: 16, or 1 on the virtual bus)")
     ap.add_argument("--ids", default="1,2", help="IDs to look for (and to put on the virtual bus)")
     ap.add_argument("--goal", type=float, default=30.0, help="goal position of every servo [deg]")
     ap.add_argument("--loops", type=int, default=200)
@@ -50,13 +52,14 @@ def main(argv: list[str] | None = None) -> int:
         sim = VirtualBus(servos={i: XM430_W350 for i in ids}, baudrate=a.baudrate)
         device = sim.start()
         print(f"virtual bus on {device}")
+    latency_ms = a.latency_ms if a.latency_ms is not None else 1.0 if sim is not None else 16.0
 
     # the node's parameters, as the YAML files name them
     config = validate({**defaults(), "device_name": device, "baudrate": a.baudrate, "loop_rate": a.rate,
-                       "latency_timer": 1, "init/servo_auto_search.min_id": min(ids),
+                       "latency_timer": int(latency_ms), "init/servo_auto_search.min_id": min(ids),
                        "init/servo_auto_search.max_id": max(ids), "init/expected_servo_num": len(ids),
-                       "verbose_ratio": 0})
-    wire = DynamixelBus(device, a.baudrate, 1.0, logger=log)
+                       "init/servo_auto_search.retry_times": 5, "verbose_ratio": 0})
+    wire = DynamixelBus(device, a.baudrate, latency_ms, logger=log)
     handler = Handler(wire, config, log)
     commander = Commander(handler)
     wire.open()
