@@ -56,30 +56,42 @@ def make_points(n_joints: int, times: Sequence[float], positions: Sequence[Seque
     times strictly increase, every number is finite. TrajectoryError naming the point otherwise."""
     if not len(times):
         raise TrajectoryError("the trajectory has no points")
-    points, last_t = [], -math.inf
+    points: list[Point] = []
+    last_t = -math.inf
     for k, t in enumerate(times):
-        t = float(t)
-        if not math.isfinite(t) or t < 0:
-            raise TrajectoryError(f"point {k}: time_from_start {t} is not a time >= 0")
-        if t <= last_t:
-            raise TrajectoryError(f"point {k}: time_from_start {t:g} s does not come after point {k - 1} ({last_t:g} s)")
-        last_t = t
-        arrays = []
-        for what, given, required in (("positions", positions[k], True), ("velocities", velocities[k], False),
-                                      ("accelerations", accelerations[k], False)):
-            if len(given) == 0 and not required:
-                arrays.append(None)
-                continue
-            if len(given) != n_joints:
-                raise TrajectoryError(f"point {k}: {len(given)} {what} for {n_joints} joints")
-            a = np.asarray(given, dtype=np.float64)
-            if not np.isfinite(a).all():
-                raise TrajectoryError(f"point {k}: {what} are not all finite numbers")
-            arrays.append(a)
-        if arrays[2] is not None and arrays[1] is None:
+        last_t = _point_time(k, t, last_t)
+        p = _joint_values(k, "positions", positions[k], n_joints)
+        v = _optional_joint_values(k, "velocities", velocities[k], n_joints)
+        a = _optional_joint_values(k, "accelerations", accelerations[k], n_joints)
+        if a is not None and v is None:
             raise TrajectoryError(f"point {k}: accelerations without velocities")
-        points.append(Point(t, arrays[0], arrays[1], arrays[2]))
+        points.append(Point(last_t, p, v, a))
     return points
+
+
+def _point_time(k: int, t: float, last_t: float) -> float:
+    """Time of point ``k`` as a float: a time >= 0 after ``last_t`` (the time of point k - 1)."""
+    t = float(t)
+    if not math.isfinite(t) or t < 0:
+        raise TrajectoryError(f"point {k}: time_from_start {t} is not a time >= 0")
+    if t <= last_t:
+        raise TrajectoryError(f"point {k}: time_from_start {t:g} s does not come after point {k - 1} ({last_t:g} s)")
+    return t
+
+
+def _joint_values(k: int, what: str, given: Sequence[float], n_joints: int) -> np.ndarray:
+    """One finite value per joint of point ``k`` (``what``: positions, velocities, accelerations)."""
+    if len(given) != n_joints:
+        raise TrajectoryError(f"point {k}: {len(given)} {what} for {n_joints} joints")
+    a = np.asarray(given, dtype=np.float64)
+    if not np.isfinite(a).all():
+        raise TrajectoryError(f"point {k}: {what} are not all finite numbers")
+    return a
+
+
+def _optional_joint_values(k: int, what: str, given: Sequence[float], n_joints: int) -> np.ndarray | None:
+    """As :func:`_joint_values`; None when the point does not give them."""
+    return None if len(given) == 0 else _joint_values(k, what, given, n_joints)
 
 
 def _coefficients(p0, v0, a0, p1, v1, a1, h: float) -> np.ndarray:
@@ -243,22 +255,39 @@ class Follower:
         if job is None:
             return
         now = time.time()
-        if "position" in report.present:
-            present, velocity = self.goals.present(job.names)
-            if job.run is None:
-                if not all(math.isfinite(p) for p in present):
-                    missing = [n for n, p in zip(job.names, present) if not math.isfinite(p)]
-                    self._finish(job, ABORTED, f"no present position of {missing} to start from", hold=False)
-                    return
-                job.run = TrajectoryRun(job.names, Trajectory(job.points, np.array(present), np.array(velocity)),
-                                        job.tolerances)
-            t = report.stamp - job.start_wall
-            if t >= 0:
-                verdict = job.run.judge(t, np.array(present))
-                job.last = (t, verdict, present, velocity)
-                if verdict.outcome != RUNNING:
-                    self._finish(job, verdict.outcome, verdict.message, hold=verdict.outcome != SUCCEEDED)
-                    return
+        if "position" in report.present and not self._judge(job, report.stamp):
+            return
+        self._command_ahead(job, now)
+
+    def _judge(self, job: Job, stamp: float) -> bool:
+        """Judge ``job`` on the positions just read (its run starts from the first read); False
+        when that ended the job."""
+        present, velocity = self.goals.present(job.names)
+        run = job.run if job.run is not None else self._start_run(job, present, velocity)
+        if run is None:
+            return False
+        t = stamp - job.start_wall
+        if t >= 0:
+            verdict = run.judge(t, np.array(present))
+            job.last = (t, verdict, present, velocity)
+            if verdict.outcome != RUNNING:
+                self._finish(job, verdict.outcome, verdict.message, hold=verdict.outcome != SUCCEEDED)
+                return False
+        return True
+
+    def _start_run(self, job: Job, present: list[float], velocity: list[float]) -> TrajectoryRun | None:
+        """The run of ``job`` from the present positions and velocities; None (and the job aborted)
+        when a joint's position is not known."""
+        if not all(math.isfinite(p) for p in present):
+            missing = [n for n, p in zip(job.names, present) if not math.isfinite(p)]
+            self._finish(job, ABORTED, f"no present position of {missing} to start from", hold=False)
+            return None
+        job.run = TrajectoryRun(job.names, Trajectory(job.points, np.array(present), np.array(velocity)),
+                                job.tolerances)
+        return job.run
+
+    def _command_ahead(self, job: Job, now: float) -> None:
+        """Command the positions of one period ahead, once the job has a run and has begun by then."""
         if job.run is not None and now + self.period_s >= job.start_wall:
             target = job.run.trajectory.sample(now + self.period_s - job.start_wall)
             with self._lock:  # a job stopped meanwhile queues nothing after what stopped it
