@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Sequence
 
 from .groups import due
 from .loop import Handler
+from .servos import ServoTable
 
 MODES = {"a_in": 0, "d_out": 1, "d_in_pu": 2, "d_in_pd": 3}
 MODE_NAMES = {v: k for k, v in MODES.items()}
@@ -47,11 +48,11 @@ class ExternalPorts:
         if len(ports) != n:
             self.h.log.warning(f"external_port/write: 'port' has {len(ports)} values for {n} IDs: ignored")
             return
-        modes = self._same_length("mode", modes, n)
-        data = self._same_length("data", data, n)
+        given_modes = self._same_length("mode", modes, n)
+        given_data = self._same_length("data", data, n)
         if self.verbose_callback:
-            self.h.log.info(f"external_port/write: ids={list(ids)} ports={list(ports)} modes={modes} data={data}")
-        self.h.queue("external_port/write", lambda: self._write(list(ids), list(ports), modes, data))
+            self.h.log.info(f"external_port/write: ids={list(ids)} ports={list(ports)} modes={given_modes} data={given_data}")
+        self.h.queue("external_port/write", lambda: self._write(list(ids), list(ports), given_modes, given_data))
 
     def _same_length(self, name: str, values: Sequence, n: int) -> list | None:
         if len(values) == 0:
@@ -66,46 +67,61 @@ class ExternalPorts:
         table = self.h.table
         for k, (dxl_id, port) in enumerate(zip(ids, ports)):
             where = f"external_port/write: ID {dxl_id} port {port}"
-            if dxl_id not in table:
-                self.h.log.warning(f"{where}: ID not handled: ignored")
+            if not self._has_port(table, where, dxl_id, port):
                 continue
-            model = table.model(dxl_id)
-            if port not in model.external_ports:
-                have = f"ports {list(model.external_ports)}" if model.external_ports else "no external ports"
-                self.h.log.warning(f"{where}: {model.name} has {have}: ignored")
+            if modes is not None and not self._write_mode(where, dxl_id, port, modes[k]):
                 continue
-            if modes is not None:
-                mode = str(modes[k]).strip()
-                if mode == UNSET:
-                    self.watched.pop((dxl_id, port), None)
-                    continue
-                if mode not in MODES:
-                    self.h.log.warning(f"{where}: unknown mode '{mode}' (known: {', '.join([*MODES, UNSET])}): ignored")
-                    continue
-                if not self.h.write_eeprom(dxl_id, f"external_port_mode_{port}", MODES[mode]):
-                    self.h.log.warning(f"{where}: writing mode {mode} failed: {self.h.bus.last_failure}")
-                    continue
-                if self.verbose_write:
-                    self.h.log.info(f"{where}: mode -> {mode}")
             if data is not None:
-                value = data[k]
-                if isinstance(value, float) and not math.isfinite(value):
-                    self.h.log.warning(f"{where}: data {value} refused")
-                elif self._mode(dxl_id, port) != "d_out":
-                    self.h.log.warning(f"{where}: data is written only in mode d_out: ignored")
-                elif value not in (0, 1):
-                    self.h.log.warning(f"{where}: digital output data must be 0 or 1, got {value}: ignored")
-                else:
-                    self.h.write_item(dxl_id, f"external_port_data_{port}", int(value))
-                    if self.verbose_write:
-                        self.h.log.info(f"{where}: data -> {value}")
+                self._write_data(where, dxl_id, port, data[k])
             self.watched[(dxl_id, port)] = None
+
+    def _has_port(self, table: ServoTable, where: str, dxl_id: int, port: int) -> bool:
+        """Whether ``dxl_id`` is handled and its model has ``port``; a warning when not."""
+        if dxl_id not in table:
+            self.h.log.warning(f"{where}: ID not handled: ignored")
+            return False
+        model = table.model(dxl_id)
+        if port not in model.external_ports:
+            have = f"ports {list(model.external_ports)}" if model.external_ports else "no external ports"
+            self.h.log.warning(f"{where}: {model.name} has {have}: ignored")
+            return False
+        return True
+
+    def _write_mode(self, where: str, dxl_id: int, port: int, given: object) -> bool:
+        """Set the port's mode (``unset``: stop watching it); False when the rest of the write for
+        this port is dropped: unset, an unknown mode, or a failed write."""
+        mode = str(given).strip()
+        if mode == UNSET:
+            self.watched.pop((dxl_id, port), None)
+            return False
+        if mode not in MODES:
+            self.h.log.warning(f"{where}: unknown mode '{mode}' (known: {', '.join([*MODES, UNSET])}): ignored")
+            return False
+        if not self.h.write_eeprom(dxl_id, f"external_port_mode_{port}", MODES[mode]):
+            self.h.log.warning(f"{where}: writing mode {mode} failed: {self.h.bus.last_failure}")
+            return False
+        if self.verbose_write:
+            self.h.log.info(f"{where}: mode -> {mode}")
+        return True
+
+    def _write_data(self, where: str, dxl_id: int, port: int, value: Any) -> None:
+        """Write digital output data (0 or 1) to a port in mode d_out; a warning otherwise."""
+        if isinstance(value, float) and not math.isfinite(value):
+            self.h.log.warning(f"{where}: data {value} refused")
+        elif self._mode(dxl_id, port) != "d_out":
+            self.h.log.warning(f"{where}: data is written only in mode d_out: ignored")
+        elif value not in (0, 1):
+            self.h.log.warning(f"{where}: digital output data must be 0 or 1, got {value}: ignored")
+        else:
+            self.h.write_item(dxl_id, f"external_port_data_{port}", int(value))
+            if self.verbose_write:
+                self.h.log.info(f"{where}: data -> {value}")
 
     def _mode(self, dxl_id: int, port: int) -> str | None:
         value = self.h.table.value(f"external_port_mode_{port}", dxl_id)
         if value is None:
             value = self.h.read_item(dxl_id, f"external_port_mode_{port}")
-        return MODE_NAMES.get(value) if value is not None else None
+        return _mode_name(value)
 
     def step(self) -> PortReading | None:
         """Read the watched ports when their ratios say so; None when nothing was read."""
@@ -118,24 +134,37 @@ class ExternalPorts:
             if dxl_id not in self.h.table:
                 self.watched.pop((dxl_id, port), None)
                 continue
-            mode = self._mode(dxl_id, port) if not read_mode else None
-            if read_mode:
-                value = self.h.read_item(dxl_id, f"external_port_mode_{port}")
-                mode = MODE_NAMES.get(value) if value is not None else None
-            data = self.h.read_item(dxl_id, f"external_port_data_{port}") if read_data else None
-            if (read_data and data is None) or (read_mode and mode is None):
-                if self.verbose_err:
-                    self.h.log.warning(f"external_port/read: ID {dxl_id} port {port}: no answer")
+            reading = self._read_port(dxl_id, port, read_data, read_mode)
+            if reading is None:
                 continue
-            if data is None:
-                data = self.h.table.value(f"external_port_data_{port}", dxl_id)
             out.ids.append(dxl_id)
             out.ports.append(port)
-            out.modes.append(mode or "")
-            out.data.append(int(data) if data is not None else -1)
+            out.modes.append(reading[0])
+            out.data.append(reading[1])
         if self.verbose_read and out.ids:
             self.h.log.info(f"external_port/read: {list(zip(out.ids, out.ports, out.modes, out.data))}")
         return out if out.ids else None
+
+    def _read_port(self, dxl_id: int, port: int, read_data: bool, read_mode: bool) -> tuple[str, int] | None:
+        """(mode, data) of one port: what is due read from the servo, the rest as last known
+        ("" / -1: not known); None when a due read got no answer."""
+        if read_mode:
+            mode = _mode_name(self.h.read_item(dxl_id, f"external_port_mode_{port}"))
+        else:
+            mode = self._mode(dxl_id, port)
+        data = self.h.read_item(dxl_id, f"external_port_data_{port}") if read_data else None
+        if (read_data and data is None) or (read_mode and mode is None):
+            if self.verbose_err:
+                self.h.log.warning(f"external_port/read: ID {dxl_id} port {port}: no answer")
+            return None
+        if data is None:
+            data = self.h.table.value(f"external_port_data_{port}", dxl_id)
+        return mode or "", int(data) if data is not None else -1
+
+
+def _mode_name(value: int | None) -> str | None:
+    """The mode name of a mode register value (None: not read, or not a known mode)."""
+    return MODE_NAMES.get(value) if value is not None else None
 
 
 __all__ = ["ExternalPorts", "PortReading", "MODES", "UNSET"]
