@@ -7,13 +7,14 @@ import logging
 from typing import Iterable, Mapping, Protocol, Sequence
 
 from . import units
-from .loop import Handler
+from .control_table import Model
+from .core.api import ServoAccess
 
 
 class Checks(Protocol):
     """What the extra command needs of ``commands.Commander`` (its checks and warnings)."""
 
-    h: Handler
+    h: ServoAccess
     log: logging.Logger | logging.LoggerAdapter
 
     def warn(self, msg: str) -> None: ...
@@ -42,72 +43,105 @@ def apply_extra(c: Checks, ids: list[int], fields: Mapping[str, Sequence], what:
         if name in _READ_ONLY:
             c.warn(f"{what}: '{name}' is read-only: ignored")
     for k, dxl_id in c.known_ids(ids, what):
-        h, model = c.h, c.h.table.model(dxl_id)
-        for field, item in _SCALAR.items():
-            if field not in fields or not c.finite(what, field, dxl_id, fields[field][k]):
-                continue
-            if not model.has(item):
-                c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {item}: ignored")
-                continue
-            value = float(fields[field][k])
-            pulses = int(units.unit_to_pulse([model], item, [value])[0]) if item != "secondary_id" else int(value)
-            spec = model.item(item)
-            if not spec.min_raw <= pulses <= spec.max_raw:
-                c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
-                continue
-            if item == "bus_watchdog":  # the servo keeps this one, whatever its mode (0: off)
-                h.watchdog_user[dxl_id] = pulses
-                h.arm_watchdog(dxl_id)
-                continue
-            ok = h.write_eeprom(dxl_id, item, pulses) if spec.eeprom else h.write_item(dxl_id, item, pulses)
-            if not ok:
-                c.warn(f"{what}: ID {dxl_id} writing {item} failed: {h.bus.last_failure}")
-        if any(f in fields for f in _DRIVE) and model.has("drive_mode"):
-            current = c._value(dxl_id, "drive_mode") or 0
-            old = units.decode_drive_mode([current])
-            profile = fields.get("drive_mode.profile_configuration", [old["profile_configuration"][0]] * len(ids))[k]
-            if profile not in ("time_based", "velocity_based"):
-                c.warn(f"{what}: ID {dxl_id} unknown profile_configuration '{profile}': ignored")
-                profile = old["profile_configuration"][0]
-            value = units.encode_drive_mode(
-                reverse_mode=bool(fields.get("drive_mode.reverse_mode", [old["reverse_mode"][0]] * len(ids))[k]),
-                profile_configuration=profile,
-                torque_on_by_goal_update=bool(fields.get("drive_mode.torque_on_by_goal_update",
-                                                         [old["torque_on_by_goal_update"][0]] * len(ids))[k]))
-            h.write_eeprom(dxl_id, "drive_mode", value | (current & ~0x0D))
-        if any(f in fields for f in _RESTORE) and model.has("startup_configuration"):
-            ram, torque = units.decode_startup_configuration([c._value(dxl_id, "startup_configuration") or 0])
-            value = units.encode_startup_configuration(
-                ram_restore=bool(fields.get(_RESTORE[0], [ram[0]] * len(ids))[k]),
-                startup_torque_on=bool(fields.get(_RESTORE[1], [torque[0]] * len(ids))[k]))
-            h.write_eeprom(dxl_id, "startup_configuration", value)
-        shutdown_fields = {f.split(".", 1)[1]: v for f, v in fields.items() if f.startswith("shutdown.")}
-        if shutdown_fields and model.has("shutdown"):
-            old = units.decode_shutdown([c._value(dxl_id, "shutdown") or 0])
-            flags = {name: bool(shutdown_fields.get(name, [old[name][0]] * len(ids))[k]) for name in old}
-            h.write_eeprom(dxl_id, "shutdown", units.encode_shutdown(**flags))
-        if "pwm_slope_percent" in fields and c.finite(what, "pwm_slope_percent", dxl_id, fields["pwm_slope_percent"][k]):
-            slope = round(float(fields["pwm_slope_percent"][k]))
-            if not model.has("pwm_slope"):
-                c.warn(f"{what}: ID {dxl_id} ({model.name}) has no pwm_slope (X330 only): ignored")
-            elif not PWM_SLOPE_RANGE[0] <= slope <= PWM_SLOPE_RANGE[1]:
-                c.warn(f"{what}: ID {dxl_id} 'pwm_slope_percent' = {slope} is out of range "
-                       f"{PWM_SLOPE_RANGE[0]}..{PWM_SLOPE_RANGE[1]}: refused")
-            elif not h.write_eeprom(dxl_id, "pwm_slope", slope):
-                c.warn(f"{what}: ID {dxl_id} writing pwm_slope failed: {h.bus.last_failure}")
-        for colour in ("red", "green", "blue"):
-            field = f"led.{colour}_percent"
-            if field not in fields or not c.finite(what, field, dxl_id, fields[field][k]):
-                continue
-            percent = min(max(float(fields[field][k]), 0.0), 100.0)
-            if model.has(f"led_{colour}"):  # P, Pro: 0..255, rounded half up (50 % -> 128)
-                h.write_item(dxl_id, f"led_{colour}", int(percent * 255.0 / 100.0 + 0.5))
-            elif colour == "red" and model.has("led"):  # X: one LED, on from 50 %
-                h.write_item(dxl_id, "led", 1 if percent >= 50.0 else 0)
-            else:
-                c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {colour} LED: ignored")
-        if "reboot" in fields and fields["reboot"][k]:
-            h.reboot(dxl_id)
-            h.read_item(dxl_id, "torque_enable")
-        if h.config["verbose/write_extra"]:
-            c.log.info(f"{what}: ID {dxl_id} extra fields handled: {', '.join(sorted(fields))}")
+        _apply_one(c, dxl_id, _Given(fields, k, len(ids)), what)
+
+
+def _apply_one(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
+    fields, k, model = given.fields, given.k, c.h.model(dxl_id)
+    for field, item in _SCALAR.items():
+        if field in fields and c.finite(what, field, dxl_id, fields[field][k]):
+            _scalar(c, dxl_id, model, field, item, float(fields[field][k]), what)
+    _bit_registers(c, dxl_id, model, given, what)
+    if "pwm_slope_percent" in fields and c.finite(what, "pwm_slope_percent", dxl_id, fields["pwm_slope_percent"][k]):
+        _pwm_slope(c, dxl_id, model, round(float(fields["pwm_slope_percent"][k])), what)
+    for colour in ("red", "green", "blue"):
+        field = f"led.{colour}_percent"
+        if field in fields and c.finite(what, field, dxl_id, fields[field][k]):
+            _led(c, dxl_id, model, colour, min(max(float(fields[field][k]), 0.0), 100.0), what)
+    if "reboot" in fields and fields["reboot"][k]:
+        c.h.reboot(dxl_id)
+        c.h.read_item(dxl_id, "torque_enable")
+    if c.h.config["verbose/write_extra"]:
+        c.log.info(f"{what}: ID {dxl_id} extra fields handled: {', '.join(sorted(fields))}")
+
+
+def _bit_registers(c: Checks, dxl_id: int, model: Model, given: _Given, what: str) -> None:
+    """Drive Mode, Startup Configuration, Shutdown: the bits given changed, the others kept."""
+    fields = given.fields
+    if any(f in fields for f in _DRIVE) and model.has("drive_mode"):
+        _drive_mode(c, dxl_id, given, what)
+    if any(f in fields for f in _RESTORE) and model.has("startup_configuration"):
+        _restore_configuration(c, dxl_id, given)
+    if any(f.startswith("shutdown.") for f in fields) and model.has("shutdown"):
+        old = units.decode_shutdown([c._value(dxl_id, "shutdown") or 0])
+        flags = {name: bool(given(f"shutdown.{name}", old[name][0])) for name in old}
+        c.h.write_eeprom(dxl_id, "shutdown", units.encode_shutdown(**flags))
+
+
+class _Given:
+    """A field's value for the servo at index ``k`` of the command, or a default when not given."""
+
+    def __init__(self, fields: Mapping[str, Sequence], k: int, n: int) -> None:
+        self.fields, self.k, self.n = fields, k, n
+
+    def __call__(self, name: str, default: object) -> object:
+        values = self.fields.get(name)
+        return default if values is None else values[self.k]
+
+
+def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: float, what: str) -> None:
+    if not model.has(item):
+        c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {item}: ignored")
+        return
+    pulses = int(units.unit_to_pulse([model], item, [value])[0]) if item != "secondary_id" else int(value)
+    spec = model.item(item)
+    if not spec.min_raw <= pulses <= spec.max_raw:
+        c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
+        return
+    if item == "bus_watchdog":  # the servo keeps this one, whatever its mode (0: off)
+        c.h.set_user_watchdog(dxl_id, pulses)
+        return
+    ok = c.h.write_eeprom(dxl_id, item, pulses) if spec.eeprom else c.h.write_item(dxl_id, item, pulses)
+    if not ok:
+        c.warn(f"{what}: ID {dxl_id} writing {item} failed: {c.h.last_failure}")
+
+
+def _drive_mode(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
+    """The drive mode bits given changed, the others kept."""
+    current = c._value(dxl_id, "drive_mode") or 0
+    old = units.decode_drive_mode([current])
+    profile = given("drive_mode.profile_configuration", old["profile_configuration"][0])
+    if profile not in ("time_based", "velocity_based"):
+        c.warn(f"{what}: ID {dxl_id} unknown profile_configuration '{profile}': ignored")
+        profile = old["profile_configuration"][0]
+    value = units.encode_drive_mode(
+        reverse_mode=bool(given("drive_mode.reverse_mode", old["reverse_mode"][0])),
+        profile_configuration=str(profile),
+        torque_on_by_goal_update=bool(given("drive_mode.torque_on_by_goal_update", old["torque_on_by_goal_update"][0])))
+    c.h.write_eeprom(dxl_id, "drive_mode", value | (current & ~0x0D))
+
+
+def _restore_configuration(c: Checks, dxl_id: int, given: _Given) -> None:
+    ram, torque = units.decode_startup_configuration([c._value(dxl_id, "startup_configuration") or 0])
+    value = units.encode_startup_configuration(ram_restore=bool(given(_RESTORE[0], ram[0])),
+                                               startup_torque_on=bool(given(_RESTORE[1], torque[0])))
+    c.h.write_eeprom(dxl_id, "startup_configuration", value)
+
+
+def _pwm_slope(c: Checks, dxl_id: int, model: Model, slope: int, what: str) -> None:
+    if not model.has("pwm_slope"):
+        c.warn(f"{what}: ID {dxl_id} ({model.name}) has no pwm_slope (X330 only): ignored")
+    elif not PWM_SLOPE_RANGE[0] <= slope <= PWM_SLOPE_RANGE[1]:
+        c.warn(f"{what}: ID {dxl_id} 'pwm_slope_percent' = {slope} is out of range "
+               f"{PWM_SLOPE_RANGE[0]}..{PWM_SLOPE_RANGE[1]}: refused")
+    elif not c.h.write_eeprom(dxl_id, "pwm_slope", slope):
+        c.warn(f"{what}: ID {dxl_id} writing pwm_slope failed: {c.h.last_failure}")
+
+
+def _led(c: Checks, dxl_id: int, model: Model, colour: str, percent: float, what: str) -> None:
+    if model.has(f"led_{colour}"):  # P, Pro: 0..255, rounded half up (50 % -> 128)
+        c.h.write_item(dxl_id, f"led_{colour}", int(percent * 255.0 / 100.0 + 0.5))
+    elif colour == "red" and model.has("led"):  # X: one LED, on from 50 %
+        c.h.write_item(dxl_id, "led", 1 if percent >= 50.0 else 0)
+    else:
+        c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {colour} LED: ignored")

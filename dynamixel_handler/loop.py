@@ -11,6 +11,7 @@
     watchdog     the bus watchdog time from the loop period; arming, clearing, trips
     recovery     reboot, a vanished device reopened, silent servos marked and removed
     startup      scan, expected count, the set-up every servo gets (also add_id)
+    requests     what commands may ask, checked: goals, a mode change, an error clear, a watchdog
     step         one loop step in four phases (prepare, send, complete, finish), read logs
     shutdown     the servos left as term/* say
 
@@ -23,15 +24,15 @@ from __future__ import annotations
 from .control_table import OPERATING_MODES
 from .core.deferred import EEPROM_WRITE_INTERVAL_S
 from .core.recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S
+from .core.requests import Requests
 from .core.shutdown import Shutdown
-from .core.startup import Startup
 from .core.state import StepReport
 from .core.step import RECHECK_LOOPS, Step
 from .core.watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED
 from .errors import Interrupted, StartupError
 
 
-class Handler(Startup, Step, Shutdown):
+class Handler(Requests, Step, Shutdown):
     """Owns the servos of one bus: ``start()``, then ``step()`` (or its phases) every loop, then
     ``shutdown()``. Commands reach it as operations queued for the loop thread (``queue``) and as
     pending writes (``pending``)."""

@@ -284,3 +284,39 @@ def test_flat_out_survives_wire_faults_and_an_unplugged_adapter(tmp_path):
     finally:
         assert rig.close() == 0
     assert "Traceback" not in rig.output
+
+
+def test_commands_reach_the_core_only_through_its_command_interface(timed_bus):
+    """Commander is written against core.api.ServoAccess: given a view of the handler that offers
+    nothing else, a control command still switches the mode and moves the servos, and bad IDs
+    are refused with a line."""
+    import logging
+
+    from dynamixel_handler.commands import Commander
+    from dynamixel_handler.core.api import ServoAccess
+
+    sim, bus = timed_bus
+    config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
+                       "mode_change_interval_sec": 0.0})
+    handler = Handler(bus, config)
+    handler.start()
+    assert isinstance(handler, ServoAccess)
+    allowed = {n for n in vars(ServoAccess) if not n.startswith("_")} | set(ServoAccess.__annotations__)
+
+    class OnlyTheInterface:
+        def __getattr__(self, name: str):
+            if name not in allowed:
+                raise AttributeError(f"Commander used {name}, which is not in ServoAccess")
+            return getattr(handler, name)
+
+    lines: list[str] = []
+    handler.log = logging.getLogger("interface_test")
+    handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+    commander = Commander(OnlyTheInterface())  # type: ignore[arg-type]
+    commander.control("X", "extended_position_control", [1, 2, 77], {"position_deg": [90.0, -90.0, 0.0]})
+    commander.status([3], {"mode": ["velocity"]})
+    handler.step()
+    assert sim.servo(1).read("operating_mode") == 4 and sim.servo(2).read("operating_mode") == 4
+    assert sim.servo(1).read("goal_position") == 2048 + 1024 and sim.servo(2).read("goal_position") == 2048 - 1024
+    assert sim.servo(3).read("operating_mode") == 1
+    assert any("ID 77 is not handled" in line for line in lines), lines

@@ -74,6 +74,8 @@ class HandlerState:
         self._to_arm: set[int] = set()  # servos whose bus watchdog is armed at the next step
         self._check_watchdogs = False  # bus watchdogs were read: clear the tripped ones at the next step
         self.watchdog_user: dict[int, int] = {}  # ID -> bus watchdog pulses a command asked for
+        self._last_mode_change: dict[int, float] = {}  # ID -> time.monotonic() of its last mode change
+        self._last_clear: dict[int, float] = {}  # ID -> time.monotonic() of its last error clear
         self._eeprom_written: dict[tuple[int, str], float] = {}  # (ID, item) -> time of the last write
         self._eeprom_deferred: dict[tuple[int, str], int] = {}  # (ID, item) -> value to write when due
         # ID -> (monotonic time when due, what, operation): per-servo work that must wait (a mode
