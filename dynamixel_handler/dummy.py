@@ -73,7 +73,8 @@ class BusWithDummies:
 
     # ------------------------------------------------------------ helpers
     def _split(self, ids: Iterable[int]) -> tuple[list[int], list[int]]:
-        real, dummy = [], []
+        real: list[int] = []
+        dummy: list[int] = []
         for i in ids:
             (dummy if i in self.dummies else real).append(i)
         return real, dummy

@@ -17,7 +17,8 @@ Warn = Callable[[str], None]
 
 @runtime_checkable
 class ServoAccess(Protocol):
-    log: logging.Logger | logging.LoggerAdapter[Any]
+    @property
+    def log(self) -> logging.Logger | logging.LoggerAdapter[Any]: ...
 
     # ---------------------------------------------------------------- what is known
     @property
