@@ -12,6 +12,6 @@ cd "$ROOT"
 # the whole test folder unless a test file or folder is named
 paths=(test)
 for arg in "$@"; do
-  case "$arg" in -*) ;; *) [ -e "$arg" ] && paths=() ;; esac
+  case "$arg" in -*) ;; *) [ -e "${arg%%::*}" ] && paths=() ;; esac  # a file, folder or file::test
 done
 exec python -m pytest -q -p no:cacheprovider "$@" "${paths[@]}"
