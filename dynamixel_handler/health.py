@@ -16,8 +16,6 @@ from . import units
 from .servos import ServoTable
 
 OK, WARN, ERROR = 0, 1, 2  # the levels of diagnostic_msgs/DiagnosticStatus
-LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR"}
-
 #: WARN when the temperature is this close to temperature_limit [degC] (ERROR at or above it)
 TEMPERATURE_MARGIN_C = 5.0
 #: WARN when the input voltage is this close to a voltage limit [V] (ERROR outside the limits)

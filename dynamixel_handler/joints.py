@@ -42,9 +42,6 @@ class JointMap:
         except ValueError:
             raise KeyError(f"unknown joint '{name}' (known: {', '.join(self.names)})") from None
 
-    def index_of_id(self, dxl_id: int) -> int | None:
-        return self.ids.index(dxl_id) if dxl_id in self.ids else None
-
     def to_servo_deg(self, name: str, joint_deg: float) -> float:
         """Joint angle [deg] -> the servo angle [deg] that puts the joint there."""
         k = self.names.index(name)

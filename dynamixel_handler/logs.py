@@ -50,7 +50,6 @@ class Throttle:
         self.interval_s = interval_s
         self._last: dict[str, tuple[float, int]] = {}  # key -> (time logged, repeats left out since)
         self._lock = threading.Lock()
-        self.suppressed = 0
 
     def __call__(self, msg: str, key: str | None = None) -> bool:
         """Log ``msg`` unless its cause was logged less than ``interval_s`` ago; True if logged."""
@@ -60,7 +59,6 @@ class Throttle:
             last = self._last.get(key)
             if last is not None and now - last[0] < self.interval_s:
                 self._last[key] = (last[0], last[1] + 1)
-                self.suppressed += 1
                 return False
             more = last[1] if last is not None else 0
             self._last.pop(key, None)

@@ -68,7 +68,7 @@ class Recovery(Watchdog):
                 self.table.ping[self.table.index[dxl_id]] = True
                 self.arm_watchdog(dxl_id)
 
-    def _update_ping(self, addressed: np.ndarray, answered: np.ndarray, report: StepReport) -> None:
+    def _update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table
         silent = addressed & ~answered
         back = answered & ~table.ping
@@ -92,7 +92,6 @@ class Recovery(Watchdog):
                 dxl_id = table.ids[pos]
                 self.log.warning(f"ID {dxl_id}: no response {limit} times in a row: removed "
                                  "(add it again with the shortcut add_id)")
-                report.removed.append(dxl_id)
                 self.remove_id(dxl_id)
 
     def remove_id(self, dxl_id: int) -> None:

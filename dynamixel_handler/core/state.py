@@ -22,8 +22,6 @@ class StepReport:
     groups: set[str] = field(default_factory=set)        # groups read: status, goal, gain, ...
     present: set[str] = field(default_factory=set)       # present keys read: pwm, current, ...
     read_s: float = 0.0
-    write_s: float = 0.0
-    removed: list[int] = field(default_factory=list)
     # the step's work between its phases (Handler.begin_step ... Handler.finish_step)
     reads: list[list] = field(default_factory=list, repr=False)   # [_Read, GroupRead, data or None]
     recheck: list[int] = field(default_factory=list, repr=False)  # silent IDs pinged after the reads
@@ -58,8 +56,6 @@ class HandlerState:
         self.fast_read = bool(config["method/fast_read"])
         self.split_read = bool(config["method/split_read"])
         self.split_write = bool(config["method/split_write"])
-        self.stats_reads = 0
-        self.stats_full_reads = 0
         self.reconnects = 0
         self.device_lost = False
         self.device_lost_since: float | None = None  # time.time() when the device was found gone

@@ -61,7 +61,7 @@ class Step(Recovery, Deferred, WriteBatch):
         """Between loops: run the queued operations and write what they left pending at once."""
         report = StepReport(loop=self.loop_count)
         self.prepare(report)
-        self._send_writes(report)
+        self._send_writes()
 
     def send_step(self, report: StepReport) -> None:
         self.send_writes(report)
@@ -69,7 +69,7 @@ class Step(Recovery, Deferred, WriteBatch):
 
     def send_writes(self, report: StepReport) -> None:
         """The first half of ``send_step``: what is pending goes on the wire."""
-        self._send_writes(report)
+        self._send_writes()
 
     def await_replies(self, report: StepReport) -> None:
         """Wait until the replies of ``report``'s reads are in (``complete_step`` does the rest)."""
@@ -123,7 +123,7 @@ class Step(Recovery, Deferred, WriteBatch):
             if dxl_id in index and self.bus.ping(dxl_id, retries=0) is not None:
                 mark(answered, [dxl_id])
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
-        self._update_ping(addressed, answered, report)
+        self._update_ping(addressed, answered)
         report.read_s += time.perf_counter()
 
     def _gather(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
@@ -133,9 +133,6 @@ class Step(Recovery, Deferred, WriteBatch):
                 self._fast_misses.pop(dxl_id, None)
         if read.fast and len(data) < len(read.ids):
             data = self._read_plain(read, data)
-        self.stats_reads += 1
-        if len(data) == len(read.ids):
-            self.stats_full_reads += 1
         return data
 
     def finish_step(self, report: StepReport) -> None:

@@ -1,18 +1,15 @@
 """Pending writes -> one sync write per item (adjacent items merged), built ahead, sent in one go."""
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from .state import HandlerState, StepReport
+from .state import HandlerState
 
 
 class WriteBatch(HandlerState):
     """The pending values as prepared sync writes; nothing taken is lost when a loop fails."""
 
-    def _send_writes(self, report: StepReport) -> None:
-        t0 = time.perf_counter()
+    def _send_writes(self) -> None:
         self.encode_writes()
         if self._taken and self._built_for != self.table.version:  # servos removed meanwhile
             self._build_writes()
@@ -21,7 +18,6 @@ class WriteBatch(HandlerState):
             if not self.bus.send_prepared(write):
                 self.log.warning(f"sync write @{write.address}x{write.length} to IDs "
                                  f"{sorted((*write.ids, *write.dummies))} failed: {self.bus.last_failure}")
-        report.write_s += time.perf_counter() - t0
 
     def encode_writes(self) -> None:
         """Take the pending values and build their sync write packets now; the next
