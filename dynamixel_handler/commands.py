@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from functools import partial
-from typing import Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from . import units
 from .command_tables import (
@@ -34,13 +34,13 @@ from .extra_commands import apply_extra
 from .logs import Throttle, cut, some_ids
 from .settings_commands import SettingsCommands
 
-Fields = Mapping[str, Sequence]
+Fields = Mapping[str, Sequence[Any]]
 #: a goal field of one servo: (ID, value in the field's unit)
 Row = tuple[int, float]
 
 
-def take_fields(what: str, id_list: Sequence[int], fields: Mapping[str, Sequence],
-                warn: Callable[[str], None]) -> dict[str, list]:
+def take_fields(what: str, id_list: Sequence[int], fields: Mapping[str, Sequence[Any]],
+                warn: Callable[[str], None]) -> dict[str, list[Any]]:
     """Keep the arrays whose length equals ``id_list``'s; warn about the others (empty ones are
     simply absent). Nothing is taken when ``id_list`` is empty."""
     if len(id_list) == 0:
@@ -197,7 +197,7 @@ class Commander(SettingsCommands):
 
     # ============================================================== goals and control
     def _goal_writes(self, what: str, targets: list[tuple[int, int]], fields: Fields,
-                     item_of: Callable[[str, int], str | None], rotation: Sequence | None = None) -> None:
+                     item_of: Callable[[str, int], str | None], rotation: Sequence[Any] | None = None) -> None:
         writes: dict[str, dict[int, int]] = {}
         for field, values in fields.items():
             if field == "rotation":
@@ -214,8 +214,8 @@ class Commander(SettingsCommands):
             if self.h.config["verbose/write_goal"]:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 
-    def _goal_rows(self, what: str, field: str, values: Sequence, targets: list[tuple[int, int]],
-                   item_of: Callable[[str, int], str | None], rotation: Sequence | None) -> dict[str, list[Row]]:
+    def _goal_rows(self, what: str, field: str, values: Sequence[Any], targets: list[tuple[int, int]],
+                   item_of: Callable[[str, int], str | None], rotation: Sequence[Any] | None) -> dict[str, list[Row]]:
         """The finite values of one field, by the item each servo takes it to: {item: [(ID, value)]}."""
         by_item: dict[str, list[Row]] = {}
         for k, dxl_id in targets:
@@ -234,7 +234,7 @@ class Commander(SettingsCommands):
             by_item.setdefault(item, []).append((dxl_id, value))
         return by_item
 
-    def _rotation_alone(self, what: str, targets: list[tuple[int, int]], rotation: Sequence,
+    def _rotation_alone(self, what: str, targets: list[tuple[int, int]], rotation: Sequence[Any],
                         writes: dict[str, dict[int, int]]) -> None:
         """Rotation given without position_deg: the missing position is 0, so the goal is 360 deg x rotation."""
         for k, dxl_id in targets:
@@ -244,7 +244,7 @@ class Commander(SettingsCommands):
             if pulses is not None:
                 writes.setdefault("goal_position", {})[dxl_id] = pulses
 
-    def _checked_rotation(self, what: str, targets: list[tuple[int, int]], fields: Fields) -> list | None:
+    def _checked_rotation(self, what: str, targets: list[tuple[int, int]], fields: Fields) -> list[Any] | None:
         """Rotations clamped to ±256 turns; None for a refused one (NaN/inf), which refuses that
         ID's position goal too."""
         rotation = fields.get("rotation")

@@ -223,7 +223,7 @@ class Config:
         return [s for i, s in zip(ids, per_id) if 0 <= i <= 252]
 
     def present_ratio(self, item: str) -> int:
-        return self.values[f"pub_ratio/present.{item}"]
+        return int(self.values[f"pub_ratio/present.{item}"])
 
 
 def validate(values: Mapping[str, Any]) -> Config:

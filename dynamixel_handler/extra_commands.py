@@ -4,7 +4,7 @@ changed, and written back, so fields not given keep their value."""
 from __future__ import annotations
 
 import logging
-from typing import Iterable, Mapping, Protocol, Sequence
+from typing import Any, Iterable, Mapping, Protocol, Sequence
 
 from . import units
 from .control_table import Model
@@ -15,7 +15,7 @@ class Checks(Protocol):
     """What the extra command needs of ``commands.Commander`` (its checks and warnings)."""
 
     h: ServoAccess
-    log: logging.Logger | logging.LoggerAdapter
+    log: logging.Logger | logging.LoggerAdapter[Any]
 
     def warn(self, msg: str) -> None: ...
     def known_ids(self, ids: Iterable[int], what: str, series: str | None = None,
@@ -38,7 +38,7 @@ _DRIVE = ("drive_mode.torque_on_by_goal_update", "drive_mode.profile_configurati
 _RESTORE = ("restore_configuration.ram_restore", "restore_configuration.startup_torque_on")
 
 
-def apply_extra(c: Checks, ids: list[int], fields: Mapping[str, Sequence], what: str) -> None:
+def apply_extra(c: Checks, ids: list[int], fields: Mapping[str, Sequence[Any]], what: str) -> None:
     for name in fields:
         if name in _READ_ONLY:
             c.warn(f"{what}: '{name}' is read-only: ignored")
@@ -81,7 +81,7 @@ def _bit_registers(c: Checks, dxl_id: int, model: Model, given: _Given, what: st
 class _Given:
     """A field's value for the servo at index ``k`` of the command, or a default when not given."""
 
-    def __init__(self, fields: Mapping[str, Sequence], k: int, n: int) -> None:
+    def __init__(self, fields: Mapping[str, Sequence[Any]], k: int, n: int) -> None:
         self.fields, self.k, self.n = fields, k, n
 
     def __call__(self, name: str, default: object) -> object:

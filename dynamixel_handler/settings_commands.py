@@ -4,7 +4,7 @@ A part of ``commands.Commander`` (it supplies ``h``, ``warn``, ``known_ids`` and
 from __future__ import annotations
 
 from functools import partial
-from typing import TYPE_CHECKING, Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 from . import units
 from .command_tables import BROADCAST_ID, GAIN_FIELDS, LIMIT_FIELDS
@@ -14,7 +14,7 @@ from .logs import cut
 if TYPE_CHECKING:
     from .core.api import ServoAccess
 
-Fields = Mapping[str, Sequence]
+Fields = Mapping[str, Sequence[Any]]
 #: limit items that may be negative
 SIGNED_LIMITS = ("max_position_limit", "min_position_limit")
 
@@ -48,7 +48,7 @@ class SettingsCommands:
                 else:
                     self.h.torque_off(dxl_id)
 
-    def _membership(self, ids: list[int], ping: Sequence) -> None:
+    def _membership(self, ids: list[int], ping: Sequence[Any]) -> None:
         for k, dxl_id in enumerate(ids):
             if not ping[k]:
                 self.h.remove_id(dxl_id)

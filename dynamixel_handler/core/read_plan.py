@@ -55,7 +55,7 @@ class ReadPlan(HandlerState):
         plan = self._plans.get(key)
         if plan is not None:
             return plan
-        layouts: dict[tuple, list[int]] = {}
+        layouts: dict[tuple[bool, tuple[tuple[str, int, int, bool], ...]], list[int]] = {}
         for pos, model in enumerate(self.table.models):
             if not live[pos]:
                 continue

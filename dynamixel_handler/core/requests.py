@@ -58,7 +58,8 @@ class Requests(Startup):
         last = self._last_mode_change.get(dxl_id)
         if last is None:
             return 0.0
-        return max(0.0, last + self.config["mode_change_interval_sec"] - time.monotonic())
+        interval = float(self.config["mode_change_interval_sec"])
+        return max(0.0, last + interval - time.monotonic())
 
     def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
         """Run ``op`` for this servo once mode_change_interval_sec allows; a later request replaces it."""

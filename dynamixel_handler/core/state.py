@@ -5,9 +5,9 @@ import collections
 import logging
 import threading
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-from ..bus import ServoBus
+from ..bus import PreparedWrite, ServoBus
 from ..config import Config
 from ..servos import PendingWrites, ServoTable
 
@@ -23,7 +23,7 @@ class StepReport:
     present: set[str] = field(default_factory=set)       # present keys read: pwm, current, ...
     read_s: float = 0.0
     # the step's work between its phases (Handler.begin_step ... Handler.finish_step)
-    reads: list[list] = field(default_factory=list, repr=False)   # [_Read, GroupRead, data or None]
+    reads: list[list[Any]] = field(default_factory=list, repr=False)  # [_Read, GroupRead, data or None]
     recheck: list[int] = field(default_factory=list, repr=False)  # silent IDs pinged after the reads
     silent: list[int] = field(default_factory=list, repr=False)   # IDs addressed that did not answer
     seq: int = 0                                                  # ServoTable.seq when the reads went out
@@ -43,7 +43,7 @@ class HandlerState:
         self.loop_count = 0
         self._ops: collections.deque[tuple[str, Callable[[], None]]] = collections.deque()
         self._ops_lock = threading.Lock()
-        self._plans: dict[tuple, list[_Read]] = {}
+        self._plans: dict[tuple[tuple[str, ...], bytes], list[_Read]] = {}
         self._plans_version = -1
         self._plain_read: set[int] = set()  # IDs that do not answer Fast Sync Read
         self._fast_misses: dict[int, int] = {}  # ID -> fast reads in a row that stopped at it while it answered plain
@@ -51,7 +51,7 @@ class HandlerState:
         # per item, and their packets, built for ServoTable.version ``_built_for``. Kept here, not in a
         # StepReport, so that a loop that fails between taking and sending them loses nothing.
         self._taken: dict[tuple[int, int], dict[int, bytes]] = {}
-        self._prepared: list = []
+        self._prepared: list[PreparedWrite] = []
         self._built_for = -1
         self.fast_read = bool(config["method/fast_read"])
         self.split_read = bool(config["method/split_read"])

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bus import PreparedWrite
 from .state import HandlerState
 
 
@@ -32,7 +33,7 @@ class WriteBatch(HandlerState):
         self._build_writes()
 
     @property
-    def writes_ready(self) -> list:
+    def writes_ready(self) -> list[PreparedWrite]:
         """The sync writes built by ``encode_writes`` and not sent yet (``PreparedWrite``)."""
         return list(self._prepared)
 
