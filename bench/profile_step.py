@@ -2,6 +2,7 @@
 
     source env.sh && python bench/profile_step.py [--n 12] [--baud 1000000]
                                       [--latency-ms 0] [--fast] [--seconds 3] [--cprofile]
+                                      [--tracemalloc]
 
 The node object is built exactly as ``ros2 run`` builds it (same parameters as ``bench_loop.py``),
 but its loop body runs here, flat out, in this thread: ``Handler.step()``, publishing and the
@@ -28,6 +29,7 @@ import sys
 import tempfile
 import threading
 import time
+import tracemalloc
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -82,6 +84,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fast", action="store_true")
     ap.add_argument("--seconds", type=float, default=3.0)
     ap.add_argument("--cprofile", action="store_true", help="also print the top functions by own time")
+    ap.add_argument("--tracemalloc", action="store_true",
+                    help="also measure the memory still held per loop (growth) and its top sources")
+    ap.add_argument("--sort", default="tottime", help="cProfile order: tottime (own time) or cumulative")
+    ap.add_argument("--top", type=int, default=25, help="cProfile rows shown")
     a = ap.parse_args(argv)
 
     from dynamixel_handler.sim import VirtualBus
@@ -136,6 +142,8 @@ def main(argv: list[str] | None = None) -> int:
     t.patch(handler, "_run_ops", "commands: queued op (validate, units -> pulses, pending)")
     t.patch(handler, "_encode_pending", "goal write: encode")
     t.patch(handler.bus, "sync_write", "goal write: sync write (packet, write syscall)")
+    t.patch(handler.bus, "prepare_sync_write", "goal write: sync write packet")
+    t.patch(handler.bus, "send_prepared", "goal write: sync write send (write syscall)")
     t.patch(handler.bus, "start_sync_read", "sync read: packet, send")
     t.patch(GroupRead, "result", WAIT)
     t.patch(handler, "_store", "decode + store in the servo table")
@@ -177,6 +185,11 @@ def main(argv: list[str] | None = None) -> int:
     for counter in (t.cpu, t.wall, t.calls):
         counter.clear()
     profiler = cProfile.Profile() if a.cprofile else None
+    if a.tracemalloc:
+        tracemalloc.start(5)
+        for k in range(50):  # the allocator's own first-use costs are not growth
+            one_loop(k)
+        held0, before = tracemalloc.get_traced_memory()[0], tracemalloc.take_snapshot()
     loops, cpu0, wall0 = 0, time.thread_time(), time.perf_counter()
     end = wall0 + a.seconds
     if profiler:
@@ -187,6 +200,14 @@ def main(argv: list[str] | None = None) -> int:
     if profiler:
         profiler.disable()
     cpu, wall = time.thread_time() - cpu0, time.perf_counter() - wall0
+    growth = []
+    if a.tracemalloc:
+        held = tracemalloc.get_traced_memory()[0]
+        growth = [f"tracemalloc: {held - held0:+d} bytes held after {loops} loops = {(held - held0) / loops:+.1f} bytes/loop "
+                  "(timings above include tracemalloc's cost); largest growth:"]
+        diff = tracemalloc.take_snapshot().compare_to(before, "lineno")
+        growth += [f"  {stat}" for stat in diff[:8]]
+        tracemalloc.stop()
     cpu -= t.cpu.pop(CONTROLLER, 0.0)
     wall -= t.wall.pop(CONTROLLER, 0.0)
     taken = node.intake.taken
@@ -206,9 +227,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{label:58s} {1e6 * value / loops:11.0f} {100 * value / total:5.1f}% {1e6 * t.wall[label] / loops:12.0f}")
     wait = t.wall[WAIT] - t.cpu[WAIT]
     print(f"{'(of which sync read wall not on CPU: bus wait)':58s} {'':11s} {'':6s} {1e6 * wait / loops:12.0f}")
+    for line in growth:
+        print(line)
     if profiler:
         print()
-        pstats.Stats(profiler).sort_stats("tottime").print_stats(25)
+        pstats.Stats(profiler).sort_stats(a.sort).print_stats(a.top)
     node.destroy_node()
     listener.destroy_node()
     rclpy.try_shutdown()

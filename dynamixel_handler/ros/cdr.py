@@ -86,6 +86,10 @@ class Codec:
                 self.fields.append((name, "message", Codec.of(_message_class(typ))))
             else:
                 raise Unsupported(f"{msg_class.__name__}.{name}: {typ}")
+        #: (name, encoder, detail) per field, in .msg order
+        self._puts = [(name, _PUT[kind], detail) for name, kind, detail in self.fields]
+        #: the bytes of an all-empty value, by the offset's remainder modulo 8 (alignment is at most 8)
+        self._empty: dict[int, bytes] = {}
 
     # ------------------------------------------------------------------ encoding
     def encode(self, value: Mapping[str, Any]) -> bytes:
@@ -95,8 +99,18 @@ class Codec:
         return bytes(out)
 
     def _encode_into(self, out: bytearray, value: Mapping[str, Any]) -> None:
-        for name, kind, detail in self.fields:
-            _PUT[kind](out, value.get(name), detail)
+        for name, put, detail in self._puts:
+            put(out, value.get(name), detail)
+
+    def _encode_empty(self, out: bytearray) -> None:
+        """``_encode_into`` of an all-empty value (a group not read this loop), from a cache."""
+        shift = (len(out) - 4) % 8
+        raw = self._empty.get(shift)
+        if raw is None:
+            scratch = bytearray(4 + shift)
+            self._encode_into(scratch, {})
+            raw = self._empty[shift] = bytes(scratch[4 + shift:])
+        out += raw
 
     # ------------------------------------------------------------------ decoding
     def decode(self, data: bytes) -> dict[str, Any]:
@@ -206,14 +220,19 @@ def _to_array(arr: np.ndarray, code: str):
 
 
 def _put_array(out: bytearray, v: Any, detail: tuple[str, int]) -> None:
-    code, size = detail
-    arr = np.empty(0) if v is None else np.asarray(v)
+    if v is None:
+        out += _EMPTY_SEQ[len(out) % 4]
+        return
+    arr = v if type(v) is np.ndarray else np.asarray(v)
     n = arr.size
-    out += b"\x00" * (-(len(out) - 4) % 4)
-    out += n.to_bytes(4, "little")
-    if n:
-        out += b"\x00" * (-(len(out) - 4) % size)
-        out += arr.astype("<" + code, copy=False).tobytes() if code != "?" else arr.astype(np.bool_, copy=False).tobytes()
+    if not n:
+        out += _EMPTY_SEQ[len(out) % 4]
+        return
+    code, size = detail
+    out += _ZEROS[-len(out) % 4]
+    out += _COUNT.pack(n)
+    out += _ZEROS[-(len(out) - 4) % size]
+    out += arr.astype(_LE[code], copy=False).tobytes()
 
 
 def _put_strings(out: bytearray, v: Any, _detail: None) -> None:
@@ -225,7 +244,10 @@ def _put_strings(out: bytearray, v: Any, _detail: None) -> None:
 
 
 def _put_message(out: bytearray, v: Any, detail: Codec) -> None:
-    detail._encode_into(out, {} if v is None else v)
+    if v is None:
+        detail._encode_empty(out)
+    else:
+        detail._encode_into(out, v)
 
 
 def _put_one_string(out: bytearray, v: Any, _detail: None) -> None:
@@ -243,6 +265,13 @@ def _put_scalar(out: bytearray, v: Any, detail: tuple[str, int]) -> None:
         struct.pack_into("<" + _STRUCT[code], out, start, v)
 
 
+#: offsets are counted from the end of the 4-byte header, so len(out) % 4 is the offset's remainder
+_ZEROS = tuple(bytes(k) for k in range(8))
+#: padding to 4 then a zero count, by len(out) % 4
+_EMPTY_SEQ = tuple(bytes(-k % 4 + 4) for k in range(4))
+_COUNT = struct.Struct("<I")
+#: numpy dtype code -> little-endian dtype (booleans: one byte, 0 or 1)
+_LE = {code: np.dtype(np.bool_) if code == "?" else np.dtype("<" + code) for code, _ in PRIMITIVES.values()}
 #: field kind -> its encoder
 _PUT: dict[str, Any] = {"array": _put_array, "strings": _put_strings, "message": _put_message,
                         "string": _put_one_string, "scalar": _put_scalar}
