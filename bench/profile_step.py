@@ -76,6 +76,21 @@ class PartTimer:
         setattr(owner, name, self.wrap(label, getattr(owner, name)))
 
 
+def _owners(diff: list) -> dict[str, int]:
+    """Memory growth by owner: the node's code, the virtual bus (its instruction log), the rest
+    (rclpy, DDS queues of the listeners in this process, the interpreter)."""
+    out = {"node": 0, "virtual bus": 0, "rclpy and the rest": 0}
+    for stat in diff:
+        name = stat.traceback[0].filename.replace(os.sep, "/")
+        if "/dynamixel_handler/sim/" in name or name.endswith("/protocol/servo.py"):
+            out["virtual bus"] += stat.size_diff
+        elif "/dynamixel_handler/" in name:
+            out["node"] += stat.size_diff
+        else:
+            out["rclpy and the rest"] += stat.size_diff
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=12)
@@ -206,6 +221,8 @@ def main(argv: list[str] | None = None) -> int:
         growth = [f"tracemalloc: {held - held0:+d} bytes held after {loops} loops = {(held - held0) / loops:+.1f} bytes/loop "
                   "(timings above include tracemalloc's cost); largest growth:"]
         diff = tracemalloc.take_snapshot().compare_to(before, "lineno")
+        growth.append("  by owner: " + ", ".join(f"{owner} {size / loops:+.1f} bytes/loop"
+                                                  for owner, size in _owners(diff).items()))
         growth += [f"  {stat}" for stat in diff[:8]]
         tracemalloc.stop()
     cpu -= t.cpu.pop(CONTROLLER, 0.0)
