@@ -1,16 +1,24 @@
 """The serial port under the bus: open with clear errors, write, and wait for bytes without spinning.
 
-I/O goes through ``dynamixel_sdk.PortHandler`` (its pyserial handle), but two of its
-habits are replaced: it polls ``readPort`` in a tight loop (a CPU core at 100% while
+The port is opened through ``dynamixel_sdk.PortHandler`` (its pyserial handle), but two of
+its habits are replaced: it polls ``readPort`` in a tight loop (a CPU core at 100% while
 waiting for a silent servo) and it hard-codes a 16 ms latency timer in its timeouts.
 Here a read blocks in ``select()`` on the serial file descriptor until bytes arrive
 or the deadline passes, and deadlines come from the configured latency timer.
+
+Bytes go in and out with ``os.read``/``os.write`` on that (non-blocking) descriptor and the
+input count comes from one ``ioctl``: pyserial's ``read`` adds a ``select()`` and its ``write``
+another to every call, which at 4 Mbps is a good part of a transaction's host time.
+``direct_io=False`` keeps pyserial's calls (the same bytes, read in the same pieces).
 """
 from __future__ import annotations
 
 import errno
+import fcntl
 import os
 import select
+import sys
+import termios
 import time
 from typing import Any, Callable
 
@@ -26,6 +34,11 @@ DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 
 
 #: a read that sleeps through the wire time of the bytes still expected wakes this much earlier [s]
 SLEEP_SLACK_S = 0.0003
+
+_INT_ZERO = bytes(4)  # the ioctl's buffer for the input count (an unsigned int)
+#: pyserial's text for a descriptor that is readable but gives no bytes, kept for the same log line
+_NO_DATA = ("device reports readiness to read but returned no data "
+            "(device disconnected or multiple access on port?)")
 
 
 class _SdkPort(PortHandler):  # type: ignore[misc]  # dynamixel_sdk has no type information
@@ -82,8 +95,11 @@ class SerialPort:
     """A Dynamixel serial line: exclusive open, raw bytes out, bytes in with a deadline."""
 
     def __init__(self, device: str, baudrate: int, latency_timer_ms: float,
-                 log: Callable[[str, str], None] | None = None) -> None:
+                 log: Callable[[str, str], None] | None = None, direct_io: bool = True) -> None:
         self.device = device
+        #: read and write with os.read/os.write on the descriptor (False: through pyserial)
+        self.direct_io = direct_io
+        self._fd = -1
         self.baudrate = baudrate
         self.latency_timer_ms = float(latency_timer_ms)
         #: latency actually in effect: the adapter's if we can read it and it is longer.
@@ -118,11 +134,13 @@ class SerialPort:
         except (serial.SerialException, OSError, ValueError) as exc:
             raise BusError(explain_open_error(self.device, exc)) from exc
         self._port = port
+        self._fd = port.ser.fileno()
         self.lost = False
         self._apply_latency_timer()
 
     def close(self) -> None:
         port, self._port = self._port, None
+        self._fd = -1
         if port is not None and port.ser is not None:
             try:
                 port.closePort()
@@ -177,25 +195,56 @@ class SerialPort:
 
     def discard_input(self) -> int:
         """Drop whatever is waiting (late replies of earlier transactions); returns the count."""
-        ser = self._sdk.ser
         dropped = 0
         while True:
-            waiting = ser.in_waiting
+            waiting = self._in_waiting()
             if not waiting:
                 return dropped
-            dropped += len(self._sdk.readPort(waiting))
+            dropped += len(self._read(waiting))
 
     def waiting(self) -> int:
         """Bytes in the input buffer now (0 if the port is closed or gone)."""
         try:
-            return self._sdk.ser.in_waiting if self.is_open else 0
+            return self._in_waiting() if self.is_open else 0
         except (OSError, serial.SerialException, AttributeError):
             return 0
 
+    def _in_waiting(self) -> int:
+        if self.direct_io:
+            return int.from_bytes(fcntl.ioctl(self._fd, termios.TIOCINQ, _INT_ZERO), sys.byteorder)
+        return int(self._sdk.ser.in_waiting)
+
+    def _read(self, size: int) -> bytes:
+        """Up to ``size`` bytes that are in already, never waiting (b"" if none). Raises
+        SerialException, as pyserial does, if the device reports bytes it does not give."""
+        if not self.direct_io:
+            return bytes(self._sdk.readPort(size))
+        try:
+            data = os.read(self._fd, size)
+        except BlockingIOError:
+            return b""
+        except OSError as exc:
+            raise serial.SerialException(f"read failed: {exc}") from exc
+        if not data:
+            raise serial.SerialException(_NO_DATA)
+        return data
+
     def write(self, packet: bytes) -> None:
-        written = self._sdk.writePort(packet)
-        if written != len(packet):
-            raise serial.SerialException(f"wrote {written} of {len(packet)} bytes")
+        if not self.direct_io:
+            written = self._sdk.writePort(packet)
+            if written != len(packet):
+                raise serial.SerialException(f"wrote {written} of {len(packet)} bytes")
+            return
+        rest = memoryview(packet)
+        while rest:
+            try:
+                rest = rest[os.write(self._fd, rest):]
+            except BlockingIOError:
+                pass
+            except OSError as exc:
+                raise serial.SerialException(f"write failed: {exc}") from exc
+            if rest:  # the driver's buffer is full: wait until it takes more
+                select.select([], [self._fd], [], None)
 
     def read_until(self, deadline: float, expect: int = 0, due: float | None = None) -> bytes:
         """Bytes available now, or block (no spinning) until some arrive or ``deadline`` passes.
@@ -208,32 +257,29 @@ class SerialPort:
         for the next bytes instead. Returns b"" at the deadline.
         Raises OSError/SerialException if the device vanished.
         """
-        ser = self._sdk.ser
-        fd = ser.fileno()
-        while True:
-            waiting = ser.in_waiting
+        waiting = self._in_waiting()
+        if not waiting:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return b""
+            readable, _, _ = select.select([self._fd if self.direct_io else self._sdk.ser.fileno()], [], [], remaining)
+            if not readable:
+                return b""
+            waiting = self._in_waiting()
             if not waiting:
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return b""
-                readable, _, _ = select.select([fd], [], [], remaining)
-                if not readable:
-                    return b""
-                waiting = ser.in_waiting
-                if not waiting:
-                    data = self._sdk.readPort(1)
-                    if data:
-                        return bytes(data)
-                    # readable but empty: a hung-up device (pyserial raises on most systems)
-                    raise serial.SerialException(f"{self.device} hung up")
-            if expect > waiting:
-                # wake a little before the last byte is due (a sleep overshoots, the first bytes were
-                # noticed late); the caller's next call catches the rest as it arrives
-                rest_s = blind_sleep_s(expect - waiting, self.tx_ms_per_byte / 1000.0, time.monotonic(), due)
-                if rest_s > 0:
-                    time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
-                    waiting = max(waiting, ser.in_waiting)
-            return bytes(self._sdk.readPort(waiting))
+                data = self._read(1)
+                if data:
+                    return data
+                # readable but empty: a hung-up device (pyserial raises on most systems)
+                raise serial.SerialException(f"{self.device} hung up")
+        if expect > waiting:
+            # wake a little before the last byte is due (a sleep overshoots, the first bytes were
+            # noticed late); the caller's next call catches the rest as it arrives
+            rest_s = blind_sleep_s(expect - waiting, self.tx_ms_per_byte / 1000.0, time.monotonic(), due)
+            if rest_s > 0:
+                time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
+                waiting = max(waiting, self._in_waiting())
+        return self._read(waiting)
 
 
 def blind_sleep_s(missing: int, byte_s: float, now: float, due: float | None = None) -> float:

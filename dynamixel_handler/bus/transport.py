@@ -36,7 +36,7 @@ class Transport(Receiving):
 
     def __init__(self, device: str, baudrate: int = 57600, latency_timer_ms: float = 16.0,
                  retry_num: int = 5, retry_interval_ms: float = 4.0, verbose: bool = False,
-                 logger: object = None, timeout_margin_ms: float = 2.0) -> None:
+                 logger: object = None, timeout_margin_ms: float = 2.0, direct_io: bool = True) -> None:
         if latency_timer_ms <= 0:
             raise ValueError(f"latency_timer_ms must be > 0, got {latency_timer_ms}")
         self.retry_num = max(0, int(retry_num))
@@ -53,7 +53,8 @@ class Transport(Receiving):
         #: human-readable reason of the latest failure ("" if none yet)
         self.last_failure = ""
         self._logger = logger if logger is not None else logging.getLogger("dynamixel_handler.bus")
-        self._port = SerialPort(device, baudrate, latency_timer_ms, log=self._log)
+        # direct_io=False: the port's bytes through pyserial's read/write (same results, slower)
+        self._port = SerialPort(device, baudrate, latency_timer_ms, log=self._log, direct_io=direct_io)
         self._lock = threading.RLock()
         self._ever_opened = False
         self._inflight: GroupRead | None = None  # a sync read sent but not yet gathered
