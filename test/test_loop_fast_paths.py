@@ -4,6 +4,8 @@ states and writes.
 - CDR encoding (``ros/cdr.py``): groups left out of a message (a loop that did not read them) are
   written from a cache of empty encodings, equal to the field-by-field encoding at every alignment;
   the middleware reads the same message from the bytes, with any mix of fields given or left out.
+- Sync read replies (``core/read_plan.py``): decoded through a record dtype, equal to the byte-by-byte
+  decoding for every layout of 1/2/4-byte items, signed or not, and any reply bytes.
 """
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 
 import dynamixel_handler_msgs.msg as msgs
+from dynamixel_handler.core.read_plan import _Part, _Read, _record, decode_replies, decode_replies_plain
 from dynamixel_handler.ros.cdr import Codec
 
 MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
@@ -81,3 +84,37 @@ def test_cached_empty_message_equals_the_field_by_field_encoding(msg_class):
         codec._encode_empty(cached)
         codec._encode_into(plain, {})
         assert cached == plain, shift
+
+
+@st.composite
+def reads_and_replies(draw):
+    """A sync read of 1-5 items (sizes 1, 2 or 4, gaps between them) and 0-12 servos' replies."""
+    parts, offset = [], 0
+    for k in range(draw(st.integers(1, 5))):
+        offset += draw(st.integers(0, 3))
+        size = draw(st.sampled_from((1, 2, 4)))
+        parts.append(_Part(f"item{k}", offset, size, draw(st.booleans())))
+        offset += size
+    length = offset + draw(st.integers(0, 2))
+    n = draw(st.integers(0, 12))
+    read = _Read(100, length, tuple(range(1, n + 1)), tuple(parts))
+    return read, draw(st.binary(min_size=n * length, max_size=n * length))
+
+
+@settings(max_examples=300, deadline=None)
+@given(case=reads_and_replies())
+def test_reply_decoding_through_a_record_equals_byte_by_byte(case):
+    read, joined = case
+    assert _record(read.length, read.parts) is not None  # the fast path is the one taken
+    fast, plain = decode_replies(read, joined), decode_replies_plain(read, joined)
+    assert len(fast) == len(plain) == len(read.parts)
+    for a, b in zip(fast, plain):
+        assert a.dtype == b.dtype == np.int64
+        assert a.tolist() == b.tolist()
+
+
+def test_reply_decoding_of_known_bytes():
+    """Present position -1 (signed 4 bytes) and a temperature of 40 (unsigned 1 byte), two servos."""
+    read = _Read(132, 14, (1, 2), (_Part("present_position", 0, 4, True), _Part("present_temperature", 13, 1, False)))
+    joined = bytes.fromhex("ffffffff" + "00" * 9 + "28") + bytes.fromhex("00080000" + "00" * 9 + "ff")
+    assert [v.tolist() for v in decode_replies(read, joined)] == [[-1, 2048], [40, 255]]

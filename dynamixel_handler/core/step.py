@@ -109,10 +109,10 @@ class Step(Recovery, Deferred, WriteBatch):
         answered = np.zeros(len(table), dtype=bool)
 
         def mark(flags: np.ndarray, ids: Iterable[int]) -> None:
-            for dxl_id in ids:
-                pos = index.get(dxl_id)
-                if pos is not None:  # an operation may have removed it meanwhile
-                    flags[pos] = True
+            # an operation may have removed one meanwhile
+            positions = [pos for pos in map(index.get, ids) if pos is not None]
+            if positions:
+                flags[positions] = True
 
         for entry in report.reads:
             entry[2] = data = self._gather(entry[0], entry[1].result())
