@@ -90,6 +90,10 @@ class Codec:
         self._puts = [(name, _PUT[kind], detail) for name, kind, detail in self.fields]
         #: the bytes of an all-empty value, by the offset's remainder modulo 8 (alignment is at most 8)
         self._empty: dict[int, bytes] = {}
+        #: a message of sequences only (a command's part): its decoded value when every count is 0
+        self._no_elements = ({name: _EMPTY[detail[0]] for name, kind, detail in self.fields}
+                             if self.fields and all(kind == "array" for _, kind, _ in self.fields) else None)
+        self._zero_counts = tuple(bytes(pad + 4 * len(self.fields)) for pad in range(4))
 
     # ------------------------------------------------------------------ encoding
     def encode(self, value: Mapping[str, Any]) -> bytes:
@@ -126,6 +130,13 @@ class Codec:
         return value
 
     def _decode_from(self, data: memoryview, pos: int, order: str) -> tuple[dict[str, Any], int]:
+        if self._no_elements is not None:  # most parts of a command bundle are empty: one compare
+            zeros = self._zero_counts[-(pos - 4) % 4]
+            if data[pos:pos + len(zeros)] == zeros:
+                return dict(self._no_elements), pos + len(zeros)
+        return self._decode_fields(data, pos, order)
+
+    def _decode_fields(self, data: memoryview, pos: int, order: str) -> tuple[dict[str, Any], int]:
         out: dict[str, Any] = {}
         count_fmt = order + "I"
         unpack_from = struct.unpack_from
