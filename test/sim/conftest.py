@@ -12,6 +12,8 @@ from dynamixel_sdk import PacketHandler, PortHandler
 
 from dynamixel_handler.sim import VirtualBus
 
+from support.sdk import PatientPort
+
 
 class ManualClock:
     """A clock the test advances by hand, so physics is deterministic."""
@@ -54,11 +56,12 @@ def make_bus():
 
 @pytest.fixture
 def make_sdk():
-    """Factory: make_sdk(path) -> (PortHandler, PacketHandler) opened at 1 Mbps."""
+    """Factory: make_sdk(path) -> (PortHandler, PacketHandler) opened at 1 Mbps; the port waits for
+    replies as long as a loaded machine needs (``PatientPort``)."""
     ports: list[PortHandler] = []
 
     def factory(path: str, baudrate: int = 1_000_000):
-        port = PortHandler(path)
+        port = PatientPort(path)
         assert port.openPort()
         assert port.setBaudRate(baudrate)
         ports.append(port)

@@ -5,10 +5,12 @@ real dynamixel_sdk at the address the e-Manual gives. Each row names its e-Manua
 from __future__ import annotations
 
 import pytest
-from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+from dynamixel_sdk import COMM_SUCCESS, PacketHandler
 
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.sim import VirtualBus
+
+from support.sdk import PatientPort
 
 # model number -> its ID on the test bus
 ID_OF = {1020: 1, 1000: 2, 1060: 3, 1120: 4, 1150: 5, 1200: 6, 1220: 7, 1710: 8, 2020: 9, 2120: 10,
@@ -74,7 +76,7 @@ ROWS = [
 def wire():
     bus = VirtualBus({sid: number for number, sid in ID_OF.items()}, baudrate=1_000_000, wire_timing=False)
     bus.start()
-    port = PortHandler(bus.path)
+    port = PatientPort(bus.path)
     assert port.openPort() and port.setBaudRate(1_000_000)
     yield port, PacketHandler(2.0)
     port.closePort()

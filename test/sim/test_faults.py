@@ -4,9 +4,11 @@ import os
 import subprocess
 import sys
 
-from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, PortHandler
+from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS
 
 from dynamixel_handler.protocol import servo as p
+
+from support.sdk import PatientPort
 
 XM430 = 1020
 
@@ -80,7 +82,7 @@ def test_vanish_and_reappear_with_a_link(make_bus, make_sdk, tmp_path):
         result = None
     assert result != COMM_SUCCESS
     assert bus.reappear() == link and os.readlink(link) != first
-    port2 = PortHandler(link)
+    port2 = PatientPort(link)
     assert port2.openPort()
     try:
         assert ph.ping(port2, 1)[1] == COMM_SUCCESS

@@ -7,4 +7,5 @@
 - ``msg_fill``: every field of a generated message filled with distinct values (a script too).
 - ``load_publisher``: the load test's command publisher, run as a process of its own.
 - ``launch_runner``: reads a launch file as ``ros2 launch`` would and lists the nodes it starts.
+- ``sdk``: ``PatientPort``, the SDK's port with a reply wait long enough for a loaded machine.
 """
