@@ -26,8 +26,11 @@ def _command(device: str, *params: str) -> list[str]:
     exe = ([sys.executable, "-m", "dynamixel_handler.ros.lifecycle_node"] if os.environ.get("DXL_TEST_MODULE")
            else ["dynamixel_handler_lifecycle"])
     args = ["--ros-args", "--params-file", str(CONFIG)]
+    # both servos required and the scan repeated until they answered: on a loaded machine one scan can
+    # miss a reply of the simulator, and configure would then handle one servo
     for p in (f"device_name:={device}", "latency_timer:=1", "verbose_ratio:=0", "init/servo_auto_search.min_id:=1",
-              "init/servo_auto_search.max_id:=2", *params):
+              "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", "init/servo_auto_search.retry_times:=5",
+              *params):
         args += ["-p", p]
     return exe + args
 
@@ -80,6 +83,16 @@ class Manager:
             time.sleep(0.02)
         raise AssertionError(f"timed out waiting for {what}\n{proc.output[-4000:]}")
 
+    def wait_quiet(self, gap: float, proc: NodeProcess, timeout: float = 10.0) -> None:
+        """Wait until no /dynamixel/debug came for ``gap`` seconds."""
+        seen = [len(self.debug), time.monotonic()]  # count, when it last changed
+
+        def paused() -> bool:
+            if len(self.debug) != seen[0]:
+                seen[:] = [len(self.debug), time.monotonic()]
+            return time.monotonic() - seen[1] >= gap
+        self.wait(paused, "a pause in /dynamixel/debug", proc, timeout)
+
     def close(self) -> None:
         self.running = False
         self.thread.join(2)
@@ -120,7 +133,9 @@ def test_transitions_open_enable_disable_and_close_the_bus():
         assert mgr.transition(Transition.TRANSITION_DEACTIVATE)
         assert mgr.state() == State.PRIMARY_STATE_INACTIVE
         assert all(sim.servo(i).read("torque_enable") == 0 for i in (1, 2))
-        time.sleep(0.2)
+        # messages of the last loops may still be on their way (late on a loaded machine): wait for a
+        # pause in them (a running loop publishes every 10 ms and would never pause), then none may come
+        mgr.wait_quiet(0.3, proc)
         n = len(mgr.debug)
         time.sleep(0.3)
         assert len(mgr.debug) == n  # loop stopped
