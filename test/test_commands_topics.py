@@ -420,7 +420,7 @@ def test_command_status_torque_mode_and_ping(rig):
     rig.wait(lambda: rig.debug_of(2)["ping"] and rig.debug_of(2)["mode"] == "position", what="ID 2 read again")
     rig.wait_log("ID 2: removed", since=mark)
     rig.wait_log("ID 2: XM540-W270 added", since=mark)
-    assert "WARN" not in rig.log_since(mark)
+    assert rig.warnings_since(mark, about=[2]) == []
 
 
 # ============================================================================ command/extra
@@ -471,7 +471,7 @@ def test_command_extra_every_writable_field(rig):
     wait_state(rig, "extra", "led.blue_percent", 3, 80.0, tol=0.2)
     wait_state(rig, "extra", "restore_configuration.startup_torque_on", 3, True)
     # X has one LED, driven by red: the other colours are refused by name, nothing else is warned about
-    warnings = [line for line in rig.log_since(mark).splitlines() if "WARN" in line]
+    warnings = rig.warnings_since(mark)
     assert len(warnings) == 2 and all("ID 1 (XM430-W350) has no" in w for w in warnings), warnings
     assert "green LED" in warnings[0] + warnings[1] and "blue LED" in warnings[0] + warnings[1]
 
