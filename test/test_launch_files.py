@@ -147,8 +147,12 @@ def test_every_launch_file_name_describes_an_installed_node_with_a_shipped_confi
     assert yaml.safe_load(files[-1].read_text()) == {"/**": {"ros__parameters": {"device_name": "/dev/ttyUSB7"}}}
 
 
-def _topic_namespaces(node, topic_end: str) -> set[str]:
-    return {name[: -len(topic_end)] for name, _ in node.get_topic_names_and_types() if name.endswith(topic_end)}
+def _topic_namespaces(node, topic_end: str, node_namespace: str) -> set[str]:
+    """The namespaces of the topics ``*<topic_end>`` that a node in ``node_namespace`` publishes.
+    Only the launched node counts: the graph may still list a node of an earlier test, gone without
+    saying goodbye, until its lease runs out."""
+    return {name[: -len(topic_end)] for name, _ in node.get_topic_names_and_types() if name.endswith(topic_end)
+            and any(info.node_namespace == node_namespace for info in node.get_publishers_info_by_topic(name))}
 
 
 @needs_install
@@ -181,7 +185,9 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
             node.create_subscription(DxlStates, "/robot1/dynamixel/states", got.append, 10)
             assert spin_until(node, executor, lambda: bool(got), timeout=30), proc.output
             assert list(got[-1].status.id_list) == [1] or list(got[-1].present.id_list) == [1]
-            assert _topic_namespaces(node, "/dynamixel/states") == {"/robot1"}
+            # the graph learns of the publisher on its own way, which can come after the first message
+            assert spin_until(node, executor, lambda: _topic_namespaces(node, "/dynamixel/states", "/robot1")
+                              == {"/robot1"}, timeout=15), _topic_namespaces(node, "/dynamixel/states", "/robot1")
             assert "[robot1.dynamixel_handler]" in proc.output
         finally:
             node.destroy_node()
