@@ -18,7 +18,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from dynamixel_handler.trajectory import Trajectory, make_points
 
-from support.rig import X540, Rig, X
+from support.rig import SYNC_WRITE, X540, Rig, X
 
 R = FollowJointTrajectory.Result
 JOINTS = ("joint_state.use:=true", "joint_state.names:=[pan, tilt]", "joint_state.ids:=[1, 2]",
@@ -58,6 +58,27 @@ def client(rig: Rig) -> ActionClient:
             rig.fjt = ActionClient(rig.node, FollowJointTrajectory, ACTION)
         assert rig.fjt.wait_for_server(timeout_sec=10)
     return rig.fjt
+
+
+def written_goals(rig: Rig, since: float) -> list[tuple[float, float, float]]:
+    """(wall-clock time, pan, tilt) [rad] of each Goal Position the node wrote with a Sync Write after
+    ``since`` (monotonic), as the simulated bus received it (the joint not written keeps its last goal)."""
+    servos = {i: rig.sim.servo(i) for i in (1, 2)}
+    address = servos[1].model.item("goal_position").address
+    to_wall = time.time() - time.monotonic()
+    goals = {"pan": joint_rad(rig, "pan", "goal_position"), "tilt": joint_rad(rig, "tilt", "goal_position")}
+    out = []
+    for e in rig.sim.log:
+        if e.time < since or e.instruction != SYNC_WRITE or not e.address <= address < e.address + e.length:
+            continue
+        for k in range(4, len(e.params), 1 + e.length):  # address, length, then ID + data per servo
+            dxl_id, data = e.params[k], e.params[k + 1 + address - e.address:][:4]
+            if dxl_id in servos:
+                model = servos[dxl_id].model
+                deg = (int.from_bytes(data, "little", signed=True) - model.position_zero_pulse) * model.position_deg_per_pulse
+                goals["pan" if dxl_id == 1 else "tilt"] = math.radians(deg) if dxl_id == 1 else -math.radians(deg - 10.0)
+        out.append((e.time + to_wall, goals["pan"], goals["tilt"]))
+    return out
 
 
 def send(rig: Rig, goal: FollowJointTrajectory.Goal, feedback: list | None = None):
@@ -139,6 +160,7 @@ def test_a_three_point_trajectory_is_followed_with_the_timing_of_time_from_start
             samples.append((time.time(), joint_rad(rig, "pan"), joint_rad(rig, "tilt")))
             time.sleep(0.005)
     sampler = threading.Thread(target=sample, daemon=True)
+    since = time.monotonic()
     sampler.start()
     try:
         handle = send(rig, FollowJointTrajectory.Goal(trajectory=traj), feedback)
@@ -153,12 +175,17 @@ def test_a_three_point_trajectory_is_followed_with_the_timing_of_time_from_start
     pts = make_points(2, [0.5, 1.0, 1.5], [[0.4, -0.2], [0.8, 0.1], [0.6, 0.3]],
                       [[0.6, -0.3], [0.2, 0.3], [0.0, 0.0]], [[], [], []])
     path = Trajectory(pts, np.zeros(2))
-    during = [(t - stamp, p, q) for t, p, q in samples if 0.0 <= t - stamp <= 1.5]
+    # the goals the node wrote, against the path at the moment the bus got them: the timing is the
+    # node's own (a loop held back on a busy machine writes the path's point of when it runs, so the
+    # servo lags then, not the goal; the registers sampled below would count that lag as an error)
+    during = [(t - stamp, p, q) for t, p, q in written_goals(rig, since) if 0.0 <= t - stamp <= 1.5]
     assert len(during) > 50
     errors = [max(abs(p - path.sample(t).positions[0]), abs(q - path.sample(t).positions[1])) for t, p, q in during]
-    print(f"\ntrajectory tracking: {len(during)} register samples, max error {max(errors):.4f} rad "
+    print(f"\ntrajectory tracking: {len(during)} goals written, max error {max(errors):.4f} rad "
           f"({math.degrees(max(errors)):.2f} deg), mean {np.mean(errors):.4f} rad")
-    assert max(errors) < 0.1  # generous for a loaded machine: a path 0.2 s late would be ~0.3 rad off
+    assert max(errors) < 0.1  # a path 0.2 s late would be ~0.3 rad off
+    # the servos went the path's way: through its middle point (0.8, 0.1) on the way to the end
+    assert any(abs(p - 0.8) < 0.05 and abs(q - 0.1) < 0.05 for _, p, q in samples)
     # nothing moved before header.stamp
     before = [(p, q) for t, p, q in samples if t - stamp < -0.05]
     assert before and all(abs(p) < 0.01 and abs(q) < 0.01 for p, q in before)
