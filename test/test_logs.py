@@ -60,8 +60,8 @@ def test_lifecycle_node_says_what_it_did_and_no_stopping_when_nothing_was_config
         assert not any("stopping" in ln for ln in proc.lines), proc.output
         assert "nothing to stop" in proc.lines[-1]
 
-        # configured, then the shutdown transition: its line says what it did
-        proc = NodeProcess(lifecycle_command(sim.path))
+        # configured, then the shutdown transition: its line says what it did (one servo here)
+        proc = NodeProcess(lifecycle_command(sim.path, "init/expected_servo_num:=1"))
         mgr = Manager()
         try:
             proc.wait_for("waiting for the configure transition", timeout=30)
