@@ -15,7 +15,9 @@ import math
 from functools import partial
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from . import units
+import numpy as np
+
+from . import goal_bounds, units
 from .command_tables import (
     BROADCAST_ID,
     CONTROL_MODES,
@@ -160,6 +162,12 @@ class Commander(SettingsCommands):
             pulses = clamped
         return pulses
 
+    def _clamp_rows(self, what: str, field: str, item: str, rows: list[Row], pulses: np.ndarray) -> list[int]:
+        """``_clamp`` of every row; goal positions the table shows within their limits all at once."""
+        inside = goal_bounds.within(self.h.table, [i for i, _ in rows], pulses) if item == "goal_position" else None
+        return [raw if inside is not None and inside[k] else self._clamp(what, field, dxl_id, item, value, raw)
+                for k, ((dxl_id, value), raw) in enumerate(zip(rows, pulses.tolist()))]
+
     def _limits(self, dxl_id: int, item: str, model: Model) -> tuple[int | None, int | None]:
         """The pulses ``item`` may take on this servo now (its register range, narrowed by its
         limits and mode)."""
@@ -205,8 +213,7 @@ class Commander(SettingsCommands):
             # one vectorised conversion per item, then each servo's limits
             for item, rows in self._goal_rows(what, field, values, targets, item_of, rotation).items():
                 pulses = units.unit_to_pulse([self.h.model(i) for i, _ in rows], item, [v for _, v in rows])
-                for (dxl_id, value), raw in zip(rows, pulses.tolist()):
-                    writes.setdefault(item, {})[dxl_id] = self._clamp(what, field, dxl_id, item, value, raw)
+                writes.setdefault(item, {}).update(zip([i for i, _ in rows], self._clamp_rows(what, field, item, rows, pulses)))
         if rotation is not None and "position_deg" not in fields:
             self._rotation_alone(what, targets, rotation, writes)
         if writes:

@@ -135,6 +135,11 @@ class ServoTable:
         known = self._known.get(item)
         return known.copy() if known is not None else np.zeros(len(self.ids), dtype=bool)
 
+    def arrays(self, item: str) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(pulses, known) of ``item`` as stored, not copied: replaced on every store, never changed
+        in place, so the same objects mean the same values (None: never stored). Do not modify."""
+        return self._raw.get(item), self._known.get(item)
+
     def value(self, item: str, dxl_id: int) -> int | None:
         pos = self.index.get(dxl_id)
         if pos is None or item not in self._raw or not self._known[item][pos]:

@@ -7,6 +7,9 @@ states and writes.
 - CDR decoding: a command part whose sequences are all empty is recognised by one compare of its
   zero counts; the decoded value equals the field-by-field decoding, for the middleware's bytes and
   for this codec's, whatever the padding bytes hold.
+- Goal positions (``goal_bounds.py``): those the servo table shows within their bounds are checked
+  all at once; the same command sequence on two fresh buses, one per path, leaves the same
+  registers on the simulated servos and the same warnings.
 - Sync read replies (``core/read_plan.py``): decoded through a record dtype, equal to the byte-by-byte
   decoding for every layout of 1/2/4-byte items, signed or not, and any reply bytes.
 """
@@ -158,3 +161,70 @@ def test_reply_decoding_of_known_bytes():
     read = _Read(132, 14, (1, 2), (_Part("present_position", 0, 4, True), _Part("present_temperature", 13, 1, False)))
     joined = bytes.fromhex("ffffffff" + "00" * 9 + "28") + bytes.fromhex("00080000" + "00" * 9 + "ff")
     assert [v.tolist() for v in decode_replies(read, joined)] == [[-1, 2048], [40, 255]]
+
+
+# ============================================================================ goal position bounds
+def _run_goal_sequence(vector: bool, monkeypatch) -> tuple[list[dict[int, int]], list[str]]:
+    """One command sequence on a fresh virtual bus (X, X540, P, Pro); the goal position registers
+    after each command and every warning line."""
+    import logging
+
+    from dynamixel_handler import goal_bounds
+    from dynamixel_handler.bus import DynamixelBus
+    from dynamixel_handler.commands import Commander
+    from dynamixel_handler.config import defaults, validate
+    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.sim import VirtualBus
+
+    from support.rig import PRO, X540, P, X
+
+    monkeypatch.setattr(goal_bounds, "ENABLED", vector)
+    sim = VirtualBus({1: X, 2: X540, 3: P, 4: PRO}, baudrate=1_000_000)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus.open()
+    try:
+        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
+                           "mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
+                           "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
+                           "init/expected_servo_num": 4})
+        handler = Handler(bus, config)
+        handler.start()
+        lines: list[str] = []
+        handler.log = logging.getLogger(f"goal_bounds_{vector}")
+        handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+        commander = Commander(handler)
+        registers = []
+        steps = [
+            lambda: commander.control("X", "position_control", [1, 2], {"position_deg": [10.0, 400.0]}),
+            lambda: commander.control("P", "position_control", [3], {"position_deg": [-500.0]}),
+            lambda: commander.control("PRO", "position_control", [4], {"position_deg": [45.0]}),
+            lambda: commander.goal([1, 2, 3, 4], {"position_deg": [-200.0, 30.0, 170.0, 1e4]}),
+            # limits the wrong way round on servo 1: its register range applies (X)
+            lambda: (sim.servo(1).write("min_position_limit", 3000), sim.servo(1).write("max_position_limit", 1000)),
+            lambda: commander.goal([1, 2], {"position_deg": [170.0, -5.0]}),
+            lambda: commander.control("X", "extended_position_control", [2, 1], {"position_deg": [1e6, -720.0]}),
+            lambda: commander.goal([2, 1, 2], {"position_deg": [-1e7, 5.0, 20.0]}),
+            lambda: commander.control("P", "extended_position_control", [3], {"position_deg": [1e6]}),
+            lambda: commander.goal([3, 4], {"position_deg": [-1e6, -170.0]}),
+        ]
+        for step in steps:
+            step()
+            handler.step()
+            handler.step()
+            registers.append({i: sim.servo(i).read("goal_position") for i in range(1, 5)})
+        if vector:  # the fast path was taken: the table knew what the bounds need
+            assert goal_bounds.goal_position_bounds(handler.table, [1, 2, 3, 4]) is not None
+        handler.shutdown()
+        return registers, [line for line in lines if "clamped" in line or "refused" in line or "ignored" in line]
+    finally:
+        bus.close()
+        sim.close()
+
+
+def test_goal_positions_checked_at_once_equal_servo_by_servo(monkeypatch):
+    fast_registers, fast_lines = _run_goal_sequence(True, monkeypatch)
+    plain_registers, plain_lines = _run_goal_sequence(False, monkeypatch)
+    assert fast_registers == plain_registers
+    assert fast_lines == plain_lines
+    assert sum("clamped" in line for line in plain_lines) >= 4, plain_lines  # both branches were used
+    assert fast_registers[0][1] == 2048 + round(10 / (360 / 4096))  # a goal within bounds as sent

@@ -86,13 +86,16 @@ class Codec:
                 self.fields.append((name, "message", Codec.of(_message_class(typ))))
             else:
                 raise Unsupported(f"{msg_class.__name__}.{name}: {typ}")
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """What the encoder and decoder precompute from the fields."""
         #: (name, encoder, detail) per field, in .msg order
         self._puts = [(name, _PUT[kind], detail) for name, kind, detail in self.fields]
         #: the bytes of an all-empty value, by the offset's remainder modulo 8 (alignment is at most 8)
         self._empty: dict[int, bytes] = {}
         #: a message of sequences only (a command's part): its decoded value when every count is 0
-        self._no_elements = ({name: _EMPTY[detail[0]] for name, kind, detail in self.fields}
-                             if self.fields and all(kind == "array" for _, kind, _ in self.fields) else None)
+        self._no_elements = _no_elements(self.fields)
         self._zero_counts = tuple(bytes(pad + 4 * len(self.fields)) for pad in range(4))
 
     # ------------------------------------------------------------------ encoding
@@ -221,6 +224,13 @@ for _arr in _EMPTY.values():
     _arr.flags.writeable = False
 #: numpy dtype -> array.array typecode, for handing arrays to rclpy without per-element checks
 _ARRAY_CODES = {"u2": "H", "i2": "h", "u4": "I", "i4": "i", "f4": "f", "f8": "d", "i8": "q", "u8": "Q"}
+
+
+def _no_elements(fields: list[tuple[str, str, Any]]) -> dict[str, Any] | None:
+    """The decoded value of a message of sequences only when all are empty; None for other messages."""
+    if not fields or any(kind != "array" for _, kind, _ in fields):
+        return None
+    return {name: _EMPTY[detail[0]] for name, _, detail in fields}
 
 
 def _to_array(arr: np.ndarray, code: str):
