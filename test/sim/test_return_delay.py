@@ -1,7 +1,8 @@
 """Return Delay Time (address 9, 2 us per unit) is honoured when the wire is timed: a servo's
 status packet starts no earlier than its delay after the instruction, and a servo set to 0
 answers sooner. Only the real dynamixel_sdk talks to the bus. The bounds are behaviour (a lower
-bound a loaded machine can only exceed, and a difference of medians), not speed targets."""
+bound a loaded machine can only exceed, and a difference of the fastest round trips), not speed
+targets."""
 
 from __future__ import annotations
 
@@ -41,7 +42,8 @@ def test_replies_wait_for_the_return_delay_time_and_come_sooner_at_zero(make_bus
     slow, fast = _ping_pairs(port, ph)
     assert min(slow) >= 500e-6  # no reply before the servo's 500 us, however fast the host
 
-    # 100 pings at 500 us each: about 50 ms more than at 0; the pings alternate between the two
-    # servos so a busy machine slows both alike, and medians keep its stalls out of the comparison
-    assert (statistics.median(slow) - statistics.median(fast)) * PINGS >= 0.040, (
-        f"median ping {statistics.median(slow) * 1e3:.3f} ms at 250, {statistics.median(fast) * 1e3:.3f} ms at 0")
+    # each reply at delay 250 waits 500 us more than at 0: load only ever adds time, so the fastest
+    # of 100 pings shows the servo's own delay (medians or means would carry the machine's stalls)
+    assert min(slow) - min(fast) >= 400e-6, (
+        f"fastest ping {min(slow) * 1e3:.3f} ms at 250, {min(fast) * 1e3:.3f} ms at 0 "
+        f"(medians {statistics.median(slow) * 1e3:.3f} / {statistics.median(fast) * 1e3:.3f} ms)")
