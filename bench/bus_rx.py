@@ -7,8 +7,11 @@ and the same read (Present Current + Velocity + Position, 126, 10 bytes, of ever
 and Fast Sync Read) runs back to back in this process, first through ``DynamixelBus.sync_read``, then
 through ``GroupSyncRead.txRxPacket()`` / ``fastSyncRead()``. No goal write, no ROS: what is left is
 the host's cost of one transaction (packet out, waiting, reading and decoding the reply) on top of
-its wire time. Printed: transactions a second, microseconds each, this process's CPU, failures, and
-the wire limit of one transaction (the instruction and its replies back to back).
+its wire time. Printed: transactions a second, microseconds each, this process's CPU time per
+transaction (``time.process_time``: the host's own cost, which the virtual bus's answering speed
+does not change), failures, and the wire limit of one transaction (the instruction and its
+replies back to back). The virtual bus answers within ~50-100 us, so at 4 Mbps both sides' rates
+are bounded by it more than by the wire; the CPU per transaction is the figure to compare.
 ``--only bus --seconds 10`` runs one side alone, e.g. under ``strace -c -f`` or a profiler.
 """
 from __future__ import annotations
@@ -22,7 +25,6 @@ from typing import Callable
 from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, PacketHandler
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import cpu_seconds  # noqa: E402
 from sdk_baseline import FairPort  # noqa: E402
 from sim_process import BusProcess  # noqa: E402
 from wire import PRESENT_ADDRESS, PRESENT_LENGTH  # noqa: E402
@@ -43,11 +45,11 @@ def wire_limit_hz(n: int, baudrate: int, fast: bool) -> float:
 
 
 def timed(step: Callable[[], bool], seconds: float, warmup_s: float = 0.2) -> tuple[float, float, int]:
-    """(transactions a second, CPU % of one core, failures) of ``step`` run back to back."""
+    """(transactions a second, CPU microseconds a transaction, failures) of ``step`` run back to back."""
     end = time.monotonic() + warmup_s
     while time.monotonic() < end:
         step()
-    cpu0, t0 = cpu_seconds(os.getpid()), time.monotonic()
+    cpu0, t0 = time.process_time(), time.monotonic()
     count = failures = 0
     end = t0 + seconds
     now = t0
@@ -57,7 +59,7 @@ def timed(step: Callable[[], bool], seconds: float, warmup_s: float = 0.2) -> tu
         count += 1
         now = time.monotonic()
     window = now - t0
-    return count / window, 100.0 * (cpu_seconds(os.getpid()) - cpu0) / window, failures
+    return count / window, 1e6 * (time.process_time() - cpu0) / count, failures
 
 
 def ours(path: str, ids: list[int], baudrate: int, fast: bool, latency_ms: float) -> tuple[Callable[[], bool], Callable[[], None]]:
@@ -99,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         sides = {a.only: sides[a.only]}
     timer_ms = max(1.0, a.latency_ms)  # the latency timer the host configures (as the node does)
     print(f"{'baud':>4} {'N':>2} {'fast':>4} | {'wire Hz':>7} | "
-          + " | ".join(f"{name:>4} Hz   us/tx  cpu%" for name in sides) + (" | bus/sdk" if len(sides) == 2 else ""))
+          + " | ".join(f"{name:>4} Hz   us/tx  cpu us/tx" for name in sides) + (" | bus/sdk" if len(sides) == 2 else ""))
     for baudrate in [int(x) for x in a.baud.split(",")]:
         for n in [int(x) for x in a.n.split(",")]:
             ids = list(range(1, n + 1))
@@ -118,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
                             finally:
                                 close()
                             rates[name] = hz
-                            cells.append(f"{hz:7.0f} {1e6 / hz:7.1f} {cpu:5.0f}" + (f" ({failures} failed)" if failures else ""))
+                            cells.append(f"{hz:7.0f} {1e6 / hz:7.1f} {cpu:11.1f}" + (f" ({failures} failed)" if failures else ""))
                         ratio = f" | {rates['bus'] / rates['sdk']:7.2f}" if len(rates) == 2 else ""
                         print(f"{baudrate // 1_000_000:>3}M {n:2d} {'yes' if fast else 'no':>4} | "
                               f"{wire_limit_hz(n, baudrate, fast):7.0f} | " + " | ".join(cells) + ratio, flush=True)
