@@ -24,11 +24,11 @@ import threading
 import time
 import traceback
 from dataclasses import dataclass
-from typing import Callable, Protocol, Sized
+from typing import Callable, Protocol
 
 from .external_ports import ExternalPorts, PortReading
 from .loop import StepReport
-from .loop_stats import LoopStats, StatsWire
+from .loop_stats import LoopStats, StatsCore, StatsWire
 from .timing import set_timer_slack
 
 #: consecutive failed loop steps after which the loop gives up
@@ -53,17 +53,12 @@ class Log(Protocol):
     def fatal(self, msg: str, /) -> object: ...
 
 
-class LoopCore(Protocol):
-    """What the runner needs of the ``Handler``: its step in phases and a few figures."""
+class LoopCore(StatsCore, Protocol):
+    """What the runner needs of the ``Handler``: what the statistics need, its step in phases and
+    a few figures."""
 
     @property
     def loop_count(self) -> int: ...
-    @property
-    def table(self) -> Sized: ...
-    @property
-    def device_lost(self) -> bool: ...
-    @property
-    def device_lost_since(self) -> float | None: ...
     @property
     def reply_eta(self) -> float | None: ...
     def begin_step(self) -> StepReport: ...
@@ -75,8 +70,6 @@ class LoopCore(Protocol):
     def complete_step(self, report: StepReport) -> None: ...
     def finish_step(self, report: StepReport) -> None: ...
     def apply_now(self) -> None: ...
-    def note_loop_period(self, seconds: float) -> None: ...
-    def estimate_loop_s(self) -> float: ...
 
 
 def log_exception(log: Log, what: str, exc: BaseException, fatal: bool = False) -> None:
