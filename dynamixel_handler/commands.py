@@ -27,7 +27,6 @@ from .command_tables import (
     MAX_ROTATION,
     SERIES_MODES,
     SHORTCUTS,
-    X_MULTI_TURN_GOAL,
     X_PROFILE_MAX,
 )
 from .control_table import Model
@@ -125,6 +124,9 @@ class Commander(SettingsCommands):
         ids = list(ids)
         if allow_all and (not ids or ids == [BROADCAST_ID]):
             return list(enumerate(h.handled_ids))
+        plan = goal_bounds.targets(self, ids, series)
+        if plan is not None:  # every ID handled once and of the series: checked before
+            return list(plan.targets)
         last: dict[int, int] = {}  # ID -> index of its last entry (a repeated ID: the last value wins)
         unknown, other = [], []
         for k, dxl_id in enumerate(ids):
@@ -172,7 +174,7 @@ class Commander(SettingsCommands):
         """The pulses ``item`` may take on this servo now (its register range, narrowed by its
         limits and mode)."""
         if item == "goal_position":
-            return self._goal_position_limits(dxl_id, model)
+            return goal_bounds.goal_position_limits(self.h, dxl_id, model)
         spec = model.item(item)
         lo, hi = spec.min_raw, spec.max_raw
         bound_item = MAGNITUDE_LIMIT.get(item)
@@ -184,21 +186,6 @@ class Commander(SettingsCommands):
         if item.startswith("profile_"):
             return 0, min(hi, X_PROFILE_MAX) if model.series == "X" else hi
         return lo, hi
-
-    def _goal_position_limits(self, dxl_id: int, model: Model) -> tuple[int, int]:
-        spec = model.item("goal_position")
-        lo, hi = spec.min_raw, spec.max_raw
-        mode = self.h.mode(dxl_id)
-        if mode == "position":
-            a, b = self._value(dxl_id, "min_position_limit"), self._value(dxl_id, "max_position_limit")
-            if a is not None and b is not None and a <= b:
-                return a, b
-            if model.series == "X":
-                return lo, hi
-        if model.series == "X":
-            return max(lo, -X_MULTI_TURN_GOAL), min(hi, X_MULTI_TURN_GOAL)
-        turns = int(round(MAX_ROTATION * 360.0 / model.position_deg_per_pulse))
-        return max(lo, -turns), min(hi, turns)
 
     def _value(self, dxl_id: int, item: str) -> int | None:
         return self.h.value(dxl_id, item)
@@ -216,6 +203,9 @@ class Commander(SettingsCommands):
                 writes.setdefault(item, {}).update(zip([i for i, _ in rows], self._clamp_rows(what, field, item, rows, pulses)))
         if rotation is not None and "position_deg" not in fields:
             self._rotation_alone(what, targets, rotation, writes)
+        self.put_writes(what, writes)
+
+    def put_writes(self, what: str, writes: dict[str, dict[int, int]]) -> None:
         if writes:
             self.h.put_goals(writes)
             if self.h.config["verbose/write_goal"]:
@@ -272,6 +262,8 @@ class Commander(SettingsCommands):
     def _control(self, series: str, control: str, ids: list[int], fields: Fields) -> None:
         what = f"{series.lower()}/{control}"
         mode = CONTROL_MODES[control]
+        if goal_bounds.fast_goals(self, what, ids, fields, series, mode):
+            return
         targets = self._in_mode(series, control, self.known_ids(ids, what, series), fields)
         if not targets:
             return
@@ -306,6 +298,8 @@ class Commander(SettingsCommands):
         return ready
 
     def _goal(self, ids: list[int], fields: Fields, what: str) -> None:
+        if goal_bounds.fast_goals(self, what, ids, fields):
+            return
         targets = self.known_ids(ids, what)
         if targets:
             self._goal_writes(what, targets, fields, lambda f, _i: GOAL_FIELDS.get(f))

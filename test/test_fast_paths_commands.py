@@ -1,0 +1,178 @@
+"""The command path's fast paths against their plain counterparts: the same commands give the same
+writes, registers and warnings.
+
+- Goals and control commands (``goal_bounds.fast_goals``): an ID list checked once per servo table
+  (``Targets``), the servos' mode and items kept, the values converted in plain Python (a few
+  servos) or through numpy (many), every goal position checked against bounds kept per table.
+  The same command sequence on two fresh virtual buses, one with the fast path and one without,
+  records the same goal writes handed to the core, the same registers on the simulated servos and
+  the same warnings; the fast path must have handled some of the commands and left others.
+- The conversion in plain Python equals ``units.unit_to_pulse`` for any finite value.
+"""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dynamixel_handler import goal_bounds, units
+from dynamixel_handler.bus import DynamixelBus
+from dynamixel_handler.commands import Commander
+from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.control_table import model_by_number
+from dynamixel_handler.loop import Handler
+from dynamixel_handler.servos import ServoTable
+from dynamixel_handler.sim import VirtualBus
+
+from support.rig import PRO, X540, P, X
+
+XL430 = 1060
+SERVOS = {1: X, 2: X540, 3: P, 4: PRO, 5: XL430}
+REGISTERS = ("goal_position", "goal_velocity", "goal_current", "goal_pwm", "profile_velocity",
+             "profile_acceleration", "operating_mode")
+
+
+def _steps(c: Commander, sim: VirtualBus) -> list:
+    nan, inf = float("nan"), float("inf")
+    return [
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [10.0, 40.0]}),
+        lambda: c.control("X", "position_control", [1, 2, 5], {"position_deg": [11.0, 41.0, -30.0],
+                                                              "profile_vel_deg_s": [90.0, 180.0, 45.0],
+                                                              "profile_acc_deg_ss": [500.0, 1e9, 20.0]}),
+        lambda: c.control("X", "position_control", np.array([2, 1], dtype=np.uint16),
+                          {"position_deg": list(np.array([-12.5, 12.5]))}),
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [400.0, -400.0]}),  # clamped
+        lambda: c.control("X", "position_control", [1, 1, 2], {"position_deg": [1.0, 2.0, 3.0]}),  # repeated
+        lambda: c.control("X", "position_control", [1, 9], {"position_deg": [5.0, 6.0]}),  # unknown
+        lambda: c.control("X", "position_control", [1, 3], {"position_deg": [5.0, 6.0]}),  # other series
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [nan, 7.0]}),
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [8.0, inf]}),
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [1e308, 1e308]}),
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [8.0, 9]}),  # an int among floats
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": ["8", "9"]}),  # no numbers
+        lambda: c.goal([1, 2, 3, 4, 5], {"position_deg": [-20.0, 30.0, 170.0, 1e4, 5.0]}),
+        lambda: c.goal([1, 2, 3, 4], {"position_deg": [1.0, 2.0, 3.0, 4.0], "rotation": [1.0, 1.0, 1.0, 1.0]}),
+        lambda: c.goal([1, 2, 5], {"current_ma": [100.0, 200.0, 50.0]}),  # XL430: no current
+        lambda: c.goal([1, 2], {"current_ma": [1e5, -1e5], "pwm_percent": [50.0, 200.0], "unknown": [1.0, 2.0]}),
+        lambda: c.goal([1, 2], {"velocity_deg_s": [30.0, -1e6], "acceleration_deg_ss": [100.0, 200.0]}),
+        lambda: c.goal([], {"position_deg": []}),
+        lambda: c.control("X", "extended_position_control", [2, 1], {"position_deg": [1e6, -720.0]}),  # mode change
+        lambda: c.control("X", "extended_position_control", [2, 1], {"position_deg": [100.0, -100.0],
+                                                                       "rotation": [2.0, 300.0]}),
+        lambda: c.control("X", "extended_position_control", [1, 2], {"position_deg": [3e6, -50.0]}),
+        lambda: c.control("X", "position_control", [1, 2], {"position_deg": [1.0, 2.0]}),  # back: mode change
+        # limits the wrong way round on servo 1: its register range applies (X)
+        lambda: (sim.servo(1).write("min_position_limit", 3000), sim.servo(1).write("max_position_limit", 1000)),
+        lambda: c.goal([1, 2], {"position_deg": [170.0, -5.0]}),
+        lambda: c.control("X", "velocity_control", [1, 2], {"velocity_deg_s": [20.0, 1e5]}),
+        lambda: c.control("X", "velocity_control", [1, 2], {"velocity_deg_s": [-20.0, 30.0]}),
+        lambda: c.control("X", "current_control", [1, 5], {"current_ma": [10.0, 10.0]}),  # XL430 has no current
+        lambda: c.control("P", "position_control", [3], {"position_deg": [-500.0], "velocity_deg_s": [50.0]}),
+        lambda: c.control("PRO", "position_control", [4], {"position_deg": [45.0], "velocity_deg_s": [30.0]}),
+        lambda: c.control("PRO", "velocity_control", [4], {"velocity_deg_s": [30.0]}),
+        lambda: c.control("PRO", "velocity_control", [4], {"velocity_deg_s": [35.0]}),
+        lambda: c.control("P", "extended_position_control", [3], {"position_deg": [1e6]}),
+        lambda: c.goal([3, 4], {"position_deg": [-1e6, -170.0]}),
+        lambda: c.goal([5, 4, 3, 2, 1], {"position_deg": [1.5, 2.5, 3.5, 4.5, 5.5]}),
+    ]
+
+
+def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[str], list[bool]]:
+    """The command sequence on a fresh virtual bus: the goal writes the commands handed to the
+    core, the registers after each command, every warning and error line, and what the fast path
+    answered each time it was asked."""
+    monkeypatch.setattr(goal_bounds, "TARGETS", fast)
+    monkeypatch.setattr(goal_bounds, "SMALL", small)
+    sim = VirtualBus(SERVOS, baudrate=1_000_000)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus.open()
+    try:
+        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 5,
+                           "mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
+                           "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
+                           "init/expected_servo_num": 5})
+        handler = Handler(bus, config)
+        handler.start()
+        lines: list[str] = []
+        handler.log = logging.getLogger(f"fast_commands_{fast}_{small}")
+        handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(
+            f"{r.levelname} {r.getMessage()}")})())
+        handler.log.setLevel(logging.INFO)
+        commander = Commander(handler)
+        writes: list = []
+        put_goals = handler.put_goals
+
+        def record(goals) -> None:  # what the command side hands to the core, in order
+            writes.append([(item, list(values.items())) for item, values in goals.items()])
+            put_goals(goals)
+        handler.put_goals = record
+        answers: list[bool] = []
+        fast_goals = goal_bounds.fast_goals
+
+        def asked(*args, **kwargs) -> bool:
+            answers.append(fast_goals(*args, **kwargs))
+            return answers[-1]
+        monkeypatch.setattr(goal_bounds, "fast_goals", asked)
+        registers = []
+        for step in _steps(commander, sim):
+            step()
+            handler.step()
+            handler.step()
+            registers.append({i: {r: sim.servo(i).read(r) for r in REGISTERS if sim.servo(i).model.has(r)}
+                              for i in SERVOS})
+        handler.shutdown()
+        return writes, registers, lines, answers
+    finally:
+        bus.close()
+        sim.close()
+
+
+@pytest.mark.parametrize("small", [32, 0], ids=["plain Python", "numpy"])
+def test_commands_through_the_fast_path_equal_servo_by_servo(small, monkeypatch):
+    fast = _run(True, small, monkeypatch)
+    plain = _run(False, small, monkeypatch)
+    assert fast[0] == plain[0]  # the same goal writes, in the same order
+    assert fast[1] == plain[1]  # the same registers after every command
+    assert fast[2] == plain[2]  # the same warnings, errors and mode change lines
+    assert fast[3].count(True) >= 12 and fast[3].count(False) >= 12, fast[3]  # both paths were used
+    assert not any(plain[3])
+    assert sum("clamped" in line for line in plain[2]) >= 5, plain[2]
+    assert sum("refused" in line for line in plain[2]) >= 2, plain[2]
+    assert any("operating mode -> ex_position" in line for line in plain[2]), plain[2]
+    assert fast[1][0][1]["goal_position"] == 2048 + round(10 / (360 / 4096))  # a goal within bounds as sent
+
+
+MODELS = [model_by_number(n) for n in (X, X540, P, PRO, XL430)]
+ITEMS = ("goal_position", "goal_velocity", "goal_current", "goal_pwm", "profile_velocity", "profile_acceleration")
+
+
+@settings(max_examples=300, deadline=None)
+@given(picks=st.lists(st.tuples(st.sampled_from(range(len(MODELS))),
+                                st.floats(allow_nan=False, allow_infinity=False)), min_size=1, max_size=6),
+       item=st.sampled_from(ITEMS))
+def test_plain_python_conversion_equals_unit_to_pulse(picks, item):
+    table = ServoTable()
+    ids = tuple(range(1, len(picks) + 1))
+    for dxl_id, (model, _) in zip(ids, picks):
+        table.add(dxl_id, MODELS[model])
+    plan = goal_bounds.Targets(table, ids)
+    values = [value for _, value in picks]
+    if not plan.has(item):
+        with pytest.raises(ValueError):
+            units.unit_to_pulse(plan.models, item, values)
+        return
+    pulses, _ = plan.to_pulses(item, values, None)
+    expected = units.unit_to_pulse(plan.models, item, values).tolist()
+    assert pulses == expected
+    assert all(type(p) is int for p in pulses)
+
+
+def test_values_the_sum_check_lets_through_are_finite():
+    """``_work`` checks finiteness by one sum: any NaN or infinity makes it non-finite (a sum
+    that overflows only sends finite values the per-servo way)."""
+    for values in ([1.0, float("nan")], [float("inf"), -float("inf")], [1e308, 1e308], [float("-inf"), 2.0]):
+        assert not math.isfinite(sum(values))
