@@ -7,12 +7,15 @@ writes, registers and warnings.
   The same command sequence on two fresh virtual buses, one with the fast path and one without,
   records the same goal writes handed to the core, the same registers on the simulated servos and
   the same warnings; the fast path must have handled some of the commands and left others.
+- Goals look for tripped bus watchdogs (``Requests.put_goals``) only when the table shows one
+  (answered once per new watchdog values); the sequence above ends with a trip.
 - The conversion in plain Python equals ``units.unit_to_pulse`` for any finite value.
 """
 from __future__ import annotations
 
 import logging
 import math
+import time
 
 import numpy as np
 import pytest
@@ -24,6 +27,7 @@ from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import model_by_number
+from dynamixel_handler.core import requests
 from dynamixel_handler.loop import Handler
 from dynamixel_handler.servos import ServoTable
 from dynamixel_handler.sim import VirtualBus
@@ -78,6 +82,10 @@ def _steps(c: Commander, sim: VirtualBus) -> list:
         lambda: c.control("P", "extended_position_control", [3], {"position_deg": [1e6]}),
         lambda: c.goal([3, 4], {"position_deg": [-1e6, -170.0]}),
         lambda: c.goal([5, 4, 3, 2, 1], {"position_deg": [1.5, 2.5, 3.5, 4.5, 5.5]}),
+        lambda: c.control("X", "velocity_control", [1, 2], {"velocity_deg_s": [5.0, 5.0]}),
+        # servo 1's bus watchdog trips while the bus is silent: the next goals clear it first
+        lambda: (time.sleep(1.5), c.h.read_item(1, "bus_watchdog"),
+                 c.control("X", "velocity_control", [1, 2], {"velocity_deg_s": [6.0, 6.0]})),
     ]
 
 
@@ -87,6 +95,7 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     answered each time it was asked."""
     monkeypatch.setattr(goal_bounds, "TARGETS", fast)
     monkeypatch.setattr(goal_bounds, "SMALL", small)
+    monkeypatch.setattr(requests, "TRIPPED_ONCE", fast)
     sim = VirtualBus(SERVOS, baudrate=1_000_000)
     bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
     bus.open()
@@ -143,6 +152,7 @@ def test_commands_through_the_fast_path_equal_servo_by_servo(small, monkeypatch)
     assert sum("clamped" in line for line in plain[2]) >= 5, plain[2]
     assert sum("refused" in line for line in plain[2]) >= 2, plain[2]
     assert any("operating mode -> ex_position" in line for line in plain[2]), plain[2]
+    assert any("ID 1: bus watchdog had tripped" in line for line in plain[2]), plain[2]
     assert fast[1][0][1]["goal_position"] == 2048 + round(10 / (360 / 4096))  # a goal within bounds as sent
 
 

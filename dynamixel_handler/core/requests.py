@@ -14,6 +14,8 @@ Warn = Callable[[str], None]
 MODE_RESET_ITEMS = ("goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration")
 #: a mode's own goal: left out when the mode changes (it would mean something else in the new one)
 OWN_GOAL = {"pwm": "goal_pwm", "current": "goal_current", "velocity": "goal_velocity"}
+#: False: every goal command looks for tripped watchdogs servo by servo (for tests and comparisons)
+TRIPPED_ONCE = True
 
 
 class Requests(Startup):
@@ -44,8 +46,25 @@ class Requests(Startup):
     def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
         """Goal values {item: {ID: pulses}} written with the next sync writes; a tripped bus
         watchdog of those servos is cleared first (a tripped servo refuses goals)."""
-        self.clear_tripped(sorted({i for values in writes.values() for i in values}))
+        if self._any_tripped():
+            self.clear_tripped(sorted({i for values in writes.values() for i in values}))
         self.pending.put_many(writes.items())
+
+    #: the bus watchdog arrays last looked at and whether one of them shows a trip
+    _tripped_seen: tuple[object, object, bool] = (None, None, True)
+
+    def _any_tripped(self) -> bool:
+        """Whether the table shows any servo's bus watchdog tripped (``clear_tripped`` has work);
+        answered once per new read or write of the watchdog values."""
+        if not TRIPPED_ONCE:
+            return True
+        values, known = self.table.arrays("bus_watchdog")
+        seen = self._tripped_seen
+        if values is seen[0] and known is seen[1]:
+            return seen[2]
+        tripped = values is not None and known is not None and bool((known & (values < 0)).any())
+        self._tripped_seen = (values, known, tripped)
+        return tripped
 
     def set_user_watchdog(self, dxl_id: int, pulses: int) -> None:
         """A bus watchdog the servo keeps whatever its mode (0: off)."""
