@@ -84,6 +84,23 @@ def test_fast_sync_read_matches_plain_sync_read(sim, bus):
     assert plain == fast == {1: raw(sim, 1, "present_input_voltage"), 2: raw(sim, 2, "present_input_voltage")}
 
 
+def test_repeated_sync_reads_check_their_ids_whatever_was_read_before(sim, bus):
+    """Sync read packets are kept between loops; a key that merely equals an earlier one (1.0 == 1)
+    still gets its IDs checked, and each ID list, tuple or not, gets its own packet."""
+    voltage = item(sim, 1, "present_input_voltage")
+    want = {1: raw(sim, 1, "present_input_voltage"), 2: raw(sim, 2, "present_input_voltage")}
+    for _ in range(3):
+        assert bus.sync_read(voltage.address, 2, (1, 2)) == want
+    with pytest.raises(ValueError, match="invalid Dynamixel ID 1.0"):
+        bus.sync_read(voltage.address, 2, (1.0, 2))
+    with pytest.raises(ValueError, match="invalid Dynamixel ID 300"):
+        bus.sync_read(voltage.address, 2, (300,))
+    assert bus.sync_read(voltage.address, 2, [2, 1, 2]) == want
+    assert bus.sync_read(voltage.address, 2, (2,)) == {2: want[2]}
+    reads = [entry.ids for entry in sim.log if entry.instruction == 0x82]
+    assert reads == [(1, 2)] * 3 + [(2, 1), (2,)]
+
+
 # defect 3 ---------------------------------------------------------------------------
 def test_reg_write_then_unicast_action_then_read(sim, bus):
     led = item(sim, 1, "led")

@@ -17,6 +17,7 @@ BROADCAST_SCAN_MIN_IDS = 5
 BROADCAST_PING_SLOT_MS = 3.0
 PING_REPLY_PARAMS = 3
 #: sync read packets kept built (the loop asks for the same few reads over and over)
+_INT_ONLY = {int}
 _PACKET_CACHE_SIZE = 64
 
 
@@ -49,18 +50,23 @@ class Reads(Transport):
         replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
         bus; any other transaction first waits for this read to end, so none is ever lost.
         """
-        order = tuple(unique_ids(ids))
-        if not order:
-            return GroupRead.finished({})
-        key = (address, length, order, fast)
-        packet = self._packets.get(key)
-        if packet is None:
+        given = ids if isinstance(ids, tuple) else tuple(ids)
+        # plain ints only as a key: 1.0 or True would find the entry of 1 and skip the ID check
+        key = (address, length, given, fast) if set(map(type, given)) == _INT_ONLY else None
+        cached = self._packets.get(key) if key is not None else None
+        if cached is None:
+            order = tuple(unique_ids(given))  # raises on a bad ID before anything is cached
+            if not order:
+                return GroupRead.finished({})
             instruction = p.FAST_SYNC_READ if fast else p.SYNC_READ
             packet = p.build_instruction(p.BROADCAST_ID, instruction, p.sync_read_params(address, length, order))
-            if len(self._packets) >= _PACKET_CACHE_SIZE:
-                self._packets.clear()
-            self._packets[key] = packet
-        return self._start_group_read(packet, [(i, length) for i in order], fast,
+            cached = (packet, tuple((i, length) for i in order))
+            if key is not None:
+                if len(self._packets) >= _PACKET_CACHE_SIZE:
+                    self._packets.clear()
+                self._packets[key] = cached
+        packet, expected = cached
+        return self._start_group_read(packet, list(expected), fast,
                                       f"{'fast ' if fast else ''}sync read @{address}x{length}")
 
     def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:

@@ -61,7 +61,8 @@ class Transport(Receiving):
         self._wire_free_at = 0.0
         #: how much later than their wire time replies arrive (learnt, seconds)
         self.reply_lag_s = 0.0
-        self._packets: dict[tuple[int, int, tuple[int, ...], bool], bytes] = {}  # sync read packets by (address, length, ids, fast)
+        # sync read packets and their (id, size) list by (address, length, ids as given, fast)
+        self._packets: dict[tuple[int, int, tuple[int, ...], bool], tuple[bytes, tuple[tuple[int, int], ...]]] = {}
 
     @property
     def device(self) -> str:
