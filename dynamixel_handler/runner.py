@@ -7,9 +7,10 @@ cannot be held" warning (``report``) and with a loop that gave up (``gave_up``).
 default, so ``Runner(handler, bus, 100).run(loops=500)`` drives a bus with nothing else.
 
 With time to spare in a period, each loop runs its phases back to back, hands its states over and
-sleeps; the sleep is cut short by the first command that arrives (applied at once,
-``Handler.apply_now``), later ones in the same period wait for the next loop, so commands add at
-most one sync write per period to the bus. Running flat out (a loop takes longer than a period),
+sleeps. Commands that arrived while its read was on the wire are written as soon as the replies
+are in (before the bookkeeping); the sleep is cut short by the first command that arrives (applied
+at once, ``Handler.apply_now``), later ones in the same period wait for the next loop, so commands
+add at most two sync writes per period to the bus. Running flat out (a loop takes longer than a period),
 each loop's last read is left on the wire while the previous loop is completed and handed over;
 shortly before its replies are due the next commands are taken, and as soon as the replies are in
 the goals go out with the next reads right behind them: the bus then waits on the wire, hardly
@@ -226,7 +227,17 @@ class Runner:
         if self._next_t + self.period > time.monotonic() or h.reply_eta is None:
             self._prev = None
             self._finished = report
+            self._write_arrived_during(report)
             self._end(report)
+
+    def _write_arrived_during(self, report: StepReport) -> None:
+        """Commands that came while this loop's read was on the wire go out as soon as its replies
+        are in, before the loop's bookkeeping; the first command after them still goes out at once."""
+        if self.hooks.wait_commands is None or self.h.reply_eta is None:
+            return
+        self.h.await_replies(report)
+        if self.hooks.take_commands():
+            self.h.apply_now()
 
     def _end(self, report: StepReport) -> None:
         """Store and log what a loop read, then hand it to the owner."""

@@ -237,6 +237,47 @@ def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_l
     assert code == 0
 
 
+def test_a_command_during_a_read_goes_out_after_its_replies_and_the_next_one_still_at_once():
+    """loop_rate 2, twelve servos at 57600 bps with wire timing (a read of ~40 ms): a command that
+    arrives while the loop's read is on the wire is written as soon as the replies are in, and does
+    not use up the period's one write between loops: a second command shortly after is written at
+    once too, not with the next loop half a second later."""
+    ids = list(range(1, 13))
+    bench = Rig({i: XM430 for i in ids}, "loop_rate:=2", "pub_ratio/present.position:=1", "pub_ratio/status:=0",
+                "pub_ratio/goal:=0", "pub_ratio/present.current:=0", "pub_ratio/present.velocity:=0",
+                sim_kwargs={"wire_timing": True})
+    try:
+        pub = bench.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 10)
+        bench.wait(lambda: pub.get_subscription_count() > 0, what="the node subscribing")
+        bench.wait_new(["states"], 2, timeout=10)
+        msg = DxlCommandsX()
+        msg.position_control.id_list = [1]
+        bench.sim.clear_log()
+        deadline = time.monotonic() + 5
+        while not [e for e in list(bench.sim.log) if e.instruction == SYNC_READ] and time.monotonic() < deadline:
+            time.sleep(0.0005)
+        read_at = time.monotonic()
+        msg.position_control.position_deg = [30.0]
+        pub.publish(msg)                                 # while the read is on the wire
+        bench.wait_new(["states"], 1, timeout=5)         # that loop is over
+        time.sleep(0.05)
+        msg.position_control.position_deg = [40.0]
+        second_at = time.monotonic()
+        pub.publish(msg)
+        bench.wait(lambda: bench.sim.servo(1).read("goal_position") == 2048 + round(40.0 / X_DEG), timeout=5,
+                   what="the second goal on the wire")
+        log = list(bench.sim.log)
+        writes = goals_written(log)
+        assert [w[1] for _, w in writes] == [2048 + round(30.0 / X_DEG), 2048 + round(40.0 / X_DEG)]
+        reads = [e.time for e in log if e.instruction == SYNC_READ]
+        assert writes[0][0] - read_at < 0.2, "the command from during the read waited for more than the read"
+        assert writes[1][0] - second_at < 0.2, f"the second command waited {writes[1][0] - second_at:.3f} s"
+        assert not [t for t in reads if reads[0] < t < writes[1][0]], "the second command waited for a loop"
+    finally:
+        code = bench.close()
+    assert code == 0
+
+
 def test_flat_out_survives_wire_faults_and_an_unplugged_adapter(tmp_path):
     """The overlapped loop meets CRC errors, noise, truncated replies and a device that vanishes with
     a read on the wire: it logs, keeps publishing, reconnects, and commands still reach the servos."""
