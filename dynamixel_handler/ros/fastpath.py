@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from functools import partial
 from importlib import metadata
 from typing import Any, Callable, Sequence
 
@@ -125,10 +126,11 @@ def detach(node: Node, sub: Subscription) -> None:
     node._subscriptions.remove(sub)
 
 
-def take(sub: Subscription, raw: bool) -> tuple[Any, dict[str, Any]] | None:
-    """One waiting message of ``sub`` and its info (``source_timestamp``...), or None."""
-    got = sub.handle.take_message(sub.msg_type, raw)
-    return None if got is None else (got[0], got[1])
+def taker(sub: Subscription, raw: bool) -> Callable[[], Any]:
+    """Takes one waiting message of ``sub``: None, or the message and its info (``got[0]``,
+    ``got[1]``: ``source_timestamp``...). One call without arguments, straight to rclpy (the loop
+    takes every command topic every step)."""
+    return partial(sub.handle.take_message, sub.msg_type, raw)
 
 
 class Waiter:

@@ -34,6 +34,7 @@ class CommandIntake:
         self.log = node.get_logger()
         self.detached = detached
         self._entries: list[tuple[Any, Codec, Handler, str]] = []
+        self._takers: list[tuple[Callable[[], Any], tuple[Any, Codec, Handler, str]]] = []
         self._lock = threading.Lock()  # poll() and close() may come from different threads
         self.taken = 0
         self.undecodable = 0
@@ -52,17 +53,17 @@ class CommandIntake:
         sub = lean_subscription(self.node, typ, topic, _never_called, depth, raw=self.raw)
         fastpath.detach(self.node, sub)  # the executor does not see it; poll() takes it
         self._entries.append((sub, codec, handler, topic))
+        self._takers.append((fastpath.taker(sub, self.raw), self._entries[-1]))
 
     def poll(self) -> int:
         """Take every waiting message of every command topic and hand them over in publish order.
         Returns the number of messages handled."""
         batch: list[tuple[int, int, Any, tuple[Any, Codec, Handler, str]]] = []
         with self._lock:
-            for entry in self._entries:
-                sub = entry[0]
+            for take, entry in self._takers:
                 while True:
                     try:  # close() destroys under the same lock, so no handle guard is needed
-                        got = fastpath.take(sub, self.raw)
+                        got = take()
                     except Exception as exc:  # a destroyed handle or a middleware error: never fatal
                         self.log.error(f"{entry[3]}: take failed: {type(exc).__name__}: {exc}")
                         break
@@ -83,10 +84,10 @@ class CommandIntake:
         node that is not active). Returns the number of messages dropped."""
         count = 0
         with self._lock:
-            for entry in self._entries:
+            for take, _ in self._takers:
                 while True:
                     try:
-                        got = fastpath.take(entry[0], self.raw)
+                        got = take()
                     except Exception:  # a destroyed handle: nothing more to take
                         break
                     if got is None:
@@ -128,6 +129,7 @@ class CommandIntake:
                 except Exception:  # already gone with the node
                     pass
             self._entries.clear()
+            self._takers.clear()
 
 
 def _never_called(msg) -> None:  # pragma: no cover - detached subscriptions have no executor
