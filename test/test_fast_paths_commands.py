@@ -186,3 +186,101 @@ def test_values_the_sum_check_lets_through_are_finite():
     that overflows only sends finite values the per-servo way)."""
     for values in ([1.0, float("nan")], [float("inf"), -float("inf")], [1e308, 1e308], [float("-inf"), 2.0]):
         assert not math.isfinite(sum(values))
+
+
+# ============================================================================ bundles
+def _bundles() -> list:
+    from dynamixel_handler_msgs.msg import DxlCommandsAll, DxlCommandsX
+    empty = DxlCommandsX()
+    mixed = DxlCommandsX()
+    mixed.position_control.id_list, mixed.position_control.position_deg = [1, 2], [10.0, 20.0]
+    mixed.velocity_control.velocity_deg_s = [5.0]  # values without IDs: nothing to do
+    mixed.gain.id_list, mixed.gain.position_p_gain_pulse = [1], [800, 900]  # lengths differ: warned
+    mixed.limit.id_list, mixed.limit.temperature_limit_degc = [2], [70.0]
+    too_many = DxlCommandsX()
+    too_many.extended_position_control.id_list = [1] * 300  # refused as a whole
+    too_many.status.id_list, too_many.status.torque = [1, 2], [True, True]
+    ids_alone = DxlCommandsX()
+    ids_alone.velocity_control.id_list = [2]  # switches the mode, writes no goal
+    every = DxlCommandsAll()
+    every.goal.id_list, every.goal.position_deg, every.goal.current_ma = [1, 2], [30.0, 40.0], [1.0]
+    every.extra.id_list, every.extra.led.red_percent = [1], [100.0]
+    return [("commands/x", empty), ("commands/x", mixed), ("commands/x", too_many), ("commands/x", ids_alone),
+            ("commands/all", every), ("commands/all", DxlCommandsAll())]
+
+
+def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[dict]]:
+    """The bundles, as their bytes decode, handed to the node's handler of their topic: what was
+    queued, the warnings and the registers after each."""
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.serialization import serialize_message
+
+    from dynamixel_handler.ros import command_topics
+    from dynamixel_handler.ros.cdr import Codec
+    from dynamixel_handler.ros.intake import CommandIntake
+
+    monkeypatch.setattr(command_topics, "SKIP_EMPTY", skip)
+    sim = VirtualBus({1: X, 2: X540}, baudrate=1_000_000)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus.open()
+    context = rclpy.Context()
+    node = None
+    try:
+        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 2,
+                           "mode_change_interval_sec": 0.0, "init/expected_servo_num": 2})
+        handler = Handler(bus, config)
+        handler.start()
+        rclpy.init(context=context)
+        node = Node(f"bundles_{skip}", context=context)
+        lines: list[str] = []
+        handler.log = logging.getLogger(f"bundles_{skip}")
+        handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(
+            f"{r.levelname} {r.getMessage()}")})())
+        handler.log.setLevel(logging.INFO)
+        queued: list[str] = []
+        queue = handler.queue
+
+        def record(what, op) -> None:
+            queued.append(what)
+            queue(what, op)
+        handler.queue = record
+        intake = CommandIntake(node, raw=True, detached=True)
+        command_topics.CommandTopics(intake, Commander(handler), ("X",), command_line=False)
+        handlers = {entry[3]: entry[2] for entry in intake._entries}
+        registers = []
+        for topic, msg in _bundles():
+            handlers[f"dynamixel/{topic}"](Codec.of(type(msg)).decode(serialize_message(msg)))
+            handler.step()
+            handler.step()  # its reads are answered after the writes before them
+            registers.append({i: {r: sim.servo(i).read(r) for r in ("goal_position", "goal_velocity", "operating_mode",
+                                                                    "position_p_gain", "temperature_limit", "led")}
+                              for i in (1, 2)})
+        intake.close()
+        handler.shutdown()
+        return queued, lines, registers
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        bus.close()
+        sim.close()
+
+
+def test_bundle_parts_without_ids_skipped_equal_every_part_handled(monkeypatch):
+    skipped = _run_bundles(True, monkeypatch)
+    every = _run_bundles(False, monkeypatch)
+    assert skipped == every
+    queued, lines, registers = skipped
+    assert "x position_control" in queued and "x velocity_control" in queued
+    assert any("'position_p_gain_pulse' has 2 values for 1 IDs" in line for line in lines), lines
+    assert any("more than the 253" in line for line in lines), lines
+    assert registers[1][1]["goal_position"] == 2048 + round(10 / (360 / 4096))
+
+
+def test_ids_of_a_decoded_message_are_python_ints():
+    from dynamixel_handler.ros.command_topics import unpack
+    ids, fields = unpack({"id_list": np.array([1, 65535], dtype=np.uint16), "position_deg": np.array([1.0, 2.0])})
+    assert ids == [1, 65535] and all(type(i) is int for i in ids)
+    assert unpack({"id_list": [3, np.uint16(4)], "x": [1.0]})[0] == [3, 4]
+    assert list(fields) == ["position_deg"]

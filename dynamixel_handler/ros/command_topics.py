@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Callable
 
+import numpy as np
+
 from dynamixel_handler_msgs.msg import (
     DxlCommandsAll,
     DxlCommandsP,
@@ -60,6 +62,11 @@ CONTROL_TYPES = {
 COMMANDS_TYPES = {"X": ("x", DxlCommandsX), "P": ("p", DxlCommandsP), "PRO": ("pro", DxlCommandsPro)}
 GROUP_TYPES = {"status": DynamixelStatus, "goal": DynamixelGoal, "gain": DynamixelGain, "limit": DynamixelLimit,
                "extra": DynamixelExtra}
+#: the parts of a bundle (commands/x, ...) after its control parts, in the order they apply
+BUNDLE_GROUPS = ("status", "goal", "gain", "limit", "extra")
+#: False: every part of a bundle goes through its handler, also one with an empty id_list (which
+#: does nothing there); for tests and comparisons
+SKIP_EMPTY = True
 #: every message type a command topic carries
 COMMAND_TYPES = (DxlCommandsAll, DynamixelShortcut, *(t for _, t in COMMANDS_TYPES.values()),
                  *(t for types in CONTROL_TYPES.values() for t in types.values()), *GROUP_TYPES.values())
@@ -76,7 +83,8 @@ def unpack(msg: dict) -> tuple[list[int], dict[str, list]]:
             elif name != "id_list" or prefix:
                 fields[prefix + name] = value
     walk(msg, "")
-    return [int(i) for i in msg["id_list"]], fields
+    ids = msg["id_list"]
+    return ids.tolist() if isinstance(ids, np.ndarray) and ids.dtype.kind in "iu" else [int(i) for i in ids], fields
 
 
 class CommandTopics:
@@ -137,10 +145,14 @@ class CommandTopics:
         prefix = "commands/" + (COMMANDS_TYPES[series][0] if series else "all")
         if series is not None:
             for control in CONTROL_TYPES[series]:
-                self._control(series, control, msg[control], f"{prefix}.{control}")
-        for group in ("status", "goal", "gain", "limit", "extra"):
+                part = msg[control]
+                if not SKIP_EMPTY or len(part["id_list"]):  # most parts of a bundle are empty: nothing to do
+                    self._control(series, control, part, f"{prefix}.{control}")
+        for group in BUNDLE_GROUPS:
             if group in msg:
-                self._group(group, msg[group], f"{prefix}.{group}")
+                part = msg[group]
+                if not SKIP_EMPTY or len(part["id_list"]):
+                    self._group(group, part, f"{prefix}.{group}")
 
     def _shortcut(self, msg: dict) -> None:
         if len(msg["id_list"]) > MAX_IDS:
