@@ -21,6 +21,7 @@ warns, changes modes and clamps. Both give the same pulses, writes and warnings 
 from __future__ import annotations
 
 import math
+import operator
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
@@ -86,7 +87,7 @@ def _table_bounds(table: ServoTable) -> tuple[np.ndarray, np.ndarray, np.ndarray
     key = (table, table.version, *table.arrays("operating_mode"), *table.arrays("min_position_limit"),
            *table.arrays("max_position_limit"))
     hit = _cache.get(id(table))
-    if hit is not None and len(hit[0]) == len(key) and all(a is b for a, b in zip(hit[0], key)):
+    if hit is not None and len(hit[0]) == len(key) and all(map(operator.is_, hit[0], key)):
         return hit[1]
     n = len(table)
     modes, mode_known = table.pulses("operating_mode"), table.known("operating_mode")
@@ -148,7 +149,7 @@ class Targets:
         self._has: dict[str, bool] = {}
         self._mode: tuple[Any, Any, str | None] = (None, None, None)
         self._steps: dict[str, list[tuple[float, float, int, int]]] = {}
-        self._bounds: tuple[Any, list[tuple[int, int]] | None] = (None, None)
+        self._bounds: tuple[Any, tuple[list[int], list[int]] | None] = (None, None)
 
     def has(self, item: str) -> bool:
         """Every servo's model has ``item`` and its unit (``units.unit_to_pulse`` takes it)."""
@@ -158,7 +159,7 @@ class Targets:
                 not units._plan(self.models, item).missing.any()
         return found
 
-    def to_pulses(self, item: str, values: list[float], bounds: list[tuple[int, int]] | None
+    def to_pulses(self, item: str, values: list[float], bounds: tuple[list[int], list[int]] | None
                   ) -> tuple[list[int], bool]:
         """``units.unit_to_pulse`` of finite values in plain Python (a few servos: cheaper than
         numpy's calls), and whether every pulse is within ``bounds``."""
@@ -178,18 +179,18 @@ class Targets:
                 out.append(math.trunc(scaled + math.copysign(0.5, scaled)))  # half away from zero
         if bounds is None:
             return out, False
-        return out, all(lo <= p <= hi for p, (lo, hi) in zip(out, bounds))
+        return out, all(map(operator.le, bounds[0], out)) and all(map(operator.le, out, bounds[1]))
 
-    def bounds(self) -> list[tuple[int, int]] | None:
-        """Each servo's goal position bounds as the table knows them (``within``); None when the
-        table lacks a value they need."""
+    def bounds(self) -> tuple[list[int], list[int]] | None:
+        """The servos' goal position bounds as the table knows them (``within``): (lows, highs);
+        None when the table lacks a value they need."""
         if not ENABLED:
             return None
         table_bounds = _table_bounds(self.table)
         if self._bounds[0] is not table_bounds:
             lo, hi, ok = table_bounds
             pos = self.positions
-            self._bounds = (table_bounds, list(zip(lo[pos].tolist(), hi[pos].tolist())) if ok[pos].all() else None)
+            self._bounds = (table_bounds, (lo[pos].tolist(), hi[pos].tolist()) if ok[pos].all() else None)
         return self._bounds[1]
 
     def mode(self) -> str | None:
