@@ -6,7 +6,7 @@ from dynamixel_sdk.protocol2_packet_handler import Protocol2PacketHandler
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynamixel_handler.protocol import crc16, crc16_bytewise
+from dynamixel_handler.protocol import HEADER, FrameReader, crc16, crc16_bytewise
 from dynamixel_handler.protocol import host as p
 
 _SDK = Protocol2PacketHandler()
@@ -123,3 +123,69 @@ def test_fast_reply_skips_a_silent_servo_in_the_middle():
     reply.feed(wire)
     assert not reply.complete
     assert {i: int.from_bytes(s.params, "little") for i, s in reply.segments().items()} == {3: 166, 4: 1023}
+
+
+class _ByteAtATimeReader:
+    """The packet reader as it was first written (header search, one packet cut off the buffer at a
+    time): the reference the offset-based ``FrameReader`` must agree with."""
+
+    def __init__(self, min_length: int) -> None:
+        self.min_length, self.crc_errors, self.discarded_bytes, self.buf = min_length, 0, 0, bytearray()
+
+    def frames(self, data: bytes) -> list[tuple[int, bytes, int]]:
+        buf = self.buf
+        buf += data
+        out = []
+        while True:
+            start = buf.find(HEADER)
+            if start < 0:
+                keep = next((k for k in (3, 2, 1) if len(buf) >= k and buf[-k:] == HEADER[:k]), 0)
+                self.discarded_bytes += len(buf) - keep
+                del buf[: len(buf) - keep]
+                return out
+            self.discarded_bytes += start
+            del buf[:start]
+            if len(buf) < 7:
+                return out
+            packet_id, length = buf[4], buf[5] | (buf[6] << 8)
+            if packet_id in (0xFD, 0xFF) or length < self.min_length or length > 4096:
+                self.discarded_bytes += 1
+                del buf[:1]
+                continue
+            total = 7 + length
+            if len(buf) < total:
+                return out
+            if crc16_bytewise(buf[: total - 2]) != buf[total - 2] | (buf[total - 1] << 8):
+                self.crc_errors += 1
+                self.discarded_bytes += 1
+                del buf[:1]
+                continue
+            out.append((packet_id, p.unstuff(bytes(buf[7: total - 2])), total))
+            del buf[:total]
+
+
+_pieces = st.one_of(
+    st.builds(lambda i, body: p.build_status(i, 0, body), st.integers(0, 252),
+              st.binary(max_size=12) | st.just(b"\xff\xff\xfd\x00\xff\xff\xfd")),
+    st.builds(lambda i, body: p.build_instruction(i, 0x03, body), st.integers(0, 252), st.binary(max_size=8)),
+    st.builds(lambda i, cut: p.build_status(i, 0, b"\x01\x02\x03")[:cut], st.integers(0, 252), st.integers(1, 12)),
+    st.builds(lambda i, k: (lambda pk: pk[:k] + bytes([pk[k] ^ 0x55]) + pk[k + 1:])(p.build_status(i, 0, b"\x07\x08")),
+              st.integers(0, 252), st.integers(4, 12)),
+    st.binary(max_size=6), st.just(HEADER), st.just(HEADER[:3]), st.just(b"\xff\xff\xfd\x00\xfd"),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_pieces, max_size=12), st.lists(st.integers(1, 40), min_size=1, max_size=20), st.sampled_from([3, 4]))
+def test_the_packet_reader_equals_the_byte_at_a_time_reader_on_any_stream(pieces, cuts, min_length):
+    """Packets, noise, lone and partial headers, truncated and corrupted packets, fed in arbitrary
+    chunks: the same packets, CRC error and discarded byte counts, and bytes held, as the reference."""
+    stream = b"".join(pieces)
+    reader, reference = FrameReader(min_length), _ByteAtATimeReader(min_length)
+    pos, k = 0, 0
+    while pos < len(stream):
+        chunk = stream[pos: pos + cuts[k % len(cuts)]]
+        pos, k = pos + len(chunk), k + 1
+        assert reader.frames(chunk) == reference.frames(chunk)
+        assert (reader.crc_errors, reader.discarded_bytes, reader.pending_bytes) == \
+               (reference.crc_errors, reference.discarded_bytes, len(reference.buf))

@@ -81,6 +81,7 @@ class Receiving:
             if not data:
                 break
             self.stats.bytes_rx += len(data)
+            answered = False
             for status in stream.feed(data):
                 size = pending.get(status.dxl_id)
                 if size is None or (len(status.params) != size and not status.refused):
@@ -90,6 +91,8 @@ class Receiving:
                 del pending[status.dxl_id]
                 got[status.dxl_id] = status
                 self._note_status(status)
+                answered = True
+            if answered:  # each reply restarts the wait for the next
                 deadline = max(deadline, time.monotonic() + gap_s)
         if pending:
             self.stats.timeouts += 1

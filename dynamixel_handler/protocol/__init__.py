@@ -163,38 +163,35 @@ class FrameReader:
         buf = self._buf
         buf += data
         out: list[tuple[int, bytes, int]] = []
-        while self._seek_header():
-            if len(buf) < 7:
-                return out
-            packet_id, length = buf[4], buf[5] | (buf[6] << 8)
+        pos, size = 0, len(buf)  # packets are read at an offset; the buffer is cut once at the end
+        while True:
+            start = buf.find(HEADER, pos)
+            if start < 0:  # no header: keep what may be the start of one
+                keep = next((k for k in (3, 2, 1) if size - pos >= k and buf[size - k:] == HEADER[:k]), 0)
+                self.discarded_bytes += size - keep - pos
+                pos = size - keep
+                break
+            self.discarded_bytes += start - pos
+            pos = start
+            if size - pos < 7:
+                break
+            packet_id, length = buf[pos + 4], buf[pos + 5] | (buf[pos + 6] << 8)
             if packet_id in (0xFD, 0xFF) or length < self.min_length or length > MAX_PACKET_LENGTH:
                 self.discarded_bytes += 1
-                del buf[:1]
+                pos += 1
                 continue
-            total = 7 + length
-            if len(buf) < total:
-                return out
-            if crc16(memoryview(buf)[: total - 2]) != buf[total - 2] | (buf[total - 1] << 8):
+            end = pos + 7 + length
+            if end > size:
+                break
+            with memoryview(buf) as view:
+                crc = crc16(view[pos: end - 2])
+            if crc != buf[end - 2] | (buf[end - 1] << 8):
                 self.crc_errors += 1
                 self.discarded_bytes += 1
-                del buf[:1]
+                pos += 1
                 continue
-            body = unstuff(bytes(buf[7: total - 2]))
-            del buf[:total]
-            out.append((packet_id, body, total))
+            out.append((packet_id, unstuff(bytes(buf[pos + 7: end - 2])), end - pos))
+            pos = end
+        del buf[:pos]
         return out
 
-    def _seek_header(self) -> bool:
-        """Drop the bytes before the next header; False when there is none yet (a possible partial
-        header at the end is kept)."""
-        buf = self._buf
-        start = buf.find(HEADER)
-        if start < 0:
-            keep = next((k for k in (3, 2, 1) if len(buf) >= k and buf[-k:] == HEADER[:k]), 0)
-            self.discarded_bytes += len(buf) - keep
-            del buf[: len(buf) - keep]
-            return False
-        if start:
-            self.discarded_bytes += start
-            del buf[:start]
-        return True
