@@ -1,19 +1,25 @@
 """Servo table -> state messages, as nested dicts of numpy arrays (``cdr.Codec`` encodes them to
-bytes or builds rclpy objects from them). Items a series lacks come out NaN / 0 / "" / false."""
+bytes or builds rclpy objects from them). Items a series lacks come out NaN / 0 / "" / false.
+
+``Cache`` keeps unit conversions and group messages from one loop to the next: the servo table
+replaces an item's arrays when it stores new values and never changes them in place
+(``ServoTable.arrays``), so the same arrays give the same message, which is built once and then
+kept read-only (``lean.Patcher`` skips re-encoding what it has already written)."""
 from __future__ import annotations
 
 import array
 import math
-from typing import Any, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 from builtin_interfaces.msg import Time
 
 from .. import units
-from ..groups import GAIN, GOAL, LIMIT, MODE_NAMES, PRESENT
+from ..groups import ERROR_ITEMS, GAIN, GOAL, LIMIT, MODE_NAMES, PRESENT, STATUS_ITEMS
 from ..servos import ServoTable
 
 Tree = dict[str, Any]
+Units = Callable[[str], np.ndarray]  # item -> its values in physical units (``ServoTable.units``)
 #: DynamixelExtra.model holds the series, spelled as the design does
 SERIES_NAMES = {"X": "X", "P": "P", "PRO": "Pro"}
 
@@ -50,26 +56,28 @@ def status(table: ServoTable) -> Tree:
             "mode": [MODE_NAMES.get(int(v), "") if k else "" for v, k in zip(table.pulses("operating_mode"), known)]}
 
 
-def present(table: ServoTable, keys: Iterable[str] | None = None) -> Tree:
+def present(table: ServoTable, keys: Iterable[str] | None = None, units: Units | None = None) -> Tree:
     """Present values; with ``keys`` only those items are filled (the others stay empty)."""
+    units = units or table.units
     msg: Tree = {"id_list": u16(table.ids)}
     wanted = set(PRESENT) if keys is None else set(keys)
     for key, (item, field) in PRESENT.items():
         if key in wanted:
-            msg[field] = table.units(item)
+            msg[field] = units(item)
     return msg
 
 
-def _in_units(table: ServoTable, fields: Mapping[str, str]) -> Tree:
+def _in_units(table: ServoTable, fields: Mapping[str, str], units: Units | None = None) -> Tree:
     """id_list and each item of ``fields`` (item -> message field) in physical units."""
+    units = units or table.units
     msg: Tree = {"id_list": u16(table.ids)}
     for item, field in fields.items():
-        msg[field] = table.units(item)
+        msg[field] = units(item)
     return msg
 
 
-def goal(table: ServoTable) -> Tree:
-    return _in_units(table, GOAL)
+def goal(table: ServoTable, units: Units | None = None) -> Tree:
+    return _in_units(table, GOAL, units)
 
 
 def gain(table: ServoTable) -> Tree:
@@ -79,8 +87,8 @@ def gain(table: ServoTable) -> Tree:
     return msg
 
 
-def limit(table: ServoTable) -> Tree:
-    return _in_units(table, LIMIT)
+def limit(table: ServoTable, units: Units | None = None) -> Tree:
+    return _in_units(table, LIMIT, units)
 
 
 def error(table: ServoTable) -> Tree:
@@ -137,32 +145,118 @@ def extra(table: ServoTable) -> Tree:
     }
 
 
-def debug(table: ServoTable, status_msg: Tree | None = None) -> Tree:
+def debug(table: ServoTable, status_msg: Tree | None = None, units: Units | None = None) -> Tree:
+    units = units or table.units
     msg: Tree = {"status": status_msg if status_msg is not None else status(table)}
     for field, now, want in (("current_ma", "present_current", "goal_current"),
                              ("velocity_deg_s", "present_velocity", "goal_velocity"),
                              ("position_deg", "present_position", "goal_position")):
-        msg[field] = {"present": table.units(now), "goal": table.units(want)}
+        msg[field] = {"present": units(now), "goal": units(want)}
     return msg
 
 
 class Parts:
-    """The group messages of one loop, each built once however many topics carry it."""
+    """The group messages of one loop, each built once however many topics carry it; with a
+    ``Cache``, taken from the previous loops when the table arrays they come from are the same."""
 
     BUILDERS = {"status": status, "goal": goal, "gain": gain, "limit": limit, "error": error, "extra": extra}
 
-    def __init__(self, table: ServoTable, present_keys: set[str], outdated_present: bool) -> None:
+    def __init__(self, table: ServoTable, present_keys: set[str], outdated_present: bool,
+                 cache: Cache | None = None) -> None:
         self.table = table
         self.present_keys = None if outdated_present else present_keys
         self._built: dict[str, Tree] = {}
+        self.cache = cache
+        if cache is not None:
+            cache.check(table)
+
+    def units(self, item: str) -> np.ndarray:
+        return self.table.units(item) if self.cache is None else self.cache.units(self.table, item)
 
     def get(self, name: str) -> Tree:
         msg = self._built.get(name)
         if msg is None:
-            msg = (present(self.table, self.present_keys) if name == "present"
-                   else self.BUILDERS[name](self.table))
-            self._built[name] = msg
+            msg = self._built[name] = self._cached(name) if self.cache is not None else self._build(name)
         return msg
+
+    def _build(self, name: str) -> Tree:
+        if name == "present":
+            return present(self.table, self.present_keys, self.units)
+        if name in ("goal", "limit"):
+            return _in_units(self.table, GOAL if name == "goal" else LIMIT, self.units)
+        return self.BUILDERS[name](self.table)
+
+    def _cached(self, name: str) -> Tree:
+        assert self.cache is not None
+        table, keys = self.table, self.present_keys
+        if name == "present":  # read again in most loops: built each time, from the kept conversions
+            msg: Tree = {"id_list": self.cache.id_list}
+            units = self.units
+            for key, (item, field) in PRESENT.items():
+                if keys is None or key in keys:
+                    msg[field] = units(item)
+            return msg
+        if name == "status":  # ping is copied with the table (snapshot): compared by value
+            return self.cache.group(name, table, STATUS_ITEMS, lambda: self._build(name), table.ping.tobytes())
+        if name in _SOURCES:
+            return self.cache.group(name, table, _SOURCES[name], lambda: self._build(name))
+        return self._build(name)  # extra: seldom read, built from many items
+
+
+#: the table items each cached group message is built from (besides the IDs and models)
+_SOURCES: dict[str, tuple[str, ...]] = {"goal": tuple(GOAL), "limit": tuple(LIMIT), "gain": tuple(GAIN),
+                                        "error": ERROR_ITEMS}
+
+
+class Cache:
+    """Unit conversions and group messages kept from loop to loop (see the module's doc); all
+    forgotten when the servos (IDs or models) change. What it hands out is read-only."""
+
+    def __init__(self) -> None:
+        self._ids: list[int] | None = None
+        self._models: list[Any] | None = None
+        self._units: dict[str, tuple[Any, Any, np.ndarray]] = {}
+        self._groups: dict[str, tuple[list[tuple[Any, Any]], Any, Tree]] = {}
+        self.id_list = u16([])
+
+    def check(self, table: ServoTable) -> None:
+        if table.ids != self._ids or table.models != self._models:
+            self._ids, self._models = list(table.ids), list(table.models)
+            self._units.clear()
+            self._groups.clear()
+            self.id_list = u16(table.ids)
+            self.id_list.setflags(write=False)
+
+    def units(self, table: ServoTable, item: str) -> np.ndarray:
+        raw, known = table.arrays(item)
+        hit = self._units.get(item)
+        if hit is not None and hit[0] is raw and hit[1] is known:
+            return hit[2]
+        value = table.units(item)
+        self._units[item] = (raw, known, value)
+        return value
+
+    def group(self, name: str, table: ServoTable, items: Iterable[str], build: Callable[[], Tree],
+              also: Any = None) -> Tree:
+        """The message ``build()`` makes from ``items`` (and ``also``, compared by value)."""
+        sources = [table.arrays(item) for item in items]
+        hit = self._groups.get(name)
+        if hit is not None and hit[1] == also and len(hit[0]) == len(sources) and all(
+                a[0] is b[0] and a[1] is b[1] for a, b in zip(hit[0], sources)):
+            return hit[2]
+        msg = _read_only(build())
+        msg["id_list"] = self.id_list  # the same values, as the same array every loop
+        self._groups[name] = (sources, also, msg)
+        return msg
+
+
+def _read_only(tree: Tree) -> Tree:
+    for value in tree.values():
+        if isinstance(value, np.ndarray):
+            value.setflags(write=False)
+        elif isinstance(value, dict):
+            _read_only(value)
+    return tree
 
 
 def states(table: ServoTable, stamp: float, groups: set[str], present_keys: set[str],

@@ -38,6 +38,8 @@ Batch = list[tuple[TreePublisher, dict[str, Any]]]
 class StatePublishers:
     def __init__(self, node: Node, raw: bool, per_group: bool, outdated_present: bool) -> None:
         self.outdated_present = outdated_present
+        #: unit conversions and group messages kept from loop to loop (``convert.Cache``)
+        self.cache = convert.Cache()
         self.states = TreePublisher(node, DxlStates, "dynamixel/states", 10, raw)
         self.debug = TreePublisher(node, DynamixelDebug, "dynamixel/debug", 10, raw)
         self.by_group: dict[str, TreePublisher] = {}
@@ -51,12 +53,12 @@ class StatePublishers:
         if not (groups or present_keys):
             return []
         out: Batch = []
-        parts = convert.Parts(table, present_keys, self.outdated_present)
+        parts = convert.Parts(table, present_keys, self.outdated_present, self.cache)
         if self.states.wanted():
             out.append((self.states, convert.states(table, stamp, groups, present_keys, parts=parts,
                                                     outdated_present=self.outdated_present)))
         if (present_keys or "status" in groups) and self.debug.wanted():
-            out.append((self.debug, convert.debug(table, parts.get("status"))))
+            out.append((self.debug, convert.debug(table, parts.get("status"), parts.units)))
         for name in self._due(groups, present_keys) if self.by_group else ():
             if self.by_group[name].wanted():
                 out.append((self.by_group[name], parts.get(name)))

@@ -1,0 +1,256 @@
+"""The state publishing path's fast paths against the plain path: the same table gives the same
+bytes on the wire.
+
+- ``lean.Patcher`` writes each value over the bytes of the previous one: equal to ``Codec.encode``
+  (and read by the middleware as the rclpy message built the plain way) over sequences of values
+  that keep or replace arrays, change a sequence's length or a string, and give or leave out parts.
+- ``convert.Cache`` keeps unit conversions and group messages from loop to loop: the messages it
+  gives, encoded by the patcher, are byte for byte those built afresh from the table and encoded
+  field by field, over random tables (1 and 30 servos, IDs and models changing between loops,
+  items never read, so NaN / unknown), every mix of groups read, and a real handler on a virtual bus.
+"""
+from __future__ import annotations
+
+import inspect
+import random
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from rclpy.serialization import deserialize_message, serialize_message
+
+import dynamixel_handler_msgs.msg as msgs
+from dynamixel_handler.control_table import model_by_number
+from dynamixel_handler.groups import GAIN, GOAL, LIMIT, PRESENT
+from dynamixel_handler.ros import convert
+from dynamixel_handler.ros.cdr import Codec
+from dynamixel_handler.ros.lean import Patcher
+from dynamixel_handler.ros.publishers import SAME_NAME, STATE_TOPICS, StatePublishers
+from dynamixel_handler.servos import ServoTable
+
+from support.rig import PRO, X540, P, X
+
+MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
+_INT = {"u1": (0, 255), "i1": (-128, 127), "u2": (0, 65535), "i2": (-32768, 32767),
+        "u4": (0, 2**32 - 1), "i4": (-2**31, 2**31 - 1), "u8": (0, 2**64 - 1), "i8": (-2**63, 2**63 - 1)}
+
+
+# ============================================================================ the patcher
+def _same(a, b) -> bool:
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, np.ndarray):
+        return a.dtype == b.dtype and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+    return a == b or (a != a and b != b)  # NaN
+
+
+def read_alike(codec: Codec, ours: bytes, value: dict) -> bool:
+    """The middleware reads ``ours`` as the rclpy message built the plain way (NaN equal to NaN)."""
+    return _same(codec.from_message(deserialize_message(ours, codec.msg_class)),
+                 codec.from_message(codec.to_message(value)))
+
+
+def _number(code: str) -> st.SearchStrategy:
+    if code == "?":
+        return st.booleans()
+    if code[0] == "f":
+        return st.floats(allow_nan=True, width=32 if code == "f4" else 64)
+    return st.integers(*_INT[code])
+
+
+def _read_only(values: list, code: str) -> np.ndarray:
+    arr = np.array(values, dtype=code)
+    arr.setflags(write=False)
+    return arr
+
+
+def values_after(codec: Codec, previous: dict | None) -> st.SearchStrategy:
+    """A value that may keep each field of ``previous`` (the very same object: a kept read-only
+    array, a kept part), or give a new one: another length, a plain list, a writable array, left out."""
+    fields: dict[str, st.SearchStrategy] = {}
+    for name, kind, detail in codec.fields:
+        old = None if previous is None else previous.get(name)
+        if kind == "message":
+            new = values_after(detail, old if isinstance(old, dict) else None)
+        elif kind == "array":
+            code = detail[0]
+            items = st.lists(_number(code), max_size=4)
+            new = st.one_of(items, items.map(lambda v, c=code: _read_only(v, c)),
+                            items.map(lambda v, c=code: np.array(v, dtype=c)))
+        elif kind == "strings":
+            new = st.lists(st.text("abc", max_size=3), max_size=3)
+        elif kind == "string":
+            new = st.text("xyz", max_size=3)
+        else:
+            new = _number(detail[0])
+        fields[name] = st.one_of(st.just(old), new) if name in (previous or {}) else new
+    return st.fixed_dictionaries({}, optional=fields)
+
+
+@pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_patched_bytes_equal_the_plain_encoding_over_a_sequence(msg_class, data):
+    codec = Codec.of(msg_class)
+    patcher = Patcher(codec)
+    value = None
+    for _ in range(6):
+        value = data.draw(values_after(codec, value))
+        ours = patcher.encode(value)
+        assert ours == codec.encode(value)
+        assert read_alike(codec, ours, value)
+
+
+def test_a_writable_array_changed_in_place_is_written_again():
+    codec = Codec.of(msgs.DynamixelPresent)
+    patcher = Patcher(codec)
+    arr = np.array([1.0, 2.0])
+    value = {"id_list": [1, 2], "position_deg": arr}
+    assert patcher.encode(value) == codec.encode(value)
+    arr[1] = 7.5  # the same object, another content
+    assert patcher.encode(value) == codec.encode(value)
+    kept = np.array([3.0, 4.0])
+    kept.setflags(write=False)
+    value["position_deg"] = kept
+    first = patcher.encode(value)
+    assert patcher.encode(dict(value)) == first == codec.encode(value)
+
+
+def test_the_middleware_reads_the_patched_bytes_as_its_own():
+    codec = Codec.of(msgs.DxlStates)
+    patcher = Patcher(codec)
+    for k in range(5):
+        value = {"stamp": {"sec": 100 + k, "nanosec": 999_999_999 - k},
+                 "present": {"id_list": [1, 2, 3], "position_deg": [k, np.nan, -k * 0.5]},
+                 "status": {"id_list": [1, 2, 3], "mode": ["position", "velocity" if k % 2 else "pwm", ""]}}
+        msg = codec.to_message(value)
+        assert read_alike(codec, patcher.encode(value), value)
+        assert _same(codec.decode(patcher.encode(value)), codec.decode(serialize_message(msg)))
+
+
+# ============================================================================ the kept messages
+ITEMS = sorted({item for item, _ in PRESENT.values()} | set(GOAL) | set(LIMIT) | set(GAIN)
+               | {"operating_mode", "torque_enable", "hardware_error_status", "led", "moving", "moving_status",
+                  "drive_mode", "shutdown", "startup_configuration", "protocol_type", "firmware_version"})
+MODELS = [model_by_number(n) for n in (X, X540, P, PRO)]
+GROUPS = ("status", "goal", "gain", "limit", "error", "extra_dynamic", "extra_static")
+
+
+def _topics(parts: convert.Parts, table: ServoTable, stamp: float, groups: set[str], present: set[str],
+            outdated: bool) -> dict[str, dict]:
+    """Every message one loop publishes (all topics subscribed), as ``StatePublishers.messages``."""
+    out = {"states": convert.states(table, stamp, groups, present, outdated, parts=parts),
+           "debug": convert.debug(table, parts.get("status"), parts.units)}
+    for name in StatePublishers._due(groups, present):
+        out[name] = parts.get(name)
+    return out
+
+
+def _codec(topic: str) -> Codec:
+    types = dict(STATE_TOPICS, states=msgs.DxlStates, debug=msgs.DynamixelDebug)
+    return Codec.of(types[topic])
+
+
+class TwoPaths:
+    """The plain path (messages built afresh, encoded field by field) next to the fast one
+    (``convert.Cache`` and a ``Patcher`` per topic, kept across loops)."""
+
+    def __init__(self, outdated: bool) -> None:
+        self.outdated = outdated
+        self.cache = convert.Cache()
+        self.patchers: dict[str, Patcher] = {}
+        self.compared = 0
+
+    def loop(self, table: ServoTable, stamp: float, groups: set[str], present: set[str]) -> None:
+        snap = table.snapshot()  # as the node hands the publishing thread
+        plain = _topics(convert.Parts(snap, present, self.outdated), snap, stamp, groups, present, self.outdated)
+        fast = _topics(convert.Parts(snap, present, self.outdated, self.cache), snap, stamp, groups, present,
+                       self.outdated)
+        assert plain.keys() == fast.keys()
+        for topic, value in plain.items():
+            codec = _codec(topic)
+            ours = self.patchers.setdefault(topic, Patcher(codec)).encode(fast[topic])
+            assert ours == codec.encode(value), (topic, groups, present, table.ids)
+            assert read_alike(codec, ours, value)
+            self.compared += 1
+
+
+def _store_some(table: ServoTable, rng: random.Random, when: float) -> None:
+    """New values for some items of some servos (the others keep theirs, or stay unknown)."""
+    n = len(table)
+    for item in rng.sample(ITEMS, rng.randint(0, len(ITEMS) // 2)):
+        positions = np.array(sorted(rng.sample(range(n), rng.randint(0, n))), dtype=np.int64)
+        pulses = np.array([rng.randint(-5000, 70000) for _ in positions], dtype=np.int64)
+        table.store(item, positions, pulses, when)
+
+
+@pytest.mark.parametrize("outdated", [True, False], ids=["outdated_present", "present_read_only"])
+@pytest.mark.parametrize("seed", range(4))
+def test_kept_messages_equal_fresh_ones_over_random_tables(outdated, seed):
+    rng = random.Random(seed)
+    table = ServoTable()
+    paths = TwoPaths(outdated)
+    for loop in range(120):
+        if loop % 20 == 0 or rng.random() < 0.05:  # the servos change: 1 or 30 of them, or a few
+            size = rng.choice((1, 30, rng.randint(1, 6)))
+            wanted = set(rng.sample(range(0, 253), size))
+            for dxl_id in list(table.ids):
+                if dxl_id not in wanted:
+                    table.remove(dxl_id)
+            for dxl_id in sorted(wanted):
+                if dxl_id not in table or rng.random() < 0.1:  # new, or another model under the same ID
+                    table.add(dxl_id, rng.choice(MODELS))
+        if rng.random() < 0.7:
+            _store_some(table, rng, loop * 0.01)
+        if rng.random() < 0.3:
+            table.ping = np.array([rng.random() < 0.8 for _ in table.ids], dtype=bool)
+        groups = {g for g in GROUPS if rng.random() < 0.2}
+        present = {k for k in PRESENT if rng.random() < 0.5} if rng.random() < 0.9 else set()
+        if groups or present:
+            paths.loop(table, 1_700_000_000 + loop * 0.0137, groups, present)
+    assert paths.compared > 200
+
+
+def test_no_servo_at_all_and_nothing_read_yet():
+    table = ServoTable()
+    paths = TwoPaths(True)
+    for loop in range(3):
+        paths.loop(table, 5.0 + loop, set(SAME_NAME) | {"extra_static"}, set(PRESENT))
+    table.add(3, MODELS[0])  # one servo, nothing of it read: every value unknown
+    for loop in range(3):
+        paths.loop(table, 9.0 + loop, set(SAME_NAME) | {"extra_dynamic"}, {"position"})
+
+
+def test_a_handler_on_a_virtual_bus_publishes_the_same_bytes_either_way():
+    from dynamixel_handler.bus import DynamixelBus
+    from dynamixel_handler.config import defaults, validate
+    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.sim import VirtualBus
+
+    sim = VirtualBus({1: X, 2: X540, 3: P, 4: PRO}, baudrate=1_000_000)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus.open()
+    try:
+        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
+                           "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
+                           "init/expected_servo_num": 4, "pub_ratio/status": 3, "pub_ratio/goal": 2,
+                           "pub_ratio/gain": 5, "pub_ratio/limit": 7, "pub_ratio/error": 4,
+                           "pub_ratio/extra.dynamic_items": 6, "pub_ratio/present.temperature": 3})
+        handler = Handler(bus, config)
+        handler.start()
+        paths = {True: TwoPaths(True), False: TwoPaths(False)}
+        for loop in range(40):
+            if loop == 15:
+                sim.servo(2).write("goal_position", 3000)
+            if loop == 25:  # a servo leaves the bus: unanswered reads, ping false
+                sim.remove_servo(3)
+            report = handler.step()
+            if report.groups or report.present:
+                for two in paths.values():
+                    two.loop(handler.table, report.stamp, report.groups, report.present)
+        handler.shutdown()
+        assert all(two.compared > 60 for two in paths.values())
+    finally:
+        bus.close()
+        sim.close()
