@@ -8,6 +8,8 @@ bytes on the wire.
   gives, encoded by the patcher, are byte for byte those built afresh from the table and encoded
   field by field, over random tables (1 and 30 servos, IDs and models changing between loops,
   items never read, so NaN / unknown), every mix of groups read, and a real handler on a virtual bus.
+- ``cdr.Codec`` decoding: a command part that holds strings or nested parts (status, extra) is
+  recognised by one compare with the bytes of an empty value; decoded as field by field.
 """
 from __future__ import annotations
 
@@ -254,3 +256,53 @@ def test_a_handler_on_a_virtual_bus_publishes_the_same_bytes_either_way():
     finally:
         bus.close()
         sim.close()
+
+
+# ============================================================================ command decoding
+def _all_codecs(codec: Codec, seen: dict) -> dict:
+    seen[id(codec)] = codec
+    for _, kind, detail in codec.fields:
+        if kind == "message":
+            _all_codecs(detail, seen)
+    return seen
+
+
+def _field_by_field(codec: Codec, raw: bytes, monkeypatch) -> dict:
+    """The same bytes decoded with every shortcut off: each part field by field."""
+    with monkeypatch.context() as m:
+        for c in _all_codecs(codec, {}).values():
+            m.setattr(c, "_decode_from", c._decode_fields)
+        return codec.decode(raw)
+
+
+@pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_parts_with_the_bytes_of_an_empty_value_decode_as_field_by_field(msg_class, data, monkeypatch):
+    codec = Codec.of(msg_class)
+    value = data.draw(values_after(codec, None))
+    for raw in (serialize_message(codec.to_message(value)), codec.encode(value)):
+        assert _same(codec.decode(raw), _field_by_field(codec, raw, monkeypatch))
+
+
+def test_a_command_bundle_decodes_its_empty_parts_by_one_compare_each(monkeypatch):
+    codec = Codec.of(msgs.DxlCommandsX)
+    msg = msgs.DxlCommandsX()
+    msg.position_control.id_list = [1, 2]
+    msg.position_control.position_deg = [10.0, -5.0]
+    raw = serialize_message(msg)
+    calls = []
+    for name in ("status", "extra"):  # parts with strings or nested parts: not sequences only
+        part = codec.fields[[f[0] for f in codec.fields].index(name)][2]
+        assert part._no_elements is None
+        monkeypatch.setattr(part, "_decode_fields", lambda *a, p=part: calls.append(p) or Codec._decode_fields(p, *a))
+    first, second = codec.decode(raw), codec.decode(raw)
+    assert calls == []  # both recognised without walking their fields
+    monkeypatch.undo()
+    assert _same(first, _field_by_field(codec, raw, monkeypatch))
+    first["status"]["mode"].append("x")  # every decoded value has its own lists and dicts
+    first["extra"]["led"]["red_percent"] = None
+    assert second["status"]["mode"] == [] and len(second["extra"]["led"]["red_percent"]) == 0
+    # a part that is not empty, or empty but written another way (a string of length 0), is decoded
+    msg.status.mode = ["position"]
+    assert codec.decode(serialize_message(msg))["status"]["mode"] == ["position"]

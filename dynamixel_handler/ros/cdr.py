@@ -97,6 +97,8 @@ class Codec:
         #: a message of sequences only (a command's part): its decoded value when every count is 0
         self._no_elements = _no_elements(self.fields)
         self._zero_counts = tuple(bytes(pad + 4 * len(self.fields)) for pad in range(4))
+        #: any other message: its decoded value when its bytes are those of an empty value
+        self._empty_value: dict[str, Any] | None = None
 
     # ------------------------------------------------------------------ encoding
     def encode(self, value: Mapping[str, Any]) -> bytes:
@@ -111,13 +113,16 @@ class Codec:
 
     def _encode_empty(self, out: bytearray) -> None:
         """``_encode_into`` of an all-empty value (a group not read this loop), from a cache."""
-        shift = (len(out) - 4) % 8
+        out += self._empty_at((len(out) - 4) % 8)
+
+    def _empty_at(self, shift: int) -> bytes:
+        """The bytes of an all-empty value that starts ``shift`` bytes past an 8-byte boundary."""
         raw = self._empty.get(shift)
         if raw is None:
             scratch = bytearray(4 + shift)
             self._encode_into(scratch, {})
             raw = self._empty[shift] = bytes(scratch[4 + shift:])
-        out += raw
+        return raw
 
     # ------------------------------------------------------------------ decoding
     def decode(self, data: bytes) -> dict[str, Any]:
@@ -137,6 +142,12 @@ class Codec:
             zeros = self._zero_counts[-(pos - 4) % 4]
             if data[pos:pos + len(zeros)] == zeros:
                 return dict(self._no_elements), pos + len(zeros)
+        elif order == "<":  # other parts (strings, nested parts): the same bytes as an empty value's
+            empty = self._empty_at((pos - 4) % 8)
+            if data[pos:pos + len(empty)] == empty:
+                if self._empty_value is None:
+                    self._empty_value = self._decode_fields(memoryview(HEADER_LE + empty), 4, "<")[0]
+                return _fresh(self._empty_value), pos + len(empty)
         return self._decode_fields(data, pos, order)
 
     def _decode_fields(self, data: memoryview, pos: int, order: str) -> tuple[dict[str, Any], int]:
@@ -231,6 +242,11 @@ def _no_elements(fields: list[tuple[str, str, Any]]) -> dict[str, Any] | None:
     if not fields or any(kind != "array" for _, kind, _ in fields):
         return None
     return {name: _EMPTY[detail[0]] for name, _, detail in fields}
+
+
+def _fresh(value: dict[str, Any]) -> dict[str, Any]:
+    """A copy of a decoded value whose dicts and lists are its own (arrays are read-only)."""
+    return {k: _fresh(v) if type(v) is dict else list(v) if type(v) is list else v for k, v in value.items()}
 
 
 def _to_array(arr: np.ndarray, code: str):
