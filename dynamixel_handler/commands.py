@@ -8,6 +8,9 @@ out-of-range values are refused or clamped with a warning that names the ID and 
 passes goes down as one request of the core's narrow interface (``core.api.ServoAccess``).
 
 Goals and control topics are here; status, gains, limits and shortcuts in ``settings_commands``.
+A goal or control command that none of these checks would touch (every ID handled once, of the
+series, in the mode; every value a finite number) is applied by ``goal_bounds.fast_goals`` with
+what it checked before kept; the same writes and warnings either way.
 """
 from __future__ import annotations
 

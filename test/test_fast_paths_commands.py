@@ -97,13 +97,13 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     monkeypatch.setattr(goal_bounds, "SMALL", small)
     monkeypatch.setattr(requests, "TRIPPED_ONCE", fast)
     sim = VirtualBus(SERVOS, baudrate=1_000_000)
-    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=16.0, retry_num=3)  # patient: a lost reply would part the runs
     bus.open()
     try:
         config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 5,
                            "mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
                            "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
-                           "init/expected_servo_num": 5})
+                           "init/servo_auto_search.retry_times": 5, "init/expected_servo_num": 5})
         handler = Handler(bus, config)
         handler.start()
         lines: list[str] = []
@@ -222,12 +222,13 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
 
     monkeypatch.setattr(command_topics, "SKIP_EMPTY", skip)
     sim = VirtualBus({1: X, 2: X540}, baudrate=1_000_000)
-    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=16.0, retry_num=3)  # patient: a lost reply would part the runs
     bus.open()
     context = rclpy.Context()
     node = None
     try:
         config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 2,
+                           "init/servo_auto_search.retry_times": 5,  # a reply lost on a loaded machine
                            "mode_change_interval_sec": 0.0, "init/expected_servo_num": 2})
         handler = Handler(bus, config)
         handler.start()
