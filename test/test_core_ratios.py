@@ -7,6 +7,8 @@ import re
 import time
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from support.rig import BASE_PARAMS, FOUR_SERVOS, Rig
 
@@ -189,3 +191,30 @@ def test_verbose_line_every_verbose_ratio_loops_and_success_drops_with_a_silent_
         loop_ms, read_ms, success, full = map(float, m.groups())
         assert 0 < read_ms <= loop_ms and 0 <= full <= success <= 100
     assert float(lines[0].group(3)) == 100.0  # all servos answering at first
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(0, 12) | st.sampled_from([1009, 1013]), min_size=2 * 15, max_size=2 * 15),
+       st.lists(st.integers(0, 3000), min_size=5, max_size=60))
+def test_the_items_due_worked_out_once_per_pattern_equal_the_ratios_every_loop(ratios, loops):
+    """The loop looks the items due up by which ratios divide the loop number; for any ratios, any
+    loop (0 included) and after the parameters are replaced, they are those the ratios give."""
+    from dynamixel_handler.bus import DynamixelBus
+    from dynamixel_handler.config import defaults, validate
+    from dynamixel_handler.core.read_plan import due_items_plain
+    from dynamixel_handler.groups import GROUP_RATIO_PARAM, PRESENT
+    from dynamixel_handler.loop import Handler
+
+    def config(values: list[int]):
+        names = [f"pub_ratio/present.{k}" for k in PRESENT] + list(GROUP_RATIO_PARAM.values())
+        return validate({**defaults(), **dict(zip(names, values))})
+
+    first, second = config(ratios[:15]), config(ratios[15:])
+    handler = Handler(DynamixelBus("/dev/null"), first)
+    for cfg in (first, second, first):
+        handler.config = cfg
+        for loop in (0, *loops, 0):
+            want = due_items_plain(cfg, loop)
+            assert handler._due(loop) == want
+            items, present, groups = handler.due_items(loop)
+            assert (tuple(items), present, groups) == want[:3]

@@ -7,6 +7,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..config import Config
 from ..groups import GROUP_ITEMS, GROUP_RATIO_PARAM, PRESENT, due
 from .state import HandlerState
 
@@ -26,6 +27,20 @@ class _Part:
 
 
 
+#: items due (in reading order), present keys, groups, and the items sorted without repeats
+_Due = tuple[tuple[str, ...], frozenset[str], frozenset[str], tuple[str, ...]]
+
+
+def due_items_plain(cfg: Config, loop: int) -> _Due:
+    """``ReadPlan.due_items`` worked out from the ratios for one loop."""
+    present_keys = {k for k in PRESENT if due(cfg.present_ratio(k), loop)}
+    groups = {g for g, param in GROUP_RATIO_PARAM.items() if due(cfg[param], loop)}
+    items: list[str] = [PRESENT[k][0] for k in PRESENT if k in present_keys]
+    for g in groups:
+        items += [i for i in GROUP_ITEMS[g] if i not in items]
+    return tuple(items), frozenset(present_keys), frozenset(groups), tuple(sorted(set(items)))
+
+
 @dataclass(frozen=True)
 class _Read:
     address: int
@@ -39,13 +54,23 @@ class ReadPlan(HandlerState):
     """Pub ratios -> the items due -> sync reads grouped by control-table layout (cached)."""
 
     def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
+        """The items read in loop ``loop``, the present keys and the groups they make up."""
+        items, present_keys, groups, _ = self._due(loop)
+        return list(items), set(present_keys), set(groups)
+
+    def _due(self, loop: int) -> _Due:
+        """``due_items`` (and the items sorted, without repeats), worked out once per pattern: which
+        groups are due depends only on which of the configured ratios divide ``loop``."""
         cfg = self.config
-        present_keys = {k for k in PRESENT if due(cfg.present_ratio(k), loop)}
-        groups = {g for g, param in GROUP_RATIO_PARAM.items() if due(cfg[param], loop)}
-        items: list[str] = [PRESENT[k][0] for k in PRESENT if k in present_keys]
-        for g in groups:
-            items += [i for i in GROUP_ITEMS[g] if i not in items]
-        return items, present_keys, groups
+        if self._due_config is not cfg:  # parameters are replaced as a whole, never changed in place
+            self._due_config, self._due_cache = cfg, {}
+            self._due_ratios = tuple(sorted({cfg.present_ratio(k) for k in PRESENT}
+                                            | {int(cfg[param]) for param in GROUP_RATIO_PARAM.values()}))
+        key = (loop == 0, tuple(r for r in self._due_ratios if r > 0 and loop % r == 0))
+        found = self._due_cache.get(key)
+        if found is None:
+            found = self._due_cache[key] = due_items_plain(cfg, loop)
+        return found
 
     def _plan(self, items: tuple[str, ...], live: np.ndarray) -> list[_Read]:
         """Sync reads for ``items`` over the live servos, grouped by control-table layout (cached)."""

@@ -45,6 +45,10 @@ class HandlerState:
         self._ops_lock = threading.Lock()
         self._plans: dict[tuple[tuple[str, ...], bytes], list[_Read]] = {}
         self._plans_version = -1
+        # loops' due items by the pattern of ratios that divide the loop number (read_plan.py)
+        self._due_config: Config | None = None
+        self._due_cache: dict[tuple[bool, tuple[int, ...]], Any] = {}
+        self._due_ratios: tuple[int, ...] = ()
         self._plain_read: set[int] = set()  # IDs that do not answer Fast Sync Read
         self._fast_misses: dict[int, int] = {}  # ID -> fast reads in a row that stopped at it while it answered plain
         # writes taken from ``pending`` but not sent yet (encode_writes): {(address, size): {id: bytes}}

@@ -85,10 +85,11 @@ class Step(Recovery, Deferred, WriteBatch):
         report.seq = self.table.seq
         if not len(self.table):
             return
-        items, report.present, report.groups = self.due_items(report.loop)
+        _, present, groups, items = self._due(report.loop)
+        report.present, report.groups = set(present), set(groups)
         live = self.table.ping.copy()
         if items:
-            for read in self._plan(tuple(sorted(set(items))), live):
+            for read in self._plan(items, live):
                 report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
         # servos that stopped answering are pinged now and then, not read every loop
         if report.loop % RECHECK_LOOPS == 0:
