@@ -306,3 +306,44 @@ def test_a_command_bundle_decodes_its_empty_parts_by_one_compare_each(monkeypatc
     # a part that is not empty, or empty but written another way (a string of length 0), is decoded
     msg.status.mode = ["position"]
     assert codec.decode(serialize_message(msg))["status"]["mode"] == ["position"]
+
+
+# ============================================================================ subscription counts
+def test_a_subscriber_is_noticed_within_the_recheck_time():
+    """``TreePublisher.wanted`` asks the middleware at most every ``RECHECK_S``: a subscriber that
+    comes (or goes) is noticed that long after the middleware counts it, at most."""
+    import time
+
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+
+    from dynamixel_handler.ros.lean import RECHECK_S, TreePublisher
+
+    assert RECHECK_S <= 0.5
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        node = Node("wanted_check", context=context)
+        pub = TreePublisher(node, msgs.DynamixelDebug, "wanted_check/debug", 10, True)
+        assert not pub.wanted()
+
+        def noticed(want: bool) -> float:
+            """Seconds from the middleware's count to ``wanted()`` saying so."""
+            deadline = time.monotonic() + 10
+            while (pub.publisher.get_subscription_count() > 0) != want:
+                assert time.monotonic() < deadline, "the middleware never counted the change"
+                time.sleep(0.001)
+            counted = time.monotonic()
+            while pub.wanted() != want:
+                assert time.monotonic() - counted < RECHECK_S + 0.05
+                time.sleep(0.001)
+            return time.monotonic() - counted
+
+        sub = node.create_subscription(msgs.DynamixelDebug, "wanted_check/debug", lambda _m: None, 10)
+        noticed(True)
+        node.destroy_subscription(sub)
+        noticed(False)
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)

@@ -8,6 +8,7 @@ type). Each is a waitable the executor rebuilds into its wait set on every spin;
 from __future__ import annotations
 
 import struct
+import time
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -27,6 +28,10 @@ def lean_subscription(node: Node, typ, topic: str, callback: Callable, depth=10,
                                     event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
 
+#: seconds between two subscription counts of a state topic (``TreePublisher.wanted``)
+RECHECK_S = 0.1
+
+
 class TreePublisher:
     """Publishes ``cdr.Codec`` values (nested dicts of numpy arrays): encoded to CDR bytes when
     ``raw``, else turned into an rclpy message object."""
@@ -36,10 +41,17 @@ class TreePublisher:
         self.codec = Codec.of(typ)
         self.raw = raw
         self.patcher = Patcher(self.codec)
+        self._wanted = False
+        self._recheck = 0.0  # time.monotonic() of the next subscription count
 
     def wanted(self) -> bool:
-        """Somebody subscribes (a message nobody receives is not even built)."""
-        return self.publisher.get_subscription_count() > 0
+        """Somebody subscribes (a message nobody receives is not even built). The middleware is
+        asked at most every ``RECHECK_S``: a new subscriber gets messages that much later at most."""
+        now = time.monotonic()
+        if now >= self._recheck:
+            self._wanted = self.publisher.get_subscription_count() > 0
+            self._recheck = now + RECHECK_S
+        return self._wanted
 
     def publish(self, value: dict[str, Any]) -> None:
         self.publisher.publish(self.patcher.encode(value) if self.raw else self.codec.to_message(value))
@@ -104,11 +116,15 @@ def _record(codec: Codec, out: bytearray, value: Mapping[str, Any], leaves: list
 
 def _patch(codec: Codec, buf: bytearray, value: Mapping[str, Any], leaves: list[list[Any]], i: int) -> int:
     """Write ``value`` over the bytes ``_record`` noted in ``leaves`` from ``i``; the next index."""
+    get = value.get
     for name, put, detail in codec._puts:
-        v = value.get(name)
+        v = get(name)
         leaf = leaves[i]
         i += 1
-        if put is _put_message:
+        if put is _put_array:
+            if v is not leaf[0] or (v is not None and v.flags.writeable):  # else: the same read-only array
+                _patch_array(buf, v, leaf, detail)
+        elif put is _put_message:
             if leaf[0] != (v is None):
                 raise _Changed
             if v is not None:
@@ -120,8 +136,6 @@ def _patch(codec: Codec, buf: bytearray, value: Mapping[str, Any], leaves: list[
 
 def _patch_array(buf: bytearray, v: Any, leaf: list[Any], detail: tuple[str, int]) -> None:
     old = leaf[0]
-    if v is old and (v is None or not v.flags.writeable):
-        return
     arr = v if type(v) is np.ndarray or v is None else np.asarray(v)
     n = 0 if arr is None else arr.size
     if n != (0 if old is None else old.size):
@@ -158,7 +172,7 @@ def _patch_string(buf: bytearray, v: Any, leaf: list[Any], detail: None) -> None
 
 #: field encoder -> what writes a new value of that field over the old one (or raises ``_Changed``)
 _PATCH: dict[Any, Callable[[bytearray, Any, list[Any], Any], None]] = {
-    _put_array: _patch_array, _put_scalar: _patch_scalar, _put_strings: _patch_strings,
+    _put_scalar: _patch_scalar, _put_strings: _patch_strings,
     _put_one_string: _patch_string}
 
 
