@@ -347,3 +347,34 @@ def test_a_subscriber_is_noticed_within_the_recheck_time():
         node.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+
+
+def test_two_threads_sharing_a_patcher_get_the_plain_bytes():
+    """A publishing thread of a restarted loop may still run: each encoding is whole."""
+    import sys
+    import threading
+
+    codec = Codec.of(msgs.DynamixelPresent)
+    patcher = Patcher(codec)
+    values = [{"id_list": list(range(1, n + 1)), "position_deg": np.arange(n) * k * 0.5,
+               "current_ma": np.arange(n) - k} for k in range(60) for n in (12, 12, 12, 3)]
+    expected = [codec.encode(v) for v in values]
+    wrong: list[int] = []
+
+    def run(offset: int) -> None:
+        for _ in range(30):
+            for k in range(offset, len(values), 2):
+                if patcher.encode(values[k]) != expected[k]:
+                    wrong.append(k)
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=run, args=(i,)) for i in (0, 1)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert wrong == []

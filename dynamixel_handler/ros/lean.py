@@ -8,6 +8,7 @@ type). Each is a waitable the executor rebuilds into its wait set on every spin;
 from __future__ import annotations
 
 import struct
+import threading
 import time
 from typing import Any, Callable, Mapping
 
@@ -76,8 +77,13 @@ class Patcher:
         self._buf: bytearray | None = None
         #: per field in encoding order: [value, end offset], nested parts' fields inline
         self._leaves: list[list[Any]] = []
+        self._lock = threading.Lock()
 
     def encode(self, value: Mapping[str, Any]) -> bytes:
+        with self._lock:  # one thread at a time (a late publishing thread of a restarted loop waits)
+            return self._encode(value)
+
+    def _encode(self, value: Mapping[str, Any]) -> bytes:
         if self._buf is not None:
             try:
                 _patch(self.codec, self._buf, value, self._leaves, 0)

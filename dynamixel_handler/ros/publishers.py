@@ -2,6 +2,7 @@
 which of them one loop's reads fill (a message nobody subscribes to is not even built)."""
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 from rclpy.node import Node
@@ -38,8 +39,10 @@ Batch = list[tuple[TreePublisher, dict[str, Any]]]
 class StatePublishers:
     def __init__(self, node: Node, raw: bool, per_group: bool, outdated_present: bool) -> None:
         self.outdated_present = outdated_present
-        #: unit conversions and group messages kept from loop to loop (``convert.Cache``)
+        #: unit conversions and group messages kept from loop to loop (``convert.Cache``); one
+        #: publishing thread at a time uses it (a late one of a restarted loop waits)
         self.cache = convert.Cache()
+        self._lock = threading.Lock()
         self.states = TreePublisher(node, DxlStates, "dynamixel/states", 10, raw)
         self.debug = TreePublisher(node, DynamixelDebug, "dynamixel/debug", 10, raw)
         self.by_group: dict[str, TreePublisher] = {}
@@ -52,6 +55,10 @@ class StatePublishers:
         groups, present_keys = report.groups, report.present
         if not (groups or present_keys):
             return []
+        with self._lock:
+            return self._messages(groups, present_keys, table, stamp)
+
+    def _messages(self, groups: set[str], present_keys: set[str], table: Any, stamp: float) -> Batch:
         out: Batch = []
         parts = convert.Parts(table, present_keys, self.outdated_present, self.cache)
         if self.states.wanted():
