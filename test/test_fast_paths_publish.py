@@ -378,3 +378,36 @@ def test_two_threads_sharing_a_patcher_get_the_plain_bytes():
     finally:
         sys.setswitchinterval(interval)
     assert wrong == []
+
+
+def test_the_states_stamp_is_the_node_clocks_with_and_without_simulated_time():
+    """Without a simulated clock the reads' wall time is the stamp as is (the node's clock is the
+    wall clock); with one, the stamp follows it (``ros_time``)."""
+    import time
+
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+    from rclpy.time import Time
+
+    from dynamixel_handler.ros.node import DynamixelHandlerNode
+
+    class Stamps(Node):  # the node's own two methods, on a node without a bus
+        ros_time = DynamixelHandlerNode.ros_time
+        _states_stamp = DynamixelHandlerNode._states_stamp
+
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        node = Stamps("stamp_check", context=context)
+        wall = time.time() - 0.004
+        assert not node.get_clock().ros_time_is_active
+        assert node._states_stamp(wall) == wall
+        assert abs(node.ros_time(wall) - wall) < 2e-3
+        node.get_clock()._set_ros_time_is_active(True)  # as use_sim_time's time source does
+        node.get_clock().set_ros_time_override(Time(seconds=50))
+        wall = time.time() - 0.5
+        assert abs(node._states_stamp(wall) - 49.5) < 2e-3
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)

@@ -16,6 +16,7 @@ import sys
 import time
 from typing import Any, Callable, cast
 
+from rclpy.clock import ROSClock
 from rclpy.node import Node
 
 from dynamixel_handler_msgs.msg import DxlExternalPort
@@ -253,7 +254,7 @@ class DynamixelHandlerNode(Node):
         """Hand this loop's messages to the publishing thread (``outbox.py``)."""
         if (report.groups or report.present) and self.outbox is not None:
             snapshot = self.handler.table.snapshot()
-            stamp = self.ros_time(report.stamp)
+            stamp = self._states_stamp(report.stamp)
             self.outbox.put(lambda: self._messages(report, snapshot, stamp))
 
     def ros_time(self, wall: float) -> float:
@@ -263,10 +264,17 @@ class DynamixelHandlerNode(Node):
         now = self.get_clock().now().nanoseconds * 1e-9
         return max(0.0, now - max(0.0, time.time() - wall))
 
+    def _states_stamp(self, wall: float) -> float:
+        """``ros_time(wall)``; without a simulated clock, the node's clock is the wall clock."""
+        clock = self.get_clock()
+        if isinstance(clock, ROSClock) and not clock.ros_time_is_active:
+            return max(0.0, wall)
+        return self.ros_time(wall)
+
     def _messages(self, report: StepReport, table: Any = None, stamp: float | None = None) -> Batch:
         """What this loop read, per topic (``publishers.py``); by default the table as it is now."""
         table = self.handler.table if table is None else table
-        stamp = self.ros_time(report.stamp) if stamp is None else stamp
+        stamp = self._states_stamp(report.stamp) if stamp is None else stamp
         return self.state_pubs.messages(report, table, stamp)
 
 
