@@ -128,3 +128,29 @@ def test_a_vanished_device_is_reported_the_same():
     assert direct[2:4] == (False, 1)
     assert len(direct[4]) == 1 and "stopped working" in direct[4][0]
     assert direct[1:] == plain[1:]
+
+
+def _stale_before_a_write(direct_io: bool) -> tuple:
+    """A late reply lands while nothing is in flight; a sync write goes out (no reply, no input
+    flush of its own), then a sync read: the late reply must be dropped and counted, never taken."""
+    stale = status(1, bytes(10))  # the right ID and size for the read below: only the flush tells it apart
+    peer = WirePeer(lambda packet: [] if packet[7] == 0x83 else [b"".join(_replies(1, 2, 3))])
+    bus = DynamixelBus(peer.path, 1_000_000, latency_timer_ms=1, retry_num=0, logger=_Log(), direct_io=direct_io)
+    try:
+        bus.open()
+        peer.send(stale)
+        time.sleep(0.05)
+        assert bus.sync_write(116, 4, {1: bytes(4), 2: bytes(4)})
+        time.sleep(0.02)  # the write is answered by nothing
+        return bus.sync_read(126, 10, [1, 2, 3]), bus.stats.discarded_bytes, len(stale), peer.received
+    finally:
+        bus.close()
+        peer.close()
+
+
+def test_a_late_reply_before_a_sync_write_is_dropped_by_the_next_read():
+    for direct_io in (True, False):
+        data, discarded, stale, received = _stale_before_a_write(direct_io)
+        assert data == DATA
+        assert discarded == stale
+        assert [packet[7] for packet in received] == [0x83, 0x82]

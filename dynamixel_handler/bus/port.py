@@ -6,10 +6,11 @@ waiting for a silent servo) and it hard-codes a 16 ms latency timer in its timeo
 Here a read blocks in ``select()`` on the serial file descriptor until bytes arrive
 or the deadline passes, and deadlines come from the configured latency timer.
 
-Bytes go in and out with ``os.read``/``os.write`` on that (non-blocking) descriptor and the
-input count comes from one ``ioctl``: pyserial's ``read`` adds a ``select()`` and its ``write``
-another to every call, which at 4 Mbps is a good part of a transaction's host time.
-``direct_io=False`` keeps pyserial's calls (the same bytes, read in the same pieces).
+Bytes go in and out with ``os.read``/``os.write`` on that (non-blocking) descriptor; the input
+is counted with one ``ioctl`` before a wait, and once ``select()`` says bytes are in they are read
+without counting them first: pyserial's ``read`` adds a ``select()`` and its ``write`` another to
+every call, which at 4 Mbps is a good part of a transaction's host time. ``direct_io=False`` keeps
+pyserial's calls (the same bytes).
 """
 from __future__ import annotations
 
@@ -35,6 +36,8 @@ DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 
 #: a read that sleeps through the wire time of the bytes still expected wakes this much earlier [s]
 SLEEP_SLACK_S = 0.0003
 
+#: most bytes one read takes (a reply train of 30 servos is ~800 bytes; more waits for the next read)
+_READ_MAX = 4096
 _INT_ZERO = bytes(4)  # the ioctl's buffer for the input count (an unsigned int)
 #: pyserial's text for a descriptor that is readable but gives no bytes, kept for the same log line
 _NO_DATA = ("device reports readiness to read but returned no data "
@@ -257,12 +260,14 @@ class SerialPort:
         for the next bytes instead. Returns b"" at the deadline.
         Raises OSError/SerialException if the device vanished.
         """
+        if self.direct_io:
+            return self._read_direct(deadline, expect, due)
         waiting = self._in_waiting()
         if not waiting:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 return b""
-            readable, _, _ = select.select([self._fd if self.direct_io else self._sdk.ser.fileno()], [], [], remaining)
+            readable, _, _ = select.select([self._sdk.ser.fileno()], [], [], remaining)
             if not readable:
                 return b""
             waiting = self._in_waiting()
@@ -280,6 +285,42 @@ class SerialPort:
                 time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
                 waiting = max(waiting, self._in_waiting())
         return self._read(waiting)
+
+    def _read_direct(self, deadline: float, expect: int, due: float | None) -> bytes:
+        """``read_until`` on the descriptor itself: once ``select`` says bytes are in, they come
+        with one ``read`` of up to ``_READ_MAX`` bytes, without asking for their count first (the
+        same bytes, a system call less). The count before the wait stays: it is also how a
+        hung-up device shows."""
+        waiting = self._in_waiting()
+        if waiting:
+            data = self._read(waiting)
+        else:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return b""
+            readable, _, _ = select.select([self._fd], [], [], remaining)
+            if not readable:
+                return b""
+            data = self._take()
+            if not data:  # readable but empty: a hung-up device (the input count says how, as before)
+                self._in_waiting()
+                raise serial.SerialException(_NO_DATA)
+        if expect > len(data):
+            rest_s = blind_sleep_s(expect - len(data), self.tx_ms_per_byte / 1000.0, time.monotonic(), due)
+            if rest_s > 0:
+                time.sleep(max(0.0, min(rest_s, deadline - time.monotonic())))
+                data += self._take()
+        return data
+
+    def _take(self) -> bytes:
+        """What is in the input now, up to ``_READ_MAX`` bytes (b"" if nothing: the port reads
+        without waiting, so an empty read is no hang-up here)."""
+        try:
+            return os.read(self._fd, _READ_MAX)
+        except BlockingIOError:
+            return b""
+        except OSError as exc:
+            raise serial.SerialException(f"read failed: {exc}") from exc
 
 
 def blind_sleep_s(missing: int, byte_s: float, now: float, due: float | None = None) -> float:

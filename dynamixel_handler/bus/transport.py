@@ -191,13 +191,16 @@ class Transport(Receiving):
             return None
         return self._gather(expected, len(packet), fast)
 
-    def _send_or_lose(self, packet: bytes) -> bool:
+    def _send_or_lose(self, packet: bytes, flush: bool = True) -> bool:
+        """Send ``packet``; False if the port is unusable. ``flush``: drop what waits in the input
+        first (stale replies), which a packet without a reply can leave to the next one that has."""
         if not self._ever_opened:
             raise BusError(f"{self.device} is not open: call open() first.")
         if not self._port.is_open:
             return False
         try:
-            self.stats.discarded_bytes += self._port.discard_input()
+            if flush:
+                self.stats.discarded_bytes += self._port.discard_input()
             self._port.write(packet)
         except (OSError, serial.SerialException) as exc:
             self._lose(exc)

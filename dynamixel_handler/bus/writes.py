@@ -67,4 +67,5 @@ class Writes(Transport):
             return sent
 
     def _broadcast(self, packet: bytes) -> bool:
-        return self._exchange(packet, [], False) is not None
+        # no reply to gather: the input is flushed before the next packet that has one
+        return self._send_or_lose(packet, flush=False)
