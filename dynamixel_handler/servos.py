@@ -36,6 +36,8 @@ class ServoTable:
         self.seq = 0
         self._set_at: dict[tuple[str, int], int] = {}
         self._item_set_at: dict[str, int] = {}
+        self._positions: dict[tuple[int, ...], np.ndarray] = {}  # ``positions`` of this version
+        self._positions_version = -1
 
     # -------------------------------------------------------------- membership
     def __len__(self) -> int:
@@ -76,6 +78,19 @@ class ServoTable:
         self._set_at = {key: seq for key, seq in self._set_at.items() if key[1] != dxl_id}
         self._reindex()
 
+    def positions(self, ids: tuple[int, ...]) -> np.ndarray:
+        """The positions of those of ``ids`` handled now, in their order (read-only; kept until the
+        set of servos changes)."""
+        if self._positions_version != self.version or len(self._positions) > 64:
+            self._positions, self._positions_version = {}, self.version
+        found = self._positions.get(ids)
+        if found is None:
+            index = self.index
+            found = np.array([pos for pos in map(index.get, ids) if pos is not None], dtype=np.intp)
+            found.setflags(write=False)
+            self._positions[ids] = found
+        return found
+
     def _reindex(self) -> None:
         self.index = {dxl_id: i for i, dxl_id in enumerate(self.ids)}
         self.version += 1
@@ -105,6 +120,7 @@ class ServoTable:
         snap.ping, snap.no_response = self.ping.copy(), self.no_response.copy()
         snap.version = self.version
         snap.seq, snap._set_at, snap._item_set_at = self.seq, {}, {}
+        snap._positions, snap._positions_version = {}, -1
         return snap
 
     def set_value(self, item: str, dxl_id: int, pulses: int) -> None:

@@ -188,3 +188,22 @@ def test_a_servo_that_breaks_the_fast_read_chain_costs_the_others_nothing_lastin
     finally:
         bus.close()
         sim.close()
+
+
+def test_the_tables_positions_follow_servos_added_and_removed():
+    """The loop finds where a read's servos sit in the table through a kept lookup: it must follow
+    every change of the set of servos (a removed servo is skipped, a new one shifts the others)."""
+    from dynamixel_handler.control_table import model_by_number
+    from dynamixel_handler.servos import ServoTable
+
+    table, xm430 = ServoTable(), model_by_number(1020)
+    for dxl_id in (2, 4, 6):
+        table.add(dxl_id, xm430)
+    assert table.positions((2, 4, 6)).tolist() == [0, 1, 2]
+    assert table.positions((6, 2)).tolist() == [2, 0]
+    table.add(3, xm430)
+    assert table.positions((2, 4, 6)).tolist() == [0, 2, 3]
+    table.remove(4)
+    assert table.positions((2, 4, 6)).tolist() == [0, 2]
+    assert table.snapshot().positions((3, 6)).tolist() == [1, 2]
+    assert not table.positions((2, 4, 6)).flags.writeable

@@ -120,10 +120,14 @@ class ReadPlan(HandlerState):
     def _store(self, read: _Read, data: dict[int, bytes], stamp: float, seq: int | None = None) -> None:
         """Store replies; values the host set after the read went out (sequence ``seq``) are newer and kept."""
         index = self.table.index
-        ok_ids = [i for i in read.ids if i in data and i in index]  # an operation may have removed one meanwhile
-        if not ok_ids:
-            return
-        positions = np.fromiter((index[i] for i in ok_ids), dtype=np.int64, count=len(ok_ids))
+        positions = self.table.positions(read.ids)
+        if len(data) == len(read.ids) == len(positions):  # all answered, none removed meanwhile
+            ok_ids: Sequence[int] = read.ids
+        else:
+            ok_ids = [i for i in read.ids if i in data and i in index]  # an operation may have removed one meanwhile
+            if not ok_ids:
+                return
+            positions = np.fromiter((index[i] for i in ok_ids), dtype=np.int64, count=len(ok_ids))
         for part, values in zip(read.parts, decode_replies(read, b"".join(data[i] for i in ok_ids))):
             newer = self.table.newer_than(part.item, ok_ids, seq) if seq is not None else []
             if newer:

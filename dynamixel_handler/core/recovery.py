@@ -71,20 +71,24 @@ class Recovery(Watchdog):
     def _update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table
         silent = addressed & ~answered
+        any_silent = silent.any()
+        if any_silent:
+            for pos in np.flatnonzero(silent & table.ping):
+                self.log.warning(f"ID {table.ids[pos]}: no response (ping false)")
         back = answered & ~table.ping
-        for pos in np.flatnonzero(silent & table.ping):
-            self.log.warning(f"ID {table.ids[pos]}: no response (ping false)")
-        for pos in np.flatnonzero(back):
-            self.log.info(f"ID {table.ids[pos]}: answers again")
-            # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
-            # the next commands are written
-            self._to_arm.add(table.ids[pos])
+        if back.any():
+            for pos in np.flatnonzero(back):
+                self.log.info(f"ID {table.ids[pos]}: answers again")
+                # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew
+                # before the next commands are written
+                self._to_arm.add(table.ids[pos])
         # each read or ping of the servo that got no answer counts (a silent servo is only pinged
         # every RECHECK_LOOPS loops): the removal comes after no_response_id_auto_remove_count
         # unanswered requests in a row
-        table.no_response[silent] += 1
+        if any_silent:
+            table.no_response[silent] += 1
+            table.ping[silent] = False
         table.no_response[answered] = 0
-        table.ping[silent] = False
         table.ping[answered] = True
         limit = self.config["no_response_id_auto_remove_count"]
         if limit > 0:

@@ -116,9 +116,14 @@ class Step(Recovery, Deferred, WriteBatch):
                 flags[positions] = True
 
         for entry in report.reads:
-            entry[2] = data = self._gather(entry[0], entry[1].result())
-            mark(addressed, entry[0].ids)
-            mark(answered, data)
+            read = entry[0]
+            entry[2] = data = self._gather(read, entry[1].result())
+            positions = table.positions(read.ids)
+            addressed[positions] = True
+            if len(data) == len(read.ids):  # every servo answered (the usual loop)
+                answered[positions] = True
+            else:
+                mark(answered, data)
         for dxl_id in report.recheck:
             mark(addressed, [dxl_id])
             if dxl_id in index and self.bus.ping(dxl_id, retries=0) is not None:
