@@ -411,3 +411,70 @@ def test_the_states_stamp_is_the_node_clocks_with_and_without_simulated_time():
         node.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+
+
+# ============================================================================ loops of present values only
+@pytest.mark.parametrize("outdated", [True, False], ids=["outdated_present", "present_read_only"])
+def test_loops_of_present_values_only_send_the_plain_bytes(outdated):
+    """``publishers.Frame``: a loop that read present values only writes the stamp and the items
+    read again over the bytes of the last such loop; what goes out equals the plain path's
+    encoding of messages built afresh, loop after loop (IDs, models, status, goals and the set of
+    items read changing in between), and most loops take the frame."""
+    import time
+
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+
+    from dynamixel_handler.loop import StepReport
+
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        node = Node("frame_check", context=context)
+        pubs = StatePublishers(node, raw=True, per_group=True, outdated_present=outdated)
+        names = {pubs.states: "states", pubs.debug: "debug", **{p: n for n, p in pubs.by_group.items()}}
+        subs = [node.create_subscription(p.codec.msg_class, p.publisher.topic_name, lambda _m: None, 10, raw=True)
+                for p in names]
+        deadline = time.monotonic() + 10
+        while not all(p.wanted() for p in names):
+            assert time.monotonic() < deadline, "the subscriptions were never counted"
+            time.sleep(0.01)
+        rng = random.Random(7)
+        table = ServoTable()
+        framed = compared = 0
+        for loop in range(400):
+            if loop % 60 == 0 or rng.random() < 0.02:
+                for dxl_id in list(table.ids):
+                    if rng.random() < 0.5:
+                        table.remove(dxl_id)
+                for dxl_id in rng.sample(range(1, 40), rng.choice((1, 3, 30))):
+                    if dxl_id not in table or rng.random() < 0.2:
+                        table.add(dxl_id, rng.choice(MODELS))
+            present = set(rng.sample(sorted(PRESENT), 3)) if rng.random() < 0.2 else {"current", "velocity", "position"}
+            for key in present:
+                item = PRESENT[key][0]
+                n = len(table)
+                table.store(item, np.arange(n), np.array([rng.randint(-3000, 3000) for _ in range(n)]), loop)
+            if rng.random() < 0.05:
+                _store_some(table, rng, loop)  # goals, status items... changed between reads
+            if rng.random() < 0.05:
+                table.ping = np.array([rng.random() < 0.9 for _ in table.ids], dtype=bool)
+            groups = {rng.choice(GROUPS)} if rng.random() < 0.1 else set()
+            stamp = 1_700_000_000 + loop * 0.0123
+            snap = table.snapshot()
+            batch = pubs.messages(StepReport(loop=loop, stamp=stamp, groups=groups, present=present), snap, stamp)
+            plain = _topics(convert.Parts(snap, present, outdated), snap, stamp, groups, present, outdated)
+            assert [names[p] for p, _ in batch] == list(plain)
+            for pub, value in batch:  # as TreePublisher.publish sends it
+                framed += type(value) is bytes
+                ours = value if type(value) is bytes else pub.patcher.encode(value)
+                codec = pub.codec
+                assert ours == codec.encode(plain[names[pub]]), (loop, names[pub], groups, present)
+                compared += 1
+        assert compared > 900 and framed > compared / 3, (compared, framed)
+        for sub in subs:
+            node.destroy_subscription(sub)
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)

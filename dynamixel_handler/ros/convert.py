@@ -218,12 +218,15 @@ class Cache:
         self._units: dict[str, tuple[Any, Any, np.ndarray]] = {}
         self._groups: dict[str, tuple[list[tuple[Any, Any]], Any, Tree]] = {}
         self.id_list = u16([])
+        #: counts the times everything was forgotten
+        self.epoch = 0
 
     def check(self, table: ServoTable) -> None:
         if table.ids != self._ids or table.models != self._models:
             self._ids, self._models = list(table.ids), list(table.models)
             self._units.clear()
             self._groups.clear()
+            self.epoch += 1
             self.id_list = u16(table.ids)
             self.id_list.setflags(write=False)
 
@@ -235,6 +238,10 @@ class Cache:
         value = table.units(item)
         self._units[item] = (raw, known, value)
         return value
+
+    def items_of(self) -> dict[int, str]:
+        """id() of each kept conversion -> its item."""
+        return {id(hit[2]): item for item, hit in self._units.items()}
 
     def group(self, name: str, table: ServoTable, items: Iterable[str], build: Callable[[], Tree],
               also: Any = None) -> Tree:

@@ -54,8 +54,12 @@ class TreePublisher:
             self._recheck = now + RECHECK_S
         return self._wanted
 
-    def publish(self, value: dict[str, Any]) -> None:
-        self.publisher.publish(self.patcher.encode(value) if self.raw else self.codec.to_message(value))
+    def publish(self, value: Any) -> None:
+        """``value``: a nested dict, or (raw only) its CDR bytes already."""
+        if type(value) is bytes:
+            self.publisher.publish(value)
+        else:
+            self.publisher.publish(self.patcher.encode(value) if self.raw else self.codec.to_message(value))
 
 
 class _Changed(Exception):
@@ -75,7 +79,7 @@ class Patcher:
     def __init__(self, codec: Codec) -> None:
         self.codec = codec
         self._buf: bytearray | None = None
-        #: per field in encoding order: [value, end offset], nested parts' fields inline
+        #: per field in encoding order: [value, end offset, encoder, detail], nested parts' fields inline
         self._leaves: list[list[Any]] = []
         self._lock = threading.Lock()
 
@@ -106,7 +110,7 @@ def _record(codec: Codec, out: bytearray, value: Mapping[str, Any], leaves: list
     for name, put, detail in codec._puts:
         v = value.get(name)
         if put is _put_message:
-            leaves.append([v is None, 0])
+            leaves.append([v is None, 0, put, detail])
             if v is None:
                 detail._encode_empty(out)
             else:
@@ -117,7 +121,7 @@ def _record(codec: Codec, out: bytearray, value: Mapping[str, Any], leaves: list
         elif put is _put_array and v is not None and type(v) is not np.ndarray:
             v = np.asarray(v)
         put(out, v, detail)
-        leaves.append([v, len(out)])
+        leaves.append([v, len(out), put, detail])
 
 
 def _patch(codec: Codec, buf: bytearray, value: Mapping[str, Any], leaves: list[list[Any]], i: int) -> int:

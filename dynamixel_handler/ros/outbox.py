@@ -12,7 +12,7 @@ from typing import Any, Callable, Sequence
 
 from .lean import TreePublisher
 
-Batch = Sequence[tuple[TreePublisher, dict[str, Any]]]
+Batch = Sequence[tuple[TreePublisher, Any]]  # a message as a nested dict or as CDR bytes
 Job = Callable[[], Batch]  # builds one loop's messages
 
 #: loops' worth of messages held when the publishing thread falls behind; older ones are dropped
