@@ -173,8 +173,20 @@ def targets(rows: list[Row]) -> list[str]:
             bound = res.mean_s + 0.001
             checks.append((f"latency p99 <= period + 1 ms ({label})", res.latency_p99_s <= bound,
                            f"{ms(res.latency_p99_s)} vs {ms(bound)} ms"))
+        # the performance issue's targets at loop_rate 100 (12 servos, 1 Mbps)
+        c = wire.cycle(r.n, r.baudrate, r.latency_ms / 1000, r.fast_read)
+        read_s = (c.read_bytes + c.reply_bytes) * 10.0 / c.baudrate + c.latency_s
+        checks += [("CPU <= 10 % at loop_rate 100", r.at100.cpu_percent <= 10.0, f"{r.at100.cpu_percent:.0f} %"),
+                   ("latency mean <= 1.0 ms at loop_rate 100", r.at100.latency_mean_s <= 0.001,
+                    f"{ms(r.at100.latency_mean_s)} ms"),
+                   ("latency p99 <= one read + 1 ms at loop_rate 100", r.at100.latency_p99_s <= read_s + 0.001,
+                    f"{ms(r.at100.latency_p99_s)} vs {ms(read_s + 0.001)} ms")]
         for label, ok, value in checks:
             lines.append(f"  [{'met' if ok else 'NOT met'}] {tag}: {label}: {value}")
+    under = [r for r in rows if r.max_ and not r.node_vs_sdk >= 0.9]
+    lines.append(f"  every row node rate >= 0.9 x SDK (same read): {len(rows) - len(under)} of {len(rows)} rows"
+                 + "".join(f"\n    under: {r.baudrate // 1_000_000}M lat {r.latency_ms:g} N={r.n} "
+                           f"fast={'yes' if r.fast_read else 'no'}: {r.node_vs_sdk:.2f}" for r in under))
     return lines
 
 
