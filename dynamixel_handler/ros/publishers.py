@@ -168,10 +168,10 @@ class Frame:
 
     def _note(self, pub: TreePublisher, leaf: list[Any], items: dict[int, str], fixed: set[int]) -> bool:
         """Whether ``leaf`` is accounted for (a part given or not, or an array as above)."""
-        value, _, put, _ = leaf
+        value, _, put, detail = leaf
         if put is _put_message or id(value) in fixed:
             return True
-        if put is _put_array and id(value) in items and value.dtype == np.float64:
+        if put is _put_array and detail[0] == "f8" and id(value) in items and value.dtype == np.float64:
             self.slots.setdefault(items[id(value)], []).append((pub.patcher, leaf))
             return True
         return put is _put_strings and pub.codec.msg_class is DynamixelDebug  # the status part's modes
