@@ -5,7 +5,8 @@ Three fast paths, each chosen at start-up and named in one INFO line:
 - ``raw_intake``: command topics are taken as CDR bytes and decoded by ``cdr.Codec`` straight into
   numpy arrays, instead of rclpy turning every field of every sub-message into Python objects;
 - ``raw_publish``: state messages are encoded by ``cdr.Codec`` and published as bytes, instead of
-  being built through rclpy's per-field setters;
+  being built through rclpy's per-field setters (each topic's bytes are kept and only what changed
+  is written over them: ``lean.Patcher``, ``publishers.Frame``);
 - ``detached_intake``: the command subscriptions are kept out of the executor (removed from the
   node's private subscription list) and taken by the loop thread itself, which waits on them with
   rclpy's private ``WaitSet``; without it they are ordinary executor callbacks.
