@@ -179,17 +179,22 @@ def main(argv: list[str] | None = None) -> int:
     for name in ("states", "debug", "present", "status", "goal"):
         t.patch(convert, name, "message building (convert.py)")
     t.patch(units, "pulse_to_unit", "units: pulse -> physical (numpy)")
+    controller_publish = functools.partial(Publisher.publish, controller)  # not timed as the node's
     t.patch(Publisher, "publish", "publish (rclpy: Python -> C, serialise, DDS write)")
+    from dynamixel_handler.ros import lean, publishers
+    for owner, name in ((getattr(lean, "Patcher", None), "encode"), (getattr(publishers, "Frame", None), "run")):
+        if owner is not None:  # the bytes kept from loop to loop (absent in older versions of the node)
+            t.patch(owner, name, "message encoding (cdr.py)")
     t.patch(Codec, "encode", "message encoding (cdr.py)")
     t.patch(Codec, "to_message", "message encoding (cdr.py)")
     t.patch(Codec, "decode", "command: decode (cdr.py)")
     node.step_hooks = [t.wrap("step hooks (diagnostics, joint_states)", h) for h in node.step_hooks]
     def publish_here(report) -> None:  # the node does this on its publishing thread (outbox.py)
-        for publisher, value in node._messages(report):
+        for publisher, value in node._messages(report, node.handler.table.snapshot()):
             publisher.publish(value)
     publish_all = t.wrap("publish: the rest (_messages)", publish_here)
     take = t.wrap("command: take (intake: take, unpack, checks, queue)", node.intake.poll)
-    send = t.wrap(CONTROLLER, controller.publish)
+    send = t.wrap(CONTROLLER, controller_publish)
     loop_body = t.wrap("loop: the rest", lambda report: None)
 
     msg = DxlCommandsX()
