@@ -37,6 +37,7 @@ class ServoTable:
         self._set_at: dict[tuple[str, int], int] = {}
         self._item_set_at: dict[str, int] = {}
         self._positions: dict[tuple[int, ...], np.ndarray] = {}  # ``positions`` of this version
+        self._conversions: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # item -> units.conversion
         self._positions_version = -1
 
     # -------------------------------------------------------------- membership
@@ -53,6 +54,8 @@ class ServoTable:
         if dxl_id in self.index:
             self.models[self.index[dxl_id]] = model
             self.version += 1
+            self._units.clear()
+            self._conversions.clear()
             return
         pos = int(np.searchsorted(np.asarray(self.ids, dtype=np.int64), dxl_id))
         self.ids.insert(pos, dxl_id)
@@ -95,6 +98,7 @@ class ServoTable:
         self.index = {dxl_id: i for i, dxl_id in enumerate(self.ids)}
         self.version += 1
         self._units.clear()
+        self._conversions.clear()
 
     # -------------------------------------------------------------- values
     def store(self, item: str, positions: np.ndarray, pulses: np.ndarray, when: float) -> None:
@@ -121,6 +125,7 @@ class ServoTable:
         snap.version = self.version
         snap.seq, snap._set_at, snap._item_set_at = self.seq, {}, {}
         snap._positions, snap._positions_version = {}, -1
+        snap._conversions = dict(self._conversions)
         return snap
 
     def set_value(self, item: str, dxl_id: int, pulses: int) -> None:
@@ -168,10 +173,15 @@ class ServoTable:
         cached = self._units.get(item)
         if cached is not None:
             return cached
-        out = units.pulse_to_unit(self.models, item, self.pulses(item)) if self.ids else np.zeros(0)
-        known = self.known(item)
+        raw, known = self.arrays(item)
+        if raw is None or known is None:
+            raw, known = np.zeros(len(self.ids), dtype=np.int64), np.zeros(len(self.ids), dtype=bool)
+        conversion = self._conversions.get(item)
+        if conversion is None:  # kept until the servos or their models change
+            conversion = self._conversions[item] = units.conversion(self.models, item)
+        offset, scale = conversion
+        out: np.ndarray = (raw - offset) * scale  # units.pulse_to_unit, without the models looked up again
         if not known.all():
-            out = out.astype(np.float64, copy=True)
             out[~known] = np.nan
         out.setflags(write=False)
         self._units[item] = out

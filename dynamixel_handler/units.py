@@ -128,6 +128,13 @@ def _as_vector(values: ArrayLike, n: int, what: str) -> np.ndarray:
     return arr
 
 
+def conversion(models: Sequence[Model], item: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(offset, scale)``, one per model, with ``pulse_to_unit`` = ``(pulses - offset) * scale``
+    (read-only arrays; NaN scale where a model lacks the item or the quantity)."""
+    plan = _plan(tuple(models), item)
+    return plan.offset, plan.scale
+
+
 def pulse_to_unit(models: Sequence[Model], item: str, pulses: ArrayLike) -> np.ndarray:
     """Pulses (one per model) -> physical units as float64; NaN where a model lacks the item or
     the quantity (e.g. current on XL430)."""

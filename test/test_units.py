@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from dynamixel_handler import units
 from dynamixel_handler.control_table import known_models, model_by_number
@@ -222,3 +224,36 @@ def test_startup_configuration():
     assert ram_restore.tolist() == [False, False, True, True]
     assert torque_on.tolist() == [False, True, False, True]
     assert units.encode_startup_configuration(ram_restore=True, startup_torque_on=True) == 3
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from([1020, 1120, 2020, 54024, 1060, 1200]), min_size=1, max_size=8, unique=True),
+       st.sampled_from(["present_position", "present_velocity", "present_current", "present_input_voltage",
+                        "goal_position", "present_pwm"]),
+       st.data())
+def test_the_tables_kept_conversion_equals_pulse_to_unit(numbers, item, data):
+    """The servo table converts with an offset and scale kept per item until its servos or models
+    change: the values equal ``pulse_to_unit``'s, NaN where unknown, also after a model is
+    replaced and a servo removed."""
+    from dynamixel_handler.servos import ServoTable
+
+    table = ServoTable()
+    for dxl_id, number in enumerate(numbers, start=1):
+        table.add(dxl_id, model_by_number(number))
+
+    def check() -> None:
+        n = len(table)
+        pulses = np.array(data.draw(st.lists(st.integers(-4000, 4000), min_size=n, max_size=n)), dtype=np.int64)
+        known = np.array(data.draw(st.lists(st.booleans(), min_size=n, max_size=n)), dtype=bool)
+        table.store(item, np.flatnonzero(known), pulses[known], 0.0)
+        stored, seen = table.arrays(item)
+        want = units.pulse_to_unit(table.models, item, stored)
+        want[~seen] = np.nan
+        np.testing.assert_array_equal(table.units(item), want)
+
+    check()
+    table.add(1, model_by_number(data.draw(st.sampled_from([1020, 2020, 1060]))))  # the model replaced
+    check()
+    if len(table) > 1:
+        table.remove(table.ids[-1])
+        check()
