@@ -101,8 +101,13 @@ def test_every_limit_field_with_torque_off_for_the_write(rig):
         for field, value, lsb in zip(FIELDS, VALUES[i], LSB[i]):
             if lsb is None:
                 continue
-            rig.wait(lambda i=i, f=field, v=value, t=lsb / 2 + 1e-6: abs(rig.state_of("limit", f, i) - v) <= t, timeout=10,
+            rig.wait(lambda i=i, f=field, v=value, t=lsb / 2 + 1e-6: _near(rig.state_of("limit", f, i), v, t), timeout=10,
                      what=f"ID {i} limit.{field} -> {value} (last {rig.state_of('limit', field, i)})")
+
+
+def _near(got, want: float, tolerance: float) -> bool:
+    """``got`` (None until a limit message with the servo has come) within ``tolerance`` of ``want``."""
+    return got is not None and abs(got - want) <= tolerance
 
 
 def test_goals_beyond_the_new_limits_are_clamped_to_them(rig):
