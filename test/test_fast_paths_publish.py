@@ -31,6 +31,7 @@ from dynamixel_handler.ros.lean import Patcher
 from dynamixel_handler.ros.publishers import SAME_NAME, STATE_TOPICS, StatePublishers
 from dynamixel_handler.servos import ServoTable
 
+from support.msg_fill import nested_codecs
 from support.rig import PRO, X540, P, X
 
 MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
@@ -259,18 +260,10 @@ def test_a_handler_on_a_virtual_bus_publishes_the_same_bytes_either_way():
 
 
 # ============================================================================ command decoding
-def _all_codecs(codec: Codec, seen: dict) -> dict:
-    seen[id(codec)] = codec
-    for _, kind, detail in codec.fields:
-        if kind == "message":
-            _all_codecs(detail, seen)
-    return seen
-
-
 def _field_by_field(codec: Codec, raw: bytes, monkeypatch) -> dict:
     """The same bytes decoded with every shortcut off: each part field by field."""
     with monkeypatch.context() as m:
-        for c in _all_codecs(codec, {}).values():
+        for c in nested_codecs(codec):
             m.setattr(c, "_decode_from", c._decode_fields)
         return codec.decode(raw)
 

@@ -27,6 +27,8 @@ import dynamixel_handler_msgs.msg as msgs
 from dynamixel_handler.core.read_plan import _Part, _Read, _record, decode_replies, decode_replies_plain
 from dynamixel_handler.ros.cdr import Codec
 
+from support.msg_fill import nested_codecs
+
 MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
 _INT = {"u1": (0, 255), "i1": (-128, 127), "u2": (0, 65535), "i2": (-32768, 32767),
         "u4": (0, 2**32 - 1), "i4": (-2**31, 2**31 - 1), "u8": (0, 2**64 - 1), "i8": (-2**63, 2**63 - 1)}
@@ -92,18 +94,10 @@ def test_cached_empty_message_equals_the_field_by_field_encoding(msg_class):
         assert cached == plain, shift
 
 
-def _codecs(codec: Codec, seen: dict) -> dict:
-    seen[id(codec)] = codec
-    for _, kind, detail in codec.fields:
-        if kind == "message":
-            _codecs(detail, seen)
-    return seen
-
-
 def _plain_decode(codec: Codec, raw: bytes, monkeypatch) -> dict:
     """The same bytes decoded with the empty-part compare switched off in every nested codec."""
     with monkeypatch.context() as m:
-        for c in _codecs(codec, {}).values():
+        for c in nested_codecs(codec):
             m.setattr(c, "_no_elements", None)
         return codec.decode(raw)
 

@@ -201,6 +201,20 @@ def test_flat_out_every_command_reaches_the_wire_in_order_and_the_last_one_stays
 
 
 # ============================================================================ between loops
+def _second_goal_written(bench, pub, msg) -> tuple[float, list, list]:
+    """Publish a goal of 40° to ID 1 after one of 30°, wait until it is on the wire; (when it was
+    published, the goal writes, the bus log), both goals checked to be written in order."""
+    msg.position_control.position_deg = [40.0]
+    sent_at = time.monotonic()
+    pub.publish(msg)
+    bench.wait(lambda: bench.sim.servo(1).read("goal_position") == 2048 + round(40.0 / X_DEG), timeout=5,
+               what="the second goal on the wire")
+    log = list(bench.sim.log)
+    writes = goals_written(log)
+    assert [w[1] for _, w in writes] == [2048 + round(30.0 / X_DEG), 2048 + round(40.0 / X_DEG)]
+    return sent_at, writes, log
+
+
 def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_loop():
     """loop_rate 2: the first command of a period goes to the wire when it arrives, not at the next
     loop; a second one in the same period goes out with the next loop (at most one extra write)."""
@@ -218,13 +232,7 @@ def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_l
         msg.position_control.position_deg = [30.0]
         pub.publish(msg)
         time.sleep(0.1)
-        msg.position_control.position_deg = [40.0]
-        pub.publish(msg)
-        bench.wait(lambda: bench.sim.servo(1).read("goal_position") == 2048 + round(40.0 / X_DEG), timeout=5,
-                   what="the second goal on the wire")
-        log = list(bench.sim.log)
-        writes = goals_written(log)
-        assert [w[1] for _, w in writes] == [2048 + round(30.0 / X_DEG), 2048 + round(40.0 / X_DEG)]
+        _, writes, log = _second_goal_written(bench, pub, msg)
         reads = [e.time for e in log if e.instruction in (SYNC_READ, FAST_SYNC_READ)]
         first, second = writes[0][0], writes[1][0]
         # the first went out on its own, well before the next loop's read; the second with that loop
@@ -261,14 +269,7 @@ def test_a_command_during_a_read_goes_out_after_its_replies_and_the_next_one_sti
         pub.publish(msg)                                 # while the read is on the wire
         bench.wait_new(["states"], 1, timeout=5)         # that loop is over
         time.sleep(0.05)
-        msg.position_control.position_deg = [40.0]
-        second_at = time.monotonic()
-        pub.publish(msg)
-        bench.wait(lambda: bench.sim.servo(1).read("goal_position") == 2048 + round(40.0 / X_DEG), timeout=5,
-                   what="the second goal on the wire")
-        log = list(bench.sim.log)
-        writes = goals_written(log)
-        assert [w[1] for _, w in writes] == [2048 + round(30.0 / X_DEG), 2048 + round(40.0 / X_DEG)]
+        second_at, writes, log = _second_goal_written(bench, pub, msg)
         reads = [e.time for e in log if e.instruction == SYNC_READ]
         assert writes[0][0] - read_at < 0.2, "the command from during the read waited for more than the read"
         assert writes[1][0] - second_at < 0.2, f"the second command waited {writes[1][0] - second_at:.3f} s"

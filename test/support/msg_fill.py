@@ -17,6 +17,16 @@ _SCALAR = {"uint16": 7, "int16": -7, "double": 0.125, "boolean": True, "string":
            "int32": -123, "uint32": 456}
 
 
+def nested_codecs(codec) -> list:
+    """A ``cdr.Codec`` and the codecs of every sub-message in it, each once."""
+    seen = {id(codec): codec}
+    for _, kind, detail in codec.fields:
+        if kind == "message":
+            for inner in nested_codecs(detail):
+                seen[id(inner)] = inner
+    return list(seen.values())
+
+
 def message_class(name: str):
     pkg, _, typ = name.rpartition("/") if "/" in name else ("dynamixel_handler_msgs/msg", "", name)
     module = importlib.import_module(pkg.replace("/", ".") if "." not in pkg else pkg)
