@@ -31,64 +31,17 @@ from dynamixel_handler.ros.lean import Patcher
 from dynamixel_handler.ros.publishers import SAME_NAME, STATE_TOPICS, StatePublishers
 from dynamixel_handler.servos import ServoTable
 
-from support.msg_fill import nested_codecs
+from support.msg_fill import codec_values, decoded_with, same_value
 from support.rig import PRO, X540, P, X
 
 MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
-_INT = {"u1": (0, 255), "i1": (-128, 127), "u2": (0, 65535), "i2": (-32768, 32767),
-        "u4": (0, 2**32 - 1), "i4": (-2**31, 2**31 - 1), "u8": (0, 2**64 - 1), "i8": (-2**63, 2**63 - 1)}
 
 
 # ============================================================================ the patcher
-def _same(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, np.ndarray):
-        return a.dtype == b.dtype and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
-    return a == b or (a != a and b != b)  # NaN
-
-
 def read_alike(codec: Codec, ours: bytes, value: dict) -> bool:
     """The middleware reads ``ours`` as the rclpy message built the plain way (NaN equal to NaN)."""
-    return _same(codec.from_message(deserialize_message(ours, codec.msg_class)),
-                 codec.from_message(codec.to_message(value)))
-
-
-def _number(code: str) -> st.SearchStrategy:
-    if code == "?":
-        return st.booleans()
-    if code[0] == "f":
-        return st.floats(allow_nan=True, width=32 if code == "f4" else 64)
-    return st.integers(*_INT[code])
-
-
-def _read_only(values: list, code: str) -> np.ndarray:
-    arr = np.array(values, dtype=code)
-    arr.setflags(write=False)
-    return arr
-
-
-def values_after(codec: Codec, previous: dict | None) -> st.SearchStrategy:
-    """A value that may keep each field of ``previous`` (the very same object: a kept read-only
-    array, a kept part), or give a new one: another length, a plain list, a writable array, left out."""
-    fields: dict[str, st.SearchStrategy] = {}
-    for name, kind, detail in codec.fields:
-        old = None if previous is None else previous.get(name)
-        if kind == "message":
-            new = values_after(detail, old if isinstance(old, dict) else None)
-        elif kind == "array":
-            code = detail[0]
-            items = st.lists(_number(code), max_size=4)
-            new = st.one_of(items, items.map(lambda v, c=code: _read_only(v, c)),
-                            items.map(lambda v, c=code: np.array(v, dtype=c)))
-        elif kind == "strings":
-            new = st.lists(st.text("abc", max_size=3), max_size=3)
-        elif kind == "string":
-            new = st.text("xyz", max_size=3)
-        else:
-            new = _number(detail[0])
-        fields[name] = st.one_of(st.just(old), new) if name in (previous or {}) else new
-    return st.fixed_dictionaries({}, optional=fields)
+    return same_value(codec.from_message(deserialize_message(ours, codec.msg_class)),
+                      codec.from_message(codec.to_message(value)))
 
 
 @pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
@@ -99,7 +52,7 @@ def test_patched_bytes_equal_the_plain_encoding_over_a_sequence(msg_class, data)
     patcher = Patcher(codec)
     value = None
     for _ in range(6):
-        value = data.draw(values_after(codec, value))
+        value = data.draw(codec_values(codec, value))
         ours = patcher.encode(value)
         assert ours == codec.encode(value)
         assert read_alike(codec, ours, value)
@@ -129,7 +82,7 @@ def test_the_middleware_reads_the_patched_bytes_as_its_own():
                  "status": {"id_list": [1, 2, 3], "mode": ["position", "velocity" if k % 2 else "pwm", ""]}}
         msg = codec.to_message(value)
         assert read_alike(codec, patcher.encode(value), value)
-        assert _same(codec.decode(patcher.encode(value)), codec.decode(serialize_message(msg)))
+        assert same_value(codec.decode(patcher.encode(value)), codec.decode(serialize_message(msg)))
 
 
 # ============================================================================ the kept messages
@@ -260,22 +213,14 @@ def test_a_handler_on_a_virtual_bus_publishes_the_same_bytes_either_way():
 
 
 # ============================================================================ command decoding
-def _field_by_field(codec: Codec, raw: bytes, monkeypatch) -> dict:
-    """The same bytes decoded with every shortcut off: each part field by field."""
-    with monkeypatch.context() as m:
-        for c in nested_codecs(codec):
-            m.setattr(c, "_decode_from", c._decode_fields)
-        return codec.decode(raw)
-
-
 @pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_parts_with_the_bytes_of_an_empty_value_decode_as_field_by_field(msg_class, data, monkeypatch):
     codec = Codec.of(msg_class)
-    value = data.draw(values_after(codec, None))
+    value = data.draw(codec_values(codec, None))
     for raw in (serialize_message(codec.to_message(value)), codec.encode(value)):
-        assert _same(codec.decode(raw), _field_by_field(codec, raw, monkeypatch))
+        assert same_value(codec.decode(raw), decoded_with(codec, raw, monkeypatch, lambda c: ("_decode_from", c._decode_fields)))
 
 
 def test_a_command_bundle_decodes_its_empty_parts_by_one_compare_each(monkeypatch):
@@ -292,7 +237,7 @@ def test_a_command_bundle_decodes_its_empty_parts_by_one_compare_each(monkeypatc
     first, second = codec.decode(raw), codec.decode(raw)
     assert calls == []  # both recognised without walking their fields
     monkeypatch.undo()
-    assert _same(first, _field_by_field(codec, raw, monkeypatch))
+    assert same_value(first, decoded_with(codec, raw, monkeypatch, lambda c: ("_decode_from", c._decode_fields)))
     first["status"]["mode"].append("x")  # every decoded value has its own lists and dicts
     first["extra"]["led"]["red_percent"] = None
     assert second["status"]["mode"] == [] and len(second["extra"]["led"]["red_percent"]) == 0

@@ -27,61 +27,21 @@ import dynamixel_handler_msgs.msg as msgs
 from dynamixel_handler.core.read_plan import _Part, _Read, _record, decode_replies, decode_replies_plain
 from dynamixel_handler.ros.cdr import Codec
 
-from support.msg_fill import nested_codecs
+from support.msg_fill import codec_values, decoded_with, same_value
 
 MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
-_INT = {"u1": (0, 255), "i1": (-128, 127), "u2": (0, 65535), "i2": (-32768, 32767),
-        "u4": (0, 2**32 - 1), "i4": (-2**31, 2**31 - 1), "u8": (0, 2**64 - 1), "i8": (-2**63, 2**63 - 1)}
-
-
-def _number(code: str) -> st.SearchStrategy:
-    if code == "?":
-        return st.booleans()
-    if code[0] == "f":
-        return st.floats(allow_nan=False, width=32 if code == "f4" else 64)
-    return st.integers(*_INT[code])
-
-
-def partial_values(codec: Codec) -> st.SearchStrategy:
-    """Values with every field optional: what the state messages look like when a loop reads only
-    some groups (and a plain list, not only numpy arrays, where a sequence is given)."""
-    fields: dict[str, st.SearchStrategy] = {}
-    for name, kind, detail in codec.fields:
-        if kind == "message":
-            fields[name] = partial_values(detail)
-        elif kind == "array":
-            code = detail[0]
-            items = st.lists(_number(code), max_size=5)
-            fields[name] = st.one_of(items, items.map(lambda v, c=code: np.array(v, dtype=c)))
-        elif kind == "strings":
-            fields[name] = st.lists(st.text("abc", max_size=3), max_size=3)
-        elif kind == "string":
-            fields[name] = st.text("xyz", max_size=4)
-        else:
-            fields[name] = _number(detail[0])
-    return st.fixed_dictionaries({}, optional=fields)
-
-
-def _same(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, np.ndarray):
-        return a.dtype == b.dtype and np.array_equal(a, b)
-    return a == b
-
-
 @pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_encoded_bytes_are_the_middlewares_with_fields_left_out(msg_class, data):
     codec = Codec.of(msg_class)
-    value = data.draw(partial_values(codec))
+    value = data.draw(codec_values(codec, nan=False))
     msg = codec.to_message(value)
     ours = codec.encode(value)
     # the same message for the middleware, and the same fields as its own bytes (its padding
     # bytes are not always zero, so the bytes themselves are compared field by field)
     assert deserialize_message(ours, msg_class) == msg
-    assert _same(codec.decode(ours), codec.decode(serialize_message(msg)))
+    assert same_value(codec.decode(ours), codec.decode(serialize_message(msg)))
 
 
 @pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
@@ -94,23 +54,16 @@ def test_cached_empty_message_equals_the_field_by_field_encoding(msg_class):
         assert cached == plain, shift
 
 
-def _plain_decode(codec: Codec, raw: bytes, monkeypatch) -> dict:
-    """The same bytes decoded with the empty-part compare switched off in every nested codec."""
-    with monkeypatch.context() as m:
-        for c in nested_codecs(codec):
-            m.setattr(c, "_no_elements", None)
-        return codec.decode(raw)
-
-
 @pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_decoding_with_empty_parts_equals_field_by_field(msg_class, data, monkeypatch):
     codec = Codec.of(msg_class)
-    value = data.draw(partial_values(codec))
+    value = data.draw(codec_values(codec, nan=False))
     for raw in (serialize_message(codec.to_message(value)), codec.encode(value)):
         fast = codec.decode(raw)
-        assert _same(fast, _plain_decode(codec, raw, monkeypatch))
+        # the empty-part compare switched off in every nested codec
+        assert same_value(fast, decoded_with(codec, raw, monkeypatch, lambda c: ("_no_elements", None)))
 
 
 def test_an_empty_command_part_is_decoded_by_the_compare():
