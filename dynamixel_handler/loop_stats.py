@@ -19,7 +19,7 @@ import logging
 import time
 from typing import Callable, Protocol, Sized
 
-from .bus.stats import BusStats
+from .bus.api import StatsWire
 
 #: longest time between two statistics lines [s]
 STATS_MAX_S = 10.0
@@ -45,17 +45,6 @@ class StatsCore(Protocol):
     def device_lost_since(self) -> float | None: ...
     def note_loop_period(self, seconds: float) -> None: ...
     def estimate_loop_s(self) -> float: ...
-
-
-class StatsWire(Protocol):
-    """What the statistics need of the bus: its counters, device and baud rate."""
-
-    @property
-    def stats(self) -> BusStats: ...
-    @property
-    def device(self) -> str: ...
-    @property
-    def baudrate(self) -> int: ...
 
 
 class Finished(Protocol):

@@ -9,19 +9,24 @@ from .stats import BusStats
 from .writes import PreparedWrite
 
 
-@runtime_checkable
-class ServoBus(Protocol):
-    """One bus of servos: single-servo instructions, group reads and writes, the read in flight.
-    Failures are return values (None, False, missing IDs) and ``last_failure`` says why."""
+class StatsWire(Protocol):
+    """What the loop statistics need of a bus: its counters, device and baud rate."""
 
-    @property
-    def last_failure(self) -> str: ...
     @property
     def stats(self) -> BusStats: ...
     @property
     def device(self) -> str: ...
     @property
     def baudrate(self) -> int: ...
+
+
+@runtime_checkable
+class ServoBus(StatsWire, Protocol):
+    """One bus of servos: single-servo instructions, group reads and writes, the read in flight.
+    Failures are return values (None, False, missing IDs) and ``last_failure`` says why."""
+
+    @property
+    def last_failure(self) -> str: ...
     @property
     def latency_timer_ms(self) -> float: ...
     @property
