@@ -24,7 +24,7 @@ from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 from .. import units
 from ..commands import Commander
 from ..joints import JointMap, joint_map, resolve_targets
-from ..loop import Handler
+from ..loop import RECHECK_LOOPS, Handler
 
 DEFAULT_TOLERANCE_DEG = 1.0
 DEFAULT_TIMEOUT_S = 10.0
@@ -129,6 +129,7 @@ class Motion:
                      for (_, name), p in zip(targets, positions)]
         move = Move(targets, servo_deg, tolerance_deg if tolerance_deg > 0 else DEFAULT_TOLERANCE_DEG,
                     time.monotonic() + (timeout_s if timeout_s > 0 else DEFAULT_TIMEOUT_S))
+        self._await_answers(ids)
         call_in_loop(self.h, "move", lambda: self._command(ids, servo_deg, velocity_deg_s))
         # the goals as written (or about to be, this step): clamped values included
         goals = call_in_loop(self.h, "move (goals written)", lambda: self._goals(ids))
@@ -138,6 +139,19 @@ class Motion:
                 move.notes.append(f"{name or f'ID {i}'}: goal is {got:.2f} deg (servo), not {want:.2f} "
                                   "(clamped to the servo's limits or refused: see the node's log)")
         return move
+
+    def _await_answers(self, ids: list[int]) -> None:
+        """Give servos that missed the last read (a loaded host, a noisy bus) time to answer before
+        the move is refused: SILENT_S, plus the loops until a silent servo is pinged again. Returns
+        at once when all answer; the check on the loop thread then decides."""
+        grace = SILENT_S + RECHECK_LOOPS * max(1.0 / self.h.config["loop_rate"], self.h.loop_period_s)
+        deadline = time.monotonic() + grace
+
+        def silent() -> list[int]:
+            table = self.h.table
+            return [i for i in ids if i in table and not table.ping[table.index[i]]]
+        while self.running() and call_in_loop(self.h, "move (answers)", silent) and time.monotonic() < deadline:
+            time.sleep(POLL_S)
 
     def _command(self, ids: list[int], servo_deg: list[float], velocity: float) -> None:
         """Loop thread: refuse servos that cannot move, then queue the goals per mode and series."""
