@@ -161,7 +161,8 @@ def unit_to_pulse(models: Sequence[Model], item: str, values: ArrayLike) -> np.n
     if plan.missing.any():
         i = int(np.flatnonzero(plan.missing)[0])
         raise ValueError(f"{item}: model {models[i].name} at index {i} has no such item or unit")
-    scaled = vals / plan.scale + plan.offset
+    with np.errstate(over="ignore"):  # a finite value beyond float range saturates like any too-large one
+        scaled = vals / plan.scale + plan.offset
     rounded = np.trunc(scaled + np.copysign(0.5, scaled))
     out: np.ndarray = np.clip(rounded, plan.lo, plan.hi).astype(np.int64)
     return out

@@ -1,6 +1,7 @@
 """Pulse <-> physical-unit conversion, byte encoding and bit fields."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -114,6 +115,13 @@ def test_clips_instead_of_wrapping():
     # The clipped value still encodes without error.
     item = XM430.item("goal_current")
     assert units.decode(item, units.encode(item, [to_pulse(XM430, "goal_current", 1e6)])).tolist() == [32767]
+
+
+def test_a_value_at_the_edge_of_float_range_saturates_without_a_runtime_warning():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warning would land in the user's log
+        assert to_pulse(XM430, "goal_position", 1.7e308) == 2 ** 31 - 1
+        assert to_pulse(XM430, "goal_position", -1.7e308) == -(2 ** 31)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
