@@ -1,4 +1,5 @@
 """Test-wide settings: DDS discovery stays on this machine, on a domain of this test run's own."""
+import atexit
 import fcntl
 import os
 import tempfile
@@ -19,7 +20,7 @@ def _claim_domain() -> str:
         except OSError:
             handle.close()
             continue
-        _claim_domain.handle = handle  # keep the lock until this process exits
+        atexit.register(handle.close)  # the lock is held until this process exits, then closed quietly
         return str(domain)
     return str(1 + start)
 
