@@ -19,6 +19,9 @@ from dynamixel_handler.protocol.host import build_instruction
 
 DATA = {1: bytes(range(10, 20)), 2: bytes([0xFF, 0xFF, 0xFD, 0x00, 2, 2, 2, 0xFD, 0xFD, 0x55]),
         3: bytes(range(30, 40))}
+#: the bus of every run: 1 Mbps, 1 ms latency, no retries; a reply timeout with room for a busy
+#: host (the peer is a thread of this process), which changes no count below
+BUS = {"latency_timer_ms": 1, "retry_num": 0, "timeout_margin_ms": 50.0}
 NOISE = bytes([0x00, 0xFF, 0x13, 0xFF, 0xFF, 0xFD, 0x55, 0xFF])
 
 
@@ -69,7 +72,7 @@ def _run(script: list, fast: bool, direct_io: bool, leftover: bytes = b"") -> tu
     """Two reads of IDs 1-3 answered by ``script``; what the bus decoded and counted."""
     peer = WirePeer(lambda packet: script)
     log = _Log()
-    bus = DynamixelBus(peer.path, 1_000_000, latency_timer_ms=1, retry_num=0, logger=log, direct_io=direct_io)
+    bus = DynamixelBus(peer.path, 1_000_000, **BUS, logger=log, direct_io=direct_io)
     try:
         bus.open()
         if leftover:
@@ -110,7 +113,7 @@ def _vanish_mid_run(direct_io: bool) -> tuple:
         return [b"".join(_replies(1, 2, 3))] if len(answered) == 1 else []
     peer = WirePeer(once)
     log = _Log()
-    bus = DynamixelBus(peer.path, 1_000_000, latency_timer_ms=1, retry_num=0, logger=log, direct_io=direct_io)
+    bus = DynamixelBus(peer.path, 1_000_000, **BUS, logger=log, direct_io=direct_io)
     try:
         bus.open()
         first = bus.sync_read(126, 10, [1, 2, 3])
@@ -135,7 +138,7 @@ def _stale_before_a_write(direct_io: bool) -> tuple:
     flush of its own), then a sync read: the late reply must be dropped and counted, never taken."""
     stale = status(1, bytes(10))  # the right ID and size for the read below: only the flush tells it apart
     peer = WirePeer(lambda packet: [] if packet[7] == 0x83 else [b"".join(_replies(1, 2, 3))])
-    bus = DynamixelBus(peer.path, 1_000_000, latency_timer_ms=1, retry_num=0, logger=_Log(), direct_io=direct_io)
+    bus = DynamixelBus(peer.path, 1_000_000, **BUS, logger=_Log(), direct_io=direct_io)
     try:
         bus.open()
         peer.send(stale)
