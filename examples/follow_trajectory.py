@@ -129,10 +129,14 @@ def main() -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     spinning = True
+    # rclpy's ActionClient drops an answer the spinning thread takes before the request's future is
+    # registered (ros2/rclpy#1123): requests are sent while the spinning thread is held off
+    spin_lock = threading.Lock()
 
     def spin() -> None:
         while spinning:
-            executor.spin_once(timeout_sec=0.02)
+            with spin_lock:
+                executor.spin_once(timeout_sec=0.02)
     spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     try:
@@ -155,12 +159,14 @@ def main() -> int:
                 velocities=vel[:len(joints)], time_from_start=duration(t)))
         t0 = node.get_clock().now().nanoseconds * 1e-9 + args.delay
         traj.header.stamp.sec, traj.header.stamp.nanosec = int(t0), int((t0 % 1.0) * 1e9)
-        goal_future = node.client.send_goal_async(FollowJointTrajectory.Goal(trajectory=traj),
-                                                  feedback_callback=node.on_feedback)
+        with spin_lock:
+            goal_future = node.client.send_goal_async(FollowJointTrajectory.Goal(trajectory=traj),
+                                                      feedback_callback=node.on_feedback)
         if not wait_for(goal_future.done, 10.0) or not goal_future.result().accepted:
             print("the goal was not accepted", file=sys.stderr)
             return 1
-        result_future = goal_future.result().get_result_async()
+        with spin_lock:
+            result_future = goal_future.result().get_result_async()
         if not wait_for(result_future.done, shape[-1][0] + args.delay + 10.0):
             print("no result in time", file=sys.stderr)
             return 1

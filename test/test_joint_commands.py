@@ -82,7 +82,8 @@ def written_goals(rig: Rig, since: float) -> list[tuple[float, float, float]]:
 
 
 def send(rig: Rig, goal: FollowJointTrajectory.Goal, feedback: list | None = None):
-    fut = client(rig).send_goal_async(goal, feedback_callback=(lambda m: feedback.append(m.feedback)) if feedback is not None else None)
+    fut = rig.locked(client(rig).send_goal_async, goal,
+                     feedback_callback=(lambda m: feedback.append(m.feedback)) if feedback is not None else None)
     rig.wait(fut.done, what="the goal accepted")
     handle = fut.result()
     assert handle.accepted
@@ -90,7 +91,7 @@ def send(rig: Rig, goal: FollowJointTrajectory.Goal, feedback: list | None = Non
 
 
 def result_of(rig: Rig, handle, timeout: float = 20.0):
-    fut = handle.get_result_async()
+    fut = rig.locked(handle.get_result_async)
     rig.wait(fut.done, timeout=timeout, what="the goal's result")
     return fut.result().status, fut.result().result
 
@@ -216,7 +217,7 @@ def test_preemption_and_cancel(rig):
     status, result = result_of(rig, first)
     assert status == 6 and result.error_code == R.SUCCESSFUL and "preempted" in result.error_string
     rig.wait(lambda: joint_rad(rig, "pan") < 0.0, what="the second goal moving the other way")
-    second.cancel_goal_async()
+    rig.locked(second.cancel_goal_async)
     status, result = result_of(rig, second)
     assert status == 5  # CANCELED
     held = joint_rad(rig, "pan")

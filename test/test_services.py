@@ -123,7 +123,7 @@ def test_move_joints_streams_feedback_can_be_cancelled_and_reports_its_result(ri
     feedback: list[MoveJoints.Feedback] = []
 
     def send(goal: MoveJoints.Goal):
-        fut = client.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback))
+        fut = rig.locked(client.send_goal_async, goal, feedback_callback=lambda m: feedback.append(m.feedback))
         rig.wait(fut.done, what="the goal accepted")
         handle = fut.result()
         assert handle.accepted
@@ -136,9 +136,9 @@ def test_move_joints_streams_feedback_can_be_cancelled_and_reports_its_result(ri
     rig.wait(lambda: len(feedback) >= 3, what="feedback on the way")
     assert start < feedback[-1].positions_deg[0] < start + 120.0
     assert feedback[-1].remaining_deg[0] < feedback[0].remaining_deg[0]
-    cancel = handle.cancel_goal_async()
+    cancel = rig.locked(handle.cancel_goal_async)
     rig.wait(cancel.done, what="the cancel answer")
-    result_future = handle.get_result_async()
+    result_future = rig.locked(handle.get_result_async)
     rig.wait(result_future.done, what="the result after cancel")
     result = result_future.result().result
     assert result.status == MoveJoints.Result.CANCELED, result.message
@@ -150,7 +150,7 @@ def test_move_joints_streams_feedback_can_be_cancelled_and_reports_its_result(ri
     # a move to completion
     feedback.clear()
     handle = send(MoveJoints.Goal(ids=[1, 2], positions_deg=[0.0, 15.0], tolerance_deg=0.5, timeout_s=20.0))
-    result_future = handle.get_result_async()
+    result_future = rig.locked(handle.get_result_async)
     rig.wait(result_future.done, timeout=25, what="the result")
     result = result_future.result().result
     assert result.status == MoveJoints.Result.REACHED, result.message
@@ -159,7 +159,7 @@ def test_move_joints_streams_feedback_can_be_cancelled_and_reports_its_result(ri
 
     # an unknown joint ends at once with ERROR
     handle = send(MoveJoints.Goal(joint_names=["nose"], positions_deg=[1.0]))
-    result_future = handle.get_result_async()
+    result_future = rig.locked(handle.get_result_async)
     rig.wait(result_future.done, what="the error result")
     result = result_future.result().result
     assert result.status == MoveJoints.Result.ERROR and "unknown joint 'nose'" in result.message

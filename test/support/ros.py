@@ -132,6 +132,14 @@ class TopicClient:
             with self._lock:
                 self.executor.spin_once(timeout_sec=0.02)
 
+    def locked(self, fn: Callable, *args, **kwargs):
+        """``fn(*args, **kwargs)`` with the spinning thread held off. For an action client's
+        ``send_goal_async``, ``get_result_async`` and ``cancel_goal_async``: rclpy's ActionClient
+        registers the request's future only after sending it, and drops an answer that the spinning
+        thread takes before that (ros2/rclpy#1123), so the future would never complete."""
+        with self._lock:
+            return fn(*args, **kwargs)
+
     def publish(self, topic: str, msg) -> None:
         """Publish once the handler's subscription is matched (so the message is not lost)."""
         key = (topic, type(msg))
