@@ -127,7 +127,7 @@ def _run_goal_sequence(vector: bool, monkeypatch) -> tuple[list[dict[int, int]],
 
     monkeypatch.setattr(goal_bounds, "ENABLED", vector)
     sim = VirtualBus({1: X, 2: X540, 3: P, 4: PRO}, baudrate=1_000_000)
-    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=16.0, retry_num=3)  # patient: a lost reply would part the runs
     bus.open()
     try:
         config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
