@@ -207,3 +207,42 @@ def test_the_tables_positions_follow_servos_added_and_removed():
     assert table.positions((2, 4, 6)).tolist() == [0, 2]
     assert table.snapshot().positions((3, 6)).tolist() == [1, 2]
     assert not table.positions((2, 4, 6)).flags.writeable
+
+
+def test_at_a_low_loop_rate_a_servo_that_missed_a_read_is_pinged_again_within_a_tenth_of_a_second():
+    """At 100 Hz and above a servo that stopped answering is pinged every 10 loops; at lower rates
+    every 0.1 s worth of loops (at least every loop), so a glitch at 2 Hz costs one read, not 5 s."""
+    from dynamixel_handler.bus import DynamixelBus
+    from dynamixel_handler.config import defaults, validate
+    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.sim import VirtualBus
+
+    for loop_rate, loops_to_answer in ((2, 1), (50, 5), (100, 10), (1000, 10)):
+        sim = VirtualBus({1: XM430, 2: XM430})
+        path = sim.start()
+        bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=1)
+        bus.open()
+        try:
+            handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 2,
+                                             "loop_rate": loop_rate, "pub_ratio/present.position": 1}))
+            handler.start()
+            while handler.loop_count % RECHECK_LOOPS != 1:  # just after a ping round at every rate
+                handler.step()
+            sim.servo(1).silent = True
+            handler.step()                  # the read that finds it silent
+            assert list(handler.table.ping) == [False, True]
+            sim.servo(1).silent = False
+            sim.clear_log()
+            loops = 0
+            while not handler.table.ping[0] and loops < 2 * RECHECK_LOOPS:
+                handler.step()
+                loops += 1
+            pings = [e for e in sim.log if e.instruction == PING and 1 in e.ids]
+            assert handler.table.ping[0] and len(pings) == 1, (loop_rate, loops, len(pings))
+            assert loops <= loops_to_answer, f"loop_rate {loop_rate}: answered after {loops} loops"
+            handler.step()                  # and read with the others again
+            reads = [e for e in sim.log if e.instruction in (SYNC_READ, FAST_SYNC_READ)]
+            assert 1 in reads[-1].ids
+        finally:
+            bus.close()
+            sim.close()

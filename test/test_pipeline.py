@@ -223,8 +223,11 @@ def test_a_command_between_loops_is_written_at_once_and_a_second_waits_for_the_l
     try:
         pub = bench.node.create_publisher(DxlCommandsX, "/dynamixel/commands/x", 10)
         bench.wait(lambda: pub.get_subscription_count() > 0, what="the node subscribing")
-        bench.wait_new(["states"], 2, timeout=5)
-        bench.wait_new(["states"], 1, timeout=5)      # a loop just ran: about 0.5 s to the next
+        bench.wait_new(["debug"], 2, timeout=5)
+        for _ in range(20):  # a loop just ran (about 0.5 s to the next) and read the servo, so the next reads it too
+            bench.wait_new(["debug"], 1, timeout=5)
+            if all(bench.debug[-1].status.ping):
+                break
         time.sleep(0.05)
         bench.sim.clear_log()
         msg = DxlCommandsX()

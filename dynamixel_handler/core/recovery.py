@@ -82,8 +82,8 @@ class Recovery(Watchdog):
                 # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew
                 # before the next commands are written
                 self._to_arm.add(table.ids[pos])
-        # each read or ping of the servo that got no answer counts (a silent servo is only pinged
-        # every RECHECK_LOOPS loops): the removal comes after no_response_id_auto_remove_count
+        # each read or ping of the servo that got no answer counts (a silent servo is only pinged every
+        # recheck_loops loops): the removal comes after no_response_id_auto_remove_count
         # unanswered requests in a row
         if any_silent:
             table.no_response[silent] += 1

@@ -15,6 +15,17 @@ if TYPE_CHECKING:
     from .read_plan import _Read
 
 
+#: a servo that stopped answering is pinged every RECHECK_LOOPS loops, or every RECHECK_S at loop
+#: rates under RECHECK_LOOPS / RECHECK_S (a glitch at 2 Hz then costs one loop's read, not ten)
+RECHECK_LOOPS = 10
+RECHECK_S = 0.1
+
+
+def recheck_loops(loop_rate: float) -> int:
+    """Loops between pings of a servo that stopped answering at ``loop_rate`` [Hz]."""
+    return max(1, min(RECHECK_LOOPS, round(RECHECK_S * loop_rate)))
+
+
 @dataclass
 class StepReport:
     loop: int
@@ -41,6 +52,7 @@ class HandlerState:
         self.table = ServoTable()
         self.pending = PendingWrites()
         self.loop_count = 0
+        self.recheck_loops = recheck_loops(config["loop_rate"])
         self._ops: collections.deque[tuple[str, Callable[[], None]]] = collections.deque()
         self._ops_lock = threading.Lock()
         self._plans: dict[tuple[tuple[str, ...], bytes], list[_Read]] = {}

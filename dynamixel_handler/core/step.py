@@ -11,11 +11,10 @@ from ..groups import GROUP_ITEMS, PRESENT
 from .deferred import Deferred
 from .read_plan import _Read
 from .recovery import Recovery
-from .state import StepReport
+from .state import RECHECK_LOOPS, StepReport
 from .write_batch import WriteBatch
 
-#: loops between pings of a servo that stopped answering
-RECHECK_LOOPS = 10
+__all__ = ["RECHECK_LOOPS", "Step"]
 
 
 class Step(Recovery, Deferred, WriteBatch):
@@ -92,7 +91,7 @@ class Step(Recovery, Deferred, WriteBatch):
             for read in self._plan(items, live):
                 report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
         # servos that stopped answering are pinged now and then, not read every loop
-        if report.loop % RECHECK_LOOPS == 0:
+        if report.loop % self.recheck_loops == 0:
             report.recheck = [self.table.ids[pos] for pos in np.flatnonzero(~live)]
 
     @property

@@ -24,7 +24,7 @@ from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 from .. import units
 from ..commands import Commander
 from ..joints import JointMap, joint_map, resolve_targets
-from ..loop import RECHECK_LOOPS, Handler
+from ..loop import Handler
 
 DEFAULT_TOLERANCE_DEG = 1.0
 DEFAULT_TIMEOUT_S = 10.0
@@ -144,7 +144,7 @@ class Motion:
         """Give servos that missed the last read (a loaded host, a noisy bus) time to answer before
         the move is refused: SILENT_S, plus the loops until a silent servo is pinged again. Returns
         at once when all answer; the check on the loop thread then decides."""
-        grace = SILENT_S + RECHECK_LOOPS * max(1.0 / self.h.config["loop_rate"], self.h.loop_period_s)
+        grace = SILENT_S + self.h.recheck_loops * max(1.0 / self.h.config["loop_rate"], self.h.loop_period_s)
         deadline = time.monotonic() + grace
 
         def silent() -> list[int]:
