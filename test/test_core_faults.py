@@ -2,6 +2,7 @@
 after no_response_id_auto_remove_count loops, and back again with the shortcut add_id."""
 from __future__ import annotations
 
+import logging
 import math
 
 from test_core_states import assert_unit
@@ -248,39 +249,47 @@ def test_at_a_low_loop_rate_a_servo_that_missed_a_read_is_pinged_again_within_a_
             sim.close()
 
 
-def test_a_mode_change_whose_torque_read_gets_no_answer_still_switches_the_torque_off_first():
-    """The servo refuses an operating mode write while its torque is on. A torque read lost to a
-    busy host must not be taken for torque off: the torque goes off all the same, the mode is
-    written, and the torque comes back as last read (on), holding where the servo is."""
+def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_switches_the_torque_off_first():
+    """The servo refuses an operating mode or EEPROM write while its torque is on. A torque read
+    lost to a busy host must not be taken for torque off: the torque goes off all the same, the
+    value is written, and the torque comes back as last read (on), holding where the servo is."""
     from dynamixel_handler.bus import DynamixelBus
     from dynamixel_handler.commands import Commander
     from dynamixel_handler.config import defaults, validate
     from dynamixel_handler.loop import Handler
     from dynamixel_handler.sim import VirtualBus
 
-    sim = VirtualBus({1: XM430})
-    path = sim.start()
-    bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=0)
-    bus.open()
-    try:
-        handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 1,
-                                         "dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}))
-        handler.start()
-        handler.step()
-        servo = sim.servo(1)
-        assert servo.read("torque_enable") == 1 and servo.read("operating_mode") == 3
-        lines: list[str] = []
-        commander = Commander(handler)
-        commander.warn = lines.append
-        sim.clear_log()
-        sim.truncate_next(1)  # the next reply, the torque read's, arrives cut in half
-        commander.control("X", "velocity_control", [1], {"velocity_deg_s": [0.0]})
-        handler.step()
-        reads = [e for e in sim.log if e.instruction == READ]
-        assert reads and reads[0].address == servo.model.item("torque_enable").address  # the read that was lost
-        assert servo.read("operating_mode") == 1, lines
-        assert servo.read("torque_enable") == 1
-        assert not [line for line in lines if "failed" in line], lines
-    finally:
-        bus.close()
-        sim.close()
+    cases = [  # (replies lost, the command, the register and the value it must reach)
+        (1, lambda c: c.control("X", "velocity_control", [1], {"velocity_deg_s": [0.0]}), "operating_mode", 1),
+        (2, lambda c: c.limit([1], {"temperature_limit_degc": [70.0]}), "temperature_limit", 70),  # item + torque read
+    ]
+    for lost, command, register, value in cases:
+        sim = VirtualBus({1: XM430})
+        path = sim.start()
+        bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=0)
+        bus.open()
+        try:
+            handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 1,
+                                             "dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}))
+            handler.start()
+            handler.step()
+            servo = sim.servo(1)
+            assert servo.read("torque_enable") == 1 and servo.read(register) != value
+            lines: list[str] = []
+            handler.log = logging.getLogger(f"torque_read_lost_{register}")
+            handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+            commander = Commander(handler)
+            commander.warn = lines.append
+            sim.clear_log()
+            sim.truncate_next(lost)  # the next replies arrive cut in half: the last of them is the torque read's
+            command(commander)
+            handler.step()
+            handler.step()
+            torque_address = servo.model.item("torque_enable").address
+            assert [e for e in sim.log if e.instruction == READ and e.address == torque_address]
+            assert servo.read(register) == value, lines
+            assert servo.read("torque_enable") == 1
+            assert not [line for line in lines if "failed" in line], lines
+        finally:
+            bus.close()
+            sim.close()

@@ -103,7 +103,7 @@ class Requests(Startup):
         model = self.table.model(dxl_id)
         own = OWN_GOAL.get(self.mode(dxl_id) or "")
         keep = {item: self.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
-        torque = self._torque_off_for_mode(dxl_id)
+        torque = self.torque_off_for_eeprom(dxl_id)
         if torque is None:
             warn(f"{what}: ID {dxl_id} mode change to '{mode}' not made: torque off failed: {self.bus.last_failure}")
             return "failed"
@@ -119,18 +119,6 @@ class Requests(Startup):
         else:
             warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {self.bus.last_failure}")
         return "done" if ok else "failed"
-
-    def _torque_off_for_mode(self, dxl_id: int) -> int | None:
-        """Torque off before an operating mode write (the servo refuses it otherwise); the torque
-        to restore afterwards, or None when it could not be switched off. A torque read without
-        answer still switches it off, and the value last read is restored."""
-        torque = self.read_item(dxl_id, "torque_enable")
-        unknown = torque is None
-        if unknown:
-            torque = self.table.value("torque_enable", dxl_id)
-        if (torque or unknown) and not self.torque_off(dxl_id):
-            return None
-        return torque or 0
 
     # ---------------------------------------------------------------- error clear
     def clear_error(self, dxl_id: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
