@@ -252,7 +252,8 @@ def test_at_a_low_loop_rate_a_servo_that_missed_a_read_is_pinged_again_within_a_
 def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_switches_the_torque_off_first():
     """The servo refuses an operating mode or EEPROM write while its torque is on. A torque read
     lost to a busy host must not be taken for torque off: the torque goes off all the same, the
-    value is written, and the torque comes back as last read (on), holding where the servo is."""
+    value is written, and the torque comes back as last read (on), holding where the servo is. A
+    torque off whose reply is lost is no reason to stop: the servo may have taken it."""
     from dynamixel_handler.bus import DynamixelBus
     from dynamixel_handler.commands import Commander
     from dynamixel_handler.config import defaults, validate
@@ -261,6 +262,8 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
 
     cases = [  # (replies lost, the command, the register and the value it must reach)
         (1, lambda c: c.control("X", "velocity_control", [1], {"velocity_deg_s": [0.0]}), "operating_mode", 1),
+        # the torque off's reply lost too: the servo took it all the same, so the mode write goes through
+        (2, lambda c: c.control("X", "velocity_control", [1], {"velocity_deg_s": [0.0]}), "operating_mode", 1),
         (2, lambda c: c.limit([1], {"temperature_limit_degc": [70.0]}), "temperature_limit", 70),  # item + torque read
     ]
     for lost, command, register, value in cases:

@@ -48,9 +48,6 @@ class Deferred(ServoIO):
         if not todo:
             return True
         torque = self.torque_off_for_eeprom(dxl_id)
-        if torque is None:
-            self.log.warning(f"ID {dxl_id}: {', '.join(todo)} not written: torque off failed: {self.bus.last_failure}")
-            return False
         ok = True
         for item, pulses in todo.items():
             if self.write_item(dxl_id, item, pulses):

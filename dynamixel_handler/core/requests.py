@@ -104,9 +104,6 @@ class Requests(Startup):
         own = OWN_GOAL.get(self.mode(dxl_id) or "")
         keep = {item: self.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
         torque = self.torque_off_for_eeprom(dxl_id)
-        if torque is None:
-            warn(f"{what}: ID {dxl_id} mode change to '{mode}' not made: torque off failed: {self.bus.last_failure}")
-            return "failed"
         ok = self.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
         for item, value in keep.items():
             if value is not None:

@@ -61,17 +61,18 @@ class ServoIO(HandlerState):
     def torque_off(self, dxl_id: int) -> bool:
         return self.write_item(dxl_id, "torque_enable", 0)
 
-    def torque_off_for_eeprom(self, dxl_id: int) -> int | None:
+    def torque_off_for_eeprom(self, dxl_id: int) -> int:
         """Torque off before an EEPROM write (operating mode, limits: the servo refuses them with
-        torque on); the torque to restore afterwards, or None when it could not be switched off.
-        A torque read without answer is not taken for "off": the torque is switched off all the
-        same and the value last read is the one to restore."""
+        torque on); the torque to restore afterwards. A torque read without answer is not taken
+        for "off": the torque is switched off all the same and the value last read is restored.
+        A torque off without reply is not an end: the servo may have taken it (a lost reply), and
+        the EEPROM write after it tells (access error while the torque is on)."""
         torque = self.read_item(dxl_id, "torque_enable")
         unknown = torque is None
         if unknown:
             torque = self.table.value("torque_enable", dxl_id)
-        if (torque or unknown) and not self.torque_off(dxl_id):
-            return None
+        if torque or unknown:
+            self.torque_off(dxl_id)
         return torque or 0
 
     def _clip_to_position_limits(self, dxl_id: int, pulses: int) -> int:
