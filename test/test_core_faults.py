@@ -2,7 +2,6 @@
 after no_response_id_auto_remove_count loops, and back again with the shortcut add_id."""
 from __future__ import annotations
 
-import logging
 import math
 
 from test_core_states import assert_unit
@@ -10,6 +9,7 @@ from test_core_states import assert_unit
 from dynamixel_handler.loop import RECHECK_LOOPS
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
+from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import BASE_PARAMS, FAST_SYNC_READ, FOUR_SERVOS, PING, READ, SYNC_READ, XM430, Rig
 
 REMOVE_AFTER = 10  # unanswered requests
@@ -138,19 +138,8 @@ def test_a_servo_that_breaks_the_fast_read_chain_costs_the_others_nothing_lastin
     """In a Fast Sync Read the servos answer in a chain: one that stops answering silences those
     after it for that read. They must not be taken for firmware without Fast Sync Read (read with
     the slower plain Sync Read from then on); a servo that really lacks it is still found."""
-    from dynamixel_handler.bus import DynamixelBus
-    from dynamixel_handler.config import defaults, validate
-    from dynamixel_handler.loop import Handler
-    from dynamixel_handler.sim import VirtualBus
-
-    sim = VirtualBus({i: XM430 for i in range(1, 5)})
-    path = sim.start()
-    bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=1)
-    bus.open()
-    try:
-        handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 4,
-                                         "method/fast_read": True, "pub_ratio/present.position": 1}))
-        handler.start()
+    config = {"method/fast_read": True, "pub_ratio/present.position": 1}
+    with handler_on_virtual_bus({i: XM430 for i in range(1, 5)}, config) as (sim, handler):
 
         def reads() -> dict[int, set[int]]:
             """Read instructions of the last loop that addressed each ID."""
@@ -186,9 +175,6 @@ def test_a_servo_that_breaks_the_fast_read_chain_costs_the_others_nothing_lastin
         assert found[3] == {SYNC_READ}
         assert found[1] == found[2] == found[4] == {FAST_SYNC_READ}
         assert list(handler.table.ping) == [True, True, True, True]
-    finally:
-        bus.close()
-        sim.close()
 
 
 def test_the_tables_positions_follow_servos_added_and_removed():
@@ -213,20 +199,9 @@ def test_the_tables_positions_follow_servos_added_and_removed():
 def test_at_a_low_loop_rate_a_servo_that_missed_a_read_is_pinged_again_within_a_tenth_of_a_second():
     """At 100 Hz and above a servo that stopped answering is pinged every 10 loops; at lower rates
     every 0.1 s worth of loops (at least every loop), so a glitch at 2 Hz costs one read, not 5 s."""
-    from dynamixel_handler.bus import DynamixelBus
-    from dynamixel_handler.config import defaults, validate
-    from dynamixel_handler.loop import Handler
-    from dynamixel_handler.sim import VirtualBus
-
     for loop_rate, loops_to_answer in ((2, 1), (50, 5), (100, 10), (1000, 10)):
-        sim = VirtualBus({1: XM430, 2: XM430})
-        path = sim.start()
-        bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=1)
-        bus.open()
-        try:
-            handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 2,
-                                             "loop_rate": loop_rate, "pub_ratio/present.position": 1}))
-            handler.start()
+        config = {"loop_rate": loop_rate, "pub_ratio/present.position": 1}
+        with handler_on_virtual_bus({1: XM430, 2: XM430}, config) as (sim, handler):
             while handler.loop_count % RECHECK_LOOPS != 1:  # just after a ping round at every rate
                 handler.step()
             sim.servo(1).silent = True
@@ -244,9 +219,6 @@ def test_at_a_low_loop_rate_a_servo_that_missed_a_read_is_pinged_again_within_a_
             handler.step()                  # and read with the others again
             reads = [e for e in sim.log if e.instruction in (SYNC_READ, FAST_SYNC_READ)]
             assert 1 in reads[-1].ids
-        finally:
-            bus.close()
-            sim.close()
 
 
 def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_switches_the_torque_off_first():
@@ -254,11 +226,7 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
     lost to a busy host must not be taken for torque off: the torque goes off all the same, the
     value is written, and the torque comes back as last read (on), holding where the servo is. A
     torque off whose reply is lost is no reason to stop: the servo may have taken it."""
-    from dynamixel_handler.bus import DynamixelBus
     from dynamixel_handler.commands import Commander
-    from dynamixel_handler.config import defaults, validate
-    from dynamixel_handler.loop import Handler
-    from dynamixel_handler.sim import VirtualBus
 
     cases = [  # (replies lost, the command, the register and the value it must reach)
         (1, lambda c: c.control("X", "velocity_control", [1], {"velocity_deg_s": [0.0]}), "operating_mode", 1),
@@ -267,20 +235,12 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
         (2, lambda c: c.limit([1], {"temperature_limit_degc": [70.0]}), "temperature_limit", 70),  # item + torque read
     ]
     for lost, command, register, value in cases:
-        sim = VirtualBus({1: XM430})
-        path = sim.start()
-        bus = DynamixelBus(path, 57600, latency_timer_ms=1.0, retry_num=0)
-        bus.open()
-        try:
-            handler = Handler(bus, validate({**defaults(), "device_name": path, "init/servo_auto_search.max_id": 1,
-                                             "dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}))
-            handler.start()
+        config = {"dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}
+        with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
             handler.step()
             servo = sim.servo(1)
             assert servo.read("torque_enable") == 1 and servo.read(register) != value
-            lines: list[str] = []
-            handler.log = logging.getLogger(f"torque_read_lost_{register}")
-            handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+            lines = capture_log(handler, f"torque_read_lost_{register}")
             commander = Commander(handler)
             commander.warn = lines.append
             sim.clear_log()
@@ -293,6 +253,3 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
             assert servo.read(register) == value, lines
             assert servo.read("torque_enable") == 1
             assert not [line for line in lines if "failed" in line], lines
-        finally:
-            bus.close()
-            sim.close()

@@ -23,15 +23,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dynamixel_handler import goal_bounds, units
-from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.commands import Commander
-from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.core import requests
-from dynamixel_handler.loop import Handler
 from dynamixel_handler.servos import ServoTable
 from dynamixel_handler.sim import VirtualBus
 
+from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import PRO, X540, P, X
 
 XL430 = 1060
@@ -96,20 +94,11 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     monkeypatch.setattr(goal_bounds, "TARGETS", fast)
     monkeypatch.setattr(goal_bounds, "SMALL", small)
     monkeypatch.setattr(requests, "TRIPPED_ONCE", fast)
-    sim = VirtualBus(SERVOS, baudrate=1_000_000)
-    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=16.0, retry_num=3)  # patient: a lost reply would part the runs
-    bus.open()
-    try:
-        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 5,
-                           "mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
-                           "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
-                           "init/servo_auto_search.retry_times": 5, "init/expected_servo_num": 5})
-        handler = Handler(bus, config)
-        handler.start()
-        lines: list[str] = []
-        handler.log = logging.getLogger(f"fast_commands_{fast}_{small}")
-        handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(
-            f"{r.levelname} {r.getMessage()}")})())
+    config = {"mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
+              "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
+              "init/servo_auto_search.retry_times": 5, "init/expected_servo_num": 5}
+    with handler_on_virtual_bus(SERVOS, config, baudrate=1_000_000, patient=True) as (sim, handler):
+        lines = capture_log(handler, f"fast_commands_{fast}_{small}", lambda r: f"{r.levelname} {r.getMessage()}")
         handler.log.setLevel(logging.INFO)
         commander = Commander(handler)
         writes: list = []
@@ -135,9 +124,6 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
                               for i in SERVOS})
         handler.shutdown()
         return writes, registers, lines, answers
-    finally:
-        bus.close()
-        sim.close()
 
 
 @pytest.mark.parametrize("small", [32, 0], ids=["plain Python", "numpy"])
@@ -221,51 +207,41 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
     from dynamixel_handler.ros.intake import CommandIntake
 
     monkeypatch.setattr(command_topics, "SKIP_EMPTY", skip)
-    sim = VirtualBus({1: X, 2: X540}, baudrate=1_000_000)
-    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=16.0, retry_num=3)  # patient: a lost reply would part the runs
-    bus.open()
+    config = {"init/servo_auto_search.retry_times": 5,  # a reply lost on a loaded machine
+              "mode_change_interval_sec": 0.0, "init/expected_servo_num": 2}
     context = rclpy.Context()
     node = None
-    try:
-        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 2,
-                           "init/servo_auto_search.retry_times": 5,  # a reply lost on a loaded machine
-                           "mode_change_interval_sec": 0.0, "init/expected_servo_num": 2})
-        handler = Handler(bus, config)
-        handler.start()
-        rclpy.init(context=context)
-        node = Node(f"bundles_{skip}", context=context)
-        lines: list[str] = []
-        handler.log = logging.getLogger(f"bundles_{skip}")
-        handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(
-            f"{r.levelname} {r.getMessage()}")})())
-        handler.log.setLevel(logging.INFO)
-        queued: list[str] = []
-        queue = handler.queue
+    with handler_on_virtual_bus({1: X, 2: X540}, config, baudrate=1_000_000, patient=True) as (sim, handler):
+        try:
+            rclpy.init(context=context)
+            node = Node(f"bundles_{skip}", context=context)
+            lines = capture_log(handler, f"bundles_{skip}", lambda r: f"{r.levelname} {r.getMessage()}")
+            handler.log.setLevel(logging.INFO)
+            queued: list[str] = []
+            queue = handler.queue
 
-        def record(what, op) -> None:
-            queued.append(what)
-            queue(what, op)
-        handler.queue = record
-        intake = CommandIntake(node, raw=True, detached=True)
-        command_topics.CommandTopics(intake, Commander(handler), ("X",), command_line=False)
-        handlers = {entry[3]: entry[2] for entry in intake._entries}
-        registers = []
-        for topic, msg in _bundles():
-            handlers[f"dynamixel/{topic}"](Codec.of(type(msg)).decode(serialize_message(msg)))
-            handler.step()
-            handler.step()  # its reads are answered after the writes before them
-            registers.append({i: {r: sim.servo(i).read(r) for r in ("goal_position", "goal_velocity", "operating_mode",
-                                                                    "position_p_gain", "temperature_limit", "led")}
-                              for i in (1, 2)})
-        intake.close()
-        handler.shutdown()
-        return queued, lines, registers
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown(context=context)
-        bus.close()
-        sim.close()
+            def record(what, op) -> None:
+                queued.append(what)
+                queue(what, op)
+            handler.queue = record
+            intake = CommandIntake(node, raw=True, detached=True)
+            command_topics.CommandTopics(intake, Commander(handler), ("X",), command_line=False)
+            handlers = {entry[3]: entry[2] for entry in intake._entries}
+            registers = []
+            for topic, msg in _bundles():
+                handlers[f"dynamixel/{topic}"](Codec.of(type(msg)).decode(serialize_message(msg)))
+                handler.step()
+                handler.step()  # its reads are answered after the writes before them
+                registers.append({i: {r: sim.servo(i).read(r) for r in ("goal_position", "goal_velocity", "operating_mode",
+                                                                        "position_p_gain", "temperature_limit", "led")}
+                                  for i in (1, 2)})
+            intake.close()
+            handler.shutdown()
+            return queued, lines, registers
+        finally:
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown(context=context)
 
 
 def test_bundle_parts_without_ids_skipped_equal_every_part_handled(monkeypatch):

@@ -114,31 +114,17 @@ def test_reply_decoding_of_known_bytes():
 def _run_goal_sequence(vector: bool, monkeypatch) -> tuple[list[dict[int, int]], list[str]]:
     """One command sequence on a fresh virtual bus (X, X540, P, Pro); the goal position registers
     after each command and every warning line."""
-    import logging
-
     from dynamixel_handler import goal_bounds
-    from dynamixel_handler.bus import DynamixelBus
     from dynamixel_handler.commands import Commander
-    from dynamixel_handler.config import defaults, validate
-    from dynamixel_handler.loop import Handler
-    from dynamixel_handler.sim import VirtualBus
 
+    from support.handler_bench import capture_log, handler_on_virtual_bus
     from support.rig import PRO, X540, P, X
 
     monkeypatch.setattr(goal_bounds, "ENABLED", vector)
-    sim = VirtualBus({1: X, 2: X540, 3: P, 4: PRO}, baudrate=1_000_000)
-    bus = DynamixelBus(sim.start(), 1_000_000, latency_timer_ms=16.0, retry_num=3)  # patient: a lost reply would part the runs
-    bus.open()
-    try:
-        config = validate({**defaults(), "device_name": sim.path, "init/servo_auto_search.max_id": 4,
-                           "mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
-                           "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
-                           "init/expected_servo_num": 4})
-        handler = Handler(bus, config)
-        handler.start()
-        lines: list[str] = []
-        handler.log = logging.getLogger(f"goal_bounds_{vector}")
-        handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+    config = {"mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
+              "init/used_servo_series.P": True, "init/used_servo_series.Pro": True, "init/expected_servo_num": 4}
+    with handler_on_virtual_bus({1: X, 2: X540, 3: P, 4: PRO}, config, baudrate=1_000_000, patient=True) as (sim, handler):
+        lines = capture_log(handler, f"goal_bounds_{vector}")
         commander = Commander(handler)
         registers = []
         steps = [
@@ -163,9 +149,6 @@ def _run_goal_sequence(vector: bool, monkeypatch) -> tuple[list[dict[int, int]],
             assert goal_bounds.goal_position_bounds(handler.table, [1, 2, 3, 4]) is not None
         handler.shutdown()
         return registers, [line for line in lines if "clamped" in line or "refused" in line or "ignored" in line]
-    finally:
-        bus.close()
-        sim.close()
 
 
 def test_goal_positions_checked_at_once_equal_servo_by_servo(monkeypatch):

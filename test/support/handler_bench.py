@@ -1,0 +1,43 @@
+"""The ROS-free loop core (``Handler``) on a virtual bus of its own, for tests that step the loop by
+hand and look at the simulated registers and the handler's log lines."""
+from __future__ import annotations
+
+import logging
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator, Mapping
+
+from dynamixel_handler.bus import DynamixelBus
+from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.loop import Handler
+from dynamixel_handler.sim import VirtualBus
+
+
+@contextmanager
+def handler_on_virtual_bus(servos: Mapping[int, int], config: Mapping[str, Any] | None = None, *,
+                           baudrate: int | None = None, patient: bool = False,
+                           retry_num: int = 1) -> Iterator[tuple[VirtualBus, Handler]]:
+    """A started ``Handler`` for ``servos`` (ID -> model number) with ``config`` over the defaults;
+    ``(sim, handler)``. ``baudrate`` None: the servos' factory 57600 bps. ``patient``: a reply
+    timeout and retries that a busy host cannot exhaust, for tests comparing two runs reply for
+    reply (a lost reply would part them)."""
+    sim = VirtualBus(servos, baudrate=baudrate)
+    bus = DynamixelBus(sim.start(), baudrate or 57600, latency_timer_ms=16.0 if patient else 1.0,
+                       retry_num=3 if patient else retry_num)
+    bus.open()
+    try:
+        handler = Handler(bus, validate({**defaults(), "device_name": sim.path,
+                                         "init/servo_auto_search.max_id": max(servos), **(config or {})}))
+        handler.start()
+        yield sim, handler
+    finally:
+        bus.close()
+        sim.close()
+
+
+def capture_log(handler: Handler, name: str,
+                line: Callable[[logging.LogRecord], str] = logging.LogRecord.getMessage) -> list[str]:
+    """The handler's log lines from now on, as ``line`` writes each record (the message alone by default)."""
+    lines: list[str] = []
+    handler.log = logging.getLogger(name)
+    handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(line(r))})())
+    return lines
