@@ -74,3 +74,45 @@ def test_an_override_without_a_value_is_one_fatal_line():
     assert proc.wait_exit(timeout=30) == 2, proc.output
     line = _fatal_only(proc)
     assert "device_name:=" in line and "no value" in line, line
+
+
+def _started(*params: str, params_files: tuple[Path, ...] = ()) -> str:
+    """The node's log from start until its servo is handled, then stopped."""
+    sim = VirtualBus(servos={1: X}, wire_timing=False)
+    try:
+        cmd = node_command(f"device_name:={sim.start()}", "init/servo_auto_search.max_id:=1",
+                           "init/expected_servo_num:=1", *params)
+        k = cmd.index("--params-file") + 2
+        for path in params_files:
+            cmd[k:k] = ["--params-file", str(path)]
+        proc = NodeProcess(cmd)
+        proc.wait_for("handled", timeout=30)
+        assert proc.stop() == 0, proc.output
+    finally:
+        sim.stop()
+    return proc.output
+
+
+def test_a_params_file_that_sets_nothing_is_one_warning_naming_it(tmp_path: Path):
+    empty, scalar, other = tmp_path / "empty.yaml", tmp_path / "scalar.yaml", tmp_path / "other.yaml"
+    empty.write_text("# nothing here yet\n")
+    scalar.write_text("loop_rate\n")
+    other.write_text("dynamixel_handler:\n  ros__parameters: {}\n")
+    out = _started(params_files=(empty, scalar, other))
+    warnings = [line for line in out.splitlines() if "sets nothing" in line]
+    assert len(warnings) == 3, out
+    assert all(line.startswith("[WARN]") for line in warnings), warnings
+    assert any(str(empty) in w and "it is empty" in w for w in warnings), warnings
+    assert any(str(scalar) in w and "YAML scalar" in w for w in warnings), warnings
+    assert any(str(other) in w and "ros__parameters" in w for w in warnings), warnings
+    assert "sets nothing" not in _started()  # the shipped file sets parameters: no such line
+
+
+def test_the_start_up_line_counts_command_line_values_as_set_not_as_defaults():
+    out = _started("latency_timer:=1", "init/used_servo_series.P:=true")
+    line = next(line for line in out.splitlines() if "parameters at their defaults" in line)
+    # device_name and latency_timer are on the first line; of the others, two are set here
+    # (P series, max_id) and expected_servo_num: three, and the count of the rest excludes all of them
+    from dynamixel_handler.config import SCHEMA
+    others = len(SCHEMA) - 4  # device_name, baudrate, latency_timer, loop_rate are listed on their own
+    assert f"{others - 3} other parameters at their defaults, 3 set:" in line, line

@@ -47,6 +47,8 @@ _ROS_OWN = {"use_sim_time", "start_type_description_service"}
 def declare_and_load(node: Node) -> Config:
     """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
     given: dict[str, Any] = {name: cast(Parameter, p).value for name, p in node.get_parameters_by_prefix("").items()}
+    for path, why in files_that_set_nothing(sys.argv):
+        node.get_logger().warning(f"params file {cut(path)} sets nothing: {why}")
     _apply_command_line(node, given)
     for name in sorted(set(given) & set(ALIASES)):  # the original handler's other spellings
         value = given.pop(name)
@@ -132,6 +134,48 @@ def _params_file_problem(path: str) -> str | None:
     return None
 
 
+def files_that_set_nothing(argv: list[str]) -> list[tuple[str, str]]:
+    """The ``--params-file`` files of the ROS arguments that set no parameter of any node (empty, a
+    YAML scalar or list, or mappings without a ``ros__parameters`` entry), each with why."""
+    import yaml
+    out = []
+    ros = False
+    for k, arg in enumerate(argv):
+        if arg in ("--ros-args", "--"):
+            ros = arg == "--ros-args"
+        elif ros and arg == "--params-file" and k + 1 < len(argv):
+            try:
+                with open(argv[k + 1], encoding="utf-8") as f:
+                    data = yaml.safe_load(f)
+            except (OSError, UnicodeDecodeError, yaml.YAMLError):
+                continue  # check_arguments has stopped start-up for these
+            why = _why_nothing(data)
+            if why is not None:
+                out.append((argv[k + 1], why))
+    return out
+
+
+def _why_nothing(data: Any) -> str | None:
+    if data is None:
+        return "it is empty"
+    if not isinstance(data, dict):
+        kind = "list" if isinstance(data, list) else "scalar"
+        return (f"it is a YAML {kind} ({cut(data, 40)}), not a mapping of node names to ros__parameters "
+                "(see config/config_dynamixel_handler.yaml)")
+    if not _has_parameters(data):
+        return "no node in it has a non-empty 'ros__parameters' mapping (see config/config_dynamixel_handler.yaml)"
+    return None
+
+
+def _has_parameters(data: dict, depth: int = 0) -> bool:
+    """A non-empty ``ros__parameters`` mapping anywhere under node names and namespaces."""
+    section = data.get("ros__parameters")
+    if isinstance(section, dict) and section:
+        return True
+    return depth < 8 and any(isinstance(v, dict) and _has_parameters(v, depth + 1)
+                             for k, v in data.items() if k != "ros__parameters")
+
+
 def _rule_problem(flag: str, rule: str) -> str | None:
     """What is wrong with a ``-p name:=value`` (no ``:=``, no value), or None."""
     name, sep, value = rule.partition(":=")
@@ -180,9 +224,10 @@ def describe(config: Config, width: int = 120) -> list[str]:
     """Lines for the start-up log: the essentials, then every parameter that differs from its default."""
     essentials = ("device_name", "baudrate", "latency_timer", "loop_rate")
     lines = [", ".join(f"{n}={config[n]}" for n in essentials) + f", series={'/'.join(config.used_series)}"]
-    changed = [p for p in SCHEMA if config[p.name] != p.default and p.name not in essentials]
-    lines.append(f"{len(SCHEMA) - len(changed)} parameters at their defaults, {len(changed)} set:"
-                 if changed else f"all other {len(SCHEMA) - len(essentials)} parameters at their defaults")
+    others = [p for p in SCHEMA if p.name not in essentials]
+    changed = [p for p in others if config[p.name] != p.default]
+    lines.append(f"{len(others) - len(changed)} other parameters at their defaults, {len(changed)} set:"
+                 if changed else f"all other {len(others)} parameters at their defaults")
     lines += [f"  {p.name}: {config[p.name]!r} (default {p.default!r})"[:width] for p in changed]
     return lines
 
