@@ -4,11 +4,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..bus import PreparedWrite
+from ..logs import Throttle
 from .state import HandlerState
 
 
 class WriteBatch(HandlerState):
     """The pending values as prepared sync writes; nothing taken is lost when a loop fails."""
+
+    #: failed sync writes: one line a second per item and reason (a vanished device fails every loop's)
+    _write_failures: Throttle | None = None
 
     def _send_writes(self) -> None:
         self.encode_writes()
@@ -17,8 +21,12 @@ class WriteBatch(HandlerState):
         prepared, self._prepared, self._taken = self._prepared, [], {}
         for write in prepared:
             if not self.bus.send_prepared(write):
-                self.log.warning(f"sync write @{write.address}x{write.length} to IDs "
-                                 f"{sorted((*write.ids, *write.dummies))} failed: {self.bus.last_failure}")
+                if self._write_failures is None:
+                    self._write_failures = Throttle(self.log.warning)
+                reason = self.bus.last_failure
+                self._write_failures(f"sync write @{write.address}x{write.length} to IDs "
+                                     f"{sorted((*write.ids, *write.dummies))} failed: {reason}",
+                                     key=f"{write.address}x{write.length} {reason}")
 
     def encode_writes(self) -> None:
         """Take the pending values and build their sync write packets now; the next
