@@ -159,6 +159,13 @@ def test_baudrate_auto_set_moves_servos_at_other_rates_before_the_scan():
         assert rig.sim.servo(2).read("baud_rate") == 3  # 57600 -> 1 Mbps
         assert list(rig.debug[-1].status.id_list) == [1, 2]
         rig.node_proc.wait_for("baudrate auto set")
+        # every line of the search says what it belongs to, as docs/parameters.md promises
+        lines = rig.node_proc.output.splitlines()
+        first = next(k for k, line in enumerate(lines) if "baudrate auto set" in line)
+        scan = next(k for k, line in enumerate(lines) if "scan 1/" in line)
+        search = [line for line in lines[first:scan] if line.startswith(("[INFO]", "[WARN]"))]
+        assert len(search) >= 5 and all("]: baudrate auto set: " in line for line in search), "\n".join(search)
+        assert any("at 57600 bps: ID 1 (XM430-W350), ID 2" in line for line in search), "\n".join(search)
     finally:
         assert rig.close() == 0
 

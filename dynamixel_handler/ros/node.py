@@ -48,22 +48,23 @@ __all__ = ["DynamixelHandlerNode", "INJECT_ENV", "NODE_NAME", "log_exception", "
 class _LoggerAdapter:
     """Lets ROS-free modules log through the node's rcutils logger (logging.Logger-like)."""
 
-    def __init__(self, ros_logger) -> None:
+    def __init__(self, ros_logger, prefix: str = "") -> None:
         self._log = ros_logger
+        self._prefix = prefix  # put before every line, e.g. "baudrate auto set: "
 
     def debug(self, msg: str, *a) -> None:
-        self._log.debug(msg % a if a else msg)
+        self._log.debug(self._prefix + (msg % a if a else msg))
 
     def info(self, msg: str, *a) -> None:
-        self._log.info(msg % a if a else msg)
+        self._log.info(self._prefix + (msg % a if a else msg))
 
     def warning(self, msg: str, *a) -> None:
-        self._log.warning(msg % a if a else msg)
+        self._log.warning(self._prefix + (msg % a if a else msg))
 
     warn = warning
 
     def error(self, msg: str, *a) -> None:
-        self._log.error(msg % a if a else msg)
+        self._log.error(self._prefix + (msg % a if a else msg))
 
     def log(self, level: int, msg: str, *a) -> None:
         (self.error if level >= 40 else self.warning if level >= 30 else self.info if level >= 20 else self.debug)(msg, *a)
@@ -182,9 +183,10 @@ class DynamixelHandlerNode(Node):
         """init/baudrate_auto_set: move servos found at other rates to `baudrate` before the scan."""
         cfg = self.config
         ids = range(cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"] + 1)
-        report = unify_baudrate(self.wire, cfg["baudrate"], ids, search_rates(9600, 10_500_000), self.adapter)
+        log = _LoggerAdapter(self.get_logger(), "baudrate auto set: ")  # every line of it says so
+        report = unify_baudrate(self.wire, cfg["baudrate"], ids, search_rates(9600, 10_500_000), log)
         for line in report.summary():
-            (self.get_logger().info if report.ok else self.get_logger().warning)(f"baudrate auto set: {line}")
+            (log.info if report.ok else log.warning)(line)
         if self.wire.baudrate != cfg["baudrate"]:
             self.wire.set_baudrate(cfg["baudrate"])
 
