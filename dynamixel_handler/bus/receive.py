@@ -44,6 +44,9 @@ class Receiving:
         if not expected:
             return {}
         sent_at = time.monotonic() if sent_at is None else sent_at
+        # a packet queued behind one still on the wire (a sync write just before) starts later:
+        # its reply timeout counts from when it goes out, not from when it was handed over
+        sent_at = max(sent_at, self._wire_free_at - tx_bytes * self._port.tx_ms_per_byte / 1000.0)
         # when the last reply byte should be in: the line is free of what was sent at _wire_free_at
         # (no other packet goes out while a read is in flight), then the replies and the usual lag
         due = (self._wire_free_at + reply_bytes(expected, fast) * self._port.tx_ms_per_byte / 1000.0
