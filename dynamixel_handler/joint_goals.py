@@ -22,10 +22,18 @@ refused, limits clamped, mode changes rate-limited, one warning line per cause.
 from __future__ import annotations
 
 import math
-from typing import Sequence, cast
+from typing import TYPE_CHECKING, Sequence, cast
 
+import numpy as np
+
+from . import units
 from .commands import Commander
+from .goal_bounds import goal_position_limits
+from .groups import MODE_NAMES
 from .joints import JointMap
+
+if TYPE_CHECKING:
+    from .core.api import ServoAccess
 
 RAD = 180.0 / math.pi
 #: modes whose goal is a position and that a position command keeps (multi-turn, current-limited)
@@ -66,9 +74,10 @@ class JointGoals:
         return None
 
     def command(self, what: str, names: Sequence[str], position: Sequence[float] = (), velocity: Sequence[float] = (),
-                effort: Sequence[float] = ()) -> bool:
-        """Queue the command for the loop thread; False (and one warning) when it is refused whole."""
-        problem = self.check(what, names, position, velocity, effort)
+                effort: Sequence[float] = (), checked: bool = False) -> bool:
+        """Queue the command for the loop thread; False (and one warning) when it is refused whole.
+        ``checked``: the caller had ``check`` pass already."""
+        problem = None if checked else self.check(what, names, position, velocity, effort)
         if problem is not None:
             self.commander.warn(problem)
             return False
@@ -161,3 +170,43 @@ class JointGoals:
             pos.append(sign * (float(pos_deg[p]) - offset) / RAD)
             vel.append(sign * float(vel_deg[p]) / RAD)
         return pos, vel
+
+    def position_bounds(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """The joint positions [rad] a position command may reach, per joint (lowest, highest): the
+        goal position bounds of its servo in the mode a position command leaves it in (its position
+        limits in position mode; the multi-turn range in extended and current-based position mode),
+        half a pulse wider each way. From the servo table as last read (no bus access: any thread);
+        a joint whose servo is not handled gets (-inf, inf)."""
+        lo, hi = np.full(len(names), -math.inf), np.full(len(names), math.inf)
+        table = self.h.table
+        for k, name in enumerate(names):
+            j = self.mapping.names.index(name)
+            dxl_id = self.mapping.ids[j]
+            if dxl_id not in table:
+                continue
+            model = table.model(dxl_id)
+            raw = table.value("operating_mode", dxl_id)
+            mode = MODE_NAMES.get(raw) if raw is not None else None
+            view = _TableView(table, mode if mode in KEPT_POSITION_MODES else "position")
+            pulses = goal_position_limits(cast("ServoAccess", view), dxl_id, model)
+            deg = units.pulse_to_unit([model, model], "goal_position", list(pulses))
+            half = 0.5 * model.position_deg_per_pulse
+            sign, offset = self.mapping.directions[j], self.mapping.offsets_deg[j]
+            ends = sorted(sign * (float(d) - offset) / RAD for d in (deg[0] - half, deg[1] + half))
+            lo[k], hi[k] = ends
+        return lo, hi
+
+
+class _TableView:
+    """What ``goal_position_limits`` asks of a handler, from the servo table only (no bus reads),
+    with the servo in ``mode``."""
+
+    def __init__(self, table, mode: str) -> None:
+        self.table = table
+        self._mode = mode
+
+    def mode(self, dxl_id: int) -> str:
+        return self._mode
+
+    def value(self, dxl_id: int, item: str) -> int | None:
+        return cast("int | None", self.table.value(item, dxl_id))

@@ -21,6 +21,8 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
+from itertools import chain
 from typing import Sequence
 
 import numpy as np
@@ -29,6 +31,10 @@ import numpy as np
 RUNNING, SUCCEEDED, PATH_VIOLATED, GOAL_VIOLATED = "running", "succeeded", "path_violated", "goal_violated"
 #: how a run ends besides those: replaced by a newer one, cancelled, or unable to go on
 PREEMPTED, CANCELLED, ABORTED = "preempted", "cancelled", "aborted"
+#: most points a trajectory may have (a goal with more is refused before any other check): 100 s
+#: of points every 10 ms. Points are kept as arrays (a few hundred kB at most) and a loop's sample
+#: is one binary search, so any trajectory within it costs the loop the same
+MAX_POINTS = 10_000
 
 
 class TrajectoryError(ValueError):
@@ -36,11 +42,30 @@ class TrajectoryError(ValueError):
 
 
 @dataclass(frozen=True)
-class Point:
-    t: float
+class Points:
+    """Checked points as arrays: ``times`` (m,), ``positions`` (m, n); ``velocities`` and
+    ``accelerations`` (m, n) with the rows of points that do not give them zero and ``False`` in
+    ``has_velocities`` / ``has_accelerations``."""
+
+    times: np.ndarray
     positions: np.ndarray
-    velocities: np.ndarray | None = None
-    accelerations: np.ndarray | None = None
+    velocities: np.ndarray
+    accelerations: np.ndarray
+    has_velocities: np.ndarray
+    has_accelerations: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    @property
+    def duration(self) -> float:
+        """The last point's time from the start [s]."""
+        return float(self.times[-1])
+
+    @cached_property
+    def coefficients(self) -> np.ndarray:
+        """Polynomial coefficients of every segment between two points: (m - 1, 6, n)."""
+        return _coefficients(self, slice(0, -1), slice(1, None))
 
 
 @dataclass(frozen=True)
@@ -51,99 +76,123 @@ class Sample:
 
 
 def make_points(n_joints: int, times: Sequence[float], positions: Sequence[Sequence[float]],
-                velocities: Sequence[Sequence[float]], accelerations: Sequence[Sequence[float]]) -> list[Point]:
+                velocities: Sequence[Sequence[float]], accelerations: Sequence[Sequence[float]]) -> Points:
     """Checked points: every point gives n positions (and n velocities / accelerations or none),
     times strictly increase, every number is finite. TrajectoryError naming the point otherwise."""
     if not len(times):
         raise TrajectoryError("the trajectory has no points")
-    points: list[Point] = []
-    last_t = -math.inf
-    for k, t in enumerate(times):
-        last_t = _point_time(k, t, last_t)
-        p = _joint_values(k, "positions", positions[k], n_joints)
-        v = _optional_joint_values(k, "velocities", velocities[k], n_joints)
-        a = _optional_joint_values(k, "accelerations", accelerations[k], n_joints)
-        if a is not None and v is None:
-            raise TrajectoryError(f"point {k}: accelerations without velocities")
-        points.append(Point(last_t, p, v, a))
+    t = _times(times)
+    p, _ = _joint_values("positions", positions, n_joints, required=True)
+    v, has_v = _joint_values("velocities", velocities, n_joints)
+    a, has_a = _joint_values("accelerations", accelerations, n_joints)
+    alone = has_a & ~has_v
+    if alone.any():
+        raise TrajectoryError(f"point {int(np.argmax(alone))}: accelerations without velocities")
+    points = Points(t, p, v, a, has_v, has_a)
+    points.coefficients  # noqa: B018 - computed here, in the caller's thread, not in the loop's
     return points
 
 
-def _point_time(k: int, t: float, last_t: float) -> float:
-    """Time of point ``k`` as a float: a time >= 0 after ``last_t`` (the time of point k - 1)."""
-    t = float(t)
-    if not math.isfinite(t) or t < 0:
-        raise TrajectoryError(f"point {k}: time_from_start {t} is not a time >= 0")
-    if t <= last_t:
-        raise TrajectoryError(f"point {k}: time_from_start {t:g} s does not come after point {k - 1} ({last_t:g} s)")
+def _times(times: Sequence[float]) -> np.ndarray:
+    """The points' times as an array: each a time >= 0 after the one before."""
+    t = np.asarray(times, dtype=np.float64)
+    bad = ~np.isfinite(t) | (t < 0)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise TrajectoryError(f"point {k}: time_from_start {t[k]} is not a time >= 0")
+    late = np.flatnonzero(np.diff(t) <= 0)
+    if len(late):
+        k = int(late[0]) + 1
+        raise TrajectoryError(f"point {k}: time_from_start {t[k]:g} s does not come after point {k - 1} ({t[k - 1]:g} s)")
     return t
 
 
-def _joint_values(k: int, what: str, given: Sequence[float], n_joints: int) -> np.ndarray:
-    """One finite value per joint of point ``k`` (``what``: positions, velocities, accelerations)."""
-    if len(given) != n_joints:
-        raise TrajectoryError(f"point {k}: {len(given)} {what} for {n_joints} joints")
-    a = np.asarray(given, dtype=np.float64)
-    if not np.isfinite(a).all():
-        raise TrajectoryError(f"point {k}: {what} are not all finite numbers")
-    return a
+def _joint_values(what: str, given: Sequence[Sequence[float]], n_joints: int,
+                  required: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """One finite value per joint and point (``what``: positions, velocities, accelerations) as an
+    (m, n) array, zero where a point gives none (allowed unless ``required``), and which points give them."""
+    counts = np.fromiter((len(g) for g in given), dtype=np.int64, count=len(given))
+    has = counts == n_joints
+    wrong = ~has if required else ~has & (counts != 0)
+    if wrong.any():
+        k = int(np.argmax(wrong))
+        raise TrajectoryError(f"point {k}: {counts[k]} {what} for {n_joints} joints")
+    out = np.zeros((len(given), n_joints))
+    if has.all():
+        out[:] = np.fromiter(chain.from_iterable(given), dtype=np.float64,
+                             count=len(given) * n_joints).reshape(len(given), n_joints)
+    elif has.any():
+        rows = np.flatnonzero(has)
+        out[rows] = np.fromiter(chain.from_iterable(given[int(k)] for k in rows), dtype=np.float64,
+                                count=len(rows) * n_joints).reshape(len(rows), n_joints)
+    finite = np.isfinite(out).all(axis=1)
+    if not finite.all():
+        raise TrajectoryError(f"point {int(np.argmax(~finite))}: {what} are not all finite numbers")
+    return out, has
 
 
-def _optional_joint_values(k: int, what: str, given: Sequence[float], n_joints: int) -> np.ndarray | None:
-    """As :func:`_joint_values`; None when the point does not give them."""
-    return None if len(given) == 0 else _joint_values(k, what, given, n_joints)
-
-
-def _coefficients(p0, v0, a0, p1, v1, a1, h: float) -> np.ndarray:
-    """Polynomial coefficients (rows: power 0..5, columns: joints) of one segment of length h."""
-    n = len(p0)
-    c = np.zeros((6, n))
-    c[0] = p0
-    if v0 is None or v1 is None:  # positions only: a straight line
-        c[1] = (p1 - p0) / h
-        return c
-    c[1] = v0
-    if a0 is None or a1 is None:  # cubic
-        c[2] = (3 * (p1 - p0) - (2 * v0 + v1) * h) / h ** 2
-        c[3] = (2 * (p0 - p1) + (v0 + v1) * h) / h ** 3
-        return c
-    c[2] = a0 / 2
-    c[3] = (20 * (p1 - p0) - (8 * v1 + 12 * v0) * h - (3 * a0 - a1) * h ** 2) / (2 * h ** 3)
-    c[4] = (30 * (p0 - p1) + (14 * v1 + 16 * v0) * h + (3 * a0 - 2 * a1) * h ** 2) / (2 * h ** 4)
-    c[5] = (12 * (p1 - p0) - 6 * (v1 + v0) * h + (a1 - a0) * h ** 2) / (2 * h ** 5)
+def _coefficients(pts: Points, a: slice | list[int], b: slice | list[int]) -> np.ndarray:
+    """Polynomial coefficients (segments, power 0..5, joints) of the segments from points ``a`` to
+    points ``b``: a straight line where either end gives positions only, a cubic where both give
+    velocities, a quintic where both also give accelerations."""
+    p0, p1 = pts.positions[a], pts.positions[b]
+    v0, v1 = pts.velocities[a], pts.velocities[b]
+    a0, a1 = pts.accelerations[a], pts.accelerations[b]
+    h = (pts.times[b] - pts.times[a])[:, None]
+    cubic = (pts.has_velocities[a] & pts.has_velocities[b])[:, None]
+    quintic = cubic & (pts.has_accelerations[a] & pts.has_accelerations[b])[:, None]
+    c = np.zeros((len(h), 6, p0.shape[1]))
+    c[:, 0] = p0
+    c[:, 1] = np.where(cubic, v0, (p1 - p0) / h)
+    c[:, 2] = np.where(quintic, a0 / 2, np.where(cubic, (3 * (p1 - p0) - (2 * v0 + v1) * h) / h ** 2, 0.0))
+    c[:, 3] = np.where(quintic, (20 * (p1 - p0) - (8 * v1 + 12 * v0) * h - (3 * a0 - a1) * h ** 2) / (2 * h ** 3),
+                       np.where(cubic, (2 * (p0 - p1) + (v0 + v1) * h) / h ** 3, 0.0))
+    c[:, 4] = np.where(quintic, (30 * (p0 - p1) + (14 * v1 + 16 * v0) * h + (3 * a0 - 2 * a1) * h ** 2) / (2 * h ** 4), 0.0)
+    c[:, 5] = np.where(quintic, (12 * (p1 - p0) - 6 * (v1 + v0) * h + (a1 - a0) * h ** 2) / (2 * h ** 5), 0.0)
     return c
 
 
-class Trajectory:
-    """Points joined by polynomial segments, starting from the joints' state at time 0."""
+def _lead(points: Points, start: np.ndarray, start_velocity: np.ndarray | None) -> np.ndarray:
+    """The coefficients (6, n) of the segment from the joints' state at time 0 to the first point."""
+    n = points.positions.shape[1]
+    first = Points(np.array([0.0, points.times[0]]),
+                   np.vstack([np.asarray(start, dtype=np.float64), points.positions[0]]),
+                   np.vstack([np.zeros(n) if start_velocity is None else np.asarray(start_velocity, dtype=np.float64),
+                              points.velocities[0]]),
+                   np.vstack([np.zeros(n), points.accelerations[0]]),
+                   np.array([True, bool(points.has_velocities[0])]), np.array([True, bool(points.has_accelerations[0])]))
+    return _coefficients(first, [0], [1])[0]
 
-    def __init__(self, points: list[Point], start: np.ndarray, start_velocity: np.ndarray | None = None) -> None:
-        if points[0].t > 0:  # from where the joints are to the first point
-            first = Point(0.0, np.asarray(start, dtype=np.float64),
-                          None if points[0].velocities is None else
-                          (np.zeros(len(start)) if start_velocity is None else np.asarray(start_velocity, dtype=np.float64)),
-                          None if points[0].accelerations is None else np.zeros(len(start)))
-            points = [first] + list(points)
+
+_D1 = np.arange(6.0)
+_D2 = np.array([0.0, 0.0, 2.0, 6.0, 12.0, 20.0])
+
+
+class Trajectory:
+    """Points joined by polynomial segments, starting from the joints' state at time 0. Building
+    one costs the same for any number of points (the segments are the points' own)."""
+
+    def __init__(self, points: Points, start: np.ndarray, start_velocity: np.ndarray | None = None) -> None:
         self.points = points
-        self.times = np.array([p.t for p in points])
-        self.duration = float(self.times[-1])
-        self._coef = [_coefficients(a.positions, a.velocities, a.accelerations,
-                                    b.positions, b.velocities, b.accelerations, b.t - a.t)
-                      for a, b in zip(points, points[1:])]
+        self.times = points.times
+        self.duration = points.duration
+        #: from where the joints are to the first point, when it comes after time 0
+        self._lead = _lead(points, start, start_velocity) if points.times[0] > 0 else None
 
     def sample(self, t: float) -> Sample:
         """Positions, velocities and accelerations at ``t`` seconds after the start."""
-        last = self.points[-1]
-        n = len(last.positions)
-        if t >= self.duration or not self._coef:
-            return Sample(last.positions.copy(), np.zeros(n) if last.velocities is None else last.velocities.copy(),
-                          np.zeros(n) if last.accelerations is None else last.accelerations.copy())
+        pts = self.points
+        if t >= self.duration:
+            return Sample(pts.positions[-1].copy(), pts.velocities[-1].copy(), pts.accelerations[-1].copy())
         t = max(t, 0.0)
-        k = int(np.searchsorted(self.times, t, side="right")) - 1
-        c, s = self._coef[k], t - self.times[k]
-        powers = s ** np.arange(6)
-        d1 = np.array([0, 1, 2 * s, 3 * s ** 2, 4 * s ** 3, 5 * s ** 4])
-        d2 = np.array([0, 0, 2, 6 * s, 12 * s ** 2, 20 * s ** 3])
+        if self._lead is not None and t < self.times[0]:
+            c, s = self._lead, t
+        else:
+            k = int(np.searchsorted(self.times, t, side="right")) - 1
+            c, s = pts.coefficients[k], t - self.times[k]
+        powers = s ** _D1
+        d1 = _D1 * np.concatenate(([0.0], powers[:5]))
+        d2 = _D2 * np.concatenate(([0.0, 0.0], powers[:4]))
         return Sample(powers @ c, d1 @ c, d2 @ c)
 
 
@@ -187,7 +236,7 @@ class TrajectoryRun:
                 return Verdict(PATH_VIOLATED, f"joint {self.names[k]} is {abs_err[k]:.4f} rad off the path "
                                f"at {t:.2f} s (path tolerance {self.tol.path[k]:g} rad)", desired, error)
             return Verdict(RUNNING, "", desired, error)
-        goal = self.trajectory.points[-1].positions
+        goal = self.trajectory.points.positions[-1]
         end_err = np.asarray(present, dtype=np.float64) - goal
         checked = self.tol.goal > 0
         bad = checked & ~(np.abs(end_err) <= self.tol.goal)  # NaN (not read) counts as not there
@@ -206,7 +255,7 @@ class Job:
 
     what: str
     names: list[str]
-    points: list[Point]
+    points: Points
     tolerances: Tolerances
     start_wall: float                       # time.time() of time_from_start = 0
     run: TrajectoryRun | None = None
@@ -254,10 +303,21 @@ class Follower:
         job = self.active
         if job is None:
             return
+        gone = self.device_gone()
+        if gone:  # nothing can be commanded or judged: the goal ends now, the servos keep their goals
+            self._finish(job, ABORTED, gone, hold=False)
+            return
         now = time.time()
         if "position" in report.present and not self._judge(job, report.stamp):
             return
         self._command_ahead(job, now)
+
+    def device_gone(self) -> str | None:
+        """Why nothing reaches the servos now (the bus adapter vanished), or None."""
+        h = self.goals.h
+        if not getattr(h, "device_lost", False):
+            return None
+        return f"the device {getattr(h.bus, 'device', '')} is gone (unplugged?): the servos cannot be commanded"
 
     def _judge(self, job: Job, stamp: float) -> bool:
         """Judge ``job`` on the positions just read (its run starts from the first read); False

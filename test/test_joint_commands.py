@@ -278,6 +278,79 @@ def test_joint_trajectory_topic(rig):
 
 
 
+# ---------------------------------------------------------------------- bad goals refused at once
+#: the documented most points of a goal (docs/robot_integration.md), and how far ahead it may start
+MAX_POINTS, START_HORIZON_S = 10_000, 60.0
+
+
+def test_a_goal_with_more_points_than_the_maximum_is_refused_at_once(rig):
+    many = JointTrajectory(joint_names=["pan"],
+                           points=[point(0.01 * (k + 1), [0.0]) for k in range(MAX_POINTS + 1)])
+    t = time.monotonic()
+    status, result = result_of(rig, send(rig, FollowJointTrajectory.Goal(trajectory=many)))
+    assert status == 6 and result.error_code == R.INVALID_GOAL, result.error_string
+    assert f"{MAX_POINTS + 1} points" in result.error_string and f"{MAX_POINTS}" in result.error_string
+    assert time.monotonic() - t < 10.0  # at once, not after the 100 s it would take
+    assert rig.node_proc.proc.poll() is None
+
+
+def test_a_point_beyond_the_position_limits_is_refused_naming_joint_and_point(rig):
+    settle(rig, {"pan": 0.0, "tilt": 0.0})
+    before = {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)}
+    # pan (position mode, limits 0..4095 pulses: -pi..pi rad) at 1e308 rad in point 1
+    status, result = result_of(rig, send(rig, FollowJointTrajectory.Goal(trajectory=JointTrajectory(
+        joint_names=["tilt", "pan"], points=[point(0.5, [0.1, 0.2]), point(1.0, [0.1, 1e308])]))))
+    assert status == 6 and result.error_code == R.INVALID_GOAL, result.error_string
+    assert "point 1" in result.error_string and "pan" in result.error_string and "limit" in result.error_string
+    # just beyond: tilt (direction -1, offset 10 deg) at -3.2 rad is servo 10 + 183 deg, past 180
+    status, result = result_of(rig, send(rig, FollowJointTrajectory.Goal(trajectory=JointTrajectory(
+        joint_names=["tilt"], points=[point(0.5, [0.0]), point(0.8, [0.5]), point(1.0, [-3.2])]))))
+    assert result.error_code == R.INVALID_GOAL and "point 2" in result.error_string and "tilt" in result.error_string
+    rig.fresh_states(count=3)
+    assert {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)} == before  # nothing moved
+
+
+def test_a_start_beyond_the_horizon_is_refused_and_a_later_start_is_announced(rig):
+    def stamped(ahead_s: float) -> JointTrajectory:
+        traj = JointTrajectory(joint_names=["pan"], points=[point(0.5, [0.0])])
+        stamp = time.time() + ahead_s
+        traj.header.stamp.sec, traj.header.stamp.nanosec = int(stamp), int((stamp % 1) * 1e9)
+        return traj
+    six_years = 6 * 365 * 86400.0
+    status, result = result_of(rig, send(rig, FollowJointTrajectory.Goal(trajectory=stamped(six_years))))
+    assert status == 6 and result.error_code == R.INVALID_GOAL
+    assert "horizon" in result.error_string and f"{START_HORIZON_S:g} s" in result.error_string
+    mark = rig.mark()
+    handle = send(rig, FollowJointTrajectory.Goal(trajectory=stamped(30.0)))
+    line = rig.wait_log("follow_joint_trajectory: starts in", since=mark)
+    assert "header.stamp" in line
+    rig.locked(handle.cancel_goal_async)
+    status, _ = result_of(rig, handle)
+    assert status == 5  # CANCELED
+
+
+# ---------------------------------------------------------------------- joint_commands: size
+def test_an_oversized_joint_commands_message_is_refused_with_one_line(rig):
+    rig.fresh_states(count=3)
+    before = {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)}
+    mark = rig.mark()
+    many = 100_000
+    rig.publish("/joint_commands", JointState(name=["pan"] * many, position=[0.5] * many))
+    line = rig.wait_log("joint_commands: refused", f"{many} names", since=mark)
+    assert "more than the 2 joints" in line
+    big = JointState(name=["pan"], position=[0.5])
+    big.header.frame_id = "f" * 2_000_000
+    rig.publish("/joint_commands", big)
+    line = rig.wait_log("joint_commands: refused", "bytes", since=mark)
+    assert "more than" in line
+    rig.fresh_states(count=5)
+    assert {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)} == before
+    # and the next valid command is taken
+    rig.publish("/joint_commands", JointState(name=["pan"], position=[0.2]))
+    rig.wait(lambda: abs(joint_rad(rig, "pan", "goal_position") - 0.2) < 0.002, what="pan commanded after them")
+    assert len(rig.log_since(mark).splitlines()) < 10
+
+
 def test_position_with_effort_is_current_based_position_with_that_current_limit(rig):
     # last in this file: tilt stays in current-based position mode
     rig.publish("/joint_commands", JointState(name=["tilt"], position=[0.1], effort=[0.5]))

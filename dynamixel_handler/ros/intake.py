@@ -25,6 +25,10 @@ from .cdr import Codec, DecodeError
 from .lean import lean_subscription
 
 Handler = Callable[[dict[str, Any]], None]
+#: sees a message as taken, before it is decoded: False drops it
+Screen = Callable[[Any], bool]
+#: a command subscription: (subscription, codec, handler, topic, taken raw, screen)
+Entry = tuple[Any, Codec, Handler, str, bool, "Screen | None"]
 
 
 class CommandIntake:
@@ -33,32 +37,39 @@ class CommandIntake:
         self.raw = raw
         self.log = node.get_logger()
         self.detached = detached
-        self._entries: list[tuple[Any, Codec, Handler, str]] = []
-        self._takers: list[tuple[Callable[[], Any], tuple[Any, Codec, Handler, str]]] = []
+        self._entries: list[Entry] = []
+        self._takers: list[tuple[Callable[[], Any], Entry]] = []
         self._lock = threading.Lock()  # poll() and close() may come from different threads
         self.taken = 0
         self.undecodable = 0
         self._waiter = fastpath.Waiter(node)
 
-    def subscribe(self, typ, topic: str, handler: Handler, depth: int = 10) -> None:
-        """``handler`` gets the message as a nested dict (``cdr.Codec.decode``'s form)."""
+    def subscribe(self, typ, topic: str, handler: Handler, depth: int = 10, raw: bool | None = None,
+                  screen: Screen | None = None) -> None:
+        """``handler`` gets the message as a nested dict (``cdr.Codec.decode``'s form). ``raw``: take
+        this topic as CDR bytes (default: as the intake does; False where the codec's self check
+        failed for ``typ``). ``screen`` sees the message as taken (bytes when raw) before it is
+        decoded and returns False to drop it (it says why), e.g. one too large to decode."""
         codec = Codec.of(typ)
+        raw = self.raw if raw is None else raw and self.raw
         if not self.detached:
-            def callback(msg, codec=codec, handler=handler, topic=topic) -> None:
-                value = self._value(codec, msg, topic)
+            def callback(msg, codec=codec, handler=handler, topic=topic, raw=raw, screen=screen) -> None:
+                if screen is not None and not screen(msg):
+                    return
+                value = self._value(codec, msg, topic, raw)
                 if value is not None:
                     handler(value)
-            lean_subscription(self.node, typ, topic, callback, depth, raw=self.raw)
+            lean_subscription(self.node, typ, topic, callback, depth, raw=raw)
             return
-        sub = lean_subscription(self.node, typ, topic, _never_called, depth, raw=self.raw)
+        sub = lean_subscription(self.node, typ, topic, _never_called, depth, raw=raw)
         fastpath.detach(self.node, sub)  # the executor does not see it; poll() takes it
-        self._entries.append((sub, codec, handler, topic))
-        self._takers.append((fastpath.taker(sub, self.raw), self._entries[-1]))
+        self._entries.append((sub, codec, handler, topic, raw, screen))
+        self._takers.append((fastpath.taker(sub, raw), self._entries[-1]))
 
     def poll(self) -> int:
         """Take every waiting message of every command topic and hand them over in publish order.
         Returns the number of messages handled."""
-        batch: list[tuple[int, int, Any, tuple[Any, Codec, Handler, str]]] = []
+        batch: list[tuple[int, int, Any, Entry]] = []
         with self._lock:
             for take, entry in self._takers:
                 while True:
@@ -72,8 +83,10 @@ class CommandIntake:
                     batch.append((got[1].get("source_timestamp", 0), len(batch), got[0], entry))
         if len(batch) > 1:
             batch.sort(key=lambda b: (b[0], b[1]))
-        for _, _, msg, (_, codec, handler, topic) in batch:
-            value = self._value(codec, msg, topic)
+        for _, _, msg, (_, codec, handler, topic, raw, screen) in batch:
+            if screen is not None and not screen(msg):
+                continue
+            value = self._value(codec, msg, topic, raw)
             if value is not None:
                 handler(value)
         self.taken += len(batch)
@@ -105,8 +118,8 @@ class CommandIntake:
         with self._lock:
             return self._waiter.wait([entry[0] for entry in self._entries], timeout_s)
 
-    def _value(self, codec: Codec, msg, topic: str) -> dict[str, Any] | None:
-        if not self.raw:
+    def _value(self, codec: Codec, msg, topic: str, raw: bool) -> dict[str, Any] | None:
+        if not raw:
             return codec.from_message(msg)
         try:
             return codec.decode(msg)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 from sensor_msgs.msg import JointState
@@ -19,9 +20,18 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..joint_goals import JointGoals
 from ..joints import JointMap, joint_map
-from ..trajectory import PREEMPTED, Follower, Job, Tolerances, TrajectoryError, make_points
+from ..trajectory import MAX_POINTS, PREEMPTED, Follower, Job, Points, Tolerances, TrajectoryError, make_points
+from .cdr import Codec, self_check
+from .cdr_counts import sequence_counts
 
 DEG = math.pi / 180.0
+#: a trajectory whose header.stamp starts it further ahead than this is refused [s]
+START_HORIZON_S = 60.0
+#: a trajectory that starts at least this far ahead is announced with one line [s]
+ANNOUNCE_START_S = 1.0
+#: largest joint_commands message taken [bytes]: more is refused before it is decoded (a command
+#: for 253 joints with 40-character names takes about 18 kB)
+MAX_COMMAND_BYTES = 65_536
 #: why a trajectory is refused: its joints, or the rest of it (FollowJointTrajectory's two codes)
 BAD_JOINTS, BAD_GOAL = "joints", "goal"
 
@@ -49,7 +59,7 @@ class JointCommands:
         self.default_goal_rad = float(cfg["trajectory.goal_tolerance_deg"]) * DEG
         self.default_goal_time = float(cfg["trajectory.goal_time_sec"])
         self.follower = Follower(self.goals, 1.0 / float(cfg["loop_rate"]), node.adapter)
-        node.create_subscription(JointState, "joint_commands", self._on_joint_commands, 10)
+        self._subscribe_joint_commands()
         node.create_subscription(JointTrajectory, "~/joint_trajectory", self._on_trajectory, 10)
         self.action = None
         try:
@@ -61,14 +71,51 @@ class JointCommands:
             self.action = trajectory_action.attach(node, self)
 
     # ------------------------------------------------------------------ joint_commands
-    def _on_joint_commands(self, msg: JointState) -> None:
+    def _subscribe_joint_commands(self) -> None:
+        """joint_commands is taken like the command topics: by the loop thread at the start of a
+        step (``intake.py``), as CDR bytes decoded straight into numpy where the codec agrees with
+        the middleware on JointState, and screened for its size before it is decoded."""
+        intake = self.node.intake
+        raw = intake.raw and self_check([JointState]) is None
+        intake.subscribe(JointState, "joint_commands", self._on_joint_commands, 10, raw=raw, screen=self._screen)
+        self._codec = Codec.of(JointState)
+
+    def _screen(self, msg: Any) -> bool:
+        """False (and one line a second) for a message larger than any command of these joints:
+        more bytes than ``MAX_COMMAND_BYTES``, or more names or values than there are joints. For
+        bytes, from its length and the names' count prefix, before anything is decoded."""
+        joints = len(self.mapping.names)
+        if isinstance(msg, (bytes, bytearray, memoryview)):
+            counts = sequence_counts(self._codec, msg)
+            size = len(msg)
+        else:
+            counts = {f: len(getattr(msg, f)) for f in ("name", "position", "velocity", "effort")}
+            size = len(msg.header.frame_id) + sum(len(n) + 8 for n in msg.name[:joints + 1]) + 8 * sum(counts.values())
+        over = {f: n for f, n in counts.items() if n > joints}
+        if over:
+            field, n = next(iter(over.items()))
+            why = f"{n} {field}{'s' if field == 'name' else ' values'}, more than the {joints} joints handled"
+        elif size > MAX_COMMAND_BYTES:
+            why = f"{size} bytes, more than the {MAX_COMMAND_BYTES} a command may have"
+        else:
+            return True
+        self.goals.commander.throttle(f"joint_commands: refused: {why} (not decoded)",
+                                     key=f"joint_commands size {next(iter(over), 'bytes')}")
+        return False
+
+    def _on_joint_commands(self, msg: dict[str, Any]) -> None:
         try:
-            names, fields = list(msg.name), (list(msg.position), list(msg.velocity), list(msg.effort))
+            names = msg["name"]
+            fields = (msg["position"], msg["velocity"], msg["effort"])
+            problem = self.goals.check("joint_commands", names, *fields)
+            if problem is not None:
+                self.goals.commander.warn(problem)
+                return
             active = self.follower.active  # a command for a joint of a running trajectory ends it first
-            if (active is not None and set(active.names) & set(names)
-                    and self.goals.check("joint_commands", names, *fields) is None):
+            if active is not None and not set(active.names).isdisjoint(names):
                 self.follower.stop(active, PREEMPTED, "preempted by joint_commands", hold=False)
-            self.goals.command("joint_commands", names, *fields)
+            position, velocity, effort = (f.tolist() for f in fields)
+            self.goals.command("joint_commands", names, position, velocity, effort, checked=True)
         except Exception as exc:  # a bad message must never take the node down
             self.log.error(f"joint_commands: dropped: {type(exc).__name__}: {exc}")
 
@@ -77,21 +124,37 @@ class JointCommands:
         """A checked job for the follower; TrajectoryRefused (kind and one line) otherwise."""
         if self.node.handler.refuse_ops:  # e.g. an inactive lifecycle node: the loop would never follow it
             raise TrajectoryRefused(BAD_GOAL, f"not now: {self.node.handler.refuse_ops}")
+        gone = self.follower.device_gone()
+        if gone:
+            raise TrajectoryRefused(BAD_GOAL, f"{gone}: no trajectory until it is back")
+        pts = traj.points
+        if len(pts) > MAX_POINTS:  # before anything that grows with the points
+            raise TrajectoryRefused(BAD_GOAL, f"{len(pts)} points, more than the {MAX_POINTS} a trajectory may have")
         names = list(traj.joint_names)
         self._check_joints(names)
-        pts = traj.points
         try:
             points = make_points(len(names), [duration_s(p.time_from_start) for p in pts],
                                  [p.positions for p in pts], [p.velocities for p in pts],
                                  [p.accelerations for p in pts])
         except TrajectoryError as err:
             raise TrajectoryRefused(BAD_GOAL, str(err)) from None
+        self._check_bounds(names, points)
         path = self._tolerances("path_tolerance", names, path_tol, self.default_path_rad)
         goal = self._tolerances("goal_tolerance", names, goal_tol, self.default_goal_rad)
-        start_wall = self._start_wall(duration_s(traj.header.stamp), points[-1].t)
+        start_wall = self._start_wall(what, duration_s(traj.header.stamp), points.duration)
         tol = Tolerances(path=path, goal=goal,
                          goal_time=goal_time if goal_time > 0 else self.default_goal_time)
         return Job(what, names, points, tol, start_wall)
+
+    def _check_bounds(self, names: list[str], points: Points) -> None:
+        """TrajectoryRefused naming the first point and joint outside its servo's position limits."""
+        lo, hi = self.goals.position_bounds(names)
+        outside = (points.positions < lo) | (points.positions > hi)
+        if outside.any():
+            k, j = (int(i) for i in np.argwhere(outside)[0])
+            raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} rad is "
+                                              f"beyond its servo's position limits ({lo[j]:.4f} .. {hi[j]:.4f} rad, "
+                                              f"ID {self.mapping.id_of(names[j])})")
 
     def _check_joints(self, names: list[str]) -> None:
         """TrajectoryRefused unless the joints are known, named once and on handled servos."""
@@ -108,16 +171,24 @@ class JointCommands:
         if unhandled:
             raise TrajectoryRefused(BAD_JOINTS, f"joints {unhandled} map to servos that are not handled")
 
-    def _start_wall(self, stamp: float, duration: float) -> float:
+    def _start_wall(self, what: str, stamp: float, duration: float) -> float:
         """When the trajectory starts (``time.time()``): now, or ``header.stamp`` on the node's
-        clock; TrajectoryRefused when it has already ended."""
+        clock (announced with one line when that is ``ANNOUNCE_START_S`` or more ahead);
+        TrajectoryRefused when it has already ended or starts beyond ``START_HORIZON_S``."""
         now_wall = time.time()
         if stamp <= 0:
             return now_wall
-        start_wall = now_wall + (stamp - self.node.get_clock().now().nanoseconds * 1e-9)
+        ahead = stamp - self.node.get_clock().now().nanoseconds * 1e-9
+        start_wall = now_wall + ahead
         if start_wall + duration < now_wall:
             raise TrajectoryRefused(BAD_GOAL, f"the trajectory ended {now_wall - start_wall - duration:.2f} s "
                                               "ago (header.stamp + the last time_from_start is in the past)")
+        if ahead > START_HORIZON_S:
+            raise TrajectoryRefused(BAD_GOAL, f"header.stamp starts the trajectory in {ahead:.6g} s, beyond the "
+                                              f"{START_HORIZON_S:g} s horizon")
+        if ahead >= ANNOUNCE_START_S:
+            self.log.info(f"{what}: starts in {ahead:.1f} s (header.stamp {stamp:.3f}), "
+                          f"ends {ahead + duration:.1f} s from now")
         return start_wall
 
     def _tolerances(self, what: str, names: list[str], given, default: float):

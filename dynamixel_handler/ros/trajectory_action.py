@@ -65,11 +65,13 @@ class TrajectoryAction:
             job = self.commands.job("follow_joint_trajectory", g.trajectory, g.path_tolerance, g.goal_tolerance,
                                     duration_s(g.goal_time_tolerance))
         except TrajectoryRefused as err:
+            _release(g)
             result.error_code = R.INVALID_JOINTS if err.kind == BAD_JOINTS else R.INVALID_GOAL
             result.error_string = str(err)
             self.log.warning(f"follow_joint_trajectory: refused: {err}")
             goal_handle.abort()
             return result
+        _release(g)  # the job has its own copy: the server keeps the request until the result expires
         self.follower.start(job)
         self._watch(job, goal_handle)
         result.error_code = CODES[job.outcome]
@@ -93,7 +95,7 @@ class TrajectoryAction:
             if self.node.loop_stopped:
                 self.follower.stop(job, tr.ABORTED, "the bus loop stopped")
                 return
-            late = time.time() - (job.start_wall + job.points[-1].t + job.tolerances.goal_time)
+            late = time.time() - (job.start_wall + job.points.duration + job.tolerances.goal_time)
             if late > STALE_S:  # the end was never judged: no present positions came in (device gone?)
                 self.follower.stop(job, tr.GOAL_VIOLATED, f"no present positions were read for {STALE_S:g} s after "
                                                           "the goal time: the goal cannot be confirmed")
@@ -115,6 +117,13 @@ class TrajectoryAction:
             positions=[float(a - d) if math.isfinite(a) else math.nan for a, d in zip(present, desired.positions)],
             velocities=[float(a - d) if math.isfinite(a) else math.nan for a, d in zip(velocity, desired.velocities)])
         return fb
+
+
+def _release(goal: FollowJointTrajectory.Goal) -> None:
+    """Drop the points of a goal that was read: rclpy keeps every goal request (and its points, up
+    to ``MAX_POINTS`` message objects) until its result expires, 15 minutes after the goal ends."""
+    goal.trajectory.points = []
+    goal.multi_dof_trajectory.points = []
 
 
 def attach(node, commands) -> TrajectoryAction:
