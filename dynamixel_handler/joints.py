@@ -18,6 +18,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from .errors import ConfigError
+from .logs import cut, some_ids
 from .servos import ServoTable
 
 DEG = math.pi / 180.0
@@ -168,16 +169,18 @@ def resolve_targets(mapping: JointMap | None, ids: Sequence[int], names: Sequenc
 
 
 def _targets_by_id(ids: Sequence[int]) -> list[tuple[int, str | None]]:
-    bad = [i for i in ids if not 0 <= int(i) <= 252]
+    bad = [int(i) for i in ids if not 0 <= int(i) <= 252]
     if bad:
-        raise ValueError(f"IDs {bad} are outside 0..252")
+        raise ValueError(f"IDs {some_ids(bad)} are outside 0..252")
     return [(int(i), None) for i in ids]
 
 
 def _targets_by_name(mapping: JointMap | None, names: Sequence[str]) -> list[tuple[int, str | None]]:
     if mapping is None:
         raise ValueError("joint names given but no joint_state.names/ids mapping is configured")
-    try:
-        return [(mapping.id_of(name), name) for name in names]
-    except KeyError as err:
-        raise ValueError(err.args[0]) from None
+    known = dict(zip(mapping.names, mapping.ids))
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        more = f" and {len(unknown) - 1} more" if len(unknown) > 1 else ""
+        raise ValueError(f"unknown joint '{cut(unknown[0])}'{more} (known: {cut(', '.join(mapping.names))})")
+    return [(known[name], name) for name in names]
