@@ -59,10 +59,15 @@ def _apply_one(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
         if field in fields and c.finite(what, field, dxl_id, fields[field][k]):
             _led(c, dxl_id, model, colour, min(max(float(fields[field][k]), 0.0), 100.0), what)
     if "reboot" in fields and fields["reboot"][k]:
-        c.h.reboot(dxl_id)
-        c.h.read_item(dxl_id, "torque_enable")
+        _reboot(c, dxl_id)
     if c.h.config["verbose/write_extra"]:
         c.log.info(f"{what}: ID {dxl_id} extra fields handled: {', '.join(sorted(fields))}")
+
+
+def _reboot(c: Checks, dxl_id: int) -> None:
+    """A reboot (refused within clear_error_interval_sec of the servo's last one), its torque read anew."""
+    if c.h.reboot(dxl_id):
+        c.h.read_item(dxl_id, "torque_enable")
 
 
 def _bit_registers(c: Checks, dxl_id: int, model: Model, given: _Given, what: str) -> None:
@@ -93,7 +98,12 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
     if not model.has(item):
         c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {item}: ignored")
         return
+    if item == "bus_watchdog" and value < 0:
+        c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} refused (negative; 0 switches the watchdog off)")
+        return
     pulses = int(units.unit_to_pulse([model], item, [value])[0]) if item != "secondary_id" else int(value)
+    if item == "bus_watchdog" and value > 0:
+        pulses = max(1, pulses)  # a time under one register unit is one unit, not off
     spec = model.item(item)
     if not spec.min_raw <= pulses <= spec.max_raw:
         c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")

@@ -2,9 +2,10 @@
 
 The line has the original handler's text and levels: ``time=%2.2fms/loop(%2.2fms/read),
 success=%3.0f%%(full=%3.0f%%)``, ERROR when fewer than 80 % of the transactions got every reply,
-WARN when fewer than 99 % got any, INFO otherwise. It comes every ``verbose_ratio`` loops, and at
-least every ``STATS_MAX_S`` seconds whatever ``verbose_ratio`` is (also 0) and however slow the
-loop is. While the device is gone it says so, and since when, instead of a success rate.
+WARN when fewer than 99 % got any, INFO otherwise. It comes every ``verbose_ratio`` loops, but
+at most once every ``STATS_MIN_S`` (a fast loop: it then covers more loops), and at least every
+``STATS_MAX_S`` seconds whatever ``verbose_ratio`` is (also 0) and however slow the loop is.
+While the device is gone it says so, and since when, instead of a success rate.
 
 Every ``RATE_WINDOW_S`` the loop period is measured: the bus watchdog time follows what two
 windows in a row show (``Handler.note_loop_period``), and a loop that cannot hold ``loop_rate`` is
@@ -23,6 +24,8 @@ from .bus.api import StatsWire
 
 #: longest time between two statistics lines [s]
 STATS_MAX_S = 10.0
+#: shortest time between two statistics lines [s]
+STATS_MIN_S = 1.0
 #: the loop rate is measured over windows of this length [s]
 RATE_WINDOW_S = 2.0
 #: ... and at least this many loops
@@ -82,7 +85,8 @@ class LoopStats:
         now = time.monotonic()
         if now - self._rate_start >= RATE_WINDOW_S and self._rate_loops >= RATE_WINDOW_LOOPS:
             self._check_rate(now)
-        if (self.verbose_ratio and self._loops >= self.verbose_ratio) or now - self._start >= STATS_MAX_S:
+        since = now - self._start
+        if (self.verbose_ratio and self._loops >= self.verbose_ratio and since >= STATS_MIN_S) or since >= STATS_MAX_S:
             self._line(now)
 
     def _check_rate(self, now: float) -> None:

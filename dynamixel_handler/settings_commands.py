@@ -33,9 +33,10 @@ class SettingsCommands:
 
     # ============================================================== status
     def _status(self, ids: list[int], fields: Fields, what: str) -> None:
-        if "ping" in fields:  # add/remove first: the other fields may concern an added ID
-            self._membership(ids, fields["ping"])
-        if not set(fields) - {"ping"}:
+        others = bool(set(fields) - {"ping"})
+        if "ping" in fields:  # add/remove first (at once): the other fields may concern an added ID
+            self._membership(ids, fields["ping"], now=others)
+        if not others:
             return  # nothing else to do: an ID just removed is no "unknown ID"
         for k, dxl_id in self.known_ids(ids, what):
             if "error" in fields:
@@ -48,9 +49,13 @@ class SettingsCommands:
                 else:
                     self.h.torque_off(dxl_id)
 
-    def _membership(self, ids: list[int], ping: Sequence[Any]) -> None:
+    def _membership(self, ids: list[int], ping: Sequence[Any], now: bool) -> None:
+        """Add (ping true) or remove (false) IDs: ``now``, or as one change per loop for each ID
+        (``ServoAccess.want_handled``: the last request of the loop wins)."""
         for k, dxl_id in enumerate(ids):
-            if not ping[k]:
+            if not now:
+                self.h.want_handled(dxl_id, bool(ping[k]))
+            elif not ping[k]:
                 self.h.remove_id(dxl_id)
             elif not self.h.handles(dxl_id):
                 self.h.add_id(dxl_id)
@@ -124,14 +129,13 @@ class SettingsCommands:
     # ============================================================== shortcut
     def _shortcut(self, action: str, ids: list[int]) -> None:
         what = f"shortcut {action}"
-        if action == "add_id":
+        if action == "add_id":  # one change per loop for each ID: the last request of the loop wins
             for dxl_id in ids:
-                if not self.h.handles(dxl_id):
-                    self.h.add_id(dxl_id)
+                self.h.want_handled(dxl_id, True)
             return
         if action == "remove_id":
             for dxl_id in (self.h.handled_ids if not ids or ids == [BROADCAST_ID] else ids):
-                self.h.remove_id(dxl_id)
+                self.h.want_handled(dxl_id, False)
             return
         act = self._shortcut_actions(what)[action]
         for _, dxl_id in self.known_ids(ids, what, allow_all=True):
@@ -145,6 +149,6 @@ class SettingsCommands:
             "torque_off": h.torque_off,
             "disable": h.torque_off,
             "enable": lambda i: h.write_item(i, "torque_enable", 1),
-            "reboot": lambda i: (h.reboot(i), h.read_item(i, "torque_enable")),
+            "reboot": lambda i: h.reboot(i) and h.read_item(i, "torque_enable"),  # at most once a second per servo
             "reset_offset": lambda i: h.write_eeprom(i, "homing_offset", 0),
         }

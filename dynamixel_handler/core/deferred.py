@@ -1,9 +1,11 @@
 """Work that waits: EEPROM writes spared, per-servo operations due later, operations queued by callbacks."""
 from __future__ import annotations
 
+import logging
 import time
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
+from .log_limits import LogLimits
 from .servo_io import ServoIO
 
 #: least time between two writes of one EEPROM item of one servo [s]; a value asked for sooner is
@@ -11,8 +13,13 @@ from .servo_io import ServoIO
 EEPROM_WRITE_INTERVAL_S = 1.0
 
 
-class Deferred(ServoIO):
+class Deferred(ServoIO, LogLimits):
     """EEPROM coalescing, deferred per-servo operations (mode changes asked for too soon), the operation queue."""
+
+    _membership: dict[int, bool] | None = None  # Startup's: add_id / remove_id asked for in this loop
+
+    if TYPE_CHECKING:
+        def _apply_membership(self) -> None: ...  # Startup's
 
     def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
         """Write one EEPROM item (see ``write_eeprom_many``)."""
@@ -39,8 +46,9 @@ class Deferred(ServoIO):
             last = self._eeprom_written.get(key)
             if last is not None and now - last < EEPROM_WRITE_INTERVAL_S:
                 if key not in self._eeprom_deferred:
-                    self.log.info(f"ID {dxl_id}: {item} was written {now - last:.2f}s ago: {item}={pulses} "
-                                  f"is written {EEPROM_WRITE_INTERVAL_S:g}s after it (EEPROM wear)")
+                    self.limited(logging.INFO, f"ID {dxl_id}: {item} was written {now - last:.2f}s ago: {item}={pulses} "
+                                 f"is written {EEPROM_WRITE_INTERVAL_S:g}s after it (EEPROM wear)",
+                                 f"eeprom {dxl_id} {item}")
                 self._eeprom_deferred[key] = pulses
                 continue
             self._eeprom_deferred.pop(key, None)
@@ -104,6 +112,8 @@ class Deferred(ServoIO):
         while True:
             with self._ops_lock:
                 if not self._ops:
-                    return
+                    break
                 what, op = self._ops.popleft()
             self._run_op(what, op)
+        if self._membership:  # add_id / remove_id asked for by these operations: once each
+            self._run_op("add_id / remove_id", self._apply_membership)

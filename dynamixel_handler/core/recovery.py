@@ -1,10 +1,13 @@
 """Recovery: reboot, a vanished device reopened, silent servos marked and removed."""
 from __future__ import annotations
 
+import logging
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .log_limits import PingLog
 from .state import StepReport
 from .watchdog import Watchdog
 
@@ -17,9 +20,25 @@ RECONNECT_INTERVAL_S = 1.0
 class Recovery(Watchdog):
     """Reboot, reconnect, ping state and the removal of servos that stopped answering."""
 
+    _ping_log: PingLog | None = None
+    #: IDs handled when the device went, set up again when it is back (None: not gone)
+    _lost_ids: list[int] | None = None
+    _last_reboot: dict[int, float] | None = None  # ID -> time.monotonic() of its last reboot
+
+    @property
+    def ping_log(self) -> PingLog:
+        """The ping false / answers again lines, at most one a second per servo."""
+        if self._ping_log is None:
+            self._ping_log = PingLog(lambda level, msg: self.log.log(level, msg))
+        return self._ping_log
+
     def reboot(self, dxl_id: int) -> bool:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
-        loop meanwhile, so that nothing is sent to a servo that is still booting)."""
+        loop meanwhile, so that nothing is sent to a servo that is still booting). At most once per
+        clear_error_interval_sec per servo, as the error clear (a reboot too): a reboot asked for
+        sooner is refused with one line a second (False)."""
+        if not self._reboot_allowed(dxl_id):
+            return False
         # a reboot resets the RAM area: what the handler had set there comes back afterwards
         kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
         ok = self.bus.reboot(dxl_id)
@@ -38,12 +57,27 @@ class Recovery(Watchdog):
                 self.arm_watchdog(dxl_id)
         return ok
 
+    def _reboot_allowed(self, dxl_id: int) -> bool:
+        if self._last_reboot is None:
+            self._last_reboot = {}
+        now, interval = time.monotonic(), float(self.config["clear_error_interval_sec"])
+        last = self._last_reboot.get(dxl_id)
+        if last is not None and now - last < interval:
+            self.limited(logging.WARNING, f"ID {dxl_id}: reboot refused: the last one was {now - last:.2f}s ago "
+                         f"(at most one per clear_error_interval_sec={interval:g}s per servo)", f"reboot {dxl_id}")
+            return False
+        self._last_reboot[dxl_id] = now
+        return True
+
     def _reconnect(self, report: StepReport) -> None:
-        """The device vanished: servos on it read ping false; try to reopen it once a second."""
+        """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
+        counts towards a servo's removal meanwhile (the device is gone, not the servo); once it is
+        back, every servo handled when it went is pinged and set up as at start-up."""
         dummies = self.bus.dummies
         if not self.device_lost:
             self.device_lost = True
             self.device_lost_since = time.time()
+            self._lost_ids = [i for i in self.table.ids if i not in dummies]
             self.log.error(f"{self.bus.device} is gone (the port hung up: unplugged, or another process reading it?): "
                            f"reconnecting every {RECONNECT_INTERVAL_S:g}s; states keep being published with ping false")
         for pos, dxl_id in enumerate(self.table.ids):
@@ -63,25 +97,51 @@ class Recovery(Watchdog):
         self.device_lost_since = None
         self.reconnects += 1
         self.log.info(f"{self.bus.device} is back: reconnected (reconnect #{self.reconnects})")
-        for dxl_id in list(self.table.ids):
-            if dxl_id not in dummies and self.bus.ping(dxl_id, retries=1) is not None:
-                self.table.ping[self.table.index[dxl_id]] = True
-                self.arm_watchdog(dxl_id)
+        self._set_up_again([i for i in (self._lost_ids or []) if i in self.table])
+        self._lost_ids = None
+
+    def _set_up_again(self, ids: list[int]) -> None:
+        """After a reconnect: each servo pinged; one that answers is set up as at start-up (its
+        power may have gone with the adapter: RAM at its defaults, torque off); one that does not
+        stays handled with ping false and is pinged again as any silent servo."""
+        answered, silent = [], []
+        for dxl_id in ids:
+            if self.bus.ping(dxl_id, retries=1) is None:
+                silent.append(dxl_id)
+                continue
+            pos = self.table.index[dxl_id]
+            self.table.ping[pos] = True
+            self.table.no_response[pos] = 0
+            self._setup_servo(dxl_id)
+            answered.append(dxl_id)
+        self.log.info(f"after the reconnect: {len(answered)} servo(s) {answered} answer and are set up as at start-up"
+                      + (f"; no answer yet from {silent} (pinged again as silent servos)" if silent else ""))
+
+    if TYPE_CHECKING:
+        def _setup_servo(self, dxl_id: int) -> None: ...  # Startup's
 
     def _update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table
         silent = addressed & ~answered
+        if self.device_lost or (self._had_device and not self.bus.is_open):
+            # the device is gone, not the servos: nothing counted, no line per servo (one line says it)
+            table.ping[silent] = False
+            table.no_response[answered] = 0
+            table.ping[answered] = True
+            return
+        ping_log = self.ping_log
         any_silent = silent.any()
         if any_silent:
             for pos in np.flatnonzero(silent & table.ping):
-                self.log.warning(f"ID {table.ids[pos]}: no response (ping false)")
+                ping_log.change(table.ids[pos], False)
         back = answered & ~table.ping
         if back.any():
             for pos in np.flatnonzero(back):
-                self.log.info(f"ID {table.ids[pos]}: answers again")
+                ping_log.change(table.ids[pos], True)
                 # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew
                 # before the next commands are written
                 self._to_arm.add(table.ids[pos])
+        ping_log.flush()
         # each read or ping of the servo that got no answer counts (a silent servo is only pinged every
         # recheck_loops loops): the removal comes after no_response_id_auto_remove_count
         # unanswered requests in a row
@@ -91,7 +151,7 @@ class Recovery(Watchdog):
         table.no_response[answered] = 0
         table.ping[answered] = True
         limit = self.config["no_response_id_auto_remove_count"]
-        if limit > 0:
+        if limit > 0 and any_silent:
             for pos in reversed(np.flatnonzero(table.no_response >= limit)):
                 dxl_id = table.ids[pos]
                 self.log.warning(f"ID {dxl_id}: no response {limit} times in a row: removed "
@@ -106,4 +166,5 @@ class Recovery(Watchdog):
             self.watchdog_user.pop(dxl_id, None)
             for key in [k for k in self._eeprom_deferred if k[0] == dxl_id]:
                 del self._eeprom_deferred[key]
-            self.log.info(f"ID {dxl_id}: removed from the handled servos")
+            self.ping_log.forget(dxl_id)
+            self.limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")

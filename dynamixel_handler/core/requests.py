@@ -3,6 +3,7 @@ clear, a watchdog time. The command side (``dynamixel_handler.commands``) checks
 calls one of these; each goes one way down to the bus."""
 from __future__ import annotations
 
+import logging
 import time
 from typing import Callable, Mapping
 
@@ -84,8 +85,8 @@ class Requests(Startup):
         """Run ``op`` for this servo once mode_change_interval_sec allows; a later request replaces it."""
         left = self.mode_change_wait(dxl_id)
         if dxl_id not in self.deferred:
-            self.log.info(f"{what}: the last mode change was less than mode_change_interval_sec="
-                          f"{self.config['mode_change_interval_sec']:g}s ago: applied in {left:.2f}s")
+            self.limited(logging.INFO, f"{what}: the last mode change was less than mode_change_interval_sec="
+                         f"{self.config['mode_change_interval_sec']:g}s ago: applied in {left:.2f}s", f"defer {dxl_id}")
         self.deferred[dxl_id] = (time.monotonic() + left, what, op)
 
     def cancel_deferred(self, dxl_id: int) -> None:
@@ -112,7 +113,7 @@ class Requests(Startup):
             self.torque_on(dxl_id)
         self.arm_after_ops(dxl_id)
         if ok:
-            self.log.info(f"ID {dxl_id}: operating mode -> {mode}")
+            self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
         else:
             warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {self.bus.last_failure}")
         return "done" if ok else "failed"

@@ -1,6 +1,7 @@
 """Start-up: the scan, the servos kept, the set-up each gets (also when added later)."""
 from __future__ import annotations
 
+import logging
 from typing import Sequence
 
 from .. import units
@@ -12,6 +13,9 @@ from .recovery import Recovery
 
 class Startup(Recovery, Deferred):
     """Scan, expected count, per-servo set-up, add_id."""
+
+    #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
+    _membership: dict[int, bool] | None = None
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
@@ -126,21 +130,39 @@ class Startup(Recovery, Deferred):
                                      f"({item} {pulses} refused: {self.bus.last_failure})")
         self._to_arm.add(dxl_id)
 
+    def want_handled(self, dxl_id: int, handled: bool) -> None:
+        """add_id (True) or remove_id (False) from a command, applied once the queued operations of
+        this loop have run: the last request for an ID in a loop wins, so a script that adds and
+        removes a servo many times a loop costs at most one change a loop."""
+        if self._membership is None:
+            self._membership = {}
+        self._membership.pop(dxl_id, None)
+        self._membership[dxl_id] = handled
+
+    def _apply_membership(self) -> None:
+        wanted, self._membership = self._membership or {}, None
+        for dxl_id, handled in wanted.items():
+            if not handled:
+                self.remove_id(dxl_id)
+            elif dxl_id not in self.table:
+                self.add_id(dxl_id)
+
     def add_id(self, dxl_id: int) -> bool:
         """Ping ``dxl_id`` and handle it if it answers with a model of a used series."""
         number = self.bus.ping(dxl_id)
         if number is None:
-            self.log.warning(f"ID {dxl_id}: no answer to ping, not added")
+            self.limited(logging.WARNING, f"ID {dxl_id}: no answer to ping, not added", f"not added {dxl_id}")
             return False
         try:
             model = model_by_number(number)
         except KeyError:
-            self.log.warning(f"ID {dxl_id}: unknown model number {number}, not added")
+            self.limited(logging.WARNING, f"ID {dxl_id}: unknown model number {number}, not added", f"not added {dxl_id}")
             return False
         if model.series not in self.config.used_series:
-            self.log.warning(f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in init/used_servo_series")
+            self.limited(logging.WARNING, f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in "
+                         "init/used_servo_series", f"not added {dxl_id}")
             return False
         self.table.add(dxl_id, model)
-        self.log.info(f"ID {dxl_id}: {model.name} added")
+        self.limited(logging.INFO, f"ID {dxl_id}: {model.name} added", f"added {dxl_id}")
         self._setup_servo(dxl_id)  # the same set-up as at start-up
         return True

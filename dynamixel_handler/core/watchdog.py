@@ -6,6 +6,7 @@ from typing import Sequence
 import numpy as np
 
 from ..groups import GROUP_RATIO_PARAM, PRESENT
+from .log_limits import LogLimits
 from .read_plan import ReadPlan
 from .servo_io import ServoIO
 
@@ -19,8 +20,22 @@ WATCHDOG_MODES = frozenset({"velocity", "current", "pwm"})
 WATCHDOG_MAX_MS = 2540.0
 
 
-class Watchdog(ServoIO, ReadPlan):
+class Watchdog(ServoIO, ReadPlan, LogLimits):
     """The bus watchdog of every servo: only in velocity, current and PWM modes (or as a command set it)."""
+
+    #: (ID, pulses asked for) whose raise to what the loop needs was warned about
+    _raised_warned: set[tuple[int, int]] | None = None
+
+    def _needed_ms(self) -> float | None:
+        """The least bus watchdog time a healthy loop keeps: three times the longest gap between
+        two reads of a servo [ms]; None when nothing is read after start-up (a watchdog would stop
+        every servo)."""
+        cfg = self.config
+        ratios = [cfg.present_ratio(k) for k in PRESENT] + [cfg[p] for p in GROUP_RATIO_PARAM.values()]
+        every = min((r for r in ratios if r > 0), default=0)
+        if every == 0:
+            return None
+        return 3000.0 * every * max(1.0 / float(cfg["loop_rate"]), self.loop_period_s)
 
     def watchdog_pulses(self) -> int:
         """Bus watchdog register value (20 ms units, 0 = off): default/bus_watchdog, but at least three
@@ -28,15 +43,13 @@ class Watchdog(ServoIO, ReadPlan):
         cfg = self.config
         if not cfg["term/servo_auto_stop"] or cfg["default/bus_watchdog"] <= 0:
             return 0
-        ratios = [cfg.present_ratio(k) for k in PRESENT] + [cfg[p] for p in GROUP_RATIO_PARAM.values()]
-        every = min((r for r in ratios if r > 0), default=0)
-        if every == 0:
-            return 0  # nothing is read after start-up: a watchdog would stop every servo
-        period = max(1.0 / cfg["loop_rate"], self.loop_period_s)
-        ms = max(cfg["default/bus_watchdog"], 3000.0 * every * period)
+        needed = self._needed_ms()
+        if needed is None:
+            return 0
+        ms = max(cfg["default/bus_watchdog"], needed)
         if ms > WATCHDOG_MAX_MS and not self._watchdog_warned:
             self._watchdog_warned = True
-            self.log.warning(f"bus watchdog: a servo is addressed every {1000 * every * period:.0f} ms, so it needs "
+            self.log.warning(f"bus watchdog: a servo is addressed every {needed / 3:.0f} ms, so it needs "
                              f"{ms:.0f} ms, but the register holds at most {WATCHDOG_MAX_MS:g} ms: set to that, a servo "
                              "may stop between two loops (lower the bus time per loop: fewer reads, higher baudrate)")
         return int(min(127, max(1, round(ms / 20.0))))
@@ -47,11 +60,9 @@ class Watchdog(ServoIO, ReadPlan):
         old = self.loop_period_s
         if old and old / 2 < seconds < old * 1.25:
             return
-        before = self.watchdog_pulses()
+        before = {i: self.watchdog_for(i) for i in self.table.ids}
         self.loop_period_s = seconds
-        if self.watchdog_pulses() != before:
-            self._to_arm.update(i for i in self.table.ids
-                                if i not in self.watchdog_user and self.mode(i) in WATCHDOG_MODES)
+        self._to_arm.update(i for i, pulses in before.items() if self.watchdog_for(i) != pulses)
 
     def estimate_loop_s(self) -> float:
         """Wire time of the reads over every handled servo (instruction and replies at the baud
@@ -77,10 +88,31 @@ class Watchdog(ServoIO, ReadPlan):
     def watchdog_for(self, dxl_id: int) -> int:
         """The bus watchdog this servo should have [20 ms pulses, 0 = off]: the value a command
         set for it (extra bus_watchdog_ms), else the automatic one (``watchdog_pulses``) in
-        velocity, current and PWM modes, else off."""
+        velocity, current and PWM modes, else off. A time a command set that the loop cannot keep
+        (shorter than three gaps between two reads of the servo) is raised to what it needs."""
         if dxl_id in self.watchdog_user:
-            return self.watchdog_user[dxl_id]
+            asked = self.watchdog_user[dxl_id]
+            needed = self._needed_ms()
+            if asked <= 0 or needed is None:
+                return asked
+            return max(asked, min(127, int(-(-needed // 20))))
         return self.watchdog_pulses() if self.mode(dxl_id) in WATCHDOG_MODES else 0
+
+    def _warn_raised(self, dxl_id: int, pulses: int) -> None:
+        """One warning when a watchdog time a command set is raised (per servo and value asked for)."""
+        asked = self.watchdog_user.get(dxl_id, 0)
+        if not 0 < asked < pulses:
+            return
+        if self._raised_warned is None:
+            self._raised_warned = set()
+        if (dxl_id, asked) in self._raised_warned:
+            return
+        self._raised_warned.add((dxl_id, asked))
+        ms = self.table.model(dxl_id).bus_watchdog_ms_per_pulse
+        gap = (self._needed_ms() or 0.0) / 3
+        self.log.warning(f"ID {dxl_id}: bus_watchdog_ms {asked * ms:g} is shorter than the loop can keep (a servo is "
+                         f"read every {gap:.0f} ms): raised to {pulses * ms:g} ms (three such gaps), so a healthy loop "
+                         "never trips it")
 
     def arm_watchdog(self, dxl_id: int) -> None:
         """So that a crashed or killed node still stops its servos: the servo stops by itself when
@@ -90,6 +122,7 @@ class Watchdog(ServoIO, ReadPlan):
         if not self.table.model(dxl_id).has("bus_watchdog"):
             return
         pulses = self.watchdog_for(dxl_id)
+        self._warn_raised(dxl_id, pulses)
         if self.table.value("bus_watchdog", dxl_id) != 0:
             self.write_item(dxl_id, "bus_watchdog", 0)  # first 0: clears a trip, allows a new value
         if pulses:
