@@ -66,7 +66,7 @@ SCHEMA: tuple[Param, ...] = (
     _p("default/return_delay_time", FLOAT, 0.0, "return delay time set at start-up [us]"),
     _p("default/bus_watchdog", FLOAT, 500.0, "bus watchdog used by servo_auto_stop [ms] (0: off)"),
     _p("loop_rate", INT, 100, "main loop rate [Hz]"),
-    _p("verbose_ratio", INT, 300, "log loop statistics every this many loops (0: only the one every 10 s)"),
+    _p("verbose_ratio", INT, 300, "log loop statistics every this many loops, at most once a second (0: only the one every 10 s)"),
     _p("pub_outdated_present_value", BOOL, True, "publish present items not read in this loop with their last value"),
     *(_p(f"pub_ratio/present.{k}", INT, v, f"read present {k} every this many loops (0: once at start)")
       for k, v in _PRESENT_ITEMS.items()),
