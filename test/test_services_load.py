@@ -144,11 +144,11 @@ def test_many_move_joints_goals_are_all_accepted_and_answered_the_last_one_moves
     rig.wait(lambda: all(r.done() for r in results), timeout=10.0 + SLACK_S,
              what=f"every result ({sum(r.done() for r in results)} of {len(results)} came)")
     outcomes = [r.result().result for r in results]
-    # the goal the node took last moves the servo; each earlier one ends preempted (goals taken at
-    # once by several executor threads need not be taken in the order sent)
+    # a goal ends preempted by a later one, or reached (the servo was there before a later one came);
+    # goals taken at once by several executor threads need not be taken in the order sent
     reached = [o for o in outcomes if o.status == MoveJoints.Result.REACHED]
     preempted = [o for o in outcomes if o.status == MoveJoints.Result.ERROR and "preempted" in o.message]
-    assert len(reached) == 1 and len(preempted) == len(outcomes) - 1, {o.message for o in outcomes}
+    assert reached and len(reached) + len(preempted) == len(outcomes), {o.message for o in outcomes}
     assert abs(_deg(rig, 2) - target) <= 0.5
 
 

@@ -24,7 +24,6 @@ import time
 from collections import deque
 from typing import Callable, Sequence
 
-from .. import units
 from ..commands import Commander
 from ..joints import JointMap
 from ..logs import some_ids
@@ -46,12 +45,11 @@ from .move_checks import (
     listed,
     with_notes,
 )
+from .move_io import MoveIO
 
 __all__ = ["Book", "Job", "MoveJob", "TorqueJob", "CANCELED", "DONE", "ERROR", "PREEMPTED", "REACHED", "TIMED_OUT",
            "MoveError"]
 
-#: modes whose goal is a position but that a move keeps (multi-turn); others switch to position mode
-KEPT_POSITION_MODES = ("ex_position", "cur_position")
 #: how far a written goal may be from the requested one before the answer says so [deg]
 GOAL_NOTE_DEG = 0.2
 #: how long a job that needs no waiting may take the loop to carry out before it is answered anyway [s]
@@ -60,6 +58,8 @@ LOOP_TIMEOUT_S = 5.0
 FEEDBACK_S = 0.1
 #: requests waiting at once; beyond, a request is refused at once
 MAX_JOBS = 512
+#: moves whose goals are written in one loop step (more wait for the next)
+MAX_STARTS = 16
 
 
 class Job:
@@ -147,7 +147,7 @@ class MoveJob(Job):
         self.velocity = velocity
         self.wait = wait
         self.grace_until = min(grace_until, move.deadline)
-        self.state = "answers"  # -> "writing" -> "following"
+        self.state = "answers"  # -> "ready" -> "writing" -> "following"
         self.watch = Watch(move)
         self.cancel_requested = False
         self.want_feedback = feedback
@@ -158,8 +158,7 @@ class MoveJob(Job):
             table = book.h.table
             silent = [i for i in self.ids if i in table and not table.ping[table.index[i]]]
             if not silent or now >= self.grace_until:
-                self.state = "writing"
-                book.h.queue("move", lambda: book.start(self))
+                self.state = "ready"  # the Book starts it (``start_ready``)
         elif self.state == "following":
             self._judge(book, now)
 
@@ -183,18 +182,17 @@ class MoveJob(Job):
         return TIMED_OUT, with_notes("timed out: the bus loop read no positions in time", self.move)
 
 
-class Book:
+class Book(MoveIO):
     """The jobs under way (any thread adds; the loop thread advances them after each step)."""
 
     def __init__(self, handler: Handler, commander: Commander, mapping: JointMap | None,
                  wake: Callable[[], None] = lambda: None) -> None:
-        self.h = handler
-        self.commander = commander
-        self.mapping = mapping
+        super().__init__(handler, commander, mapping)
         self.wake = wake  # called when jobs ended or feedback is due (wakes the executor)
         self.jobs: list[Job] = []
         self.lock = threading.Lock()
         self._last_feedback = 0.0
+        self._ended = False  # a job ended since the executor was last woken
 
     @property
     def period_s(self) -> float:
@@ -223,7 +221,7 @@ class Book:
             job.outcome = outcome
             if job in self.jobs:
                 self.jobs.remove(job)
-        self.wake()
+        self._ended = True  # the executor is woken once at the end of the step (``on_step``)
         return True
 
     def claim(self, job: Job) -> bool:
@@ -241,24 +239,46 @@ class Book:
 
     # ------------------------------------------------------------------ loop thread
     def on_step(self, _report: object = None) -> None:
-        """Step hook: advance every job (an ended one wakes the executor); wake it for feedback."""
-        if not self.jobs:
-            return
+        """Step hook: advance every job; wake the executor once if jobs ended (in this step's
+        operations or here), or for feedback every FEEDBACK_S while goals move."""
         now = time.monotonic()
-        with self.lock:
-            jobs = list(self.jobs)
-        feedback = False
-        for job in jobs:
-            try:
-                job.advance(self, now)
-            except MoveError as err:
-                self.finish(job, ERROR, str(err))
-            except Exception as exc:  # a job must never stop the loop
-                self.finish(job, ERROR, f"{job.what} failed: {type(exc).__name__}: {exc}")
-            feedback = feedback or isinstance(job, MoveJob) and job.want_feedback and not job.finished
-        if feedback and now - self._last_feedback >= FEEDBACK_S:
-            self._last_feedback = now
+        if self.jobs:
+            with self.lock:
+                jobs = list(self.jobs)
+            for job in jobs:
+                self._advance(job, now)
+            self.start_ready([j for j in jobs if isinstance(j, MoveJob) and j.state == "ready" and not j.finished])
+            if now - self._last_feedback >= FEEDBACK_S and any(
+                    isinstance(j, MoveJob) and j.feedback is not None and not j.finished for j in jobs):
+                self._last_feedback = now
+                self._ended = True
+        if self._ended:
+            self._ended = False
             self.wake()
+
+    def _advance(self, job: Job, now: float) -> None:
+        try:
+            job.advance(self, now)
+        except MoveError as err:
+            self.finish(job, ERROR, str(err))
+        except Exception as exc:  # a job must never stop the loop
+            self.finish(job, ERROR, f"{job.what} failed: {type(exc).__name__}: {exc}")
+
+    def start_ready(self, ready: list[MoveJob]) -> None:
+        """Queue the moves whose servos answer, oldest first, MAX_STARTS a step; one whose every
+        servo a later ready move names ends PREEMPTED unwritten (a burst costs one write)."""
+        covered: set[int] = set()
+        keep = []
+        for job in sorted(ready, key=lambda j: j.seq, reverse=True):
+            if covered.issuperset(job.ids):
+                self.finish(job, PREEMPTED, f"preempted before it started by a later move of IDs "
+                                            f"{some_ids(sorted(job.ids))}; nothing was written")
+                continue
+            covered.update(job.ids)
+            keep.append(job)
+        for job in sorted(keep, key=lambda j: j.seq)[:MAX_STARTS]:
+            job.state = "writing"
+            self.h.queue("move", lambda job=job: self.start(job))  # type: ignore[misc]
 
     def start(self, job: MoveJob) -> None:
         """Queued operation: refuse servos that cannot move, write the goals, preempt other moves."""
@@ -310,74 +330,6 @@ class Book:
             return
         present, _ = self.probe(job.ids)
         self.finish(job, DONE, with_notes("goals written", move), self.in_request_frame(move, present))
-
-    def _command(self, ids: list[int], servo_deg: list[float], velocity: float) -> None:
-        """Queue the goals per mode and series (the Commander writes them this step)."""
-        table = self.h.table
-        batches: dict[tuple[str, str], tuple[list[int], list[float]]] = {}
-        for i, deg in zip(ids, servo_deg):
-            series = table.model(i).series
-            kind = "goal" if self.h.mode(i) in KEPT_POSITION_MODES else "position_control"
-            batch = batches.setdefault((kind, series), ([], []))
-            batch[0].append(i)
-            batch[1].append(deg)
-        for (kind, series), (batch_ids, degs) in batches.items():
-            fields: dict[str, list] = {"position_deg": degs}
-            if velocity > 0:
-                speed_field = "velocity_deg_s" if series == "PRO" and kind == "position_control" else "profile_vel_deg_s"
-                fields[speed_field] = [velocity] * len(batch_ids)
-            if kind == "goal":
-                self.commander.goal(batch_ids, fields, what="move")
-            else:
-                self.commander.control(series, "position_control", batch_ids, fields)
-
-    def _refuse_unready(self, ids: list[int]) -> None:
-        """MoveError for servos that are not handled, do not answer or have no torque."""
-        missing = [i for i in ids if i not in self.h.table]
-        if missing:
-            raise MoveError(f"IDs [{listed(missing)}] are not handled")
-        table = self.h.table
-        silent = [i for i in ids if not table.ping[table.index[i]]]
-        if silent:
-            raise MoveError(f"IDs [{listed(silent)}] do not answer")
-        off = [i for i in ids if not (table.value("torque_enable", i) or self.h.read_item(i, "torque_enable"))]
-        if off:
-            raise MoveError(f"torque is off on IDs [{listed(off)}]: enable it first (set_torque)")
-
-    def _goals(self, ids: list[int]) -> list[float]:
-        """Goals the servos go to: written ones, or those still waiting for this step's write."""
-        table = self.h.table
-        goal = table.units("goal_position")
-        pending = self.h.pending.peek("goal_position")
-        out = []
-        for i in ids:
-            if i not in table:
-                out.append(math.nan)
-            elif i in pending:
-                out.append(float(units.pulse_to_unit([table.model(i)], "goal_position", [pending[i]])[0]))
-            else:
-                out.append(float(goal[table.index[i]]))
-        return out
-
-    def probe(self, ids: list[int]) -> tuple[list[float], list[bool]]:
-        """Present positions [servo deg] and pings of ``ids``, as last read."""
-        table = self.h.table
-        present = table.units("present_position")
-        pos = [table.index.get(i) for i in ids]
-        return ([float(present[p]) if p is not None else math.nan for p in pos],
-                [bool(table.ping[p]) if p is not None else False for p in pos])
-
-    def hold(self, ids: list[int], present: list[float]) -> None:
-        """Stop where the servos are: goal := present position (through the Commander)."""
-        keep = [(i, p) for i, p in zip(ids, present) if math.isfinite(p)]
-        if keep:
-            self.commander.goal([i for i, _ in keep], {"position_deg": [p for _, p in keep]}, what="move cancelled")
-
-    def in_request_frame(self, move: Move, servo_deg: Sequence[float]) -> list[float]:
-        mapping = self.mapping
-        return [mapping.to_joint_deg(name, d) if name is not None and mapping is not None else d
-                for (_, name), d in zip(move.targets, servo_deg)]
-
 
 def new_move(book: Book, targets: Targets, positions: list[float], velocity: float, tolerance_deg: float,
              timeout_s: float, wait: bool, feedback: bool = False) -> MoveJob:

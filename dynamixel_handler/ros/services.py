@@ -35,6 +35,8 @@ from .moves import CANCELED, DONE, ERROR, LOOP_TIMEOUT_S, PREEMPTED, REACHED, TI
 QUEUE_DEPTH = 1000
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.VOLATILE)
+#: how long the result of an ended goal is kept for a client that asks for it late [s]
+RESULT_KEPT_S = 60
 #: how often the executor is woken while jobs wait, so that overdue ones are answered [s]
 EXPIRE_CHECK_S = 0.2
 
@@ -72,7 +74,7 @@ class MotionServices:
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, callback_group=group,
                                    goal_service_qos_profile=QOS, result_service_qos_profile=QOS,
-                                   cancel_service_qos_profile=QOS)
+                                   cancel_service_qos_profile=QOS, result_timeout=RESULT_KEPT_S)
 
     # ------------------------------------------------------------------ waiting without a thread
     def _wake(self) -> None:
