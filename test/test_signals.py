@@ -61,3 +61,29 @@ def test_a_signal_ends_the_loop_at_any_rate(rate):
         sim.stop()
     assert code == 0, proc.output
     assert "stopping" in proc.output
+
+
+def test_a_signal_during_a_burst_of_mode_changes_leaves_the_rest_undone_and_the_servos_safe():
+    """A stop does not finish the mode changes still queued (at 9600 bps each takes ~0.35 s): the one
+    in progress ends, the others are dropped, and every servo is left as term/* say (torque off)."""
+    from dynamixel_handler_msgs.msg import DynamixelControlXVelocity
+
+    from support.rig import Rig
+    ids = list(range(1, 7))
+    rig = Rig({i: X for i in ids}, "baudrate:=9600", "loop_rate:=20",
+              sim_kwargs={"wire_timing": True, "baudrate": 9600})
+    try:
+        mark = rig.mark()
+        rig.publish("/dynamixel/command/x/velocity_control",
+                    DynamixelControlXVelocity(id_list=ids, velocity_deg_s=[30.0] * len(ids)))
+        rig.wait_log("ID 1: operating mode -> velocity", since=mark, timeout=30)
+        code = rig.stop_node(signal.SIGTERM)
+        changed = [i for i in ids if rig.sim.servo(i).read("operating_mode") == 1]
+        assert code == 0, rig.output
+        # the change in progress when the signal came may end; the queued ones do not start
+        assert len(changed) <= 3, (changed, rig.log_since(mark))
+        assert "stopping" in rig.output
+        assert all(rig.sim.servo(i).read("torque_enable") == 0 for i in ids)
+        assert all(rig.sim.servo(i).read("goal_velocity") == 0 for i in changed)
+    finally:
+        rig.close()

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..config import Config
 from ..groups import GROUP_ITEMS, GROUP_RATIO_PARAM, PRESENT, due
-from .state import HandlerState
+from .pacing import Pacing
 
 #: items closer than this many bytes are read in one span when method/split_read is false
 SPAN_GAP = 24
@@ -50,8 +50,12 @@ class _Read:
     fast: bool = False
 
 
-class ReadPlan(HandlerState):
-    """Pub ratios -> the items due -> sync reads grouped by control-table layout (cached)."""
+class ReadPlan(Pacing):
+    """Pub ratios -> the items due -> sync reads grouped by control-table layout (cached); while bus
+    watchdogs are armed, a read is no longer on the wire than its share of the shortest (``pacing``)."""
+
+    #: the shortest armed bus watchdog time [s] the cached plans were cut for
+    _plans_armed: float | None = None
 
     def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
         """The items read in loop ``loop``, the present keys and the groups they make up."""
@@ -73,10 +77,9 @@ class ReadPlan(HandlerState):
         return found
 
     def _plan(self, items: tuple[str, ...], live: np.ndarray) -> list[_Read]:
-        """Sync reads for ``items`` over the live servos, grouped by control-table layout (cached)."""
-        if self._plans_version != self.table.version:
-            self._plans.clear()
-            self._plans_version = self.table.version
+        """Sync reads for ``items`` over the live servos, grouped by control-table layout (cached);
+        spans cut to what the shortest armed bus watchdog allows (``Pacing.read_span_limit``)."""
+        self._plans_fresh()
         key = (items, live.tobytes())
         plan = self._plans.get(key)
         if plan is not None:
@@ -93,10 +96,17 @@ class ReadPlan(HandlerState):
         plan = []
         for (fast, sig), positions in layouts.items():
             ids = tuple(self.table.ids[p] for p in positions)
-            for address, length, parts in _spans(sig, self.split_read):
+            for address, length, parts in _spans(sig, self.split_read, self.read_span_limit(len(ids))):
                 plan.append(_Read(address, length, ids, parts, fast))
         self._plans[key] = plan
         return plan
+
+    def _plans_fresh(self) -> None:
+        """Forget the cached plans when the servos or the shortest armed bus watchdog changed."""
+        armed = self.shortest_armed_s()
+        if self._plans_version != self.table.version or armed != self._plans_armed:
+            self._plans.clear()
+            self._plans_version, self._plans_armed = self.table.version, armed
 
     def _read_plain(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
         """Read the servos a Fast Sync Read missed with a plain Sync Read.
@@ -173,11 +183,14 @@ def _record(length: int, parts: tuple[_Part, ...]) -> np.dtype | None:
                      "offsets": [p.offset for p in parts], "itemsize": length})
 
 
-def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool) -> list[tuple[int, int, tuple[_Part, ...]]]:
-    """Cut items (sorted by address) into read spans: one per item, or merged across small gaps."""
+def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool,
+           longest: int | None = None) -> list[tuple[int, int, tuple[_Part, ...]]]:
+    """Cut items (sorted by address) into read spans: one per item, or merged across small gaps
+    into spans of at most ``longest`` bytes (None: any length; an item longer stays whole)."""
     spans: list[tuple[int, int, list[tuple[str, int, int, bool]]]] = []
     for item, address, size, signed in sig:
-        if spans and not split and address - (spans[-1][0] + spans[-1][1]) <= SPAN_GAP:
+        if (spans and not split and address - (spans[-1][0] + spans[-1][1]) <= SPAN_GAP
+                and (longest is None or max(spans[-1][1], address + size - spans[-1][0]) <= longest)):
             start, _, members = spans[-1]
             end = max(start + spans[-1][1], address + size)
             spans[-1] = (start, end - start, members + [(item, address, size, signed)])

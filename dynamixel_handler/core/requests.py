@@ -22,6 +22,9 @@ TRIPPED_ONCE = True
 class Requests(Startup):
     """What commands may ask of the core, one method per request."""
 
+    #: why the last ``change_mode`` answered "later" (``defer_mode_change`` acts on it)
+    _mode_later: str | None = None
+
     # ---------------------------------------------------------------- queries
     def handles(self, dxl_id: int) -> bool:
         return dxl_id in self.table
@@ -82,7 +85,17 @@ class Requests(Startup):
         return max(0.0, last + interval - time.monotonic())
 
     def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
-        """Run ``op`` for this servo once mode_change_interval_sec allows; a later request replaces it."""
+        """Run ``op`` for this servo once mode_change_interval_sec allows, or at the next loop when
+        this loop's operations have used their bus time (``Pacing.ops_wait``); a later request
+        replaces it. While the node stops it is dropped (the servo keeps its mode)."""
+        why, self._mode_later = self._mode_later, None
+        if why == "stopping":
+            self.dropped_mode_changes.add(dxl_id)
+            return
+        if why == "bus time":
+            self.log.debug(f"{what}: waits for the next loop (this loop's mode changes used their bus time)")
+            self.deferred[dxl_id] = (time.monotonic(), what, op)
+            return
         left = self.mode_change_wait(dxl_id)
         if dxl_id not in self.deferred:
             self.limited(logging.INFO, f"{what}: the last mode change was less than mode_change_interval_sec="
@@ -97,8 +110,10 @@ class Requests(Startup):
         """Torque off -> operating mode -> goals and profiles written back -> torque back as it
         was (safely: goal := present state) -> bus watchdog as the new mode needs. The caller has
         checked that the servo has ``mode``. "done", "failed" (the bus), or "later": the last
-        change was less than mode_change_interval_sec ago (the caller defers the request)."""
-        if self.mode_change_wait(dxl_id) > 0:
+        change was less than mode_change_interval_sec ago, or this loop's mode changes used their
+        bus time, or the node is stopping (the caller defers the request: ``defer_mode_change``)."""
+        self._mode_later = "interval" if self.mode_change_wait(dxl_id) > 0 else self.ops_wait()
+        if self._mode_later is not None:
             return "later"
         self._last_mode_change[dxl_id] = time.monotonic()
         model = self.table.model(dxl_id)

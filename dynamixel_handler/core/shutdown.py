@@ -5,16 +5,15 @@ transaction per servo: on a slow bus (20 servos at 9600 bps) that is what lets t
 the wire time of about five packets instead of a hundred."""
 from __future__ import annotations
 
-from typing import Iterable, Mapping
-
-from .. import units
-from .servo_io import ServoIO
+from ..logs import some_ids
+from .group_io import GroupIO
+from .pacing import Pacing
 
 #: the goal that stops a servo in a mode that has no position to hold
 NEUTRAL_GOAL = {"velocity": "goal_velocity", "current": "goal_current", "pwm": "goal_pwm"}
 
 
-class Shutdown(ServoIO):
+class Shutdown(GroupIO, Pacing):
     """term/torque_auto_disable, term/servo_auto_stop."""
 
     def shutdown(self) -> None:
@@ -23,9 +22,13 @@ class Shutdown(ServoIO):
         and PWM goals := 0, goal position := present position, then torque off and on again on
         the servos whose torque is on (that also ends a profile move in progress). The bus
         watchdogs the handler armed are switched off (the goals that stop the servos are
-        written)."""
+        written). Mode changes not made yet (queued behind others, or waiting for
+        mode_change_interval_sec) are not made: those servos keep their mode (one line names them)."""
         cfg = self.config
         ids = list(self.table.ids)
+        dropped = sorted(self.dropped_mode_changes | set(self.deferred))
+        if dropped:
+            self.log.info(f"stopping: mode changes not made (dropped) for IDs {some_ids(dropped)}")
         if not self.bus.is_open or not ids:
             return
         stop = cfg["term/servo_auto_stop"]
@@ -58,35 +61,3 @@ class Shutdown(ServoIO):
         torque_on = [i for i, on in self.read_group("torque_enable", ids).items() if on == 1]
         self.write_group("torque_enable", {i: 0 for i in torque_on})
         self.write_group("torque_enable", {i: 1 for i in torque_on})
-
-    # ---------------------------------------------------------------- group transactions
-    def _layouts(self, item: str, ids: Iterable[int]) -> dict[tuple[int, int], list[int]]:
-        """The servos of ``ids`` that have ``item``, by its (address, size) in their model."""
-        out: dict[tuple[int, int], list[int]] = {}
-        for dxl_id in ids:
-            model = self.table.model(dxl_id)
-            if model.has(item):
-                spec = model.item(item)
-                out.setdefault((spec.address, spec.size), []).append(dxl_id)
-        return out
-
-    def read_group(self, item: str, ids: Iterable[int]) -> dict[int, int]:
-        """``item`` of the servos that answered, one sync read per layout; kept in the table."""
-        values: dict[int, int] = {}
-        for (address, size), members in self._layouts(item, ids).items():
-            replies = self.bus.sync_read(address, size, members)
-            for dxl_id, data in replies.items():
-                spec = self.table.model(dxl_id).item(item)
-                values[dxl_id] = int(units.decode(spec, data)[0])
-                self.table.set_value(item, dxl_id, values[dxl_id])
-        return values
-
-    def write_group(self, item: str, values: Mapping[int, int]) -> None:
-        """``item`` := ``values`` ({ID: pulses}), one sync write per layout; kept in the table."""
-        for (address, size), members in self._layouts(item, values).items():
-            data = {i: units.encode(self.table.model(i).item(item), [values[i]]) for i in members}
-            if self.bus.sync_write(address, size, data):
-                for dxl_id in members:
-                    self.table.set_value(item, dxl_id, values[dxl_id])
-            else:
-                self.log.warning(f"shutdown: writing {item} to IDs {members} failed: {self.bus.last_failure}")

@@ -9,6 +9,7 @@ import numpy as np
 from .. import units
 from ..groups import GROUP_ITEMS, PRESENT
 from .deferred import Deferred
+from .group_io import GroupIO
 from .read_plan import _Read
 from .recovery import Recovery
 from .state import RECHECK_LOOPS, StepReport
@@ -17,7 +18,7 @@ from .write_batch import WriteBatch
 __all__ = ["RECHECK_LOOPS", "Step"]
 
 
-class Step(Recovery, Deferred, WriteBatch):
+class Step(Recovery, Deferred, WriteBatch, GroupIO):
     """The loop step and its phases; the read logs."""
 
     def step(self) -> StepReport:
@@ -45,10 +46,9 @@ class Step(Recovery, Deferred, WriteBatch):
         by ``begin_step``, and again before ``send_step`` for commands that came meanwhile."""
         if self._had_device and not self.bus.is_open:
             self._reconnect(report)
-        while self._to_arm:
-            dxl_id = self._to_arm.pop()
-            if dxl_id in self.table:
-                self.arm_watchdog(dxl_id)
+        if self._to_arm:
+            self._arm_watchdogs(sorted(i for i in self._to_arm if i in self.table))
+            self._to_arm.clear()
         if self._check_watchdogs:
             self._check_watchdogs = False
             self.check_watchdogs()
@@ -61,6 +61,19 @@ class Step(Recovery, Deferred, WriteBatch):
         report = StepReport(loop=self.loop_count)
         self.prepare(report)
         self._send_writes()
+
+    def _arm_watchdogs(self, ids: list[int]) -> None:
+        """``arm_watchdog`` for many servos at once: the automatic watchdogs in two sync writes
+        (0 first where one is set: clears a trip, allows a new value), so that arming twenty servos
+        on a slow bus does not leave the first ones armed unaddressed while the last ones are
+        written; a watchdog a command set, servo by servo."""
+        auto = [i for i in ids if i not in self.watchdog_user and self.table.model(i).has("bus_watchdog")]
+        for dxl_id in ids:
+            if dxl_id in self.watchdog_user:
+                self.arm_watchdog(dxl_id)
+        pulses = {i: self.watchdog_for(i) for i in auto}
+        self.write_group("bus_watchdog", {i: 0 for i in auto if self.table.value("bus_watchdog", i) != 0}, "watchdog")
+        self.write_group("bus_watchdog", {i: p for i, p in pulses.items() if p}, "watchdog")
 
     def send_step(self, report: StepReport) -> None:
         self.send_writes(report)
@@ -90,6 +103,7 @@ class Step(Recovery, Deferred, WriteBatch):
         if items:
             for read in self._plan(items, live):
                 report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
+            self.note_reads_sent()
         # servos that stopped answering are pinged now and then, not read every loop
         if report.loop % self.recheck_loops == 0:
             report.recheck = [self.table.ids[pos] for pos in np.flatnonzero(~live)]
