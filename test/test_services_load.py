@@ -167,3 +167,17 @@ def test_a_later_move_preempts_an_earlier_one_on_the_same_servo_only(rig):
     # ID 1 goes on to the goal the first move gave it: nothing it was commanded is lost
     rig.wait(lambda: abs(_deg(rig, 1) - (start1 + 90.0)) < 1.0, timeout=15, what="ID 1 arriving")
     rig.wait(lambda: abs(_deg(rig, 2) - (start2 - 10.0)) < 1.0, timeout=15, what="ID 2 at the later goal")
+
+
+def test_a_flood_of_refused_requests_logs_at_most_a_line_a_second_per_cause(rig):
+    client = _client(rig, SetTorque, "/dynamixel/set_torque")
+    mark = rig.mark()
+    start = time.monotonic()
+    futures = [client.call_async(SetTorque.Request(ids=[2, 2], enable=False)) for _ in range(40)]
+    rig.wait(lambda: all(f.done() for f in futures), timeout=SLACK_S, what="every answer")
+    assert all(not f.result().success and "more than once" in f.result().message for f in futures)
+    time.sleep(0.2)
+    seconds = time.monotonic() - start
+    lines = [line for line in _service_lines(rig, mark) if "more than once" in line]
+    assert 1 <= len(lines) <= seconds + 1, lines
+    assert rig.sim.servo(2).read("torque_enable") == 1

@@ -18,6 +18,7 @@ once and writes nothing. Commands from the topics and trajectories do not end a 
 """
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 import time
@@ -65,11 +66,10 @@ MAX_STARTS = 16
 class Job:
     """A request the loop thread carries out; ended once (``finish``), the first end wins."""
 
-    seq = 0
+    _numbers = itertools.count(1)
 
     def __init__(self, what: str, ids: list[int], answer_by: float) -> None:
-        Job.seq += 1
-        self.seq = Job.seq
+        self.seq = next(Job._numbers)  # arrival order (atomic: jobs come from several threads)
         self.what = what
         self.ids = ids
         self.answer_by = answer_by  # answered by then even if the loop never gets to it
@@ -152,6 +152,7 @@ class MoveJob(Job):
         self.cancel_requested = False
         self.want_feedback = feedback
         self.feedback: tuple[list[float], list[float]] | None = None  # latest (positions, remaining)
+        self.feedback_sent = 0.0  # when feedback last went out (``services``)
 
     def advance(self, book: Book, now: float) -> None:
         if self.state == "answers":
@@ -179,6 +180,8 @@ class MoveJob(Job):
     def overdue(self) -> tuple[int, str]:
         if not self.claimed:
             return super().overdue()
+        if not self.wait:
+            return ERROR, "the bus loop did not confirm the goals in time (they may still be written)"
         return TIMED_OUT, with_notes("timed out: the bus loop read no positions in time", self.move)
 
 
@@ -248,8 +251,7 @@ class Book(MoveIO):
             for job in jobs:
                 self._advance(job, now)
             self.start_ready([j for j in jobs if isinstance(j, MoveJob) and j.state == "ready" and not j.finished])
-            if now - self._last_feedback >= FEEDBACK_S and any(
-                    isinstance(j, MoveJob) and j.feedback is not None and not j.finished for j in jobs):
+            if now - self._last_feedback >= FEEDBACK_S and _feedback_waits(jobs):
                 self._last_feedback = now
                 self._ended = True
         if self._ended:
@@ -330,6 +332,10 @@ class Book(MoveIO):
             return
         present, _ = self.probe(job.ids)
         self.finish(job, DONE, with_notes("goals written", move), self.in_request_frame(move, present))
+
+def _feedback_waits(jobs: list[Job]) -> bool:
+    return any(isinstance(j, MoveJob) and j.feedback is not None and not j.finished for j in jobs)
+
 
 def new_move(book: Book, targets: Targets, positions: list[float], velocity: float, tolerance_deg: float,
              timeout_s: float, wait: bool, feedback: bool = False) -> MoveJob:

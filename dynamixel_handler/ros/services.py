@@ -29,7 +29,22 @@ from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 from ..joints import joint_map
 from ..logs import Throttle
 from .move_checks import checked_positions, targets_of
-from .moves import CANCELED, DONE, ERROR, LOOP_TIMEOUT_S, PREEMPTED, REACHED, TIMED_OUT, Book, Job, MoveError, MoveJob, TorqueJob, new_move
+from .moves import (
+    CANCELED,
+    DONE,
+    ERROR,
+    FEEDBACK_S,
+    LOOP_TIMEOUT_S,
+    PREEMPTED,
+    REACHED,
+    TIMED_OUT,
+    Book,
+    Job,
+    MoveError,
+    MoveJob,
+    TorqueJob,
+    new_move,
+)
 
 #: requests (and answers) each service keeps queued: a burst of calls is not dropped for want of room
 QUEUE_DEPTH = 1000
@@ -168,8 +183,11 @@ class MotionServices:
         """On each wake-up: a cancel asked for goes to the job; new feedback goes out."""
         if goal_handle.is_cancel_requested and not job.cancel_requested:
             job.cancel_requested = True
-        news, job.feedback = job.feedback, None
-        if news is not None and goal_handle.is_active:
+        now = time.monotonic()
+        if job.feedback is None or now - job.feedback_sent < FEEDBACK_S:
+            return
+        news, job.feedback, job.feedback_sent = job.feedback, None, now
+        if goal_handle.is_active:
             goal_handle.publish_feedback(MoveJoints.Feedback(positions_deg=news[0], remaining_deg=news[1]))
 
 
