@@ -7,8 +7,10 @@ the action out (one info line) where it is missing.
 
 Every goal is accepted and then checked: a goal the handler cannot follow is aborted at once with
 ``INVALID_JOINTS`` (names not mapped, repeated, servo not handled, multi-DOF joints) or
-``INVALID_GOAL`` (points, times, tolerances, a trajectory already over) and an ``error_string``
-saying why. A running goal ends with
+``INVALID_GOAL`` (more than ``trajectory.MAX_POINTS`` points, points, times, a position beyond its
+servo's position limits, tolerances, a trajectory already over or starting beyond
+``joint_commands.START_HORIZON_S``, the bus adapter gone) and an ``error_string`` saying why. A
+running goal ends with
 
 - ``SUCCESSFUL`` (succeeded): every joint within its goal tolerance after the last point's time;
 - ``PATH_TOLERANCE_VIOLATED`` (aborted): a joint left its path tolerance while running;
@@ -16,14 +18,18 @@ saying why. A running goal ends with
   after the end;
 - cancelled (``SUCCESSFUL``, cancelled): the joints hold where they are;
 - preempted by a newer goal or ``joint_trajectory`` message (``SUCCESSFUL``, aborted, the
-  ``error_string`` says so): the newer trajectory starts from where the joints are.
+  ``error_string`` says so): the newer trajectory starts from where the joints are;
+- the bus adapter gone (``INVALID_GOAL``, aborted, at the next loop; ``error_string``: the device
+  is gone): the servos keep their last goals.
 
 Feedback (desired, actual and error positions and velocities) goes out at ``FEEDBACK_HZ``.
 """
 from __future__ import annotations
 
+import ctypes
 import math
 import time
+from typing import Any
 
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -38,6 +44,8 @@ from .joint_commands import BAD_JOINTS, TrajectoryRefused, duration_s
 FEEDBACK_HZ = 20.0
 #: a goal whose end has not been judged this long after its goal time ends (no reads) [s]
 STALE_S = 2.0
+#: a goal of at least this many points gives its memory back to the system once read (``trim_heap``)
+TRIM_POINTS = 1000
 R = FollowJointTrajectory.Result
 
 CODES = {tr.SUCCEEDED: R.SUCCESSFUL, tr.PATH_VIOLATED: R.PATH_TOLERANCE_VIOLATED,
@@ -120,10 +128,30 @@ class TrajectoryAction:
 
 
 def _release(goal: FollowJointTrajectory.Goal) -> None:
-    """Drop the points of a goal that was read: rclpy keeps every goal request (and its points, up
-    to ``MAX_POINTS`` message objects) until its result expires, 15 minutes after the goal ends."""
+    """Drop the points of a goal that was read: rclpy keeps every goal request (and its points, a
+    message object each) until its result expires, 15 minutes after the goal ends. After a large
+    one, the C heap gives the pages it freed back to the system (``malloc_trim``)."""
+    count = len(goal.trajectory.points) + len(goal.multi_dof_trajectory.points)
     goal.trajectory.points = []
     goal.multi_dof_trajectory.points = []
+    if count >= TRIM_POINTS:
+        trim_heap()
+
+
+def trim_heap() -> None:
+    """Give the free pages of the C heap back to the system (glibc; elsewhere nothing happens)."""
+    global _trim
+    if _trim is None:
+        try:
+            _trim = ctypes.CDLL(None).malloc_trim
+        except (OSError, AttributeError):  # not glibc
+            _trim = False
+    if _trim:
+        _trim(0)
+
+
+#: glibc's malloc_trim once looked up; False where there is none
+_trim: Any = None
 
 
 def attach(node, commands) -> TrajectoryAction:
