@@ -78,12 +78,14 @@ def test_a_signal_during_a_burst_of_mode_changes_leaves_the_rest_undone_and_the_
                     DynamixelControlXVelocity(id_list=ids, velocity_deg_s=[30.0] * len(ids)))
         rig.wait_log("ID 1: operating mode -> velocity", since=mark, timeout=30)
         code = rig.stop_node(signal.SIGTERM)
-        changed = [i for i in ids if rig.sim.servo(i).read("operating_mode") == 1]
         assert code == 0, rig.output
+        # the last packets the node sent may still be on their way through the virtual bus
+        rig.wait(lambda: all(rig.sim.servo(i).read("torque_enable") == 0 for i in ids), timeout=5,
+                 what="every servo's torque off, as term/torque_auto_disable says")
+        changed = [i for i in ids if rig.sim.servo(i).read("operating_mode") == 1]
         # the change in progress when the signal came may end; the queued ones do not start
         assert len(changed) <= 3, (changed, rig.log_since(mark))
-        assert "stopping" in rig.output
-        assert all(rig.sim.servo(i).read("torque_enable") == 0 for i in ids)
+        assert "stopping: mode changes not made (dropped) for IDs" in rig.output
         assert all(rig.sim.servo(i).read("goal_velocity") == 0 for i in changed)
     finally:
         rig.close()
