@@ -15,6 +15,7 @@ from typing import Callable
 
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.protocol import REBOOT, WRITE
+from dynamixel_handler_msgs.msg import DynamixelExtra, DynamixelShortcut
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import Rig, X
@@ -198,3 +199,30 @@ def test_the_statistics_line_of_a_fast_loop_comes_at_most_once_a_second():
         assert rig.close() == 0
     assert _at_most_one_a_second(stamps), stamps
     assert all(b - a <= 10.5 for a, b in zip(stamps, stamps[1:])), stamps
+
+
+def test_through_the_topics_reboots_at_100_hz_and_add_remove_at_200_hz_are_held_to_what_the_bus_takes():
+    rig = Rig({1: X, 2: X}, "pub_ratio/present.position:=1")
+    try:
+        mark = rig.mark()
+        start = time.monotonic()
+        for k in range(200):  # 2 s: a reboot of ID 1 and a remove or add of ID 2 every 10 ms, the last an add
+            rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="reboot", id_list=[1]))
+            rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="remove_id" if k % 2 == 0 else "add_id",
+                                                                  id_list=[2]))
+            time.sleep(0.01)
+        rig.wait(lambda: list(rig.debug[-1].status.id_list) == [1, 2] and all(rig.debug[-1].status.ping),
+                 what="both servos handled and answering (the last request for ID 2 was an add)")
+        reboots = [e.time for e in rig.transactions() if e.instruction == REBOOT and e.time >= start]
+        elapsed = time.monotonic() - start
+        log = rig.log_since(mark).splitlines()
+        assert 1 <= len(reboots) <= elapsed + 1, f"{len(reboots)} reboots of ID 1 in {elapsed:.1f} s"
+        watchdog = rig.sim.servo(2).read("bus_watchdog")
+        rig.publish("/dynamixel/command/extra", DynamixelExtra(id_list=[2], bus_watchdog_ms=[-5.0]))
+        rig.wait_log("ID 2 'bus_watchdog_ms' = -5 refused", since=mark)
+        assert rig.sim.servo(2).read("bus_watchdog") == watchdog
+    finally:
+        assert rig.close() == 0
+    for cause in ("ID 1: reboot refused", "ID 2: removed from the handled servos", "added"):
+        lines = [line for line in log if cause in line]
+        assert len(lines) <= elapsed + 1, f"{len(lines)} lines '{cause}' in {elapsed:.1f} s"
