@@ -13,6 +13,8 @@ from .watchdog import Watchdog
 
 #: longest wait for a servo to answer again after a reboot instruction [s]
 REBOOT_WAIT_S = 1.0
+#: a reboot asked for this much before clear_error_interval_sec has passed is not refused [s]
+REBOOT_SLACK_S = 0.05
 #: least time between two attempts to reopen a vanished device [s]
 RECONNECT_INTERVAL_S = 1.0
 
@@ -62,7 +64,9 @@ class Recovery(Watchdog):
             self._last_reboot = {}
         now, interval = time.monotonic(), float(self.config["clear_error_interval_sec"])
         last = self._last_reboot.get(dxl_id)
-        if last is not None and now - last < interval:
+        # the slack: an error clear checks its own interval a few reads before its reboot, so its
+        # next clear, allowed, must not find the reboot a few milliseconds too soon
+        if last is not None and now - last < interval - REBOOT_SLACK_S:
             self.limited(logging.WARNING, f"ID {dxl_id}: reboot refused: the last one was {now - last:.2f}s ago "
                          f"(at most one per clear_error_interval_sec={interval:g}s per servo)", f"reboot {dxl_id}")
             return False
