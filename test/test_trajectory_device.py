@@ -72,9 +72,4 @@ def test_a_vanished_device_ends_the_goal_at_once_and_refuses_new_ones(rig):
     lines = rig.log_since(mark).splitlines()
     writes = [line for line in lines if "sync write" in line]
     assert len(writes) <= gone_for + 2, "\n".join(writes)  # one a second at most
-    # the device back: goals are taken again
-    rig.sim.reappear()
-    rig.wait_log("is back: reconnected", since=mark, timeout=15)
-    rig.fresh_states(count=5)
-    status, result, _ = result_of(rig, send(rig, client, goal(0.5, 0.2)))
-    assert result.error_code == R.SUCCESSFUL, result.error_string + "\n" + rig.log_since(mark)[-3000:]
+    rig.sim.reappear()  # (what the node does then is test_device_loss.py's)

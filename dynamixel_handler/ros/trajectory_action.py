@@ -67,19 +67,15 @@ class TrajectoryAction:
     def _execute(self, goal_handle) -> FollowJointTrajectory.Result:
         g = goal_handle.request
         result = FollowJointTrajectory.Result()
-        try:
-            if g.multi_dof_trajectory.joint_names or g.multi_dof_trajectory.points:
-                raise TrajectoryRefused(BAD_JOINTS, "multi-DOF joints are not handled (servos are single joints)")
-            job = self.commands.job("follow_joint_trajectory", g.trajectory, g.path_tolerance, g.goal_tolerance,
-                                    duration_s(g.goal_time_tolerance))
-        except TrajectoryRefused as err:
-            _release(g)
-            result.error_code = R.INVALID_JOINTS if err.kind == BAD_JOINTS else R.INVALID_GOAL
-            result.error_string = str(err)
-            self.log.warning(f"follow_joint_trajectory: refused: {err}")
+        job, refused = self._job(g)
+        _release(g)  # the job has its own copy: the server keeps the request until the result expires
+        if job is None:
+            kind, why = refused
+            result.error_code = R.INVALID_JOINTS if kind == BAD_JOINTS else R.INVALID_GOAL
+            result.error_string = why
+            self.log.warning(f"follow_joint_trajectory: refused: {why}")
             goal_handle.abort()
             return result
-        _release(g)  # the job has its own copy: the server keeps the request until the result expires
         self.follower.start(job)
         self._watch(job, goal_handle)
         result.error_code = CODES[job.outcome]
@@ -91,6 +87,17 @@ class TrajectoryAction:
         else:
             goal_handle.abort()
         return result
+
+    def _job(self, g: FollowJointTrajectory.Goal) -> tuple[tr.Job | None, tuple[str, str]]:
+        """The goal's job, or None and why it is refused (kind, one line). Nothing of the goal is
+        held after it returns (not even by an exception's frames), so ``_release`` frees it."""
+        try:
+            if g.multi_dof_trajectory.joint_names or g.multi_dof_trajectory.points:
+                raise TrajectoryRefused(BAD_JOINTS, "multi-DOF joints are not handled (servos are single joints)")
+            return self.commands.job("follow_joint_trajectory", g.trajectory, g.path_tolerance, g.goal_tolerance,
+                                     duration_s(g.goal_time_tolerance)), ("", "")
+        except TrajectoryRefused as err:
+            return None, (err.kind, str(err))
 
     def _watch(self, job: tr.Job, goal_handle) -> None:
         """Feedback while the follower streams the trajectory; a cancel, a stopped loop or an end
