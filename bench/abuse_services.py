@@ -72,11 +72,13 @@ def _report(name: str, node: abuse.Node, sim, t0: float, cpu0: float, before, ma
     _, gap = abuse.loop_figures(sim, t0, t1)
     lines = [line for t, line in node.lines[mark:] if t0 <= t <= t1]
     trips = sum("bus watchdog tripped" in line or "bus watchdog had tripped" in line for _, line in node.lines[mark:])
-    cpu = 100 * (cpu_seconds(node.proc.pid) - cpu0) / (t1 - t0)
+    cpu_s = cpu_seconds(node.proc.pid) - cpu0
+    cpu = 100 * cpu_s / (t1 - t0)
     lat = (f"latency median {1000 * statistics.median(latencies):.0f} ms, longest {1000 * max(latencies):.0f} ms"
            if latencies else "no answer")
     print(f"{name:16s} answers {len(latencies)}/{sent} ({lat}); ends {dict(ends)}; loop gap {gap:.1f} ms; "
-          f"trips {trips}; log {len(lines) / (t1 - t0):.1f} lines/s ({_causes(lines, t1 - t0)}); cpu {cpu:.0f}%; "
+          f"trips {trips}; log {len(lines) / (t1 - t0):.1f} lines/s ({_causes(lines, t1 - t0)}); "
+          f"cpu {cpu:.0f}% of {t1 - t0:.1f} s ({cpu_s:.2f} s); "
           f"rss/threads/fds {before} -> {node.resources()}", flush=True)
 
 
@@ -174,10 +176,13 @@ def run(VirtualBus, seconds: float) -> None:
     node.wait_for("handled")
     time.sleep(2.0)
     abuse.velocity_mode([3, 4])  # their bus watchdog is armed, so a stalled loop trips it
-    t0 = time.monotonic()
+    from common import cpu_seconds
+    t0, cpu0 = time.monotonic(), cpu_seconds(node.proc.pid)
     time.sleep(seconds)
     rate, gap = abuse.loop_figures(sim, t0, time.monotonic())
-    print(f"{'idle':16s} loop {rate:.1f} Hz, gap {gap:.1f} ms; rss/threads/fds {node.resources()}", flush=True)
+    cpu = 100 * (cpu_seconds(node.proc.pid) - cpu0) / (time.monotonic() - t0)
+    print(f"{'idle':16s} loop {rate:.1f} Hz, gap {gap:.1f} ms; cpu {cpu:.0f}%; rss/threads/fds {node.resources()}",
+          flush=True)
     client = Client()
     try:
         torque_dup(client, node, sim, 10_000)
