@@ -79,7 +79,7 @@ def test_a_noisy_line_logs_each_servo_s_answering_state_at_most_once_a_second_an
         # a loaded host may still lose a reply now and then: on until a second passed since the last change
         end = time.monotonic() + 6.0
         while time.monotonic() < end and not (handler.table.ping.all() and time.time() - max(
-                _times(lines, r"ID \d: (no response|answers again)")) > 1.2):
+                _times(lines, r"ID \d: (no response|answers again)"), default=0.0) > 1.2):
             _run(handler, 0.1)
     for dxl_id in (1, 2):
         times = _times(lines, rf"ID {dxl_id}: (no response \(ping false\)|answers again)")
