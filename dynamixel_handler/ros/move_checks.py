@@ -58,7 +58,7 @@ def targets_of(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str
         raise MoveError(f"{what} named more than once: {listed(f'{k} ({n} times)' for k, n in twice)}: "
                         "name each servo once")
     if given > handled:
-        raise MoveError(f"{given} servos named, {handled} handled")
+        raise MoveError(f"{given} servo{'s' if given != 1 else ''} named, {handled} handled")
     return targets
 
 

@@ -349,5 +349,5 @@ def new_move(book: Book, targets: Targets, positions: list[float], velocity: flo
     grace_until = now + book.grace_s
     # answered by then at the latest: the deadline (with wait) plus a few loops, else the loop's time
     slack = max(3 * book.period_s, 0.3)
-    answer_by = move.deadline + slack if wait else now + max(book.grace_s, 0.0) + LOOP_TIMEOUT_S
+    answer_by = move.deadline + slack if wait else now + book.grace_s + LOOP_TIMEOUT_S
     return MoveJob(move, velocity, wait, grace_until, answer_by, feedback)
