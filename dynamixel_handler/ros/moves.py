@@ -155,7 +155,9 @@ class MoveJob(Job):
         self.feedback_sent = 0.0  # when feedback last went out (``services``)
 
     def advance(self, book: Book, now: float) -> None:
-        if self.state == "answers":
+        if self.cancel_requested and self.state in ("answers", "ready"):
+            book.finish(self, CANCELED, "cancelled before it started: nothing was written")
+        elif self.state == "answers":
             table = book.h.table
             silent = [i for i in self.ids if i in table and not table.ping[table.index[i]]]
             if not silent or now >= self.grace_until:
