@@ -158,6 +158,7 @@ def test_a_later_move_preempts_an_earlier_one_on_the_same_servo_only(rig):
     start1, start2 = _deg(rig, 1), _deg(rig, 2)
     first = slow.call_async(MoveTo.Request(ids=[1, 2], positions_deg=[start1 + 90.0, start2 + 10.0],
                                            profile_vel_deg_s=20.0, wait=True, timeout_s=20.0))
+    rig.wait(lambda: abs(_deg(rig, 1) - start1) > 2.0, what="the first move under way")
     other = slow.call_async(MoveTo.Request(joint_names=["tilt"], positions_deg=[start2 - 10.0], wait=False))
     rig.wait(other.done, what="the move of ID 2")
     assert other.result().success, other.result().message
