@@ -18,6 +18,8 @@ Cases, each printing one line:
   rate, longest gap, node CPU;
 - ``joint_commands_100MB``: one JointState of 100,000 names (~100 MB): loop gap, RSS before and after.
 
+A third servo, not a joint, runs in velocity mode with its bus watchdog armed: a stalled loop trips it.
+
 Loop figures come from the simulator's log of the node's reads (``abuse.loop_figures``). Not part
 of the test suite; the figures go to docs/reliability.md by hand.
 """
@@ -163,22 +165,32 @@ def _causes(lines: list[str]) -> str:
     return "; ".join(f"{n}x {k}" for k, n in c.most_common(3)) or "-"
 
 
+def _trips(lines: list[str]) -> int:
+    return sum("bus watchdog tripped" in line or "bus watchdog had tripped" in line for line in lines)
+
+
 def _goal_case(name: str, node, sim, client: Client, points: int, seconds: float) -> None:
+    from common import cpu_seconds
     t_build = time.monotonic()
     goal = client.goal(points, seconds)
     build_s = time.monotonic() - t_build
     before = node.resources()[0]
+    mark = len(node.lines)
+    cpu0 = cpu_seconds(node.proc.pid)
     t0 = time.monotonic()
     accepted, status, code, text, took = client.run(goal, timeout=seconds + 60)
     t1 = time.monotonic()
+    cpu = 100 * (cpu_seconds(node.proc.pid) - cpu0) / (t1 - t0)
     del goal
     after = node.resources()[0]
     time.sleep(2.0)  # the goal ended: what the node gives back
     ended = node.resources()[0]
     _, gap = abuse.loop_figures(sim, t0, t1)
-    print(f"{name:22s} answers=1/1 latency={took:6.2f} s status={status} code={code} '{text[:70]}' "
-          f"gap={gap:6.1f} ms rss before/after/ended {before}/{after}/{ended} MiB (goal built in {build_s:.1f} s)",
-          flush=True)
+    lines = [line for _, line in node.lines[mark:]]
+    print(f"{name:22s} answers=1/1 latency={took:6.2f} s status={status} code={code} '{text[:60]}' "
+          f"gap={gap:6.1f} ms cpu={cpu:.0f}% trips={_trips(lines)} rss before/after/ended {before}/{after}/{ended} MiB "
+          f"log {len(lines) / (time.monotonic() - t0):.1f} lines/s ({_causes(lines)[:100]}) "
+          f"(goal built in {build_s:.1f} s)", flush=True)
 
 
 def _device_case(VirtualBus, client_factory) -> None:
@@ -224,7 +236,7 @@ def _load_case(name: str, node, sim, kind: str, seconds: float) -> None:
     rate, gap = abuse.loop_figures(sim, t0, t1 - 0.3)
     cpu = 100 * (cpu_seconds(node.proc.pid) - cpu0) / (time.monotonic() - w0)
     lines = [line for t, line in node.lines[mark:] if t0 <= t <= t1]
-    print(f"{name:22s} sent={sent:6d} loop={rate:6.1f} Hz gap={gap:6.1f} ms cpu={cpu:4.0f}% "
+    print(f"{name:22s} sent={sent:6d} loop={rate:6.1f} Hz gap={gap:6.1f} ms cpu={cpu:4.0f}% trips={_trips(lines)} "
           f"log={len(lines) / (t1 - t0):.1f} lines/s rss={node.resources()[0]} MiB", flush=True)
 
 
@@ -238,18 +250,19 @@ def _huge_case(node, sim) -> None:
     time.sleep(1.0)
     _, gap = abuse.loop_figures(sim, t0, t1)
     lines = [line for _, line in node.lines[mark:]]
-    print(f"{'joint_commands_100MB':22s} gap={gap:6.1f} ms rss before/after {before}/{node.resources()[0]} MiB "
-          f"log: {_causes(lines)[:120]}", flush=True)
+    print(f"{'joint_commands_100MB':22s} gap={gap:6.1f} ms trips={_trips(lines)} rss before/after {before}/"
+          f"{node.resources()[0]} MiB log: {_causes(lines)[:120]}", flush=True)
 
 
 def run(VirtualBus, seconds: float) -> None:
     from dynamixel_handler import trajectory
-    max_points = getattr(trajectory, "MAX_POINTS", 10_000)
-    sim = VirtualBus(servos={1: abuse.X, 2: abuse.X}, wire_timing=False)
-    node = abuse.Node(sim, "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", "verbose_ratio:=300",
+    max_points = getattr(trajectory, "MAX_POINTS", 1_000)  # the code before the maximum: the same size
+    sim = VirtualBus(servos={1: abuse.X, 2: abuse.X, 3: abuse.X}, wire_timing=False)
+    node = abuse.Node(sim, "init/servo_auto_search.max_id:=3", "init/expected_servo_num:=3", "verbose_ratio:=300",
                       *JOINTS)
     node.wait_for("loop running")
     time.sleep(2.0)
+    abuse.velocity_mode([3])  # its bus watchdog is armed, so a stalled loop trips it
     client = Client()
     try:
         t0 = time.monotonic()
