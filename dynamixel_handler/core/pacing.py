@@ -29,6 +29,8 @@ READ_SHARE = 1 / 3
 OPS_SHARE = 0.25
 #: bytes of a sync read instruction without its ID list, and of one reply without its data
 SYNC_READ_BYTES, REPLY_BYTES = 14, 11
+#: narrowest span a read is cut to (the largest item); a limit below it cuts nothing
+MIN_SPAN = 4
 
 
 class Pacing(HandlerState):
@@ -65,14 +67,18 @@ class Pacing(HandlerState):
 
     def read_span_limit(self, servos: int) -> int | None:
         """Longest span [bytes] one sync read of ``servos`` servos may cover while watchdogs are
-        armed (its wire time at most READ_SHARE of the shortest); None: no limit."""
+        armed (its wire time and the adapter's latency at most READ_SHARE of the shortest); None:
+        no limit (none armed, or no span would fit)."""
         shortest = self.shortest_armed_s()
         baudrate = self.bus.baudrate
         if shortest is None or not baudrate or servos <= 0:
             return None
         budget = READ_SHARE * shortest - 2 * self.bus.latency_timer_ms / 1000.0
         wire_bytes = budget * baudrate / 10.0
-        return max(1, int((wire_bytes - SYNC_READ_BYTES - servos) / servos) - REPLY_BYTES)
+        longest = int((wire_bytes - SYNC_READ_BYTES - servos) / servos) - REPLY_BYTES
+        # not even one 4-byte item fits (the adapter's latency alone takes the time): cutting
+        # would only add reads, each with that latency
+        return longest if longest >= MIN_SPAN else None
 
     def note_reads_sent(self) -> None:
         """A loop's reads went out: every servo has just been addressed."""
