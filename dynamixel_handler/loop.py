@@ -5,6 +5,7 @@
     state        HandlerState: the bus, the parameters, the servo table, each room's bookkeeping;
                  StepReport: what one loop step did
     servo_io     one servo at a time: read/write an item, its mode, torque on without a jump
+    pacing       while bus watchdogs are armed: reads cut, mode changes spread over loops; a stop drops the rest
     read_plan    pub ratios -> the items due -> sync reads per control-table layout; replies stored
     write_batch  pending values -> one sync write per item, built ahead and sent in one go
     deferred     EEPROM writes spared and coalesced, mode changes asked for too soon, queued operations
@@ -13,6 +14,7 @@
     startup      scan, expected count, the set-up every servo gets (also add_id)
     requests     what commands may ask, checked: goals, a mode change, an error clear, a watchdog
     step         one loop step in four phases (prepare, send, complete, finish), read logs
+    group_io     one item of many servos in one sync write or read per layout
     shutdown     the servos left as term/* say
 
 ``Handler.step()`` runs queued operations (torque, mode, reboot...), writes pending values in
