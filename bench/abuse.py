@@ -6,7 +6,9 @@
 Cases (each from other processes, through the real topics): a 10,000-entry /dynamixel/commands/all
 and a 100,000-entry X bundle; 100 messages/s naming 253 unknown IDs; 100 refused mode changes a
 second; a 100 kB shortcut string at 10 Hz; 1,000 + 1,000 command messages a second; 20 servos at
-9600 bps at loop_rate 100; SIGINT during a 1000-retry scan and in the loop. Per case it prints the
+9600 bps at loop_rate 100; SIGINT during a 1000-retry scan and in the loop. The doors added later
+have their cases in bench/abuse_<door>.py (services, trajectory, core, timing: see DOORS), run here
+with --cases NAME or all by default. Per case it prints the
 loop rate and the longest gap between two loops (from the simulator's log of the node's reads),
 log lines a second, bus watchdog trips, and the node's RSS, threads and file descriptors before
 and after. The results go to docs/reliability.md by hand. Not part of the test suite.
@@ -14,6 +16,7 @@ and after. The results go to docs/reliability.md by hand. Not part of the test s
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import signal
 import subprocess
@@ -32,6 +35,13 @@ sys.path.insert(0, str(ROOT / "bench"))
 X, XL430 = 1020, 1060
 PRESENT_POSITION = 132
 CONFIG = ROOT / "config" / "config_dynamixel_handler.yaml"
+#: the cases of the doors added after the command topics, each in bench/abuse_<name>.py (``run``)
+DOORS = {
+    "services": "set_torque/move_to/MoveJoints: repeated IDs, hundreds of waiting callers",
+    "trajectory": "follow_joint_trajectory: huge goals, a vanishing device; joint_commands at 1 kHz, huge messages",
+    "core": "log floods, reboot/add/remove floods, a short bus watchdog, a vanished and returning adapter",
+    "timing": "SIGTERM in a mode-change burst, a slow bus after a mode burst",
+}
 
 
 # ---------------------------------------------------------------------------- publisher processes
@@ -194,8 +204,9 @@ def run_case(name: str, node: Node, sim, pubs: list[tuple[str, float]], seconds:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=10.0, help="length of each load case [s]")
-    ap.add_argument("--cases", default="commands,slow,scan",
-                    help="which parts: commands (all command cases), load (the command load alone), slow, scan")
+    ap.add_argument("--cases", default="commands,slow,scan," + ",".join(DOORS),
+                    help="which parts: commands (all command cases), load (the command load alone), slow, scan, "
+                         "and the later doors: " + ", ".join(f"{k} ({v})" for k, v in DOORS.items()))
     ap.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.publish:
@@ -209,6 +220,9 @@ def main() -> int:
         slow_bus(VirtualBus, args.seconds)
     if "scan" in cases:
         scan_exit(VirtualBus)
+    for name in DOORS:
+        if name in cases:
+            importlib.import_module(f"abuse_{name}").run(VirtualBus, args.seconds)
     return 0
 
 
