@@ -84,22 +84,31 @@ def publish(kind: str, rate: float, seconds: float) -> None:
     end = time.monotonic() + 10
     while any(p.get_subscription_count() == 0 for p in pubs) and time.monotonic() < end:
         time.sleep(0.05)
-    t0 = next_t = time.monotonic()
-    k = 0
-    while time.monotonic() - t0 < seconds:
+
+    def send(k: int) -> None:
         for pub, (_, msg) in zip(pubs, topic_msgs):
             if kind == "load_x":
                 msg = DynamixelControlXPosition(id_list=[1, 2], position_deg=[float(k % 90), float(-(k % 90))])
             elif kind == "load_goal":
                 msg = DynamixelGoal(id_list=[3, 4], position_deg=[float(k % 45), float(-(k % 45))])
             pub.publish(msg)
+    print(paced(send, rate, seconds), flush=True)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def paced(send, rate: float, seconds: float) -> int:
+    """Call ``send(k)`` for k = 0, 1, ... at ``rate`` Hz for ``seconds``, then wait 0.3 s for the last
+    messages to leave; returns how many were sent."""
+    t0 = next_t = time.monotonic()
+    k = 0
+    while time.monotonic() - t0 < seconds:
+        send(k)
         k += 1
         next_t += 1.0 / rate
         time.sleep(max(0.0, next_t - time.monotonic()))
     time.sleep(0.3)
-    print(k, flush=True)
-    node.destroy_node()
-    rclpy.shutdown()
+    return k
 
 
 def _die_with_parent() -> None:
@@ -147,9 +156,10 @@ class Node:
         threads = next(int(s.split()[1]) for s in status if s.startswith("Threads:"))
         return rss, threads, len(os.listdir(f"/proc/{pid}/fd"))
 
-    def stop(self) -> tuple[int, float]:
+    def stop(self, sig: int = signal.SIGINT) -> tuple[int, float]:
+        """Send ``sig``; the exit code and the time from the signal to the end of the process [s]."""
         t = time.monotonic()
-        self.proc.send_signal(signal.SIGINT)
+        self.proc.send_signal(sig)
         try:
             code = self.proc.wait(60)
         except subprocess.TimeoutExpired:
@@ -199,6 +209,21 @@ def run_case(name: str, node: Node, sim, pubs: list[tuple[str, float]], seconds:
                  trips, before, after))
     print(f"{name:14s} sent={sent:7d} loop={rate:6.1f} Hz gap={gap:7.1f} ms log={len(lines) / (t1 - t0):6.1f} lines/s "
           f"longest={rows[-1][5]:5d} ch trips={trips} cpu={cpu:.0f}% rss/threads/fds {before} -> {after}", flush=True)
+
+
+def door_main(doc: str | None, run, publish, seconds: float) -> int:
+    """The command line of a bench/abuse_<door>.py: ``--seconds`` per case, and ``--publish KIND RATE
+    SECONDS`` for the publisher processes it starts of itself."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=seconds, help="length of each case [s]")
+    ap.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.publish:
+        publish(args.publish[0], float(args.publish[1]), float(args.publish[2]))
+        return 0
+    from dynamixel_handler.sim import VirtualBus
+    run(VirtualBus, args.seconds)
+    return 0
 
 
 def main() -> int:

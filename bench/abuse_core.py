@@ -20,7 +20,6 @@ CPU; for vanish the servos removed and the servos read after the adapter is back
 """
 from __future__ import annotations
 
-import argparse
 import collections
 import re
 import subprocess
@@ -69,15 +68,7 @@ def publish(kind: str, rate: float, seconds: float) -> None:
         if kind == "reboot":
             return DynamixelShortcut(command="reboot", id_list=[1])
         return DynamixelExtra(id_list=[3, 4], bus_watchdog_ms=[20.0, -5.0])
-    t0 = next_t = time.monotonic()
-    k = 0
-    while time.monotonic() - t0 < seconds:
-        pub.publish(message(k))
-        k += 1
-        next_t += 1.0 / rate
-        time.sleep(max(0.0, next_t - time.monotonic()))
-    time.sleep(0.3)
-    print(k, flush=True)
+    print(abuse.paced(lambda k: pub.publish(message(k)), rate, seconds), flush=True)
     node.destroy_node()
     rclpy.shutdown()
 
@@ -218,16 +209,7 @@ def run(VirtualBus, seconds: float) -> None:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--seconds", type=float, default=5.0, help="length of each case [s]")
-    ap.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    if args.publish:
-        publish(args.publish[0], float(args.publish[1]), float(args.publish[2]))
-        return 0
-    from dynamixel_handler.sim import VirtualBus
-    run(VirtualBus, args.seconds)
-    return 0
+    return abuse.door_main(__doc__, run, publish, 5.0)
 
 
 if __name__ == "__main__":

@@ -49,16 +49,6 @@ def _velocity_command(ids: list[int]) -> subprocess.Popen:
     return proc
 
 
-def _stop(node: abuse.Node, sig: int) -> tuple[int, float]:
-    t = time.monotonic()
-    node.proc.send_signal(sig)
-    try:
-        code = node.proc.wait(60)
-    except subprocess.TimeoutExpired:
-        node.proc.kill()
-        code = -9
-    return code, time.monotonic() - t
-
 
 def _causes(lines: list[str], seconds: float, top: int = 3) -> str:
     """Log lines a second per cause (the message with its numbers masked), the most frequent first."""
@@ -92,7 +82,7 @@ def mode_exit(VirtualBus, after: float) -> None:
     rss = node.resources()
     pub = _velocity_command(IDS)
     time.sleep(after)
-    code, exit_s = _stop(node, signal.SIGTERM)
+    code, exit_s = node.stop(signal.SIGTERM)
     pub.kill()
     _settle(sim)
     modes = sum(sim.servo(i).read("operating_mode") == 1 for i in IDS)
@@ -135,7 +125,7 @@ def burst_9600(VirtualBus, seconds: float) -> None:
           f"loop={rate:.2f} Hz gap={gap:.0f} ms log={len(lines) / span:.1f} lines/s cpu={cpu:.0f}% "
           f"rss/threads/fds {before} -> {after}", flush=True)
     print(f"{'':14s} log by cause: {_causes(lines, span)}", flush=True)
-    code, exit_s = _stop(node, signal.SIGINT)
+    code, exit_s = node.stop(signal.SIGINT)
     print(f"{'exit (9600)':14s} rc={code} {exit_s:.2f} s", flush=True)
     sim.stop()
 

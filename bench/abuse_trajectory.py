@@ -25,7 +25,6 @@ of the test suite; the figures go to docs/reliability.md by hand.
 """
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 import threading
@@ -283,16 +282,7 @@ def run(VirtualBus, seconds: float) -> None:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--seconds", type=float, default=10.0, help="length of each case [s]")
-    ap.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    if args.publish:
-        publish(args.publish[0], float(args.publish[1]), float(args.publish[2]))
-        return 0
-    from dynamixel_handler.sim import VirtualBus
-    run(VirtualBus, args.seconds)
-    return 0
+    return abuse.door_main(__doc__, run, publish, 10.0)
 
 
 if __name__ == "__main__":
