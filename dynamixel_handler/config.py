@@ -13,6 +13,23 @@ from typing import Any, Callable, Mapping
 
 from .errors import ConfigError
 from .joints import joint_map
+from .settings import (
+    GROUP_RATIOS,
+    LOGGED_READS,
+    LOGGED_WRITES,
+    PRESENT_RATIOS,
+    BusSettings,
+    ExternalPortSettings,
+    LogSettings,
+    LoopSettings,
+    Method,
+    ReadRatios,
+    ScanSettings,
+    Settings,
+    StartValues,
+    TermSettings,
+    TrajectorySettings,
+)
 
 # Parameter types, as ROS knows them.
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
@@ -33,11 +50,8 @@ def _p(name: str, type_: str, default: Any, description: str) -> Param:
     return Param(name, type_, default, description)
 
 
-_PRESENT_ITEMS = {
-    "pwm": 2, "current": 2, "velocity": 2, "position": 2,
-    "velocity_trajectory": 0, "position_trajectory": 0, "input_voltage": 29, "temperature": 29,
-}
-_READ_GROUPS = ("status", "present", "goal", "gain", "limit", "extra")
+_PRESENT_ITEMS = PRESENT_RATIOS
+_READ_GROUPS = LOGGED_READS
 
 SCHEMA: tuple[Param, ...] = (
     _p("device_name", STR, "/dev/ttyUSB0", "serial device of the bus (U2D2 / USB-RS485 adapter)"),
@@ -96,7 +110,7 @@ SCHEMA: tuple[Param, ...] = (
     _p("option/imu_opencr.adjust/flip_z_axis", BOOL, True, "IMU z flip (unused)"),
     _p("max_log_width", INT, 6, "IDs per line in list-like logs"),
     _p("verbose/callback", BOOL, False, "log every accepted command"),
-    *(_p(f"verbose/write_{g}", BOOL, False, f"log {g} writes") for g in ("status", "goal", "gain", "limit", "extra")),
+    *(_p(f"verbose/write_{g}", BOOL, False, f"log {g} writes") for g in LOGGED_WRITES),
     *(_p(f"verbose/read_{g}.{k}", BOOL, False, f"log {g} reads ({'values' if k == 'raw' else 'failures'})")
       for g in _READ_GROUPS for k in ("raw", "err")),
     _p("verbose/read_hardware_error", BOOL, True, "log hardware errors when read"),
@@ -197,33 +211,101 @@ _COERCERS: dict[str, Callable[[Param, Any], Any]] = {
 
 @dataclass(frozen=True)
 class Config:
-    """Validated parameter values, looked up by their parameter names."""
+    """Validated parameter values, looked up by their parameter names (the ROS side), and the
+    same values as typed :class:`~dynamixel_handler.settings.Settings` (``settings``, the core)."""
 
     values: Mapping[str, Any] = field(default_factory=dict)
+    settings: Settings = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "settings", settings_of(self.values))
 
     def __getitem__(self, name: str) -> Any:
         return self.values[name]
 
     @property
     def used_series(self) -> tuple[str, ...]:
-        return tuple(s for s, key in (("X", "X"), ("P", "P"), ("PRO", "Pro"))
-                     if self.values[f"init/used_servo_series.{key}"])
+        return _used_series(self.values)
 
     @property
     def dummy_ids(self) -> list[int]:
-        return [i for i in self.values["init/dummy_servo_list"] if 0 <= i <= 252]
+        return _dummy_ids(self.values)
 
     @property
     def dummy_series(self) -> list[str]:
         """The series of each of ``dummy_ids`` (X, P or PRO)."""
-        given = [DUMMY_SERIES[s.strip().lower()] or self.used_series[0]
-                 for s in self.values.get("init/dummy_servo_series", [""])]
-        ids = [i for i in self.values["init/dummy_servo_list"] if i != -1]
-        per_id = given if len(given) == len(ids) else [given[0]] * len(ids)
-        return [s for i, s in zip(ids, per_id) if 0 <= i <= 252]
+        return _dummy_series(self.values)
 
     def present_ratio(self, item: str) -> int:
         return int(self.values[f"pub_ratio/present.{item}"])
+
+
+def _used_series(v: Mapping[str, Any]) -> tuple[str, ...]:
+    return tuple(s for s, key in (("X", "X"), ("P", "P"), ("PRO", "Pro")) if v[f"init/used_servo_series.{key}"])
+
+
+def _dummy_ids(v: Mapping[str, Any]) -> list[int]:
+    return [i for i in v["init/dummy_servo_list"] if 0 <= i <= 252]
+
+
+def _dummy_series(v: Mapping[str, Any]) -> list[str]:
+    used = _used_series(v)
+    given = [DUMMY_SERIES[s.strip().lower()] or (used[0] if used else "")
+             for s in v.get("init/dummy_servo_series", [""])]
+    ids = [i for i in v["init/dummy_servo_list"] if i != -1]
+    per_id = given if len(given) == len(ids) else [given[0]] * len(ids)
+    return [s for i, s in zip(ids, per_id) if 0 <= i <= 252]
+
+
+#: group of ``settings.GROUP_RATIOS`` -> the parameter holding its ratio
+GROUP_RATIO_PARAMS: Mapping[str, str] = {
+    "status": "pub_ratio/status", "goal": "pub_ratio/goal", "gain": "pub_ratio/gain",
+    "limit": "pub_ratio/limit", "error": "pub_ratio/error",
+    "extra_dynamic": "pub_ratio/extra.dynamic_items", "extra_static": "pub_ratio/extra.static_items",
+}
+assert set(GROUP_RATIO_PARAMS) == set(GROUP_RATIOS)
+
+
+def settings_of(values: Mapping[str, Any]) -> Settings:
+    """The typed settings of a complete set of parameter values: the one place that says which
+    parameter feeds which field (values missing from ``values`` take their defaults)."""
+    v = {**defaults(), **values}
+    ext = "option/external_port."
+    return Settings(
+        bus=BusSettings(device=v["device_name"], baudrate=v["baudrate"], latency_ms=v["latency_timer"],
+                        retries=v["dyn_comm/retry_num"], retry_interval_ms=float(v["dyn_comm/inerval_msec"]),
+                        verbose=v["dyn_comm/verbose"]),
+        scan=ScanSettings(min_id=v["init/servo_auto_search.min_id"], max_id=v["init/servo_auto_search.max_id"],
+                          retry_times=v["init/servo_auto_search.retry_times"], expected=v["init/expected_servo_num"],
+                          used_series=_used_series(v), baudrate_auto_set=v["init/baudrate_auto_set"],
+                          hardware_error_auto_clean=v["init/hardware_error_auto_clean"],
+                          torque_auto_enable=v["init/torque_auto_enable"], dummy_ids=tuple(_dummy_ids(v)),
+                          dummy_series=tuple(_dummy_series(v))),
+        start=StartValues(profile_acc=v["default/profile_acc"], profile_vel=v["default/profile_vel"],
+                          return_delay_time=v["default/return_delay_time"], bus_watchdog_ms=v["default/bus_watchdog"]),
+        term=TermSettings(torque_auto_disable=v["term/torque_auto_disable"], servo_auto_stop=v["term/servo_auto_stop"]),
+        loop=LoopSettings(rate_hz=v["loop_rate"], verbose_ratio=v["verbose_ratio"],
+                          no_response_auto_remove=v["no_response_id_auto_remove_count"],
+                          mode_change_interval_s=float(v["mode_change_interval_sec"]),
+                          clear_error_interval_s=float(v["clear_error_interval_sec"]), debug=v["debug"]),
+        ratios=ReadRatios(present={k: int(v[f"pub_ratio/present.{k}"]) for k in PRESENT_RATIOS},
+                          groups={g: int(v[p]) for g, p in GROUP_RATIO_PARAMS.items()},
+                          outdated_present=v["pub_outdated_present_value"]),
+        method=Method(fast_read=v["method/fast_read"], split_read=v["method/split_read"],
+                      split_write=v["method/split_write"]),
+        logs=LogSettings(max_width=v["max_log_width"], callback=v["verbose/callback"],
+                         writes=frozenset(g for g in LOGGED_WRITES if v[f"verbose/write_{g}"]),
+                         reads_raw=frozenset(g for g in LOGGED_READS if v[f"verbose/read_{g}.raw"]),
+                         reads_err=frozenset(g for g in LOGGED_READS if v[f"verbose/read_{g}.err"]),
+                         hardware_error=v["verbose/read_hardware_error"]),
+        external_port=ExternalPortSettings(
+            use=v[ext + "use"], data_ratio=v[ext + "pub_ratio/data"], mode_ratio=v[ext + "pub_ratio/mode"],
+            verbose_callback=v[ext + "verbose/callback"], verbose_write=v[ext + "verbose/write"],
+            verbose_read=v[ext + "verbose/read.raw"], verbose_err=v[ext + "verbose/read.err"]),
+        trajectory=TrajectorySettings(path_tolerance_deg=float(v["trajectory.path_tolerance_deg"]),
+                                      goal_tolerance_deg=float(v["trajectory.goal_tolerance_deg"]),
+                                      goal_time_s=float(v["trajectory.goal_time_sec"])),
+    )
 
 
 def validate(values: Mapping[str, Any]) -> Config:
