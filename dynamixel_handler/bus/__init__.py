@@ -11,7 +11,8 @@ from .core import DynamixelBus
 from .errors import BusError
 from .group_read import GroupRead
 from .port import DYNAMIXEL_BAUDRATES
+from .result import Result
 from .stats import BusStats
 from .writes import PreparedWrite
 
-__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite", "ServoBus"]
+__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite", "Result", "ServoBus"]

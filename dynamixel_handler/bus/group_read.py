@@ -4,21 +4,20 @@ from __future__ import annotations
 
 import operator
 import time
-from typing import TYPE_CHECKING, Iterable
+from typing import Callable, Iterable
 
 from ..protocol import host as p
-
-if TYPE_CHECKING:
-    from .transport import Transport
 
 
 class GroupRead:
     """A sync read on the wire: ``result()`` waits for its replies (once; later calls return the
-    same dict). ``eta`` is when they should be in (``time.monotonic()``)."""
+    same dict), ``failure`` then says why when nobody answered ("" otherwise). ``eta`` is when
+    they should be in (``time.monotonic()``). ``gather`` is called once by ``result()`` and must
+    end with :meth:`finish`."""
 
-    def __init__(self, bus: Transport | None, packet: bytes, expected: list[tuple[int, int]], fast: bool,
-                 what: str) -> None:
-        self._bus = bus
+    def __init__(self, gather: Callable[[GroupRead], None] | None, packet: bytes, expected: list[tuple[int, int]],
+                 fast: bool, what: str) -> None:
+        self._gather = gather
         self.packet = packet
         self.expected = expected
         self.fast = fast
@@ -28,6 +27,8 @@ class GroupRead:
         self.started = time.monotonic()
         self.eta = self.started
         self._data: dict[int, bytes] | None = None
+        #: why the read failed ("" while it has not, or when at least one servo answered)
+        self.failure = ""
 
     @classmethod
     def finished(cls, data: dict[int, bytes]) -> GroupRead:
@@ -39,12 +40,13 @@ class GroupRead:
     def done(self) -> bool:
         return self._data is not None
 
-    def finish(self, data: dict[int, bytes]) -> None:
+    def finish(self, data: dict[int, bytes], failure: str = "") -> None:
         self._data = data
+        self.failure = failure
 
     def result(self) -> dict[int, bytes]:
-        if self._data is None and self._bus is not None:
-            self._bus._finish_group_read(self)  # always ends with finish()
+        if self._data is None and self._gather is not None:
+            self._gather(self)  # always ends with finish()
         return self._data if self._data is not None else {}
 
 

@@ -1,4 +1,4 @@
-"""Group reads of ``DynamixelBus``: (fast) sync read, left on the wire or waited for, bulk read,
+"""Reads of ``DynamixelBus``: ping, (fast) sync read, left on the wire or waited for, bulk read,
 and the scan (broadcast ping, or one ping per ID)."""
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ from typing import Iterable, Mapping
 import serial
 
 from ..protocol import host as p
-from .group_read import GroupRead, check_id, reply_bytes, unique_ids
+from .group_read import GroupRead, check_id, unique_ids
+from .result import Result
 from .transport import Transport
 
 #: Scans of more IDs than this use one broadcast ping instead of a ping per ID.
@@ -21,20 +22,27 @@ _INT_ONLY = {int}
 _PACKET_CACHE_SIZE = 64
 
 
-class Reads(Transport):
-    """The group reads and pings (a mixin of ``DynamixelBus``)."""
+class Reads:
+    """Pings and group reads over one ``Transport``; keeps the sync read packets it built."""
 
-    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
-        """Model number of ``dxl_id``, or None if it does not answer."""
+    def __init__(self, transport: Transport) -> None:
+        self._t = transport
+        #: firmware version seen in ping replies
+        self.firmware_versions: dict[int, int] = {}
+        # sync read packets and their (id, size) list by (address, length, ids as given, fast)
+        self._packets: dict[tuple[int, int, tuple[int, ...], bool], tuple[bytes, tuple[tuple[int, int], ...]]] = {}
+
+    def ping(self, dxl_id: int, retries: int | None = None) -> Result[int | None]:
+        """Model number of ``dxl_id`` (None and why if it does not answer)."""
         dxl_id = check_id(dxl_id)
-        with self._transaction() as tx:
-            status = self._unicast(dxl_id, p.PING, b"", PING_REPLY_PARAMS, retries)
+        t = self._t
+        with t.transaction() as tx:
+            status = t.unicast(dxl_id, p.PING, b"", PING_REPLY_PARAMS, retries)
             if status is None or status.refused:
-                tx.fail(f"ping ID {dxl_id}: {self._why(status)}")
-                return None
+                return Result(None, tx.fail(f"ping ID {dxl_id}: {t.why(status)}"))
             tx.ok(1, 1)
             self.firmware_versions[dxl_id] = status.params[2]
-            return status.params[0] | (status.params[1] << 8)
+            return Result(status.params[0] | (status.params[1] << 8))
 
     def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
         """Same item from many servos in one instruction; returns the IDs that answered.
@@ -66,8 +74,8 @@ class Reads(Transport):
                     self._packets.clear()
                 self._packets[key] = cached
         packet, expected = cached
-        return self._start_group_read(packet, list(expected), fast,
-                                      f"{'fast ' if fast else ''}sync read @{address}x{length}")
+        return self._t.start_group_read(packet, list(expected), fast,
+                                        f"{'fast ' if fast else ''}sync read @{address}x{length}")
 
     def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:
         """Different ``(address, size)`` per servo in one instruction; returns the IDs that answered."""
@@ -78,8 +86,8 @@ class Reads(Transport):
         instruction = p.FAST_BULK_READ if fast else p.BULK_READ
         params = p.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
         packet = p.build_instruction(p.BROADCAST_ID, instruction, params)
-        return self._group_read(packet, [(i, requests[i][1]) for i in order], fast,
-                                f"{'fast ' if fast else ''}bulk read")
+        return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], fast,
+                                        f"{'fast ' if fast else ''}bulk read").result()
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         """``{id: model_number}`` of the servos among ``ids`` that answer a ping.
@@ -100,58 +108,42 @@ class Reads(Transport):
         if garbled:
             for dxl_id in wanted:
                 if dxl_id not in found:
-                    model = self.ping(dxl_id, retries=0)
+                    model = self.ping(dxl_id, retries=0).value
                     if model is not None:
                         found[dxl_id] = model
         return dict(sorted(found.items()))
 
-    def _group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
-                    what: str) -> dict[int, bytes]:
-        return self._start_group_read(packet, expected, fast, what).result()
-
-    def _start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
-                          what: str) -> GroupRead:
-        with self._lock:
-            self._settle()
-            read = GroupRead(self, packet, expected, fast, what)
-            read.sent = self._send_or_lose(packet)
-            if read.sent:
-                read.reply_bytes = reply_bytes(expected, fast)
-                read.eta = min(self._wire_free_at + read.reply_bytes * self._port.tx_ms_per_byte / 1000.0
-                               + self.reply_lag_s,
-                               read.started + self.reply_timeout_ms(len(packet), read.reply_bytes) / 1000.0)
-                self._inflight = read
-            return read
-
     def _broadcast_ping(self, wanted: list[int]) -> tuple[dict[int, int], bool]:
+        t = self._t
+        rx, stats = t.rx, t.stats
         packet = p.build_instruction(p.BROADCAST_ID, p.PING)
         reply_bytes = p.STATUS_OVERHEAD + PING_REPLY_PARAMS
-        slots = (max(wanted) + 1) * (reply_bytes * self._port.tx_ms_per_byte + BROADCAST_PING_SLOT_MS)
-        wait_ms = self.reply_timeout_ms(len(packet), 0) + slots
+        slots = (max(wanted) + 1) * (reply_bytes * t.port.tx_ms_per_byte + BROADCAST_PING_SLOT_MS)
+        wait_ms = rx.reply_timeout_ms(len(packet), 0) + slots
         found: dict[int, int] = {}
-        with self._transaction() as tx:
+        with t.transaction() as tx:
             stream = p.StatusStream()
-            if not self._send_or_lose(packet):
-                tx.fail(f"broadcast ping: {self._why(None)}")
+            if not t.send(packet):
+                tx.fail(f"broadcast ping: {t.why(None)}")
                 return {}, False
-            self.last_timeout_ms = wait_ms
+            rx.last_timeout_ms = wait_ms
             deadline = time.monotonic() + wait_ms / 1000.0
             try:
                 while len(found) < len(wanted):
-                    data = self._port.read_until(deadline)
+                    data = t.port.read_until(deadline)
                     if not data:
                         break
-                    self.stats.bytes_rx += len(data)
+                    stats.bytes_rx += len(data)
                     for status in stream.feed(data):
                         if len(status.params) == PING_REPLY_PARAMS and status.dxl_id in wanted:
-                            self._note_status(status)
+                            rx.note_status(status)
                             self.firmware_versions[status.dxl_id] = status.params[2]
                             found[status.dxl_id] = status.params[0] | (status.params[1] << 8)
             except (OSError, serial.SerialException) as exc:
-                self._lose(exc)
+                rx.lose(exc)
             garbled = bool(stream.crc_errors or stream.discarded_bytes or stream.pending_bytes)
-            self.stats.crc_errors += stream.crc_errors
-            self.stats.discarded_bytes += stream.discarded_bytes + stream.pending_bytes
+            stats.crc_errors += stream.crc_errors
+            stats.discarded_bytes += stream.discarded_bytes + stream.pending_bytes
             if found:
                 tx.ok(1, 1)
             else:

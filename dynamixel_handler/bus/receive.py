@@ -1,9 +1,10 @@
-"""Reply gathering of ``Transport`` (a mixin): how long to wait, status packets collected one per
-expected ID or one fast-read reply split by position, the status error bytes noted, and a device
-that stops working mid-run."""
+"""Reply gathering on one serial line (``Receiver``): how long to wait, status packets collected one
+per expected ID or one fast-read reply split by position, the status error bytes noted, and a
+device that stops working mid-run."""
 from __future__ import annotations
 
 import time
+from typing import Callable
 
 import serial
 
@@ -13,21 +14,25 @@ from .port import SerialPort
 from .stats import BusStats
 
 
-class Receiving:
-    """The receiving side of one serial line; ``Transport`` sets these attributes."""
+class Receiver:
+    """The receiving side of one serial line, and the line's timing: when what was sent is off the
+    wire (``wire_free_at``) and how late replies come (``reply_lag_s``)."""
 
-    stats: BusStats
-    verbose: bool
-    timeout_margin_ms: float
-    #: the reply wait (ms) computed for the latest transaction
-    last_timeout_ms: float
-    #: status error byte last reported by each servo (0x80 = hardware error present)
-    last_error_bytes: dict[int, int]
-    #: how much later than their wire time replies arrive (learnt, seconds)
-    reply_lag_s: float
-    _port: SerialPort
-    _logger: object
-    _wire_free_at: float
+    def __init__(self, port: SerialPort, stats: BusStats, log: Callable[[str, str], None],
+                 timeout_margin_ms: float, verbose: bool) -> None:
+        self.port = port
+        self.stats = stats
+        self.log = log
+        self.timeout_margin_ms = timeout_margin_ms
+        self.verbose = verbose
+        #: the reply wait (ms) computed for the latest transaction
+        self.last_timeout_ms = 0.0
+        #: status error byte last reported by each servo (0x80 = hardware error present)
+        self.last_error_bytes: dict[int, int] = {}
+        #: how much later than their wire time replies arrive (learnt, seconds)
+        self.reply_lag_s = 0.0
+        #: ``time.monotonic()`` when the line is free of what was sent (packets queue behind each other)
+        self.wire_free_at = 0.0
 
     def reply_timeout_ms(self, tx_bytes: int, rx_bytes: int) -> float:
         """How long to wait for ``rx_bytes`` of reply after sending ``tx_bytes``.
@@ -35,32 +40,33 @@ class Receiving:
         Two latency-timer periods (the adapter buffers each direction), the wire time of
         both packets and a margin for the servo's return delay and host scheduling.
         """
-        return (2.0 * self._port.effective_latency_ms + (tx_bytes + rx_bytes) * self._port.tx_ms_per_byte
+        return (2.0 * self.port.effective_latency_ms + (tx_bytes + rx_bytes) * self.port.tx_ms_per_byte
                 + self.timeout_margin_ms)
 
-    def _gather(self, expected: list[tuple[int, int]], tx_bytes: int, fast: bool,
-                sent_at: float | None = None) -> dict[int, p.Status] | None:
+    def gather(self, expected: list[tuple[int, int]], tx_bytes: int, fast: bool,
+               sent_at: float | None = None) -> dict[int, p.Status] | None:
         """The replies to a packet sent at ``sent_at`` (default: just now); None if the port is unusable."""
         if not expected:
             return {}
+        port = self.port
         sent_at = time.monotonic() if sent_at is None else sent_at
         # a packet queued behind one still on the wire (a sync write just before) starts later:
         # its reply timeout counts from when it goes out, not from when it was handed over
-        sent_at = max(sent_at, self._wire_free_at - tx_bytes * self._port.tx_ms_per_byte / 1000.0)
-        # when the last reply byte should be in: the line is free of what was sent at _wire_free_at
+        sent_at = max(sent_at, self.wire_free_at - tx_bytes * port.tx_ms_per_byte / 1000.0)
+        # when the last reply byte should be in: the line is free of what was sent at wire_free_at
         # (no other packet goes out while a read is in flight), then the replies and the usual lag
-        due = (self._wire_free_at + reply_bytes(expected, fast) * self._port.tx_ms_per_byte / 1000.0
+        due = (self.wire_free_at + reply_bytes(expected, fast) * port.tx_ms_per_byte / 1000.0
                + self.reply_lag_s)
         try:
             if fast:
                 return self._receive_fast(expected, tx_bytes, sent_at, due)
             return self._receive(expected, tx_bytes, sent_at, due)
         except (OSError, serial.SerialException) as exc:
-            self._lose(exc)
+            self.lose(exc)
             return None
         finally:
             # what was sent before has been answered (or timed out): the line is free now
-            self._wire_free_at = min(self._wire_free_at, time.monotonic())
+            self.wire_free_at = min(self.wire_free_at, time.monotonic())
 
     def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
                  due: float | None = None) -> dict[int, p.Status]:
@@ -78,29 +84,30 @@ class Receiving:
         deadline = sent_at + first_ms / 1000.0
         stream = p.StatusStream()
         got: dict[int, p.Status] = {}
+        stats = self.stats
         while pending:
-            data = self._port.read_until(deadline, sum(p.STATUS_OVERHEAD + n for n in pending.values())
-                                         - stream.pending_bytes, due)
+            data = self.port.read_until(deadline, sum(p.STATUS_OVERHEAD + n for n in pending.values())
+                                        - stream.pending_bytes, due)
             if not data:
                 break
-            self.stats.bytes_rx += len(data)
+            stats.bytes_rx += len(data)
             answered = False
             for status in stream.feed(data):
                 size = pending.get(status.dxl_id)
                 if size is None or (len(status.params) != size and not status.refused):
                     # a late reply of an earlier transaction, or not ours: never take it as the answer
-                    self.stats.discarded_bytes += p.STATUS_OVERHEAD + len(status.params)
+                    stats.discarded_bytes += p.STATUS_OVERHEAD + len(status.params)
                     continue
                 del pending[status.dxl_id]
                 got[status.dxl_id] = status
-                self._note_status(status)
+                self.note_status(status)
                 answered = True
             if answered:  # each reply restarts the wait for the next
                 deadline = max(deadline, time.monotonic() + gap_s)
         if pending:
-            self.stats.timeouts += 1
-        self.stats.crc_errors += stream.crc_errors
-        self.stats.discarded_bytes += stream.discarded_bytes
+            stats.timeouts += 1
+        stats.crc_errors += stream.crc_errors
+        stats.discarded_bytes += stream.discarded_bytes
         return got
 
     def _receive_fast(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
@@ -113,7 +120,7 @@ class Receiving:
         self.last_timeout_ms = first_ms
         deadline = sent_at + first_ms / 1000.0
         while not reply.complete:
-            data = self._port.read_until(deadline, total - reply.received_bytes, due)
+            data = self.port.read_until(deadline, total - reply.received_bytes, due)
             if not data:
                 break
             self.stats.bytes_rx += len(data)
@@ -121,29 +128,26 @@ class Receiving:
             deadline = max(deadline, time.monotonic() + gap_s)
         got = reply.segments()
         for status in got.values():
-            self._note_status(status)
+            self.note_status(status)
         if not reply.complete:
             self.stats.timeouts += 1
         self.stats.crc_errors += reply.crc_errors
         self.stats.discarded_bytes += reply.discarded_bytes
         return got
 
-    def _note_status(self, status: p.Status) -> None:
+    def note_status(self, status: p.Status) -> None:
         self.last_error_bytes[status.dxl_id] = status.error
         if status.refused:
             self.stats.servo_errors += 1
             if self.verbose:
-                self._log("warning", f"ID {status.dxl_id} refused: {p.error_text(status.error)}")
+                self.log("warning", f"ID {status.dxl_id} refused: {p.error_text(status.error)}")
 
-    def _lose(self, exc: BaseException) -> None:
+    def lose(self, exc: BaseException) -> None:
         """The device went away mid-run: fail fast from now on until reopen()."""
-        if not self._port.lost:
-            self._port.lost = True
+        port = self.port
+        if not port.lost:
+            port.lost = True
             self.stats.disconnects += 1
-            self._log("error", f"{self._port.device} stopped working ({exc}): the port hung up (adapter unplugged, or "
-                               "another process reading it?); transactions fail until reopen() succeeds")
-        self._port.close()
-
-    def _log(self, level: str, message: str) -> None:
-        method = getattr(self._logger, level, None) or getattr(self._logger, "info")
-        method(message)
+            self.log("error", f"{port.device} stopped working ({exc}): the port hung up (adapter unplugged, or "
+                              "another process reading it?); transactions fail until reopen() succeeds")
+        port.close()

@@ -1,12 +1,8 @@
-"""Counters of a bus and the booking of one transaction's result into them."""
+"""Counters of a bus (``BusStats``)."""
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from .transport import Transport
 
 
 @dataclass
@@ -50,20 +46,3 @@ class BusStats:
     def reset(self) -> None:
         for item in dataclasses.fields(self):
             setattr(self, item.name, item.default)
-
-
-class Outcome:
-    """Books one transaction's result into the stats."""
-
-    def __init__(self, bus: "Transport") -> None:
-        self._bus = bus
-
-    def ok(self, answered: int, addressed: int) -> None:
-        self._bus.stats.successes += 1
-        if answered >= addressed:
-            self._bus.stats.full_successes += 1
-
-    def fail(self, reason: str) -> None:
-        self._bus.last_failure = reason
-        if self._bus.verbose:
-            self._bus._log("warning", reason)
