@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Lint, types and sizes: ruff (ruff.toml) over the code and tests, mypy (mypy.ini) over the package,
-# then scripts/metrics.py --check (no module over 400 lines, class over 250, function of complexity over 12).
+# then scripts/metrics.py --check (no module over 400 lines, class over 250, function of complexity over 12;
+# it also prints the structure figures: lineages, family-name comparisons, import circles, which
+# `--check --structure` turns into failures).
 # Exits 1 when ruff, mypy or the size check report anything.
 # Usage: scripts/lint.sh        (after scripts/setup.sh; .ci/run runs it before the tests)
 set -uo pipefail
@@ -13,7 +15,7 @@ echo "[lint] ruff check dynamixel_handler bench scripts examples test"
 "$PY" -m ruff check dynamixel_handler bench scripts examples test || status=1
 echo "[lint] mypy dynamixel_handler"
 "$PY" -m mypy dynamixel_handler || status=1
-echo "[lint] sizes: modules <= 400 lines, classes <= 250, functions of complexity <= 12"
+echo "[lint] sizes: modules <= 400 lines, classes <= 250, functions of complexity <= 12 (structure figures printed)"
 "$PY" scripts/metrics.py --check || status=1
 if [ $status != 0 ]; then
   echo "[lint] FAILED: fix the ruff/mypy findings above" >&2

@@ -1,20 +1,43 @@
 #!/usr/bin/env python3
-"""Size and complexity of the package: modules over 400 lines, classes over 250 lines and
-functions of cyclomatic complexity over 12 (radon). Prints one line per offender and a summary;
-``--check`` exits 1 when any remain.
+"""Size, complexity and structure of the package.
 
-    python scripts/metrics.py [--check] [PATH ...]   (default: dynamixel_handler)
+Sizes: modules over 400 lines, classes over 250 lines and functions of cyclomatic complexity over
+12 (radon). Structure (of the package directory, ``dynamixel_handler`` by default):
+
+- lineage: the in-package classes in a class's lineage (the class and every ancestor defined in
+  the package, base names resolved through the modules' imports and re-exports; classes of the
+  standard library or other packages do not count) -- at most ``LINEAGE_CLASSES`` of them, and
+  the sum of their lines (``class`` statement to last line) at most ``LINEAGE_LINES``;
+- family-name comparisons: string comparisons against a servo family name (``FAMILY_NAMES``)
+  outside ``control_table/``. One is counted per comparison expression (``ast.Compare``) in which
+  an ``==``, ``!=``, ``in`` or ``not in`` has a family name as a string constant on either side,
+  directly or as an element of a tuple/list/set literal; and per ``match`` case whose pattern is a
+  family-name string. At most ``FAMILY_COMPARISONS``;
+- import circles: strongly connected sets of modules in the static import graph, which holds
+  every ``import`` / ``from ... import`` of a module wherever it stands (module level, functions,
+  ``if TYPE_CHECKING:``, ``try``). ``from P import n`` is an edge to ``P.n`` when that is a module,
+  else to ``P``; parent packages imported only implicitly are no edge. None allowed.
+
+Prints one line per offender and a summary of every figure; ``--check`` exits 1 when a size
+offender remains, ``--check --structure`` also when a structure rule is broken.
+
+    python scripts/metrics.py [--check [--structure]] [PATH ...]   (default: dynamixel_handler)
 """
 from __future__ import annotations
 
 import argparse
+import ast
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from radon.complexity import cc_visit
 from radon.visitors import Class
 
 MODULE_LINES, CLASS_LINES, FUNCTION_CC = 400, 250, 12
+LINEAGE_CLASSES, LINEAGE_LINES, FAMILY_COMPARISONS = 3, 400, 2
+FAMILY_NAMES = frozenset({"X", "P", "PRO", "Pro"})
+FAMILY_EXEMPT = "control_table"
 
 
 def _offenders(path: Path) -> tuple[list[str], int, int, int]:
@@ -46,9 +69,215 @@ def _offenders(path: Path) -> tuple[list[str], int, int, int]:
     return found, modules, classes, functions
 
 
+# ---------------------------------------------------------------------------- structure
+@dataclass
+class Module:
+    name: str                   # dotted: pkg.sub.mod (a package's __init__ is pkg.sub)
+    path: Path
+    tree: ast.Module
+    is_package: bool
+    #: name bound at module level -> ("module", dotted) or ("name", module, name) or ("class", module, name)
+    names: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+
+def load_package(root: Path) -> dict[str, Module]:
+    """Every module under the package directory ``root``, by dotted name."""
+    out: dict[str, Module] = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = list(path.relative_to(root.parent).with_suffix("").parts)
+        is_package = parts[-1] == "__init__"
+        if is_package:
+            parts = parts[:-1]
+        name = ".".join(parts)
+        out[name] = Module(name, path, ast.parse(path.read_text(), str(path)), is_package)
+    for mod in out.values():
+        _bind_names(mod, out)
+    return out
+
+
+def _absolute(mod: Module, node: ast.ImportFrom) -> str:
+    """The module a ``from ... import`` names, made absolute."""
+    if not node.level:
+        return node.module or ""
+    base = mod.name.split(".")
+    base = base if mod.is_package else base[:-1]
+    base = base[:len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def _bind_names(mod: Module, modules: dict[str, Module]) -> None:
+    for node in mod.tree.body:
+        if isinstance(node, ast.ClassDef):
+            mod.names[node.name] = ("class", mod.name, node.name)
+        elif isinstance(node, ast.ImportFrom):
+            src = _absolute(mod, node)
+            for alias in node.names:
+                full = f"{src}.{alias.name}"
+                mod.names[alias.asname or alias.name] = ("module", full) if full in modules else ("name", src, alias.name)
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.asname:
+                    mod.names[alias.asname] = ("module", alias.name)
+
+
+def _resolve(modules: dict[str, Module], binding: tuple[str, ...], depth: int = 0) -> tuple[str, str] | None:
+    """The in-package class (module, name) a binding ends at, following re-exports; None if none."""
+    if depth > 20:
+        return None
+    if binding[0] == "class":
+        return binding[1], binding[2]
+    if binding[0] == "name" and binding[1] in modules:
+        nxt = modules[binding[1]].names.get(binding[2])
+        return None if nxt is None else _resolve(modules, nxt, depth + 1)
+    return None
+
+
+def _base_binding(mod: Module, base: ast.expr) -> tuple[str, ...] | None:
+    if isinstance(base, ast.Name):
+        return mod.names.get(base.id)
+    if isinstance(base, ast.Attribute) and isinstance(base.value, ast.Name):
+        owner = mod.names.get(base.value.id)
+        if owner is not None and owner[0] == "module":
+            return ("name", owner[1], base.attr)
+    return None
+
+
+def lineages(modules: dict[str, Module]) -> dict[str, tuple[list[str], int]]:
+    """Every in-package class (``module.Class``) -> the in-package classes of its lineage (itself
+    first) and the sum of their lines."""
+    classes: dict[tuple[str, str], ast.ClassDef] = {}
+    bases: dict[tuple[str, str], list[tuple[str, str]]] = {}
+    for mod in modules.values():
+        for node in mod.tree.body:
+            if isinstance(node, ast.ClassDef):
+                key = (mod.name, node.name)
+                classes[key] = node
+                found = (_base_binding(mod, b) for b in node.bases)
+                bases[key] = [r for r in (_resolve(modules, b) for b in found if b is not None) if r is not None]
+    out: dict[str, tuple[list[str], int]] = {}
+    for key, node in classes.items():
+        seen: list[tuple[str, str]] = []
+        todo = [key]
+        while todo:
+            k = todo.pop(0)
+            if k in seen or k not in classes:
+                continue
+            seen.append(k)
+            todo += bases.get(k, [])
+        lines = sum((classes[k].end_lineno or classes[k].lineno) - classes[k].lineno + 1 for k in seen)
+        out[f"{key[0]}.{key[1]}"] = ([f"{m}.{c}" for m, c in seen], lines)
+    return out
+
+
+def _is_family(node: ast.expr) -> bool:
+    if isinstance(node, ast.Constant):
+        return isinstance(node.value, str) and node.value in FAMILY_NAMES
+    if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+        return any(_is_family(e) for e in node.elts)
+    return False
+
+
+def family_comparisons(tree: ast.AST) -> list[int]:
+    """Line numbers of the comparisons against a family name in ``tree`` (see the module doc)."""
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any(isinstance(op, (ast.Eq, ast.NotEq, ast.In, ast.NotIn)) and (_is_family(sides[k]) or _is_family(sides[k + 1]))
+                   for k, op in enumerate(node.ops)):
+                lines.append(node.lineno)
+        elif isinstance(node, ast.match_case):
+            if any(isinstance(p, ast.MatchValue) and _is_family(p.value) for p in ast.walk(node.pattern)):
+                lines.append(node.pattern.lineno)
+    return lines
+
+
+def import_graph(modules: dict[str, Module]) -> dict[str, set[str]]:
+    """Module -> the in-package modules it imports anywhere in its text (see the module doc)."""
+    graph: dict[str, set[str]] = {name: set() for name in modules}
+    for mod in modules.values():
+        for node in ast.walk(mod.tree):
+            targets: list[str] = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                src = _absolute(mod, node)
+                targets = [f"{src}.{a.name}" if f"{src}.{a.name}" in modules else src for a in node.names]
+            graph[mod.name].update(t for t in targets if t in modules and t != mod.name)
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected sets of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            scc = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                scc.append(w)
+                if w == v:
+                    break
+            if len(scc) > 1:
+                out.append(sorted(scc))
+
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10 * len(graph) + 100))
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(out)
+
+
+def structure(root: Path) -> tuple[list[str], dict[str, int]]:
+    """Offender lines and figures of the structure rules for the package directory ``root``."""
+    modules = load_package(root)
+    found: list[str] = []
+    lines_of = lineages(modules)
+    worst_n = max((len(c) for c, _ in lines_of.values()), default=0)
+    worst_lines = max((n for _, n in lines_of.values()), default=0)
+    bad_lineages = 0
+    for name, (chain, n) in sorted(lines_of.items()):
+        if len(chain) > LINEAGE_CLASSES or n > LINEAGE_LINES:
+            found.append(f"{name}: lineage of {len(chain)} in-package classes, {n} lines ({' <- '.join(chain)})")
+            bad_lineages += 1
+    family = 0
+    for mod in modules.values():
+        if FAMILY_EXEMPT in mod.name.split("."):
+            continue
+        for line in family_comparisons(mod.tree):
+            found.append(f"{mod.path}:{line}: family-name comparison")
+            family += 1
+    rings = circles(import_graph(modules))
+    found += [f"import circle: {' <-> '.join(r)}" for r in rings]
+    return found, {"lineages": bad_lineages, "longest_lineage": worst_n, "largest_lineage_lines": worst_lines,
+                   "family_comparisons": family, "import_circles": len(rings)}
+
+
+def structure_broken(figures: dict[str, int]) -> bool:
+    return bool(figures["lineages"] or figures["family_comparisons"] > FAMILY_COMPARISONS
+                or figures["import_circles"])
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="exit 1 when an offender remains")
+    ap.add_argument("--structure", action="store_true",
+                    help="with --check: the lineage, family-comparison and import-circle rules fail it too")
     ap.add_argument("paths", nargs="*", default=["dynamixel_handler"])
     args = ap.parse_args(argv)
     totals = [0, 0, 0]
@@ -60,7 +289,19 @@ def main(argv: list[str] | None = None) -> int:
             totals = [a + b for a, b in zip(totals, counts)]
     print(f"modules > {MODULE_LINES} lines: {totals[0]}; classes > {CLASS_LINES} lines: {totals[1]}; "
           f"functions with complexity > {FUNCTION_CC}: {totals[2]}")
-    return 1 if args.check and any(totals) else 0
+    broken = False
+    for root in map(Path, args.paths):
+        if not (root / "__init__.py").is_file():
+            continue
+        found, fig = structure(root)
+        for line in found:
+            print(line)
+        print(f"{root}: lineages over {LINEAGE_CLASSES} classes or {LINEAGE_LINES} lines: {fig['lineages']} "
+              f"(longest {fig['longest_lineage']} classes, largest {fig['largest_lineage_lines']} lines); "
+              f"family-name comparisons outside {FAMILY_EXEMPT}/: {fig['family_comparisons']} "
+              f"(at most {FAMILY_COMPARISONS}); import circles: {fig['import_circles']}")
+        broken = broken or structure_broken(fig)
+    return 1 if args.check and (any(totals) or (args.structure and broken)) else 0
 
 
 if __name__ == "__main__":

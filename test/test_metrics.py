@@ -1,0 +1,125 @@
+"""scripts/metrics.py's structure rules on small packages written here: the lineage of a class,
+comparisons against a servo family name and import circles (static, every kind of import)."""
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from textwrap import dedent
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+_spec = importlib.util.spec_from_file_location("dxl_metrics", ROOT / "scripts" / "metrics.py")
+assert _spec is not None and _spec.loader is not None
+metrics = importlib.util.module_from_spec(_spec)
+sys.modules["dxl_metrics"] = metrics
+_spec.loader.exec_module(metrics)
+
+
+def _package(tmp_path: Path, files: dict[str, str]) -> Path:
+    root = tmp_path / "pkg"
+    for name, text in {"__init__.py": "", **files}.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        (path.parent / "__init__.py").touch()
+        path.write_text(dedent(text))
+    return root
+
+
+def _lineages(root: Path) -> dict[str, tuple[list[str], int]]:
+    return metrics.lineages(metrics.load_package(root))
+
+
+def test_lineage_follows_in_package_bases_through_imports_and_re_exports(tmp_path):
+    root = _package(tmp_path, {
+        "base.py": """\
+            class Root:
+                pass
+            """,
+        "sub/__init__.py": "from ..base import Root as Renamed\n",
+        "sub/mid.py": """\
+            import threading
+            from ..sub import Renamed
+            class Mid(Renamed, threading.Thread):
+                x = 1
+                y = 2
+            """,
+        "top.py": """\
+            from .sub import mid
+            class Top(mid.Mid, dict):
+                pass
+            class Alone:
+                pass
+            """,
+    })
+    found = _lineages(root)
+    chain, lines = found["pkg.top.Top"]
+    assert chain == ["pkg.top.Top", "pkg.sub.mid.Mid", "pkg.base.Root"]  # threading.Thread and dict do not count
+    assert lines == 2 + 3 + 2
+    assert found["pkg.top.Alone"] == (["pkg.top.Alone"], 2)
+
+
+def test_lineage_rule_counts_classes_and_lines(tmp_path):
+    four = "class A:\n    pass\nclass B(A):\n    pass\nclass C(B):\n    pass\nclass D(C):\n    pass\n"
+    long = "class E:\n" + "    x = 1\n" * 398 + "class F(E):\n    pass\n"  # 399 + 2 lines
+    _, fig = metrics.structure(_package(tmp_path, {"four.py": four, "long.py": long}))
+    assert fig["lineages"] == 2  # D (4 classes) and F (401 lines); E alone has 399
+    assert fig["longest_lineage"] == 4 and fig["largest_lineage_lines"] == 401
+    assert metrics.structure_broken(fig)
+
+
+@pytest.mark.parametrize("text, count", [
+    ('if model.series == "X":\n    pass\n', 1),
+    ('ok = "PRO" != series\n', 1),
+    ('ok = series in ("P", "Pro")\n', 1),
+    ('ok = series not in ["X"] and a == b\n', 1),
+    ('ok = 0 < a == "X" < 3\n', 1),                   # one comparison expression, one count
+    ('match series:\n    case "Pro":\n        pass\n    case "x":\n        pass\n', 1),
+    ('NAMES = {"X": 1, "PRO": 2}\nname = NAMES["X"]\n', 0),  # keys and look-ups are no comparisons
+    ('ok = series == "XM430" or series.startswith("X")\n', 0),
+    ('ok = series in NAMES\n', 0),
+    ('ok = series == "x"\n', 0),                      # only the spellings X, P, PRO and Pro
+])
+def test_family_comparisons(text, count):
+    import ast
+    assert len(metrics.family_comparisons(ast.parse(text))) == count
+
+
+def test_family_comparisons_in_the_control_table_are_free(tmp_path):
+    same = 'def f(s):\n    return s == "X" or s == "P" or s == "PRO"\n'
+    _, fig = metrics.structure(_package(tmp_path, {"control_table/fam.py": same}))
+    assert fig["family_comparisons"] == 0
+    _, fig = metrics.structure(_package(tmp_path / "b", {"other.py": same}))
+    assert fig["family_comparisons"] == 3 and metrics.structure_broken(fig)
+
+
+def test_import_circles_count_type_checking_and_function_level_imports(tmp_path):
+    root = _package(tmp_path, {
+        "a.py": "from . import b\n",
+        "b.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .c import C\n",
+        "c.py": "def f():\n    from .a import thing\n    return thing\nC = 1\n",
+        "d.py": "import pkg.e\n",
+        "e.py": "try:\n    from .d import x\nexcept ImportError:\n    x = None\n",
+        "f.py": "from .sub import g\n",   # the submodule, not the package: no circle with sub/__init__
+        "sub/__init__.py": "from ..f import y\n",
+        "sub/g.py": "",
+    })
+    graph = metrics.import_graph(metrics.load_package(root))
+    assert graph["pkg.f"] == {"pkg.sub.g"}
+    assert metrics.circles(graph) == [["pkg.a", "pkg.b", "pkg.c"], ["pkg.d", "pkg.e"]]
+    _, fig = metrics.structure(root)
+    assert fig["import_circles"] == 2 and metrics.structure_broken(fig)
+
+
+def test_a_package_without_offenders_passes(tmp_path):
+    root = _package(tmp_path, {"a.py": "from . import b\nclass A:\n    pass\n", "b.py": "class B:\n    pass\n"})
+    found, fig = metrics.structure(root)
+    assert found == [] and not metrics.structure_broken(fig)
+
+
+def test_check_fails_on_structure_only_with_the_flag(tmp_path, capsys):
+    root = _package(tmp_path, {"a.py": "from . import b\n", "b.py": "from . import a\n"})
+    assert metrics.main(["--check", str(root)]) == 0
+    assert metrics.main(["--check", "--structure", str(root)]) == 1
+    assert "import circles: 1" in capsys.readouterr().out
