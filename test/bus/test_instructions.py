@@ -1,0 +1,58 @@
+"""Instructions: what a single-servo call sends and the Result it returns (value and why not)."""
+from __future__ import annotations
+
+import pytest
+from conftest import instruction, status
+
+from dynamixel_handler.bus.instructions import Instructions
+
+
+def test_a_read_returns_the_data_and_no_failure(line):
+    peer, transport = line(lambda packet: [status(1, b"\x00\x08\x00\x00")])
+    result = Instructions(transport).read(1, 132, 4)
+    assert result.value == b"\x00\x08\x00\x00" and result.failure == "" and result
+    assert peer.received == [instruction(1, 0x02, bytes([0x84, 0x00, 0x04, 0x00]))]
+
+
+def test_a_failed_read_returns_none_and_why(line):
+    _, transport = line(retry_num=1)
+    result = Instructions(transport).read(3, 132, 4)
+    assert result.value is None and not result
+    assert result.failure.startswith("read ID 3 @132x4: no reply within")
+
+
+def test_a_refused_write_returns_false_and_the_servo_s_error(line):
+    _, transport = line(lambda packet: [status(1, error=0x07)])
+    result = Instructions(transport).write(1, 116, b"\x00\x00\x00\x00")
+    assert result.value is False and result.failure.startswith("write ID 1: ")
+    assert "access" in result.failure.lower()
+
+
+def test_an_acknowledged_reboot_is_true(line):
+    peer, transport = line(lambda packet: [status(7)])
+    result = Instructions(transport).reboot(7)
+    assert result.value is True and result.ok
+    assert peer.received == [instruction(7, 0x08)]
+
+
+def test_a_broadcast_action_waits_for_no_reply(line):
+    peer, transport = line(lambda packet: [])
+    result = Instructions(transport).action()
+    assert result.value is True
+    assert peer.wait_for(1) == [instruction(0xFE, 0x05)]
+    assert transport.stats.timeouts == 0
+
+
+def test_clear_multi_turn_sends_the_clear_key(line):
+    peer, transport = line(lambda packet: [status(2)])
+    assert Instructions(transport).clear_multi_turn(2).value is True
+    assert peer.received == [instruction(2, 0x10, b"\x01\x44\x58\x4c\x22")]
+
+
+def test_a_bad_factory_reset_option_sends_nothing(line):
+    peer, transport = line()
+    with pytest.raises(ValueError, match="0x01, 0x02 or 0xFF"):
+        Instructions(transport).factory_reset(1, 0x03)
+    with pytest.raises(ValueError, match="invalid Dynamixel ID"):
+        Instructions(transport).write(300, 64, b"\x01")
+    assert peer.received == []
