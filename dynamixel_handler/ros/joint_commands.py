@@ -1,6 +1,7 @@
-"""Joints commanded by name: ``joint_commands`` (sensor_msgs/JointState), ``~/joint_trajectory``
-(trajectory_msgs/JointTrajectory) and, when ``control_msgs`` is importable, the
-``~/follow_joint_trajectory`` action (control_msgs/FollowJointTrajectory, ``trajectory_action.py``).
+"""Joints commanded by name: ``joint_commands`` (sensor_msgs/JointState) and ``~/joint_trajectory``
+(trajectory_msgs/JointTrajectory). The ``~/follow_joint_trajectory`` action
+(control_msgs/FollowJointTrajectory, ``trajectory_action.py``) is attached to them by the node when
+``control_msgs`` is installed (``missing_package``); this module never imports it.
 
 ``joint_commands`` is what ros2_control's ``joint_state_topic_hardware_interface`` publishes
 (its ``joint_commands_topic``; states go to its ``joint_states_topic`` from ``joint_states``), so a
@@ -10,6 +11,7 @@ Everything needs ``joint_state.use`` and a joint map; commands go through the Co
 """
 from __future__ import annotations
 
+import importlib.util
 import math
 import time
 from typing import Any
@@ -61,14 +63,7 @@ class JointCommands:
         self.follower = Follower(self.goals, 1.0 / float(cfg["loop_rate"]), node.adapter)
         self._subscribe_joint_commands()
         node.create_subscription(JointTrajectory, "~/joint_trajectory", self._on_trajectory, 10)
-        self.action = None
-        try:
-            from . import trajectory_action
-        except ImportError as err:  # control_msgs is not installed: everything else works
-            self.log.info(f"control_msgs is not available ({err}): no follow_joint_trajectory action "
-                          "(joint_commands and joint_trajectory work)")
-        else:
-            self.action = trajectory_action.attach(node, self)
+        self.action: Any = None  # trajectory_action.TrajectoryAction, when the node attaches it
 
     # ------------------------------------------------------------------ joint_commands
     def _subscribe_joint_commands(self) -> None:
@@ -218,6 +213,12 @@ class JointCommands:
             self.goals.commander.warn(f"joint_trajectory: refused: {err}")
         except Exception as exc:  # a bad message must never take the node down
             self.log.error(f"joint_trajectory: dropped: {type(exc).__name__}: {exc}")
+
+
+def missing_package(name: str = "control_msgs") -> str | None:
+    """Why the package ``name`` cannot serve the action (it is not installed), or None when it is
+    there. Only the package is looked for: an error in our own action module is not hidden."""
+    return None if importlib.util.find_spec(name) is not None else f"No module named '{name}'"
 
 
 def attach(node) -> Follower | None:

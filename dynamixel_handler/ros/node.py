@@ -107,7 +107,23 @@ class DynamixelHandlerNode(Node):
             h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]
         # joint_commands, joint_trajectory, follow_joint_trajectory: the trajectory follower is a hook too
         self.step_hooks += [h for h in (joint_commands.attach(self),) if h is not None]
+        self._attach_trajectory_action()
         self.motion_services = services.attach(self)  # set_torque, move_to, move_joints
+
+    def _attach_trajectory_action(self) -> None:
+        """``~/follow_joint_trajectory`` beside the joint topics, when control_msgs is installed.
+        Our own action module is imported unguarded: an error in it stops the node with its
+        traceback instead of reading as a missing control_msgs."""
+        commands = getattr(self, "joint_commands", None)
+        if commands is None:  # joint_state.use is off
+            return
+        missing = joint_commands.missing_package("control_msgs")
+        if missing is not None:  # everything else works without it
+            self.get_logger().info(f"control_msgs is not available ({missing}): no follow_joint_trajectory action "
+                                   "(joint_commands and joint_trajectory work)")
+            return
+        from . import trajectory_action
+        commands.action = trajectory_action.attach(self, commands)
 
     def _device(self) -> tuple[str, str | None]:
         try:

@@ -2,8 +2,8 @@
 
 MoveIt's simple controller manager (``type: FollowJointTrajectory``, ``action_ns:
 follow_joint_trajectory`` under a controller named as this node) drives the servos through it
-without ros2_control. Importing this module needs ``control_msgs``; ``joint_commands.py`` leaves
-the action out (one info line) where it is missing.
+without ros2_control. Importing this module needs ``control_msgs``; the node imports it only when
+``control_msgs`` is installed (``node.py``), and leaves the action out with one info line otherwise.
 
 Every goal is accepted and then checked: a goal the handler cannot follow is aborted at once with
 ``INVALID_JOINTS`` (names not mapped, repeated, servo not handled, multi-DOF joints) or
