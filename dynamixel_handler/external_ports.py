@@ -13,6 +13,7 @@ from typing import Any, Sequence
 from .groups import due
 from .loop import Handler
 from .servos import ServoTable
+from .settings import ExternalPortSettings
 
 MODES = {"a_in": 0, "d_out": 1, "d_in_pu": 2, "d_in_pd": 3}
 MODE_NAMES = {v: k for k, v in MODES.items()}
@@ -28,15 +29,11 @@ class PortReading:
 
 
 class ExternalPorts:
-    def __init__(self, handler: Handler) -> None:
+    def __init__(self, handler: Handler, settings: ExternalPortSettings) -> None:
         self.h = handler
-        cfg = handler.config
-        self.data_ratio = cfg["option/external_port.pub_ratio/data"]
-        self.mode_ratio = cfg["option/external_port.pub_ratio/mode"]
-        self.verbose_callback = cfg["option/external_port.verbose/callback"]
-        self.verbose_write = cfg["option/external_port.verbose/write"]
-        self.verbose_read = cfg["option/external_port.verbose/read.raw"]
-        self.verbose_err = cfg["option/external_port.verbose/read.err"]
+        self.data_ratio, self.mode_ratio = settings.data_ratio, settings.mode_ratio
+        self.verbose_callback, self.verbose_write = settings.verbose_callback, settings.verbose_write
+        self.verbose_read, self.verbose_err = settings.verbose_read, settings.verbose_err
         self.watched: dict[tuple[int, int], None] = {}  # insertion-ordered set of (id, port)
         self._loop = 0
 

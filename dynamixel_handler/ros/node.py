@@ -149,7 +149,7 @@ class DynamixelHandlerNode(Node):
                                             command_line=not self.config["no_use_command_line"])
         self.external_ports: ExternalPorts | None = None
         if self.config["option/external_port.use"]:
-            self.external_ports = ExternalPorts(self.handler)
+            self.external_ports = ExternalPorts(self.handler, self.config.settings.external_port)
             self.pub_external = lean_publisher(self, DxlExternalPort, "dynamixel/external_port/read", 10)
             lean_subscription(self, DxlExternalPort, "dynamixel/external_port/write", self._on_external_write, 10)
 
