@@ -28,11 +28,9 @@ from .command_tables import (
     GOAL_FIELDS,
     MAGNITUDE_LIMIT,
     MAX_ROTATION,
-    SERIES_MODES,
     SHORTCUTS,
-    X_PROFILE_MAX,
 )
-from .control_table import Model
+from .control_table import POSITION_MODES, Model, ServoFamily, family_named
 from .core.api import ServoAccess
 from .extra_commands import apply_extra
 from .logs import Throttle, cut, some_ids
@@ -61,12 +59,13 @@ def take_fields(what: str, id_list: Sequence[int], fields: Mapping[str, Sequence
 
 
 def _warn_bad_ids(warn: Callable[[str], None], h: ServoAccess, what: str, unknown: list[int], other: list[int],
-                  series: str | None) -> None:
+                  family: ServoFamily | None) -> None:
     """One line per kind of bad ID per message, naming a few of them."""
     if len(unknown) == 1:
         warn(f"{what}: ID {unknown[0]} is not handled: ignored")
     elif unknown:
         warn(f"{what}: IDs {some_ids(unknown)} are not handled: ignored")
+    series = family.name if family is not None else None
     if len(other) == 1:
         model = h.model(other[0])
         warn(f"{what}: ID {other[0]} is {model.name} (series {model.series}), not {series}: ignored")
@@ -85,8 +84,10 @@ class Commander(SettingsCommands):
         self.throttle = Throttle(self.log.warning)
 
     # ============================================================== entry points (any thread)
-    def control(self, series: str, control: str, ids: Sequence[int], fields: Fields) -> None:
-        self._queue(f"{series.lower()} {control}", lambda: self._control(series, control, list(ids), fields))
+    def control(self, series: str | ServoFamily, control: str, ids: Sequence[int], fields: Fields) -> None:
+        """A control topic's command for servos of ``series`` (a family or its name: "X", "P", "PRO")."""
+        family = family_named(series)
+        self._queue(f"{family.suffix} {control}", lambda: self._control(family, control, list(ids), fields))
 
     def goal(self, ids: Sequence[int], fields: Fields, what: str = "goal") -> None:
         self._queue(what, lambda: self._goal(list(ids), fields, what))
@@ -120,14 +121,14 @@ class Commander(SettingsCommands):
         """A warning about a command; the same one within a second is only counted (``Throttle``)."""
         self.throttle(msg)
 
-    def known_ids(self, ids: Iterable[int], what: str, series: str | None = None,
+    def known_ids(self, ids: Iterable[int], what: str, family: ServoFamily | None = None,
                   allow_all: bool = False) -> list[tuple[int, int]]:
-        """(index in the command, ID) of the IDs that are handled (and of ``series``)."""
+        """(index in the command, ID) of the IDs that are handled (and of ``family``)."""
         h = self.h
         ids = list(ids)
         if allow_all and (not ids or ids == [BROADCAST_ID]):
             return list(enumerate(h.handled_ids))
-        plan = goal_bounds.targets(self, ids, series)
+        plan = goal_bounds.targets(self, ids, family)
         if plan is not None:  # every ID handled once and of the series: checked before
             return list(plan.targets)
         last: dict[int, int] = {}  # ID -> index of its last entry (a repeated ID: the last value wins)
@@ -135,12 +136,12 @@ class Commander(SettingsCommands):
         for k, dxl_id in enumerate(ids):
             if not h.handles(dxl_id):
                 unknown.append(dxl_id)
-            elif series is not None and h.model(dxl_id).series != series:
+            elif family is not None and h.model(dxl_id).family is not family:
                 other.append(dxl_id)
             else:
                 last.pop(dxl_id, None)
                 last[dxl_id] = k
-        _warn_bad_ids(self.warn, self.h, what, unknown, other, series)
+        _warn_bad_ids(self.warn, self.h, what, unknown, other, family)
         return [(k, dxl_id) for dxl_id, k in last.items()]
 
     def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool:
@@ -181,13 +182,13 @@ class Commander(SettingsCommands):
         spec = model.item(item)
         lo, hi = spec.min_raw, spec.max_raw
         bound_item = MAGNITUDE_LIMIT.get(item)
-        if item.startswith("profile_") and model.series == "X":
+        if item.startswith("profile_") and model.family.profile_max is not None:
             bound_item = None  # X: the register's own range, not Velocity Limit
         bound = self._value(dxl_id, bound_item) if bound_item is not None and model.has(bound_item) else None
         if bound is not None and bound > 0:
             return (max(lo, -bound), min(hi, bound)) if item.startswith("goal_") else (0, min(hi, bound))
         if item.startswith("profile_"):
-            return 0, min(hi, X_PROFILE_MAX) if model.series == "X" else hi
+            return model.family.profile_bounds(hi)
         return lo, hi
 
     def _value(self, dxl_id: int, item: str) -> int | None:
@@ -262,28 +263,28 @@ class Commander(SettingsCommands):
                 rotation[k] = math.copysign(MAX_ROTATION, r)
         return rotation
 
-    def _control(self, series: str, control: str, ids: list[int], fields: Fields) -> None:
-        what = f"{series.lower()}/{control}"
+    def _control(self, family: ServoFamily, control: str, ids: list[int], fields: Fields) -> None:
+        what = f"{family.suffix}/{control}"
         mode = CONTROL_MODES[control]
-        if goal_bounds.fast_goals(self, what, ids, fields, series, mode):
+        if goal_bounds.fast_goals(self, what, ids, fields, family, mode):
             return
-        targets = self._in_mode(series, control, self.known_ids(ids, what, series), fields)
+        targets = self._in_mode(family, control, self.known_ids(ids, what, family), fields)
         if not targets:
             return
 
         def item_of(field: str, dxl_id: int) -> str | None:
-            if series == "PRO" and field == "velocity_deg_s" and mode in ("position", "ex_position"):
-                # Pro position control: the speed of the move (old Pro: goal velocity, -RA: profile)
-                return "profile_velocity" if self.h.model(dxl_id).has("profile_velocity") else "goal_velocity"
+            if field == family.move_speed_field and mode in POSITION_MODES:
+                # the speed of the move (old Pro: goal velocity; where the model has it, profile velocity)
+                return family.speed_item(self.h.model(dxl_id).has("profile_velocity"))
             return GOAL_FIELDS.get(field)
         self._goal_writes(what, targets, fields, item_of, self._checked_rotation(what, targets, fields))
 
-    def _in_mode(self, series: str, control: str, targets: list[tuple[int, int]],
+    def _in_mode(self, family: ServoFamily, control: str, targets: list[tuple[int, int]],
                  fields: Fields) -> list[tuple[int, int]]:
         """The targets in the control's mode, switched to it where needed; a mode change asked for
         too soon waits with its goals (latest wins); goals meant for a mode a servo could not
         take are not written."""
-        what = f"{series.lower()}/{control}"
+        what = f"{family.suffix}/{control}"
         mode = CONTROL_MODES[control]
         ready = []
         for k, dxl_id in targets:
@@ -297,7 +298,7 @@ class Commander(SettingsCommands):
             elif outcome == "later":
                 one = {f: [v[k]] for f, v in fields.items()}
                 self.h.defer_mode_change(dxl_id, f"{what}: ID {dxl_id} (deferred)",
-                                         partial(self._control, series, control, [dxl_id], one))
+                                         partial(self._control, family, control, [dxl_id], one))
         return ready
 
     def _goal(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -311,7 +312,7 @@ class Commander(SettingsCommands):
         """The servo to ``mode`` if its model has it: "done", "refused" (no such mode), "failed"
         (the bus) or "later" (too soon after the last change: the caller defers the request)."""
         model = self.h.model(dxl_id)
-        if mode not in SERIES_MODES[model.series]:
+        if mode not in model.family.modes:
             self.warn(f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored")
             return "refused"
         if mode in CURRENT_MODES and not model.has("current_limit"):

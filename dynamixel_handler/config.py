@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
+from .control_table import FAMILIES
 from .errors import ConfigError
 from .joints import joint_map
 from .settings import (
@@ -35,7 +36,8 @@ from .settings import (
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
 STR_ARRAY = "str[]"
 #: init/dummy_servo_series spellings -> series ("" : the first used series)
-DUMMY_SERIES = {"": "", "x": "X", "p": "P", "pro": "PRO"}
+#: a dummy's series as the parameter may spell it ("x", "Pro", ...) -> its name ("" : the first used)
+DUMMY_SERIES = {"": "", **{f.title.lower(): f.name for f in FAMILIES}}
 
 
 @dataclass(frozen=True)
@@ -241,7 +243,7 @@ class Config:
 
 
 def _used_series(v: Mapping[str, Any]) -> tuple[str, ...]:
-    return tuple(s for s, key in (("X", "X"), ("P", "P"), ("PRO", "Pro")) if v[f"init/used_servo_series.{key}"])
+    return tuple(f.name for f in FAMILIES if v[f"init/used_servo_series.{f.title}"])
 
 
 def _dummy_ids(v: Mapping[str, Any]) -> list[int]:
@@ -355,7 +357,7 @@ def _check_dummies_and_series(v: Mapping[str, Any]) -> None:
     _need(len(series) in (1, n_dummies),
           f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
           f"ID of init/dummy_servo_list ({n_dummies})")
-    _need(any(v[f"init/used_servo_series.{s}"] for s in ("X", "P", "Pro")),
+    _need(any(v[f"init/used_servo_series.{f.title}"] for f in FAMILIES),
           "parameters 'init/used_servo_series.{X,P,Pro}' are all false: enable at least one series")
 
 

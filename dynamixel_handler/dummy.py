@@ -13,18 +13,16 @@ import time
 from typing import Iterable, Mapping, Sequence
 
 from .bus import BusStats, DynamixelBus, GroupRead, PreparedWrite
-from .control_table import model_by_number
+from .control_table import family_named, model_by_number
 from .sim.servo import CLEAR_KEY, VirtualServo
-
-#: model used for dummies, by the first enabled series
-DUMMY_MODEL = {"X": 1020, "P": 2020, "PRO": 54024}  # XM430-W350, PH54-200-S500-R, H54-200-S500-R
 
 
 def make_dummies(ids: Iterable[int], series: str | Sequence[str]) -> dict[int, VirtualServo]:
-    """Dummies of one series, or of the series given per ID."""
+    """Dummies of one series, or of the series given per ID (``ServoFamily.dummy_model``: XM430-W350,
+    PH54-200-S500-R, H54-200-S500-R)."""
     ids = list(ids)
     per_id = [series] * len(ids) if isinstance(series, str) else list(series)
-    return {i: VirtualServo(model_by_number(DUMMY_MODEL[s]), i, time.monotonic) for i, s in zip(ids, per_id)}
+    return {i: VirtualServo(model_by_number(family_named(s).dummy_model), i, time.monotonic) for i, s in zip(ids, per_id)}
 
 
 class BusWithDummies:

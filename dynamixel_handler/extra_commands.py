@@ -7,7 +7,7 @@ import logging
 from typing import Any, Iterable, Mapping, Protocol, Sequence
 
 from . import units
-from .control_table import Model
+from .control_table import Model, ServoFamily
 from .core.api import ServoAccess
 
 
@@ -18,7 +18,7 @@ class Checks(Protocol):
     log: logging.Logger | logging.LoggerAdapter[Any]
 
     def warn(self, msg: str) -> None: ...
-    def known_ids(self, ids: Iterable[int], what: str, series: str | None = None,
+    def known_ids(self, ids: Iterable[int], what: str, family: ServoFamily | None = None,
                   allow_all: bool = False) -> list[tuple[int, int]]: ...
     def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool: ...
     def _value(self, dxl_id: int, item: str) -> int | None: ...

@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 import numpy as np
 
 from . import units
-from .command_tables import GOAL_FIELDS, MAX_ROTATION, X_MULTI_TURN_GOAL
-from .control_table import Model
+from .command_tables import GOAL_FIELDS
+from .control_table import POSITION_LIMITED_MODES, POSITION_MODES, Model, ServoFamily
 from .groups import MODE_NAMES
 from .servos import ServoTable
 
@@ -43,10 +43,8 @@ ENABLED = True
 TARGETS = True
 #: commands for at most this many servos are converted in plain Python, more through numpy
 SMALL = 32
-#: the modes in which a Pro servo's velocity_deg_s is the speed of the move (an item per model)
-PRO_MOVE_MODES = ("position", "ex_position")
 #: operating mode values whose goal positions stay within the position limits
-POSITION_MODE = [value for value, name in MODE_NAMES.items() if name == "position"]
+POSITION_MODE = [value for value, name in MODE_NAMES.items() if name in POSITION_LIMITED_MODES]
 
 
 def within(table: ServoTable, ids: list[int], pulses: np.ndarray) -> np.ndarray | None:
@@ -111,28 +109,19 @@ def model_bounds(model: Model) -> tuple[int, int, int, int]:
     """The bounds that depend on the model alone: in position mode without valid position limits
     (lo, hi), then in any other mode (lo, hi)."""
     spec = model.item("goal_position")
-    lo, hi = spec.min_raw, spec.max_raw
-    if model.series == "X":
-        return lo, hi, max(lo, -X_MULTI_TURN_GOAL), min(hi, X_MULTI_TURN_GOAL)
-    turns = int(round(MAX_ROTATION * 360.0 / model.position_deg_per_pulse))
-    return max(lo, -turns), min(hi, turns), max(lo, -turns), min(hi, turns)
+    return model.family.goal_position_bounds(spec.min_raw, spec.max_raw, model.position_deg_per_pulse)
 
 
 def goal_position_limits(h: ServoAccess, dxl_id: int, model: Model) -> tuple[int, int]:
     """One servo's goal position bounds in pulses, from its mode, its position limits (read from
     the servo when the table lacks them) and its model."""
-    spec = model.item("goal_position")
-    lo, hi = spec.min_raw, spec.max_raw
-    if h.mode(dxl_id) == "position":
+    bounds = model_bounds(model)
+    if h.mode(dxl_id) in POSITION_LIMITED_MODES:
         a, b = h.value(dxl_id, "min_position_limit"), h.value(dxl_id, "max_position_limit")
         if a is not None and b is not None and a <= b:
             return a, b
-        if model.series == "X":
-            return lo, hi
-    if model.series == "X":
-        return max(lo, -X_MULTI_TURN_GOAL), min(hi, X_MULTI_TURN_GOAL)
-    turns = int(round(MAX_ROTATION * 360.0 / model.position_deg_per_pulse))
-    return max(lo, -turns), min(hi, turns)
+        return bounds[0], bounds[1]
+    return bounds[2], bounds[3]
 
 
 # ============================================================================ command targets
@@ -209,10 +198,10 @@ class Targets:
 
 
 #: per table: (table, its version, {(ids, series): Targets or None})
-_targets: dict[int, tuple[ServoTable, int, dict[tuple[tuple[int, ...], str | None], Targets | None]]] = {}
+_targets: dict[int, tuple[ServoTable, int, dict[tuple[tuple[int, ...], ServoFamily | None], Targets | None]]] = {}
 
 
-def targets(c: Commander, ids: Sequence[int], series: str | None) -> Targets | None:
+def targets(c: Commander, ids: Sequence[int], series: ServoFamily | None) -> Targets | None:
     """The ``Targets`` of ``ids`` (of ``series``), or None: an ID unknown, repeated, of another
     series, or none at all (``known_ids`` checks them one by one, warning)."""
     if not TARGETS or not ids:
@@ -229,12 +218,12 @@ def targets(c: Commander, ids: Sequence[int], series: str | None) -> Targets | N
         plans.clear()
     h = c.h
     unique = len(set(key[0])) == len(key[0])
-    fit = unique and all(h.handles(i) and (series is None or h.model(i).series == series) for i in key[0])
+    fit = unique and all(h.handles(i) and (series is None or h.model(i).family is series) for i in key[0])
     plan = plans[key] = Targets(h.table, key[0]) if fit else None
     return plan
 
 
-def _plans(table: ServoTable) -> dict[tuple[tuple[int, ...], str | None], Targets | None]:
+def _plans(table: ServoTable) -> dict[tuple[tuple[int, ...], ServoFamily | None], Targets | None]:
     """The ``Targets`` of the table as its servos are now (forgotten when they change)."""
     held = _targets.get(id(table))
     if held is None or held[0] is not table or held[1] != table.version:
@@ -248,7 +237,7 @@ Work = list[tuple[str, str, list[float]]]
 
 
 def fast_goals(c: Commander, what: str, ids: Sequence[int], fields: Mapping[str, Sequence[Any]],
-               series: str | None = None, mode: str | None = None) -> bool:
+               series: ServoFamily | None = None, mode: str | None = None) -> bool:
     """``Commander._goal`` (``mode`` None) or ``Commander._control`` when every ID is handled
     once, of the series and in ``mode``, and every value a finite number the models take: the
     goals go to ``Commander.put_writes``, True. False, with nothing done: the per-servo path."""
@@ -286,7 +275,13 @@ def _pulses(c: Commander, plan: Targets, what: str, field: str, item: str, value
     return c._clamp_rows(what, field, item, list(zip(plan.ids, values)), pulses)
 
 
-def _work(plan: Targets, fields: Mapping[str, Sequence[Any]], series: str | None, mode: str | None) -> Work | None:
+def _speed_per_model(series: ServoFamily | None, field: str, mode: str | None) -> bool:
+    """True where ``field`` is the speed of a move whose item depends on each servo's model."""
+    return series is not None and series.speed_item_is_per_model and field == series.move_speed_field \
+        and mode in POSITION_MODES
+
+
+def _work(plan: Targets, fields: Mapping[str, Sequence[Any]], series: ServoFamily | None, mode: str | None) -> Work | None:
     """(field, item, values) of each goal field, in the message's order; None if one needs the
     per-servo path (a value not a finite float, an item a model lacks, rotation on a control topic)."""
     work = []
@@ -298,7 +293,7 @@ def _work(plan: Targets, fields: Mapping[str, Sequence[Any]], series: str | None
         item = GOAL_FIELDS.get(field)
         if item is None:
             continue
-        if series == "PRO" and field == "velocity_deg_s" and mode in PRO_MOVE_MODES:
+        if _speed_per_model(series, field, mode):
             return None  # the item depends on the model
         array = np.asarray(values)
         if array.dtype != np.float64 or array.shape != (len(plan.ids),) or not plan.has(item):

@@ -28,6 +28,7 @@ import numpy as np
 
 from . import units
 from .commands import Commander
+from .control_table import KEPT_POSITION_MODES, ServoFamily
 from .goal_bounds import goal_position_limits
 from .groups import MODE_NAMES
 from .joints import JointMap
@@ -36,10 +37,8 @@ if TYPE_CHECKING:
     from .core.api import ServoAccess
 
 RAD = 180.0 / math.pi
-#: modes whose goal is a position and that a position command keeps (multi-turn, current-limited)
-KEPT_POSITION_MODES = ("ex_position", "cur_position")
 #: (series, control) -> (servo IDs, field -> one value per ID): the Commander calls of one command
-_Batches = dict[tuple[str, str], tuple[list[int], dict[str, list[float]]]]
+_Batches = dict[tuple[ServoFamily | None, str], tuple[list[int], dict[str, list[float]]]]
 
 
 class JointGoals:
@@ -102,7 +101,7 @@ class JointGoals:
             vel = velocity[k] if velocity else None
             eff = effort[k] if effort else None
             control, fields = self._servo_goal(j, dxl_id, pos, vel, eff)
-            series = table.model(dxl_id).series if control != "goal" else ""
+            series = table.model(dxl_id).family if control != "goal" else None
             ids, cols = batches.setdefault((series, control), ([], {}))
             ids.append(dxl_id)
             for f, v in fields.items():
@@ -135,7 +134,7 @@ class JointGoals:
         for (series, control), (ids, cols) in batches.items():
             if any(len(v) != len(ids) for v in cols.values()):
                 continue  # cannot happen: one control means the same fields for every joint of a batch
-            if control == "goal":
+            if series is None:
                 self.commander.goal(ids, cols, what=what)
             else:
                 self.commander.control(series, control, ids, cols)

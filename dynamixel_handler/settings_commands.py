@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 from . import units
 from .command_tables import BROADCAST_ID, GAIN_FIELDS, LIMIT_FIELDS
-from .control_table import OPERATING_MODES
+from .control_table import OPERATING_MODES, ServoFamily
 from .logs import cut
 
 if TYPE_CHECKING:
@@ -26,7 +26,7 @@ class SettingsCommands:
 
     if TYPE_CHECKING:  # supplied by Commander
         def warn(self, msg: str) -> None: ...
-        def known_ids(self, ids: Iterable[int], what: str, series: str | None = None,
+        def known_ids(self, ids: Iterable[int], what: str, family: ServoFamily | None = None,
                       allow_all: bool = False) -> list[tuple[int, int]]: ...
         def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool: ...
         def change_mode(self, dxl_id: int, mode: str, what: str) -> str: ...

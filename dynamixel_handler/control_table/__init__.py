@@ -32,11 +32,26 @@ from ._facts import (
     X330_INDIRECT_DATA_BEFORE_FW52,
     ModelFacts,
 )
+from ._family import (
+    FAMILIES,
+    KEPT_POSITION_MODES,
+    MAX_ROTATION,
+    POSITION_LIMITED_MODES,
+    POSITION_MODES,
+    PRO,
+    P,
+    ServoFamily,
+    X,
+    family_named,
+    family_titled,
+)
 from ._sdk_files import load_sdk_table
 
-__all__ = ["Item", "Model", "model_by_number", "known_models", "OPERATING_MODES", "SERIES"]
+__all__ = ["FAMILIES", "KEPT_POSITION_MODES", "MAX_ROTATION", "OPERATING_MODES", "POSITION_LIMITED_MODES",
+           "POSITION_MODES", "PRO", "P", "SERIES", "X", "Item", "Model", "ServoFamily", "family_named", "family_titled",
+           "known_models", "model_by_number"]
 
-SERIES: Tuple[str, ...] = ("X", "P", "PRO")
+SERIES: Tuple[str, ...] = tuple(f.name for f in FAMILIES)
 
 OPERATING_MODES: Mapping[str, int] = MappingProxyType({
     "current": 0, "velocity": 1, "position": 3, "ex_position": 4, "cur_position": 5, "pwm": 16,
@@ -74,7 +89,8 @@ class Model:
 
     number: int
     name: str
-    series: str
+    #: its family: modes, goal ranges, how topics and parameters name it (``ServoFamily``)
+    family: ServoFamily
     items: Mapping[str, Item] = field(repr=False)
     position_deg_per_pulse: float = math.nan
     position_zero_pulse: int = 0
@@ -113,6 +129,11 @@ class Model:
             address, _, count = self.indirect[0]
             return ((address, X330_INDIRECT_DATA_BEFORE_FW52, count),)
         return self.indirect
+
+    @property
+    def series(self) -> str:
+        """The family's name: "X", "P" or "PRO"."""
+        return self.family.name
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Model):
@@ -159,7 +180,8 @@ def _build(number: int, facts: ModelFacts) -> Model:
         name: Item(name, address, size, name in SIGNED_ITEMS, address < eeprom_end)
         for name, (address, size) in sorted(rows.items(), key=lambda kv: kv[1][0])
     }
-    if facts.series == "X":
+    family = family_named(facts.series)
+    if family.x_table:
         position_scale = 360.0 / 4096.0
         zero, pmin, pmax = 2048, 0, 4095
     else:
@@ -171,7 +193,7 @@ def _build(number: int, facts: ModelFacts) -> Model:
     return Model(
         number=number,
         name=facts.name,
-        series=facts.series,
+        family=family,
         items=MappingProxyType(items),
         position_deg_per_pulse=position_scale,
         position_zero_pulse=zero,

@@ -40,6 +40,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from ..commands import Commander, take_fields
+from ..control_table import PRO, P, ServoFamily, X, family_named
 from ..logs import cut
 from .intake import CommandIntake
 
@@ -47,19 +48,19 @@ from .intake import CommandIntake
 #: that grows with its length
 MAX_IDS = 253
 
-CONTROL_TYPES = {
-    "X": {"pwm_control": DynamixelControlXPwm, "current_control": DynamixelControlXCurrent,
+CONTROL_TYPES: dict[ServoFamily, dict[str, type]] = {
+    X: {"pwm_control": DynamixelControlXPwm, "current_control": DynamixelControlXCurrent,
           "velocity_control": DynamixelControlXVelocity, "position_control": DynamixelControlXPosition,
           "extended_position_control": DynamixelControlXExtendedPosition,
           "current_base_position_control": DynamixelControlXCurrentBasePosition},
-    "P": {"pwm_control": DynamixelControlPPwm, "current_control": DynamixelControlPCurrent,
+    P: {"pwm_control": DynamixelControlPPwm, "current_control": DynamixelControlPCurrent,
           "velocity_control": DynamixelControlPVelocity, "position_control": DynamixelControlPPosition,
           "extended_position_control": DynamixelControlPExtendedPosition},
-    "PRO": {"current_control": DynamixelControlProCurrent, "velocity_control": DynamixelControlProVelocity,
+    PRO: {"current_control": DynamixelControlProCurrent, "velocity_control": DynamixelControlProVelocity,
             "position_control": DynamixelControlProPosition,
             "extended_position_control": DynamixelControlProExtendedPosition},
 }
-COMMANDS_TYPES = {"X": ("x", DxlCommandsX), "P": ("p", DxlCommandsP), "PRO": ("pro", DxlCommandsPro)}
+COMMANDS_TYPES: dict[ServoFamily, type] = {X: DxlCommandsX, P: DxlCommandsP, PRO: DxlCommandsPro}
 GROUP_TYPES = {"status": DynamixelStatus, "goal": DynamixelGoal, "gain": DynamixelGain, "limit": DynamixelLimit,
                "extra": DynamixelExtra}
 #: the parts of a bundle (commands/x, ...) after its control parts, in the order they apply
@@ -68,7 +69,7 @@ BUNDLE_GROUPS = ("status", "goal", "gain", "limit", "extra")
 #: does nothing there); for tests and comparisons
 SKIP_EMPTY = True
 #: every message type a command topic carries
-COMMAND_TYPES = (DxlCommandsAll, DynamixelShortcut, *(t for _, t in COMMANDS_TYPES.values()),
+COMMAND_TYPES = (DxlCommandsAll, DynamixelShortcut, *COMMANDS_TYPES.values(),
                  *(t for types in CONTROL_TYPES.values() for t in types.values()), *GROUP_TYPES.values())
 
 
@@ -94,18 +95,18 @@ class CommandTopics:
 
         def sub(typ, topic, callback, depth):
             intake.subscribe(typ, topic, callback, depth)
-        for s in series:
-            suffix, typ = COMMANDS_TYPES[s]
-            sub(typ, f"dynamixel/commands/{suffix}", self._guard(f"commands/{suffix}", lambda m, s=s: self._bundle(s, m)), 10)
+        families = [family_named(s) for s in series]
+        for f in families:
+            sub(COMMANDS_TYPES[f], f"dynamixel/commands/{f.suffix}",
+                self._guard(f"commands/{f.suffix}", lambda m, f=f: self._bundle(f, m)), 10)
         sub(DxlCommandsAll, "dynamixel/commands/all", self._guard("commands/all", lambda m: self._bundle(None, m)), 10)
         sub(DynamixelShortcut, "dynamixel/shortcut", self._guard("shortcut", self._shortcut), 10)
         if not command_line:
             return
-        for s in series:
-            suffix = COMMANDS_TYPES[s][0]
-            for control, typ in CONTROL_TYPES[s].items():
-                topic = f"command/{suffix}/{control}"
-                sub(typ, f"dynamixel/{topic}", self._guard(topic, lambda m, s=s, c=control, t=topic: self._control(s, c, m, t)), 10)
+        for f in families:
+            for control, typ in CONTROL_TYPES[f].items():
+                topic = f"command/{f.suffix}/{control}"
+                sub(typ, f"dynamixel/{topic}", self._guard(topic, lambda m, f=f, c=control, t=topic: self._control(f, c, m, t)), 10)
         for group, typ in GROUP_TYPES.items():
             topic = f"command/{group}"
             sub(typ, f"dynamixel/{topic}", self._guard(topic, lambda m, g=group, t=topic: self._group(g, m, t)), 10)
@@ -130,7 +131,7 @@ class CommandTopics:
         ids, fields = unpack(msg)
         return ids, take_fields(what, ids, fields, self.commander.warn)
 
-    def _control(self, series: str, control: str, msg, what: str) -> None:
+    def _control(self, series: ServoFamily, control: str, msg, what: str) -> None:
         # id_list alone switches the servos to the control's mode (and writes no goal)
         ids, fields = self._fields(what, msg)
         if ids:
@@ -141,8 +142,8 @@ class CommandTopics:
         if ids and fields:
             getattr(self.commander, group)(ids, fields, what)
 
-    def _bundle(self, series: str | None, msg) -> None:
-        prefix = "commands/" + (COMMANDS_TYPES[series][0] if series else "all")
+    def _bundle(self, series: ServoFamily | None, msg) -> None:
+        prefix = "commands/" + (series.suffix if series is not None else "all")
         if series is not None:
             for control in CONTROL_TYPES[series]:
                 part = msg[control]

@@ -20,8 +20,6 @@ from ..servos import ServoTable
 
 Tree = dict[str, Any]
 Units = Callable[[str], np.ndarray]  # item -> its values in physical units (``ServoTable.units``)
-#: DynamixelExtra.model holds the series, spelled as the design does
-SERIES_NAMES = {"X": "X", "P": "P", "PRO": "Pro"}
 
 
 def f64(values: np.ndarray) -> array.array:
@@ -117,12 +115,12 @@ def extra(table: ServoTable) -> Tree:
     led = np.where(table.known("led"), table.pulses("led") * 100.0, np.nan)
     return {
         "id_list": u16(table.ids),
-        "model": [SERIES_NAMES.get(m.series, m.series) for m in table.models],  # the series (design); the
+        "model": [m.family.title for m in table.models],  # the series (design); the
         # model itself is model_number (and its name is in the start-up log)
         "model_number": u16([m.number for m in table.models]),
         # the old Pro has no Protocol Type register: it speaks Protocol 2.0 only
         "protocol_type": u16(np.where(table.known("protocol_type"), table.pulses("protocol_type"),
-                                      [2 if m.series == "PRO" else 0 for m in table.models])),
+                                      [0 if m.family.has_protocol_type else 2 for m in table.models])),
         "firmware_version": u16(table.pulses("firmware_version")),
         "realtime_tick_s": table.units("realtime_tick"),
         "moving_status": moving_status,

@@ -7,12 +7,10 @@ from typing import Sequence
 
 from .. import units
 from ..commands import Commander
+from ..control_table import KEPT_POSITION_MODES, ServoFamily
 from ..joints import JointMap
 from ..loop import Handler
 from .move_checks import Move, MoveError, listed
-
-#: modes whose goal is a position but that a move keeps (multi-turn); others switch to position mode
-KEPT_POSITION_MODES = ("ex_position", "cur_position")
 
 
 class MoveIO:
@@ -24,9 +22,9 @@ class MoveIO:
     def _command(self, ids: list[int], servo_deg: list[float], velocity: float) -> None:
         """Queue the goals per mode and series (the Commander writes them this step)."""
         table = self.h.table
-        batches: dict[tuple[str, str], tuple[list[int], list[float]]] = {}
+        batches: dict[tuple[str, ServoFamily], tuple[list[int], list[float]]] = {}
         for i, deg in zip(ids, servo_deg):
-            series = table.model(i).series
+            series = table.model(i).family
             kind = "goal" if self.h.mode(i) in KEPT_POSITION_MODES else "position_control"
             batch = batches.setdefault((kind, series), ([], []))
             batch[0].append(i)
@@ -34,7 +32,7 @@ class MoveIO:
         for (kind, series), (batch_ids, degs) in batches.items():
             fields: dict[str, list] = {"position_deg": degs}
             if velocity > 0:
-                speed_field = "velocity_deg_s" if series == "PRO" and kind == "position_control" else "profile_vel_deg_s"
+                speed_field = series.move_speed_field if kind == "position_control" else "profile_vel_deg_s"
                 fields[speed_field] = [velocity] * len(batch_ids)
             if kind == "goal":
                 self.commander.goal(batch_ids, fields, what="move")

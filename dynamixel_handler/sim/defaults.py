@@ -61,7 +61,7 @@ def _unlisted(model: Model) -> dict[str, int]:
                 "max_position_limit": model.position_max_pulse,
                 "min_position_limit": model.position_min_pulse,
                 "velocity_i_gain": 16, "velocity_p_gain": 600, "position_p_gain": 32}
-    if model.series == "X":
+    if model.family.x_table:
         return {}
     return {"velocity_i_gain": 16, "velocity_p_gain": 600, "position_p_gain": 32}
 

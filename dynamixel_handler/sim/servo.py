@@ -33,7 +33,7 @@ class VirtualServo(ServoMemory):
     def __init__(self, model: Model | int, servo_id: int, clock: Callable[[], float]) -> None:
         self.model: Model = model_by_number(model) if isinstance(model, int) else model
         self.layout = self.model.layout
-        self._x = self.model.series == "X"
+        self._x = self.model.family.x_table
         self.family = family(self.model)
         self.baud_rates = dict(self.model.baud_rates)
         self._clock = clock

@@ -1,0 +1,120 @@
+"""A servo family (series): what every model of it shares and the handler acts on, as data.
+
+The X, P and PRO families differ in the modes their command topics offer, in how a goal is
+bounded, in which item carries the speed of a move in position modes, and in how parameters and
+messages spell them. Everything that depends on the family reads one of these attributes; a new
+family (MX, XL-320, Y) is one more value here, not a new branch in the code.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Optional, Tuple
+
+#: turns a goal may hold (rotation field; a goal of a family without a multi-turn goal range is
+#: bounded to as many turns)
+MAX_ROTATION = 256.0
+#: the modes in which a goal position stays within the position limits (the others are multi-turn)
+POSITION_LIMITED_MODES = ("position",)
+#: modes whose goal is a position: the speed of the move is a goal field of its own there
+POSITION_MODES = ("position", "ex_position")
+#: modes whose goal is a position that a move keeps (multi-turn); others switch to position mode
+KEPT_POSITION_MODES = ("ex_position", "cur_position")
+
+_ALL_MODES = frozenset({"current", "velocity", "position", "ex_position", "cur_position", "pwm"})
+
+
+@dataclass(frozen=True)
+class ServoFamily:
+    """One servo family. Compared by identity: every model of the family carries the same value."""
+
+    #: the name the handler uses (``Model.series``, the ``series`` of commands and logs)
+    name: str
+    #: as parameters (``init/used_servo_series.<title>``) and DynamixelExtra.model spell it
+    title: str
+    #: of its topics (``commands/<suffix>``, ``command/<suffix>/...``) and messages
+    suffix: str
+    #: operating modes its control topics offer
+    modes: frozenset
+    #: model number a dummy servo of the family has
+    dummy_model: int
+    #: the X-style control table: 4096 pulses per turn around 2048, PWM 885 full scale, the
+    #: e-Manual's fixed register ranges (the simulator's write rules follow them)
+    x_table: bool
+    #: Profile Velocity / Profile Acceleration take 0..this (the register's own range, not
+    #: bounded by Velocity / Acceleration Limit); None: bounded by those limits
+    profile_max: Optional[int]
+    #: multi-turn goal positions take ±this many pulses; None: ±``MAX_ROTATION`` turns, also in
+    #: position mode when the position limits are not known
+    multi_turn_goal: Optional[int]
+    #: in position modes, the message field that gives the speed of the move and the item it goes
+    #: to ("profile_velocity" where the model has it, else the item named here)
+    move_speed_field: str
+    move_speed_item: str
+    #: the Protocol Type register: None where the family has none (it speaks Protocol 2.0 only)
+    has_protocol_type: bool = True
+
+    def __repr__(self) -> str:
+        return f"ServoFamily({self.name})"
+
+    @property
+    def speed_item_is_per_model(self) -> bool:
+        """True when the speed field of a move maps to an item that depends on the model (not the
+        field's own goal item)."""
+        return self.move_speed_field == "velocity_deg_s"
+
+    def speed_item(self, has_profile_velocity: bool) -> str:
+        """The item the speed of a move in position modes goes to, on a model with or without
+        Profile Velocity."""
+        return "profile_velocity" if has_profile_velocity else self.move_speed_item
+
+    def goal_position_bounds(self, lo: int, hi: int, deg_per_pulse: float) -> Tuple[int, int, int, int]:
+        """The goal position bounds from the register range (lo, hi) and the model's scale: in
+        position mode without valid position limits (lo, hi), then in any other mode (lo, hi)."""
+        if self.multi_turn_goal is not None:
+            return lo, hi, max(lo, -self.multi_turn_goal), min(hi, self.multi_turn_goal)
+        turns = int(round(MAX_ROTATION * 360.0 / deg_per_pulse))
+        return max(lo, -turns), min(hi, turns), max(lo, -turns), min(hi, turns)
+
+    def profile_bounds(self, hi: int) -> Tuple[int, int]:
+        """A profile item's bounds when no limit item bounds it (register top ``hi``)."""
+        return 0, min(hi, self.profile_max) if self.profile_max is not None else hi
+
+
+X = ServoFamily(
+    name="X", title="X", suffix="x", modes=_ALL_MODES, dummy_model=1020, x_table=True,
+    profile_max=32767,  # e-Manual: 0..32767 whatever the limits
+    multi_turn_goal=1_048_575,  # e-Manual: -1,048,575..1,048,575 pulses (±256 turns)
+    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity",
+)
+P = ServoFamily(
+    name="P", title="P", suffix="p", modes=_ALL_MODES - {"cur_position"}, dummy_model=2020, x_table=False,
+    profile_max=None, multi_turn_goal=None,
+    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity",
+)
+PRO = ServoFamily(
+    name="PRO", title="Pro", suffix="pro", modes=frozenset({"current", "velocity", "position", "ex_position"}),
+    dummy_model=54024, x_table=False, profile_max=None, multi_turn_goal=None,
+    # the old PRO has no Profile Velocity: its position control's velocity_deg_s is Goal Velocity
+    move_speed_field="velocity_deg_s", move_speed_item="goal_velocity",
+    has_protocol_type=False,
+)
+
+#: every family, in the order parameters, topics and logs list them
+FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO)
+_BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES}
+_BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
+
+
+def family_named(name: "str | ServoFamily") -> ServoFamily:
+    """The family by its name ("X", "P", "PRO"); a family is returned as is. KeyError if unknown."""
+    if isinstance(name, ServoFamily):
+        return name
+    try:
+        return _BY_NAME[name]
+    except KeyError:
+        raise KeyError(f"unknown servo series {name!r} (known: {', '.join(_BY_NAME)})") from None
+
+
+def family_titled(title: str) -> Optional[ServoFamily]:
+    """The family a parameter value names ("x", "P", "Pro", any case); None if none is."""
+    return _BY_TITLE.get(title.strip().lower())
