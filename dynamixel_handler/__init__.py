@@ -1,7 +1,72 @@
-"""dynamixel_handler: drive a bus of ROBOTIS Dynamixel servos (X, P, Pro) through ROS 2 topics.
+"""dynamixel_handler: drive a bus of ROBOTIS Dynamixel servos (X, P, Pro) through ROS 2 topics,
+or from plain Python::
+
+    from dynamixel_handler import Commander, DynamixelBus, Handler, Runner, ScanSettings, Settings
+
+    bus = DynamixelBus("/dev/ttyUSB0", baudrate=1_000_000)
+    handler = Handler(bus, Settings(scan=ScanSettings(min_id=1, max_id=4, expected=4)))
+    ...                                   # see examples/plain_python.py
 
 The package is layered so that only ``ros/`` imports rclpy and only ``bus`` imports
 ``dynamixel_sdk``; ``control_table`` holds facts, ``units`` converts, ``sim`` is a virtual bus.
+The names below are imported when first used, so ``import dynamixel_handler`` stays cheap and
+``dynamixel_handler.sim`` and the rest never pull in rclpy.
 """
+from __future__ import annotations
+
+import importlib
+
+TYPE_CHECKING = False  # as typing.TYPE_CHECKING (mypy reads it so), without importing typing at run time
+if TYPE_CHECKING:
+    from typing import Any
+
+    from .bus import BusError, DynamixelBus
+    from .commands import Commander
+    from .config import Config, ConfigError, validate
+    from .loop import Handler, StepReport
+    from .runner import Hooks, Runner
+    from .settings import (
+        BusSettings,
+        ExternalPortSettings,
+        LogSettings,
+        LoopSettings,
+        Method,
+        ReadRatios,
+        ScanSettings,
+        Settings,
+        StartValues,
+        TermSettings,
+        TrajectorySettings,
+    )
+    from .sim import VirtualBus
 
 __version__ = "0.1.0"
+
+#: name -> the module (relative to the package) it is imported from when first used
+_LAZY = {
+    "Handler": "loop", "StepReport": "loop", "Runner": "runner", "Hooks": "runner", "Commander": "commands",
+    "DynamixelBus": "bus", "BusError": "bus", "VirtualBus": "sim",
+    "Config": "config", "ConfigError": "config", "validate": "config",
+    **{name: "settings" for name in ("Settings", "BusSettings", "ScanSettings", "StartValues", "TermSettings",
+                                     "LoopSettings", "ReadRatios", "Method", "LogSettings", "ExternalPortSettings",
+                                     "TrajectorySettings")},
+}
+
+__all__ = [
+    "BusError", "BusSettings", "Commander", "Config", "ConfigError", "DynamixelBus", "ExternalPortSettings",
+    "Handler", "Hooks", "LogSettings", "LoopSettings", "Method", "ReadRatios", "Runner", "ScanSettings", "Settings",
+    "StartValues", "StepReport", "TermSettings", "TrajectorySettings", "VirtualBus", "validate",
+]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'dynamixel_handler' has no attribute '{name}'")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # looked up once
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
