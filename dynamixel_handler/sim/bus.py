@@ -6,9 +6,9 @@ and (optionally) at the pace a real half-duplex bus would. Faults can be injecte
 time from another thread: silent IDs, corrupted CRCs, garbage, truncated replies, hardware
 errors, or the whole adapter vanishing and coming back.
 
-This module holds the bus's public face (servos, faults, state file, log); the serving thread
-and wire timing are in ``serving.py``, what servos do with each instruction in
-``instructions.py``.
+``VirtualBus`` is the public face (servos, faults, state file, log) over its parts, each an
+object: ``serving.WireServer`` (the serving thread and wire timing), ``instructions.InstructionSet``
+(what the servos do with each instruction) and ``faults.ReplyFaults`` (what goes wrong with replies).
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from typing import Callable, Mapping
 
 from ..protocol import servo as p
 from ..protocol.servo import LoggedInstruction
+from .faults import ReplyFaults
+from .instructions import InstructionSet, Refusal
 from .serving import FACTORY_BAUDRATE, WireServer
 from .servo import VirtualServo
 from .transport import PtyPort
@@ -30,7 +32,7 @@ from .transport import PtyPort
 __all__ = ["VirtualBus", "LoggedInstruction", "FACTORY_BAUDRATE"]
 
 
-class VirtualBus(WireServer):
+class VirtualBus:
     """A bus of virtual servos on a pty. ``servos`` maps ID -> model number.
 
     By default the servos are as unboxed: factory values, Baud Rate 57600 (1 Mbps on the XM335),
@@ -55,69 +57,80 @@ class VirtualBus(WireServer):
                  clock: Callable[[], float] = time.monotonic, seed: int | None = None,
                  log_size: int = 100_000, check_baudrate: bool = True, wire_timing: bool = True,
                  state_file: str | None = None) -> None:
-        self.baudrate = baudrate
         self._servo_bps = baudrate
-        self.check_baudrate = check_baudrate
-        self.wire_timing = wire_timing
         self.state_file = state_file
-        self._line_bps: int | None = None  # host line speed of the packet being executed
-        self.latency_s = latency_s
         self.clock = clock
-        self.crc_error_rate = 0.0
-        self._rng = random.Random(seed)
         self._lock = threading.RLock()
-        self._servos: list[VirtualServo] = []
-        self._log: collections.deque[LoggedInstruction] = collections.deque(maxlen=log_size)
+        self._servos: list[VirtualServo] = []  # changed in place: the instruction set holds it
         self._port = PtyPort(link)
-        self._parser = p.PacketParser()
-        self._garbage = bytearray()
-        self._truncate = 0
-        self._thread: threading.Thread | None = None
-        self._wake_r, self._wake_w = os.pipe()
-        self._running = False
-        self._requests: collections.deque[tuple[str, threading.Event]] = collections.deque()
-        self._wire_free_at = 0.0
         self.stats: collections.Counter[str] = collections.Counter()
         #: writes a servo refused: (time, id, address, data, error code) — sync writes included,
         #: which get no reply on a real bus, so tests can tell what a servo rejected
-        self.refused: collections.deque[tuple[float, int, int, bytes, int]] = collections.deque(maxlen=10_000)
+        self.refused: collections.deque[Refusal] = collections.deque(maxlen=10_000)
+        self._log: collections.deque[LoggedInstruction] = collections.deque(maxlen=log_size)
+        self._instructions = InstructionSet(self._servos, clock, self._log, self.stats, self.refused)
+        self._faults = ReplyFaults(random.Random(seed), self.stats)
+        self._server = WireServer(self._port, self._lock, self._instructions, self._faults, self.stats,
+                                  baudrate, latency_s, check_baudrate, wire_timing)
         for servo_id, model in (servos or {}).items():
             self.add_servo(servo_id, model)
         if state_file and os.path.exists(state_file):
             self.load_state(state_file)
 
+    # ------------------------------------------------------------------ the wire's settings
+    @property
+    def baudrate(self) -> int | None:
+        """Line speed the wire is timed at (None: the host's, when ``wire_timing``)."""
+        return self._server.baudrate
+
+    @baudrate.setter
+    def baudrate(self, bps: int | None) -> None:
+        self._server.baudrate = bps
+
+    @property
+    def latency_s(self) -> float:
+        return self._server.latency_s
+
+    @latency_s.setter
+    def latency_s(self, seconds: float) -> None:
+        self._server.latency_s = seconds
+
+    @property
+    def check_baudrate(self) -> bool:
+        return self._server.check_baudrate
+
+    @check_baudrate.setter
+    def check_baudrate(self, on: bool) -> None:
+        self._server.check_baudrate = on
+
+    @property
+    def wire_timing(self) -> bool:
+        return self._server.wire_timing
+
+    @wire_timing.setter
+    def wire_timing(self, on: bool) -> None:
+        self._server.wire_timing = on
+
+    @property
+    def crc_error_rate(self) -> float:
+        """Share of replies whose CRC is corrupted (0..1)."""
+        return self._faults.crc_error_rate
+
+    @crc_error_rate.setter
+    def crc_error_rate(self, rate: float) -> None:
+        self._faults.crc_error_rate = rate
+
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> str:
         """Open the pty, start serving; returns the device path to open."""
-        with self._lock:
-            if self._running:
-                return self.path  # type: ignore[return-value]
-            path = self._port.open()
-            self._running = True
-            self._thread = threading.Thread(target=self._serve, name="dxl-virtual-bus", daemon=True)
-            self._thread.start()
-            return path
+        return self._server.start()
 
     def stop(self) -> None:
-        with self._lock:
-            if not self._running:
-                self._port.close()
-                return
-            self._running = False
-        os.write(self._wake_w, b"s")
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-        self._port.close()
-        self._thread = None
+        self._server.stop()
 
     def close(self) -> None:
         """Stop and release the wake-up pipe; the bus cannot be restarted afterwards."""
-        self.stop()
-        for fd in (self._wake_r, self._wake_w):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+        self._server.close()
 
     def __enter__(self) -> "VirtualBus":
         self.start()
@@ -125,6 +138,17 @@ class VirtualBus(WireServer):
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    def feed(self, data: bytes) -> list[bytes]:
+        """Process raw instruction bytes without the pty; returns the status packets.
+
+        Useful for tools and for inspecting replies without wire timing.
+        """
+        replies: list[bytes] = []
+        for packet in p.PacketParser().feed(data):
+            with self._lock:
+                replies += [reply for _, reply in self._instructions.execute(packet)]
+        return replies
 
     @property
     def path(self) -> str | None:
@@ -185,7 +209,7 @@ class VirtualBus(WireServer):
                 servo = VirtualServo(int(entry["model"]), 1, self.clock)
                 servo.load_state(entry, self.clock())
                 servos.append(servo)
-            self._servos = []
+            self._servos.clear()
             for servo in servos:
                 self._pair(servo)
                 self._servos.append(servo)
@@ -198,7 +222,7 @@ class VirtualBus(WireServer):
 
     def remove_servo(self, servo_id: int) -> None:
         with self._lock:
-            self._servos = [s for s in self._servos if s.id != servo_id]
+            self._servos[:] = [s for s in self._servos if s.id != servo_id]
 
     def servo(self, servo_id: int) -> VirtualServo:
         with self._lock:
@@ -220,12 +244,12 @@ class VirtualBus(WireServer):
     def inject_garbage(self, nbytes: int) -> None:
         """Noise bytes sent just before the next reply (never 0xFF, so never a header)."""
         with self._lock:
-            self._garbage += bytes(self._rng.randrange(0, 0xFF) for _ in range(nbytes))
+            self._faults.inject_garbage(nbytes)
 
     def truncate_next(self, n: int = 1) -> None:
         """Cut the next ``n`` status packets short (only their first half goes out)."""
         with self._lock:
-            self._truncate += n
+            self._faults.truncate_next(n)
 
     def set_hardware_error(self, servo_id: int, bits: int) -> None:
         with self._lock:
@@ -233,11 +257,11 @@ class VirtualBus(WireServer):
 
     def vanish(self) -> None:
         """Unplug the adapter: close the pty master (hosts get I/O errors), drop the link."""
-        self._request("vanish")
+        self._server.request("vanish")
 
     def reappear(self) -> str:
         """Plug back in: a new pty (and the link repointed to it); returns the device path."""
-        self._request("reappear")
+        self._server.request("reappear")
         return self.path  # type: ignore[return-value]
 
     @property

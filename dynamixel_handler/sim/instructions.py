@@ -1,6 +1,6 @@
 """What the servos of the virtual bus do with each Protocol 2.0 instruction packet.
 
-``ServoInstructions`` finds the servos that hear a packet (their ID, Secondary ID or broadcast;
+``InstructionSet`` finds the servos that hear a packet (their ID, Secondary ID or broadcast;
 alive, at the line speed the host set, speaking Protocol 2.0), lets them execute it and collects
 their status packets with each servo's Return Delay Time, as the Status Return Level allows.
 """
@@ -12,6 +12,7 @@ from typing import Callable
 
 from ..protocol import servo as p
 from ..protocol.servo import LoggedInstruction
+from .faults import Replies
 from .servo import VirtualServo
 
 READ_INSTRUCTIONS = (p.READ, p.SYNC_READ, p.FAST_SYNC_READ, p.BULK_READ, p.FAST_BULK_READ)
@@ -19,19 +20,25 @@ READ_INSTRUCTIONS = (p.READ, p.SYNC_READ, p.FAST_SYNC_READ, p.BULK_READ, p.FAST_
 _BROADCAST_TO_ALL = (p.PING, p.ACTION, p.REBOOT, p.FACTORY_RESET, p.CLEAR)
 FACTORY_RESET_OPTIONS = (0x01, 0x02, 0xFF)
 
-Replies = list[tuple[float, bytes]]
-"""Status packets to send, each after the answering servo's delay (seconds)."""
+Refusal = tuple[float, int, int, bytes, int]
+"""A write a servo refused: (time, id, address, data, error code)."""
 
 
-class ServoInstructions:
-    """The instruction set of a bus of virtual servos."""
+class InstructionSet:
+    """The instruction set of a bus of virtual servos: ``execute(packet)`` gives the replies.
+    ``servos`` is the bus's list (changed in place by the bus); every packet is appended to
+    ``log``, every refused write to ``refused``. ``line_bps``: the host's line speed of the
+    packet at hand (None: every servo hears it, whatever its Baud Rate)."""
 
-    _servos: list[VirtualServo]
-    _log: collections.deque[LoggedInstruction]
-    _line_bps: int | None
-    clock: Callable[[], float]
-    stats: collections.Counter[str]
-    refused: collections.deque[tuple[float, int, int, bytes, int]]
+    def __init__(self, servos: list[VirtualServo], clock: Callable[[], float],
+                 log: collections.deque[LoggedInstruction], stats: collections.Counter[str],
+                 refused: collections.deque[Refusal]) -> None:
+        self._servos = servos
+        self.clock = clock
+        self._log = log
+        self.stats = stats
+        self.refused = refused
+        self.line_bps: int | None = None
 
     def _hearing(self, packet_id: int) -> list[VirtualServo]:
         """Servos that hear a packet for ``packet_id``, in ID order (broadcast: all). A servo
@@ -47,9 +54,9 @@ class ServoInstructions:
 
     def _on_line_speed(self, servo: VirtualServo) -> bool:
         """Whether ``servo`` can decode the packet at hand (always, unless check_baudrate)."""
-        return self._line_bps is None or servo.baudrate == self._line_bps
+        return self.line_bps is None or servo.baudrate == self.line_bps
 
-    def _execute(self, packet: p.Packet) -> Replies:
+    def execute(self, packet: p.Packet) -> Replies:
         now = self.clock()
         inst, pid = packet.instruction, packet.packet_id
         self.stats["instructions"] += 1
@@ -235,20 +242,20 @@ def _writes_of(pk: p.Packet) -> list[tuple[int, int, bytes]]:
     return out
 
 
-_HANDLERS: dict[int, Callable[[ServoInstructions, p.Packet, float], Replies]] = {
-    p.PING: ServoInstructions._do_ping,
-    p.READ: ServoInstructions._do_read,
-    p.WRITE: ServoInstructions._do_write,
-    p.REG_WRITE: ServoInstructions._do_write,
-    p.ACTION: ServoInstructions._do_simple,
-    p.FACTORY_RESET: ServoInstructions._do_simple,
-    p.REBOOT: ServoInstructions._do_simple,
-    p.CLEAR: ServoInstructions._do_simple,
-    p.BACKUP: ServoInstructions._do_simple,
-    p.SYNC_READ: ServoInstructions._do_group_read,
-    p.FAST_SYNC_READ: ServoInstructions._do_group_read,
-    p.BULK_READ: ServoInstructions._do_group_read,
-    p.FAST_BULK_READ: ServoInstructions._do_group_read,
-    p.SYNC_WRITE: ServoInstructions._do_group_write,
-    p.BULK_WRITE: ServoInstructions._do_group_write,
+_HANDLERS: dict[int, Callable[[InstructionSet, p.Packet, float], Replies]] = {
+    p.PING: InstructionSet._do_ping,
+    p.READ: InstructionSet._do_read,
+    p.WRITE: InstructionSet._do_write,
+    p.REG_WRITE: InstructionSet._do_write,
+    p.ACTION: InstructionSet._do_simple,
+    p.FACTORY_RESET: InstructionSet._do_simple,
+    p.REBOOT: InstructionSet._do_simple,
+    p.CLEAR: InstructionSet._do_simple,
+    p.BACKUP: InstructionSet._do_simple,
+    p.SYNC_READ: InstructionSet._do_group_read,
+    p.FAST_SYNC_READ: InstructionSet._do_group_read,
+    p.BULK_READ: InstructionSet._do_group_read,
+    p.FAST_BULK_READ: InstructionSet._do_group_read,
+    p.SYNC_WRITE: InstructionSet._do_group_write,
+    p.BULK_WRITE: InstructionSet._do_group_write,
 }
