@@ -12,8 +12,9 @@ import dataclasses
 import time
 from typing import Iterable, Mapping, Sequence
 
-from .bus import BusStats, DynamixelBus, GroupRead, PreparedWrite
+from .bus import BusStats, DynamixelBus, GroupRead, PreparedWrite, Result
 from .control_table import family_named, model_by_number
+from .protocol import host as p
 from .sim.servo import CLEAR_KEY, VirtualServo
 
 
@@ -89,11 +90,18 @@ class BusWithDummies:
     def is_open(self) -> bool:
         return self._bus.is_open
 
+    def _unusable(self, what: str) -> Result[None]:
+        """Why a call for a real servo fails at once: the wire is closed or gone."""
+        return Result(None, f"{what}: port closed or device lost")
+
     # ------------------------------------------------------------ single servo
-    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
+    def ping_result(self, dxl_id: int, retries: int | None = None) -> Result[int | None]:
         if dxl_id in self.dummies:
-            return self.dummies[dxl_id].model.number
-        return self._bus.ping(dxl_id, retries) if self._real_ok() else None
+            return Result(self.dummies[dxl_id].model.number)
+        return self._bus.ping_result(dxl_id, retries) if self._real_ok() else self._unusable(f"ping ID {dxl_id}")
+
+    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
+        return self.ping_result(dxl_id, retries).value
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         real, dummy = self._split(ids)
@@ -101,27 +109,49 @@ class BusWithDummies:
         found.update({i: self.dummies[i].model.number for i in dummy})
         return dict(sorted(found.items()))
 
-    def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
+    def read_result(self, dxl_id: int, address: int, size: int) -> Result[bytes | None]:
         if dxl_id in self.dummies:
             error, data = self._dummy(dxl_id, now := time.monotonic()).host_read(address, size, now)
-            return None if error & 0x7F else data
-        return self._bus.read(dxl_id, address, size) if self._real_ok() else None
+            if error & 0x7F:
+                return Result(None, f"read ID {dxl_id} @{address}x{size}: {p.error_text(error)}")
+            return Result(data)
+        if not self._real_ok():
+            return self._unusable(f"read ID {dxl_id} @{address}x{size}")
+        return self._bus.read_result(dxl_id, address, size)
+
+    def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
+        return self.read_result(dxl_id, address, size).value
+
+    def write_result(self, dxl_id: int, address: int, data: bytes) -> Result[bool]:
+        if dxl_id in self.dummies:
+            error = self._dummy(dxl_id, now := time.monotonic()).host_write(address, bytes(data), now)
+            return Result(False, f"write ID {dxl_id}: {p.error_text(error)}") if error & 0x7F else _DONE
+        if not self._real_ok():
+            return _failed(self._unusable(f"write ID {dxl_id}"))
+        return self._bus.write_result(dxl_id, address, data)
 
     def write(self, dxl_id: int, address: int, data: bytes) -> bool:
-        if dxl_id in self.dummies:
-            return not (self._dummy(dxl_id, now := time.monotonic()).host_write(address, bytes(data), now) & 0x7F)
-        return self._bus.write(dxl_id, address, data) if self._real_ok() else False
+        return self.write_result(dxl_id, address, data).value
 
-    def reboot(self, dxl_id: int) -> bool:
+    def reboot_result(self, dxl_id: int) -> Result[bool]:
         if dxl_id in self.dummies:
             self.dummies[dxl_id].reboot(time.monotonic())
-            return True
-        return self._bus.reboot(dxl_id) if self._real_ok() else False
+            return _DONE
+        return self._bus.reboot_result(dxl_id) if self._real_ok() else _failed(self._unusable(f"reboot ID {dxl_id}"))
+
+    def reboot(self, dxl_id: int) -> bool:
+        return self.reboot_result(dxl_id).value
+
+    def clear_multi_turn_result(self, dxl_id: int) -> Result[bool]:
+        if dxl_id in self.dummies:
+            error = self.dummies[dxl_id].clear_multi_turn(CLEAR_KEY, time.monotonic())
+            return Result(False, f"clear multi-turn ID {dxl_id}: {p.error_text(error)}") if error & 0x7F else _DONE
+        if not self._real_ok():
+            return _failed(self._unusable(f"clear multi-turn ID {dxl_id}"))
+        return self._bus.clear_multi_turn_result(dxl_id)
 
     def clear_multi_turn(self, dxl_id: int) -> bool:
-        if dxl_id in self.dummies:
-            return not (self.dummies[dxl_id].clear_multi_turn(CLEAR_KEY, time.monotonic()) & 0x7F)
-        return self._bus.clear_multi_turn(dxl_id) if self._real_ok() else False
+        return self.clear_multi_turn_result(dxl_id).value
 
     # ------------------------------------------------------------ groups
     def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
@@ -141,8 +171,11 @@ class BusWithDummies:
             return self._bus.start_sync_read(address, length, real, fast)
         return GroupRead.finished(self.sync_read(address, length, ids, fast))
 
+    def sync_write_result(self, address: int, length: int, data: Mapping[int, bytes]) -> Result[bool]:
+        return self.send_prepared_result(self.prepare_sync_write(address, length, data))
+
     def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
-        return self.send_prepared(self.prepare_sync_write(address, length, data))
+        return self.send_prepared_result(self.prepare_sync_write(address, length, data)).value
 
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
         """As ``DynamixelBus.prepare_sync_write``; the dummies' part is written when it is sent."""
@@ -151,11 +184,23 @@ class BusWithDummies:
         dummy = {i: bytes(d) for i, d in data.items() if i in self.dummies}
         return dataclasses.replace(prepared, dummies=dummy) if dummy else prepared
 
-    def send_prepared(self, prepared: PreparedWrite) -> bool:
+    def send_prepared_result(self, prepared: PreparedWrite) -> Result[bool]:
         now = time.monotonic()
         for i, chunk in prepared.dummies.items():
             if i in self.dummies:
                 self._dummy(i, now).host_write(prepared.address, chunk, now)
         if not prepared.packet:
-            return True
-        return self._bus.send_prepared(prepared) if self._real_ok() else False
+            return _DONE
+        if not self._real_ok():
+            return _failed(self._unusable(f"sync write @{prepared.address}x{prepared.length}"))
+        return self._bus.send_prepared_result(prepared)
+
+    def send_prepared(self, prepared: PreparedWrite) -> bool:
+        return self.send_prepared_result(prepared).value
+
+
+_DONE: Result[bool] = Result(True)
+
+
+def _failed(why: Result[None]) -> Result[bool]:
+    return Result(False, why.failure)

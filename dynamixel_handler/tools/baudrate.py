@@ -161,21 +161,23 @@ def _move(bus: DynamixelBus, dxl_id: int, number: int, rate: int, target: int, r
         log.error(f"ID {dxl_id} not moved: {outcome.reason}")
         return
     item, torque = model.item("baud_rate"), model.item("torque_enable")
-    state = bus.read(dxl_id, torque.address, torque.size)
-    if state is None:
-        outcome.reason = f"no reply reading Torque Enable at {rate} bps ({bus.last_failure})"
+    state = bus.read_result(dxl_id, torque.address, torque.size)
+    if state.value is None:
+        outcome.reason = f"no reply reading Torque Enable at {rate} bps ({state.failure})"
         log.error(f"ID {dxl_id} not moved: {outcome.reason}")
         return
-    if state[0]:
+    if state.value[0]:
         log.warning(f"ID {dxl_id} ({model.name}): torque off to change its baud rate (EEPROM)")
-        if not bus.write(dxl_id, torque.address, bytes([0])):
-            outcome.reason = f"torque off refused ({bus.last_failure})"
+        off = bus.write_result(dxl_id, torque.address, bytes([0]))
+        if not off:
+            outcome.reason = f"torque off refused ({off.failure})"
             log.error(f"ID {dxl_id} not moved: {outcome.reason}")
             return
     value = values[target]
-    if not bus.write(dxl_id, item.address, value.to_bytes(item.size, "little")):
+    written = bus.write_result(dxl_id, item.address, value.to_bytes(item.size, "little"))
+    if not written:
         # The servo may have switched before its reply got through; verification decides.
-        log.warning(f"ID {dxl_id}: no acknowledgement of Baud Rate = {value} ({bus.last_failure}); "
+        log.warning(f"ID {dxl_id}: no acknowledgement of Baud Rate = {value} ({written.failure}); "
                     f"checking at {target} bps")
     else:
         log.info(f"ID {dxl_id} ({model.name}): Baud Rate {rate} -> {target} bps (register value {value})")
