@@ -37,8 +37,9 @@ class GroupIO(ServoIO):
         """``item`` := ``values`` ({ID: pulses}), one sync write per layout; kept in the table."""
         for (address, size), members in self._layouts(item, values).items():
             data = {i: units.encode(self.table.model(i).item(item), [values[i]]) for i in members}
-            if self.bus.sync_write(address, size, data):
+            written = self.bus.sync_write_result(address, size, data)
+            if written:
                 for dxl_id in members:
                     self.table.set_value(item, dxl_id, values[dxl_id])
             else:
-                self.log.warning(f"{what}: writing {item} to IDs {members} failed: {self.bus.last_failure}")
+                self.log.warning(f"{what}: writing {item} to IDs {members} failed: {written.failure}")

@@ -20,10 +20,11 @@ class WriteBatch(HandlerState):
             self._build_writes()
         prepared, self._prepared, self._taken = self._prepared, [], {}
         for write in prepared:
-            if not self.bus.send_prepared(write):
+            sent = self.bus.send_prepared_result(write)
+            if not sent:
                 if self._write_failures is None:
                     self._write_failures = Throttle(self.log.warning)
-                reason = self.bus.last_failure
+                reason = sent.failure
                 self._write_failures(f"sync write @{write.address}x{write.length} to IDs "
                                      f"{sorted((*write.ids, *write.dummies))} failed: {reason}",
                                      key=f"{write.address}x{write.length} {reason}")
