@@ -78,7 +78,7 @@ class TermSettings:
 class LoopSettings:
     """The loop's rate and its rules over time."""
 
-    rate_hz: int = 100
+    rate_hz: float = 100               #: [Hz] (the node gives the integer loop_rate)
     verbose_ratio: int = 300           #: log statistics every this many loops (0: every 10 s only)
     no_response_auto_remove: int = 0  #: loops without reply before a servo is removed (0: never)
     mode_change_interval_s: float = 1.0

@@ -56,11 +56,11 @@ class JointCommands:
         self.log = node.get_logger()
         self.mapping = mapping
         self.goals = JointGoals(node.commander, mapping)
-        cfg = node.config
-        self.default_path_rad = float(cfg["trajectory.path_tolerance_deg"]) * DEG
-        self.default_goal_rad = float(cfg["trajectory.goal_tolerance_deg"]) * DEG
-        self.default_goal_time = float(cfg["trajectory.goal_time_sec"])
-        self.follower = Follower(self.goals, 1.0 / float(cfg["loop_rate"]), node.adapter)
+        traj = node.settings.trajectory
+        self.default_path_rad = traj.path_tolerance_deg * DEG
+        self.default_goal_rad = traj.goal_tolerance_deg * DEG
+        self.default_goal_time = traj.goal_time_s
+        self.follower = Follower(self.goals, 1.0 / float(node.settings.loop.rate_hz), node.adapter)
         self._subscribe_joint_commands()
         node.create_subscription(JointTrajectory, "~/joint_trajectory", self._on_trajectory, 10)
         self.action: Any = None  # trajectory_action.TrajectoryAction, when the node attaches it

@@ -76,7 +76,8 @@ class _LoggerAdapter:
 class DynamixelHandlerNode(Node):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True)
-        self.config = cfg = declare_and_load(self)
+        self.config = declare_and_load(self)  # by parameter name; typed: self.settings
+        self.settings = cfg = self.config.settings
         log = self.get_logger()
         for line in describe(self.config):  # one log line each: every line carries the logger's name
             log.info("parameters: " + line.strip())
@@ -84,14 +85,13 @@ class DynamixelHandlerNode(Node):
         device, chosen = self._device()  # serial:<USB serial number> -> the adapter
         if chosen is not None:
             log.info(chosen)
-        self.wire = DynamixelBus(device, cfg["baudrate"], max(1.0, float(cfg["latency_timer"])),
-                                 cfg["dyn_comm/retry_num"], float(cfg["dyn_comm/inerval_msec"]),
-                                 verbose=cfg["dyn_comm/verbose"], logger=self.adapter)
-        bad = [i for i in cfg["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252]
+        self.wire = DynamixelBus(device, cfg.bus.baudrate, max(1.0, float(cfg.bus.latency_ms)), cfg.bus.retries,
+                                 cfg.bus.retry_interval_ms, verbose=cfg.bus.verbose, logger=self.adapter)
+        bad = [i for i in self.config["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252]
         if bad:
             log.warning(f"init/dummy_servo_list: IDs {bad} are outside 0..252: ignored")
-        self.bus = BusWithDummies(self.wire, make_dummies(cfg.dummy_ids, cfg.dummy_series))
-        self.handler = Handler(self.bus, cfg, cast(logging.Logger, self.adapter))  # logging.Logger-like
+        self.bus = BusWithDummies(self.wire, make_dummies(list(cfg.scan.dummy_ids), list(cfg.scan.dummy_series)))
+        self.handler = Handler(self.bus, self.config, cast(logging.Logger, self.adapter))  # logging.Logger-like
         self.runner: Runner | None = None  # the loop, while it runs
         #: the loop was asked to stop (or gave up) and was not started again
         self.loop_stopped = False
@@ -127,29 +127,29 @@ class DynamixelHandlerNode(Node):
 
     def _device(self) -> tuple[str, str | None]:
         try:
-            return serial_ports.resolve(self.config["device_name"])
+            return serial_ports.resolve(self.settings.bus.device)
         except StartupError as err:  # as for a missing device: debug and dummy-only runs go on
-            if not (self.config["debug"] or self.config.dummy_ids):
+            if not (self.settings.loop.debug or self.settings.scan.dummy_ids):
                 raise
             self.get_logger().warning(f"{err} (running without the device)")
-            return self.config["device_name"], None
+            return self.settings.bus.device, None
 
     # ------------------------------------------------------------------ wiring
     def _create_publishers(self) -> None:
         # which of rclpy's public API the node goes beyond (fastpath.py); one INFO line says so
         self.fast = fastpath.choose(self, (*STATE_TYPES, *COMMAND_TYPES), self.get_logger())
         self.state_pubs = StatePublishers(self, self.fast.raw_publish, not self.config["no_use_command_line"],
-                                          self.config["pub_outdated_present_value"])
+                                          self.settings.ratios.outdated_present)
 
     def _create_subscriptions(self) -> None:
         self.commander = Commander(self.handler)
         # command topics are taken by the loop thread at the start of each step (intake.py)
         self.intake = CommandIntake(self, self.fast.raw_intake, self.fast.detached_intake)
-        self.command_topics = CommandTopics(self.intake, self.commander, self.config.used_series,
+        self.command_topics = CommandTopics(self.intake, self.commander, self.settings.scan.used_series,
                                             command_line=not self.config["no_use_command_line"])
         self.external_ports: ExternalPorts | None = None
-        if self.config["option/external_port.use"]:
-            self.external_ports = ExternalPorts(self.handler, self.config.settings.external_port)
+        if self.settings.external_port.use:
+            self.external_ports = ExternalPorts(self.handler, self.settings.external_port)
             self.pub_external = lean_publisher(self, DxlExternalPort, "dynamixel/external_port/read", 10)
             lean_subscription(self, DxlExternalPort, "dynamixel/external_port/write", self._on_external_write, 10)
 
@@ -172,11 +172,11 @@ class DynamixelHandlerNode(Node):
         try:
             self.wire.open()
         except BusError as err:
-            if not (self.config["debug"] or self.bus.dummies):
+            if not (self.settings.loop.debug or self.bus.dummies):
                 raise
-            why = "debug" if self.config["debug"] else "dummy servos only"
+            why = "debug" if self.settings.loop.debug else "dummy servos only"
             self.get_logger().warning(f"{err} ({why}: running without the device)")
-        if self.config["init/baudrate_auto_set"] and self.wire.is_open:
+        if self.settings.scan.baudrate_auto_set and self.wire.is_open:
             self._unify_baudrate()
         self.handler.start()
 
@@ -189,22 +189,22 @@ class DynamixelHandlerNode(Node):
                       states_ready=self._end_step, external_read=self._publish_external, report=self._report,
                       gave_up=self._gave_up)
         self.loop_stopped = False
-        self.runner = Runner(self.handler, self.wire, self.config["loop_rate"], self.config["verbose_ratio"],
+        self.runner = Runner(self.handler, self.wire, self.settings.loop.rate_hz, self.settings.loop.verbose_ratio,
                              self.get_logger(), hooks, self.external_ports)
         self.runner.start()
         self.get_logger().info(f"loop running: {len(self.handler.table)} servo(s) at "
-                               f"{self.config['loop_rate']} Hz")
+                               f"{self.settings.loop.rate_hz} Hz")
 
     def _unify_baudrate(self) -> None:
         """init/baudrate_auto_set: move servos found at other rates to `baudrate` before the scan."""
-        cfg = self.config
-        ids = range(cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"] + 1)
+        scan, baudrate = self.settings.scan, self.settings.bus.baudrate
+        ids = range(scan.min_id, scan.max_id + 1)
         log = _LoggerAdapter(self.get_logger(), "baudrate auto set: ")  # every line of it says so
-        report = unify_baudrate(self.wire, cfg["baudrate"], ids, search_rates(9600, 10_500_000), log)
+        report = unify_baudrate(self.wire, baudrate, ids, search_rates(9600, 10_500_000), log)
         for line in report.summary():
             (log.info if report.ok else log.warning)(line)
-        if self.wire.baudrate != cfg["baudrate"]:
-            self.wire.set_baudrate(cfg["baudrate"])
+        if self.wire.baudrate != baudrate:
+            self.wire.set_baudrate(baudrate)
 
     def stop_loop(self) -> None:
         """Stop the loop (nothing left on the wire) and the publishing thread."""
