@@ -46,7 +46,7 @@ class DiagnosticsPublisher:
         delta = self.node.wire.stats.delta(self._stats)
         sample = BusSample(
             device=self.node.wire.device, elapsed_s=now - self._since, loops=h.loop_count - self._loops,
-            target_rate_hz=float(self.node.config["loop_rate"]), transactions=delta.transactions,
+            target_rate_hz=float(self.node.settings.loop.rate_hz), transactions=delta.transactions,
             success_rate=delta.success_rate, device_lost=h.device_lost, reconnects_total=h.reconnects,
             reconnects_new=h.reconnects - self._reconnects, watchdog_trips_total=h.watchdog_trips,
             watchdog_trips_new=h.watchdog_trips - self._trips, servos=len(table), servos_silent=silent_count(table))
