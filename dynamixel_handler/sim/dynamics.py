@@ -1,6 +1,6 @@
 """What a virtual servo's registers say about its shaft, and what the shaft says back.
 
-``ServoDynamics`` turns the goal registers into a ``Command`` for the motor model, advances the
+``Dynamics`` turns the goal registers into a ``Command`` for the motor model, advances the
 motor to the time of a request (tripping the bus watchdog on the way when it expires) and writes
 every present-value register: position, velocity, current or load, PWM, voltage, temperature,
 Realtime Tick, Moving, Moving Status and the external port data.
@@ -10,190 +10,211 @@ from __future__ import annotations
 
 import math
 
-from .motion import Command, Motor
-from .registers import ServoRegisters
+from .motion import Command, Motor, profile_kind
+from .registers import Registers
 
 POSITION_MODES = (3, 4, 5)
 LAG_S = 0.05
 _ANALOG_INPUT = 2048
 
 
-class ServoDynamics(ServoRegisters):
-    """Frames (drive mode, homing offset, one-turn folding) and the motor behind the registers."""
+class Dynamics:
+    """Frames (drive mode, homing offset, one-turn folding) and the motor behind the registers:
+    the shaft's state, the time it was advanced to, the bus watchdog's last instruction, the
+    latched external port outputs and the pinned present values."""
 
-    _motor: Motor
-    _t: float
-    _boot: float
-    _last_instruction: float
-    _profile_kind: int
-    _port_latch: dict[int, int]
-    _pinned: dict[str, int]
-    supply_v: float
-    ambient_c: int
+    def __init__(self, registers: Registers, now: float) -> None:
+        self._r = registers
+        self.motor = Motor()
+        self._t = now
+        self._boot = now
+        #: when the last instruction for this servo arrived (the bus watchdog counts from it)
+        self.last_instruction = now
+        self._profile_kind = 0
+        #: external port outputs written (port -> value)
+        self.port_latch: dict[int, int] = {}
+        #: present-value items held at a value (name -> value)
+        self.pinned: dict[str, int] = {}
+        self.supply_v = 12.0
+        self.ambient_c = 30
+
+    def restart(self, now: float) -> None:
+        """A power cycle: the shaft stops (multi-turn folded to one turn), the outputs drop."""
+        self.motor.stop()
+        self.motor.p = self.fold(self.motor.p)
+        self.port_latch.clear()
+        self._boot = now
+        self.last_instruction = now
+
+    def goal_position_changed(self) -> None:
+        """Moving Status tells the profile of the move to a new goal position."""
+        cmd = self.command()
+        if cmd.target_p is not None:
+            self._profile_kind = profile_kind(cmd.target_p - self.motor.p, cmd.vmax, cmd.amax)
 
     # ------------------------------------------------------------------ frames
     def _sign(self) -> float:
-        return -1.0 if self._get("drive_mode") & 0x01 else 1.0
+        return -1.0 if self._r.get("drive_mode") & 0x01 else 1.0
 
     def _user_position(self) -> float:
-        return self._sign() * self._motor.p + self._get("homing_offset")
+        return self._sign() * self.motor.p + self._r.get("homing_offset")
 
     def _revolution(self) -> int:
-        return 4096 if self._x else 2 * self.model.position_max_pulse
+        return 4096 if self._r.x else 2 * self._r.model.position_max_pulse
 
-    def _fold(self, raw: float) -> float:
+    def fold(self, raw: float) -> float:
         rev = self._revolution()
-        if self._x:
+        if self._r.x:
             return raw % rev
         half = rev // 2
         return ((raw + half) % rev) - half
 
-    def _hold_if_position_mode(self) -> None:
-        if self._get("operating_mode") in POSITION_MODES:
-            self._poke("goal_position", int(round(self._user_position())))
+    def hold_if_position_mode(self) -> None:
+        if self._r.get("operating_mode") in POSITION_MODES:
+            self._r.poke("goal_position", int(round(self._user_position())))
 
     def _scale(self, kind: str) -> float:
-        per = {"v": self.model.velocity_deg_s_per_pulse, "a": self.model.acceleration_deg_ss_per_pulse}[kind]
-        return per / self.model.position_deg_per_pulse
+        per = {"v": self._r.model.velocity_deg_s_per_pulse, "a": self._r.model.acceleration_deg_ss_per_pulse}[kind]
+        return per / self._r.model.position_deg_per_pulse
 
-    def _threshold_pulses(self) -> float:
-        return self._get("moving_threshold") * self._scale("v")
+    def threshold_pulses(self) -> float:
+        return self._r.get("moving_threshold") * self._scale("v")
 
     def _pwm_full_scale(self) -> int:
-        return 885 if self._x else 2009
+        return 885 if self._r.x else 2009
 
-    def _torque_changed(self, old: int, value: int, now: float) -> None:
+    def torque_changed(self, old: int, value: int, now: float) -> None:
         """Torque on: the shaft holds where it is (position modes); off: it stops."""
         if value == 1 and old == 0:
-            if self._get("operating_mode") == 3:
-                self._motor.p = self._fold(self._motor.p)
-            self._hold_if_position_mode()
-            self._last_instruction = now
+            if self._r.get("operating_mode") == 3:
+                self.motor.p = self.fold(self.motor.p)
+            self.hold_if_position_mode()
+            self.last_instruction = now
         elif value == 0:
-            self._motor.stop()
+            self.motor.stop()
 
     # ------------------------------------------------------------------ command
-    def _command(self) -> Command:
-        torque = self._get("torque_enable") == 1
-        mode = self._get("operating_mode")
+    def command(self) -> Command:
+        torque = self._r.get("torque_enable") == 1
+        mode = self._r.get("operating_mode")
         s = self._sign()
-        vlim = max(self._get("velocity_limit"), 1) * self._scale("v")
+        vlim = max(self._r.get("velocity_limit"), 1) * self._scale("v")
         if mode in POSITION_MODES:
             return self._position_command(torque, vlim)
         amax = self._profile_acceleration()
         if mode == 1:
-            return Command(torque, s * self._get("goal_velocity") * self._scale("v"), None, vlim, amax)
+            return Command(torque, s * self._r.get("goal_velocity") * self._scale("v"), None, vlim, amax)
         if mode == 16:
             full = float(self._pwm_full_scale())
-            return Command(torque, s * self._get("goal_pwm") / full * vlim, None, vlim, math.inf, LAG_S)
+            return Command(torque, s * self._r.get("goal_pwm") / full * vlim, None, vlim, math.inf, LAG_S)
         if mode == 0:
-            limit = max(self._get("current_limit"), 1)
-            return Command(torque, s * self._get("goal_current") / limit * vlim, None, vlim, math.inf, LAG_S)
+            limit = max(self._r.get("current_limit"), 1)
+            return Command(torque, s * self._r.get("goal_current") / limit * vlim, None, vlim, math.inf, LAG_S)
         return Command(False)
 
     def _profile_acceleration(self) -> float:
-        prof_a = self._get("profile_acceleration")
+        prof_a = self._r.get("profile_acceleration")
         return prof_a * self._scale("a") if prof_a > 0 else math.inf
 
     def _position_command(self, torque: bool, vlim: float) -> Command:
         vscale = self._scale("v")
-        prof_a = self._get("profile_acceleration")
+        prof_a = self._r.get("profile_acceleration")
         amax = self._profile_acceleration()
-        if self._has("profile_velocity"):
-            pv = self._get("profile_velocity")
+        if self._r.has("profile_velocity"):
+            pv = self._r.get("profile_velocity")
         else:  # old PRO: Goal Velocity caps the position move
-            pv = abs(self._get("goal_velocity"))
+            pv = abs(self._r.get("goal_velocity"))
         vmax = min(pv * vscale, vlim) if pv > 0 else vlim
-        if self._get("drive_mode") & 0x04 and pv > 0:  # time-based profile: ms, not velocity
-            span = abs(self._get("goal_position") - self._user_position())
+        if self._r.get("drive_mode") & 0x04 and pv > 0:  # time-based profile: ms, not velocity
+            span = abs(self._r.get("goal_position") - self._user_position())
             accel_ms = min(prof_a, pv // 2) if prof_a > 0 else 0
             vmax = min(span / max((pv - accel_ms) / 1000.0, 1e-3), vlim) or vlim
             amax = vmax / (accel_ms / 1000.0) if accel_ms > 0 else math.inf
-        target = (self._get("goal_position") - self._get("homing_offset")) * self._sign()
+        target = (self._r.get("goal_position") - self._r.get("homing_offset")) * self._sign()
         return Command(torque, 0.0, target, vmax, amax)
 
     # ------------------------------------------------------------------ time
     def _watchdog_deadline(self) -> float | None:
-        wd = self._get("bus_watchdog")
-        if self._get("torque_enable") != 1 or not 1 <= wd <= 127:
+        wd = self._r.get("bus_watchdog")
+        if self._r.get("torque_enable") != 1 or not 1 <= wd <= 127:
             return None
-        return self._last_instruction + wd * 0.020
+        return self.last_instruction + wd * 0.020
 
     def refresh(self, now: float) -> None:
         """Advance motion to ``now`` and rewrite every present-value register."""
         deadline = self._watchdog_deadline()
         if deadline is not None and deadline < now:
-            self._motor.advance(deadline - self._t, self._command())
+            self.motor.advance(deadline - self._t, self.command())
             self._t = max(self._t, deadline)
             self._trip_watchdog()
-        self._motor.advance(now - self._t, self._command())
+        self.motor.advance(now - self._t, self.command())
         self._t = max(self._t, now)
         self._publish(now)
 
     def _trip_watchdog(self) -> None:
         """The e-Manual: the servo stops and Bus Watchdog reads -1; goals become read-only."""
-        self._motor.stop()
+        self.motor.stop()
         for goal in ("goal_velocity", "goal_pwm", "goal_current"):
-            self._poke(goal, 0)
-        self._hold_if_position_mode()
-        self._poke("bus_watchdog", -1)
+            self._r.poke(goal, 0)
+        self.hold_if_position_mode()
+        self._r.poke("bus_watchdog", -1)
 
     # ------------------------------------------------------------------ present values
     def _publish(self, now: float) -> None:
-        torque = self._get("torque_enable") == 1
-        cmd = self._command()
+        torque = self._r.get("torque_enable") == 1
+        cmd = self.command()
         self._publish_motion()
         self._publish_effort(torque)
-        self._poke("present_input_voltage", int(round(self.supply_v * 10)))
-        self._poke("realtime_tick", int((now - self._boot) * 1000) % 32768)
+        self._r.poke("present_input_voltage", int(round(self.supply_v * 10)))
+        self._r.poke("realtime_tick", int((now - self._boot) * 1000) % 32768)
         self._publish_moving(torque, cmd)
         self._publish_ports()
-        for name, value in self._pinned.items():
-            self._poke(name, value)
+        for name, value in self.pinned.items():
+            self._r.poke(name, value)
 
     def _publish_motion(self) -> None:
         position = self._user_position()
-        self._poke("present_position", int(round(position)))
-        self._poke("position_trajectory", int(round(position)))
-        velocity = self._sign() * self._motor.v / self._scale("v")
-        self._poke("present_velocity", int(round(velocity)))
-        self._poke("velocity_trajectory", int(round(velocity)))
+        self._r.poke("present_position", int(round(position)))
+        self._r.poke("position_trajectory", int(round(position)))
+        velocity = self._sign() * self.motor.v / self._scale("v")
+        self._r.poke("present_velocity", int(round(velocity)))
+        self._r.poke("velocity_trajectory", int(round(velocity)))
 
     def _publish_effort(self, torque: bool) -> None:
         """Current (or load), PWM and the temperature the current heats the servo to."""
-        m, s = self._motor, self._sign()
-        vlim = max(self._get("velocity_limit"), 1) * self._scale("v")
-        mode = self._get("operating_mode")
+        m, s = self.motor, self._sign()
+        vlim = max(self._r.get("velocity_limit"), 1) * self._scale("v")
+        mode = self._r.get("operating_mode")
         frac_v = s * m.v / vlim
         frac_a = max(-1.0, min(1.0, s * m.a / (10.0 * vlim)))
         load = (0.05 * frac_v + 0.3 * frac_a) if torque else 0.0
-        limit = self._get("current_limit", 0)
-        current = self._get("goal_current") if (mode == 0 and torque) else int(round(load * limit))
-        self._poke("present_current", current)
-        self._poke("present_load", int(round(load * 1000)))
+        limit = self._r.get("current_limit", 0)
+        current = self._r.get("goal_current") if (mode == 0 and torque) else int(round(load * limit))
+        self._r.poke("present_current", current)
+        self._r.poke("present_load", int(round(load * 1000)))
         full = self._pwm_full_scale()
         if not torque:
             pwm = 0
         elif mode == 16:
-            pwm = self._get("goal_pwm")
+            pwm = self._r.get("goal_pwm")
         else:
             pwm = int(round((frac_v + 0.1 * frac_a) * full))
-        pwm_limit = self._get("pwm_limit", full)
-        self._poke("present_pwm", max(-pwm_limit, min(pwm_limit, pwm)))
+        pwm_limit = self._r.get("pwm_limit", full)
+        self._r.poke("present_pwm", max(-pwm_limit, min(pwm_limit, pwm)))
         heat = abs(current) / limit if limit else 0.0
-        self._poke("present_temperature", self.ambient_c + (2 if torque else 0) + int(round(8 * heat)))
+        self._r.poke("present_temperature", self.ambient_c + (2 if torque else 0) + int(round(8 * heat)))
 
     def _publish_moving(self, torque: bool, cmd: Command) -> None:
-        in_motion = abs(self._motor.v) > self._threshold_pulses()
-        ongoing = torque and cmd.target_p is not None and not self._motor.at_target(cmd)
-        self._poke("moving", 1 if (in_motion or ongoing) else 0)
+        in_motion = abs(self.motor.v) > self.threshold_pulses()
+        ongoing = torque and cmd.target_p is not None and not self.motor.at_target(cmd)
+        self._r.poke("moving", 1 if (in_motion or ongoing) else 0)
         status = 0
         if cmd.target_p is not None and torque:
             status = (0x02 | self._profile_kind << 4) if ongoing else 0x01
-        self._poke("moving_status", status)
+        self._r.poke("moving_status", status)
 
     def _publish_ports(self) -> None:
-        for port in self.model.external_ports:
-            mode = self._get(f"external_port_mode_{port}")
-            value = {0: _ANALOG_INPUT, 1: self._port_latch.get(port, 0), 2: 1, 3: 0}.get(mode, 0)
-            self._poke(f"external_port_data_{port}", value)
+        for port in self._r.model.external_ports:
+            mode = self._r.get(f"external_port_mode_{port}")
+            value = {0: _ANALOG_INPUT, 1: self.port_latch.get(port, 0), 2: 1, 3: 0}.get(mode, 0)
+            self._r.poke(f"external_port_data_{port}", value)

@@ -50,7 +50,7 @@ class InstructionSet:
 
     def _secondary(self, packet_id: int) -> list[VirtualServo]:
         return [s for s in self._servos if not s.silent and self._on_line_speed(s) and s.speaks_protocol_2
-                and s.model.has("secondary_id") and s.id != packet_id and s._peek("secondary_id") == packet_id]
+                and s.model.has("secondary_id") and s.id != packet_id and s.registers.peek("secondary_id") == packet_id]
 
     def _on_line_speed(self, servo: VirtualServo) -> bool:
         """Whether ``servo`` can decode the packet at hand (always, unless check_baudrate)."""
@@ -89,7 +89,7 @@ class InstructionSet:
     def _do_ping(self, pk: p.Packet, now: float) -> Replies:
         out = []
         for s in self._hearing(pk.packet_id):
-            info = p.p16(s._peek("model_number")) + bytes([s._peek("firmware_version")])
+            info = p.p16(s.registers.peek("model_number")) + bytes([s.registers.peek("firmware_version")])
             out += self._status(s, p.PING, p.ERR_NONE, info)
         return out
 

@@ -1,5 +1,5 @@
-"""A virtual servo's life across power cycles: reboot, factory reset, Control Table Backup and
-the state a ``--state`` file keeps.
+"""A virtual servo's memory across power cycles: RAM back to its factory values, factory reset,
+Control Table Backup and the state a ``--state`` file keeps.
 
 What survives a power cycle is the EEPROM area plus the Indirect Address entries (some of which
 lie in RAM addresses on X models); RAM comes back at its factory values.
@@ -8,93 +8,75 @@ lie in RAM addresses on X models); RAM comes back at its factory values.
 from __future__ import annotations
 
 from ..protocol import servo as p
-from .dynamics import ServoDynamics
+from .registers import Registers
 
 BACKUP_KEY = b"CTRL"  # Control Table Backup: 0x01 (store) or 0x02 (restore), then "CTRL"
 
 
-class ServoMemory(ServoDynamics):
-    """Power cycles and the EEPROM image of a virtual servo."""
+class Memory:
+    """The register file's power cycles and EEPROM image; ``defaults``: the factory values."""
 
-    _defaults: dict[str, int]
-    _backup: bytes | None
-    _eeprom_end: int
-    _pending: tuple[int, bytes] | None
-    eeprom_changed: bool
-    partner: ServoMemory | None
+    def __init__(self, registers: Registers, defaults: dict[str, int]) -> None:
+        self._r = registers
+        self.defaults = defaults
+        self._backup: bytes | None = None
 
-    def reboot(self, now: float) -> None:
-        """Power cycle: RAM back to defaults, multi-turn folded to one turn, errors cleared.
-        EEPROM, the Indirect Address entries and a control-table backup are kept."""
-        self.refresh(now)
-        ram_start = self._eeprom_end
-        kept = [(it, self._file.peek(it)) for it in self._file.indirect_addresses]
-        self._regs[ram_start:] = bytes(len(self._regs) - ram_start)
+    def power_cycle(self) -> None:
+        """RAM back to its defaults; EEPROM, the Indirect Address entries and a backup are kept."""
+        r, file = self._r, self._r.file
+        ram_start = file.eeprom_end
+        kept = [(it, file.peek(it)) for it in file.indirect_addresses]
+        r.regs[ram_start:] = bytes(len(r.regs) - ram_start)
         for it, value in kept:
-            self._file.poke(it, value)
-        for name, value in self._defaults.items():
-            if self.model.item(name).address >= ram_start:
-                self._poke(name, value)
-        self._poke("backup_ready", 1 if self._backup is not None else 0)
-        self._motor.stop()
-        self._motor.p = self._fold(self._motor.p)
-        self._pending = None
-        self._shutdown_latched = False
-        self._port_latch.clear()
-        self._boot = now
-        self._last_instruction = now
-        if self._get("startup_configuration") & 0x01:
-            self._poke("torque_enable", 1)
-            self._torque_changed(0, 1, now)
+            file.poke(it, value)
+        for name, value in self.defaults.items():
+            if r.model.item(name).address >= ram_start:
+                r.poke(name, value)
+        r.poke("backup_ready", 1 if self._backup is not None else 0)
 
-    def factory_reset(self, option: int, now: float) -> None:
+    def factory_values(self, option: int) -> None:
+        """Factory Reset's values: 0x01 keeps the ID, 0x02 the ID and the Baud Rate, 0xFF nothing
+        (the ID becomes 1). The caller power-cycles the servo after it."""
         keep = {}
         if option in (0x01, 0x02):
-            keep["id"] = self._peek("id")
+            keep["id"] = self._r.peek("id")
         if option == 0x02:
-            keep["baud_rate"] = self._peek("baud_rate")
-        for name, value in self._defaults.items():
-            self._poke(name, keep.get(name, 1 if name == "id" else value))
-        if self.partner is not None:
-            self.partner._poke("baud_rate", self._peek("baud_rate"))
-        self._file.factory_indirect()
-        self.eeprom_changed = True
-        self.reboot(now)
+            keep["baud_rate"] = self._r.peek("baud_rate")
+        for name, value in self.defaults.items():
+            self._r.poke(name, keep.get(name, 1 if name == "id" else value))
+        self._r.file.factory_indirect()
 
-    # ------------------------------------------------------------------ backup, state
-    def backup(self, params: bytes, now: float) -> int:
+    def backup(self, params: bytes) -> int:
         """Control Table Backup (0x20): 0x01 "CTRL" stores the EEPROM area, 0x02 "CTRL" puts it
         back. Models without Backup Ready do not know the instruction; torque must be off."""
-        self.refresh(now)
-        if not self.model.has("backup_ready"):
+        r = self._r
+        if not r.model.has("backup_ready"):
             return p.ERR_INSTRUCTION
         if len(params) != 5 or params[1:] != BACKUP_KEY or params[0] not in (0x01, 0x02):
             return p.ERR_DATA_RANGE
-        if self._peek("torque_enable") == 1:
+        if r.peek("torque_enable") == 1:
             return p.ERR_ACCESS
         if params[0] == 0x01:
-            self._backup = self._file.eeprom_image()
-            self._poke("backup_ready", 1)
+            self._backup = r.file.eeprom_image()
+            r.poke("backup_ready", 1)
         elif self._backup is None:
             return p.ERR_RESULT_FAIL
         else:
-            keep = {n: self._peek(n) for n in ("id", "model_number", "firmware_version")}
-            self._file.load_eeprom_image(self._backup)
+            keep = {n: r.peek(n) for n in ("id", "model_number", "firmware_version")}
+            r.file.load_eeprom_image(self._backup)
             for name, value in keep.items():  # the servo stays where the host reached it
-                self._poke(name, value)
-        self.eeprom_changed = True
+                r.poke(name, value)
         return p.ERR_NONE
 
     def state(self) -> dict:
         """What survives a power cycle, as JSON-ready values (the bus's ``--state`` file)."""
-        return {"model": self.model.number, "eeprom": self._file.eeprom_image().hex(),
+        return {"model": self._r.model.number, "eeprom": self._r.file.eeprom_image().hex(),
                 "backup": self._backup.hex() if self._backup is not None else None}
 
-    def load_state(self, state: dict, now: float) -> None:
-        """Power up with a saved EEPROM (and backup), RAM at its defaults."""
-        self._file.load_eeprom_image(bytes.fromhex(state["eeprom"]))
-        self._poke("model_number", self.model.number)
-        self._poke("firmware_version", self._defaults["firmware_version"])
+    def load(self, state: dict) -> None:
+        """A saved EEPROM (and backup); the caller power-cycles the servo after it."""
+        self._r.file.load_eeprom_image(bytes.fromhex(state["eeprom"]))
+        self._r.poke("model_number", self._r.model.number)
+        self._r.poke("firmware_version", self.defaults["firmware_version"])
         backup = state.get("backup")
         self._backup = bytes.fromhex(backup) if backup else None
-        self.reboot(now)

@@ -135,29 +135,31 @@ class RegisterFile:
         return list(found.values())
 
 
-class ServoRegisters:
-    """What every part of a virtual servo shares: its model and its values by item name."""
+class Registers:
+    """A servo's values by item name over its ``RegisterFile``: what every part of a virtual servo
+    shares (its model, the X-table flag, the baud rates it knows)."""
 
-    model: Model
-    _file: RegisterFile
-    _regs: bytearray
-    _x: bool
-    baud_rates: dict[int, int]
-    _shutdown_latched: bool
+    def __init__(self, model: Model, file: RegisterFile, x_table: bool) -> None:
+        self.model = model
+        self.file = file
+        self.regs = file.regs
+        #: the model uses the X series' control table rules (ranges, folding, PWM scale)
+        self.x = x_table
+        self.baud_rates = dict(model.baud_rates)
 
-    def _peek(self, name: str) -> int:
+    def peek(self, name: str) -> int:
         it = self.model.item(name)
-        return int.from_bytes(self._regs[it.address:it.address + it.size], "little", signed=it.signed)
+        return int.from_bytes(self.regs[it.address:it.address + it.size], "little", signed=it.signed)
 
-    def _poke(self, name: str, value: int) -> None:
+    def poke(self, name: str, value: int) -> None:
         if not self.model.has(name):
             return
         it = self.model.item(name)
         mask = (1 << (8 * it.size)) - 1
-        self._regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
+        self.regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
 
-    def _has(self, name: str) -> bool:
+    def has(self, name: str) -> bool:
         return self.model.has(name)
 
-    def _get(self, name: str, default: int = 0) -> int:
-        return self._peek(name) if self.model.has(name) else default
+    def get(self, name: str, default: int = 0) -> int:
+        return self.peek(name) if self.model.has(name) else default

@@ -14,71 +14,72 @@ from typing import Callable
 from dynamixel_handler.control_table import Item, Model, model_by_number
 
 from ..protocol import servo as p
-from .defaults import MODE_RESET_ITEMS, READ_ONLY, factory_defaults, family
-from .memory import ServoMemory
-from .motion import Motor, profile_kind
-from .registers import RegisterFile
-from .write_rules import Changes, check_value
+from .defaults import MODE_RESET_ITEMS, factory_defaults, family
+from .dynamics import Dynamics
+from .memory import Memory
+from .motion import Motor
+from .registers import RegisterFile, Registers
+from .write_rules import check_write
 
 CLEAR_KEY = bytes([0x01, 0x44, 0x58, 0x4C, 0x22])
 
 
-class VirtualServo(ServoMemory):
+class VirtualServo:
     """A servo on the virtual bus. Values are in pulses (raw register units).
 
-    This class answers the host's instructions; ``ServoMemory`` powers it up, resets it and
-    keeps its EEPROM, ``ServoDynamics`` moves the shaft and writes the present values, and
+    This class answers the host's instructions over its parts: ``Registers`` (the control table's
+    bytes by item name), ``Dynamics`` (the shaft behind the registers and the present values it
+    writes), ``Memory`` (power cycles, factory reset, backup, the EEPROM a state file keeps);
     ``write_rules`` decides which written values a servo refuses."""
 
     def __init__(self, model: Model | int, servo_id: int, clock: Callable[[], float]) -> None:
         self.model: Model = model_by_number(model) if isinstance(model, int) else model
         self.layout = self.model.layout
-        self._x = self.model.family.x_table
         self.family = family(self.model)
-        self.baud_rates = dict(self.model.baud_rates)
         self._clock = clock
-        self._defaults = factory_defaults(self.model, servo_id)
-        self._file = RegisterFile(self.model, self._defaults["firmware_version"])
-        self._regs = self._file.regs
-        self._items = self._file.items
-        self._eeprom_end = self._file.eeprom_end
-        self._backup: bytes | None = None
+        defaults = factory_defaults(self.model, servo_id)
+        self._file = RegisterFile(self.model, defaults["firmware_version"])
+        self.registers = Registers(self.model, self._file, self.model.family.x_table)
+        self.baud_rates = self.registers.baud_rates
+        self._memory = Memory(self.registers, defaults)
+        now = clock()
+        self._dynamics = Dynamics(self.registers, now)
+        self._dynamics.supply_v = self.family.nominal_v
         #: set when an EEPROM byte changes (the bus saves its state file then)
         self.eeprom_changed = False
         #: the other axis of a dual servo (2XL430, 2XC430): the two share one Baud Rate
         self.partner: VirtualServo | None = None
         self.silent = False
-        self._motor = Motor()
-        self._port_latch: dict[int, int] = {}
-        self._pending: tuple[int, bytes] | None = None
+        self._pending: tuple[int, bytes] | None = None  # a registered write, run by Action
         self._shutdown_latched = False
-        self._profile_kind = 0
-        self._pinned: dict[str, int] = {}
-        self.supply_v = self.family.nominal_v
-        self.ambient_c = 30
-        now = clock()
-        self._t = now
-        self._boot = now
-        self._last_instruction = now
-        for name, value in self._defaults.items():
-            self._poke(name, value)
+        for name, value in defaults.items():
+            self.registers.poke(name, value)
         self._file.factory_indirect()
-        self._motor.p = self._fold(float(self.model.position_zero_pulse))
+        self._dynamics.motor.p = self._dynamics.fold(float(self.model.position_zero_pulse))
 
     # ------------------------------------------------------------------ public (tests, API)
     @property
     def id(self) -> int:
-        return self._peek("id")
+        return self.registers.peek("id")
+
+    @property
+    def _motor(self) -> Motor:
+        """The shaft (tests turn it by hand)."""
+        return self._dynamics.motor
+
+    def refresh(self, now: float) -> None:
+        """Advance motion to ``now`` and rewrite every present-value register."""
+        self._dynamics.refresh(now)
 
     def read(self, name: str) -> int:
         """Current value of an item (signed per item), physics brought up to date first."""
         self.refresh(self._clock())
-        return self._peek(name)
+        return self.registers.peek(name)
 
     def write(self, name: str, value: int) -> None:
         """Poke a value with no checks (a test's way to set a state a host could not)."""
         self.refresh(self._clock())
-        self._poke(name, int(value))
+        self.registers.poke(name, int(value))
         if name == "hardware_error_status":
             self._apply_hardware_error(int(value))
 
@@ -86,57 +87,57 @@ class VirtualServo(ServoMemory):
         """Hold a present-value item at ``value`` (None releases it), e.g. a sensor reading."""
         self.model.item(name)
         if value is None:
-            self._pinned.pop(name, None)
+            self._dynamics.pinned.pop(name, None)
         else:
-            self._pinned[name] = int(value)
+            self._dynamics.pinned[name] = int(value)
         self.refresh(self._clock())
 
     def read_raw(self, address: int, size: int) -> bytes:
         self.refresh(self._clock())
-        return bytes(self._regs[address:address + size])
+        return bytes(self._file.regs[address:address + size])
 
     def set_hardware_error(self, bits: int) -> None:
         """Raise hardware error bits; torque drops if any is in the shutdown mask."""
         self.refresh(self._clock())
-        self._poke("hardware_error_status", bits & 0xFF)
+        self.registers.poke("hardware_error_status", bits & 0xFF)
         self._apply_hardware_error(bits & 0xFF)
 
     @property
     def supports_fast_read(self) -> bool:
-        fw = self._peek("firmware_version")
+        fw = self.registers.peek("firmware_version")
         if not self.family.fast_read:
             return False
-        if self._x:
+        if self.registers.x:
             return fw >= (46 if self.layout == "X330" else 45)
         return fw >= 12
 
     @property
     def return_delay_s(self) -> float:
-        return self._peek("return_delay_time") * 2e-6
+        return self.registers.peek("return_delay_time") * 2e-6
 
     @property
     def baudrate(self) -> int | None:
         """The line speed (bps) the servo listens at: its Baud Rate register, decoded."""
-        return self.baud_rates.get(self._peek("baud_rate"))
+        return self.baud_rates.get(self.registers.peek("baud_rate"))
 
     @property
     def speaks_protocol_2(self) -> bool:
         """False when Protocol Type is set to 1 (Protocol 1.0, which this bus does not speak)."""
-        return self._get("protocol_type", 2) == 2
+        return self.registers.get("protocol_type", 2) == 2
 
     @property
     def status_return_level(self) -> int:
-        return self._peek("status_return_level")
+        return self.registers.peek("status_return_level")
 
     def error_flags(self, error: int) -> int:
         """The status packet's error byte: ``error`` plus the alert bit on a hardware error."""
-        return error | (p.ALERT_BIT if self._peek("hardware_error_status") else 0)
+        return error | (p.ALERT_BIT if self.registers.peek("hardware_error_status") else 0)
 
     # ------------------------------------------------------------------ host instructions
     def note_instruction(self, now: float) -> None:
         """An instruction for this servo arrived: feeds the bus watchdog."""
         self.refresh(now)
-        self._last_instruction = now
+        self._dynamics.last_instruction = now
 
     def host_read(self, address: int, length: int, now: float) -> tuple[int, bytes]:
         self.refresh(now)
@@ -144,28 +145,9 @@ class VirtualServo(ServoMemory):
         return (p.ERR_ACCESS, b"") if data is None else (p.ERR_NONE, data)
 
     def check_write(self, address: int, data: bytes) -> tuple[int, list[tuple[Item, int]]]:
-        """Validate a write without applying it; returns (error, [(item, value)]).
-
-        Indirect Data bytes count as the items they map; plain Indirect Data storage is
-        returned as pseudo items of one byte."""
-        error, changes, raw = self._file.gather(address, data)
-        if error:
-            return error, []
-        torque_on = self._peek("torque_enable") == 1
-        lo, hi = self.model.indirect_targets
-        for it, value in changes:
-            if it.name in READ_ONLY:
-                return p.ERR_ACCESS, []
-            if it.eeprom and torque_on:
-                return p.ERR_ACCESS, []
-            if it.name.startswith("indirect_address_"):
-                if not lo <= value <= hi:
-                    return p.ERR_DATA_RANGE, []
-                continue
-            error = self._check_value(it.name, value, changes)
-            if error:
-                return error, []
-        return p.ERR_NONE, changes + [(Item(f"indirect_data_{a}", a, 1, False, False), b) for a, b in raw]
+        """Validate a write without applying it; returns (error, [(item, value)]) (see
+        ``write_rules.check_write``)."""
+        return check_write(self.registers, address, data, self._shutdown_latched)
 
     def host_write(self, address: int, data: bytes, now: float) -> int:
         self.refresh(now)
@@ -175,10 +157,9 @@ class VirtualServo(ServoMemory):
         for it, value in changes:
             if it.name.startswith("indirect_"):
                 self._file.poke(it, value)
-                self.eeprom_changed |= it.eeprom
             else:
                 self._apply(it.name, value, now)
-                self.eeprom_changed |= it.eeprom
+            self.eeprom_changed |= it.eeprom
         return p.ERR_NONE
 
     def reg_write(self, address: int, data: bytes, now: float) -> int:
@@ -187,7 +168,7 @@ class VirtualServo(ServoMemory):
         if error:
             return error
         self._pending = (address, bytes(data))
-        self._poke("registered_instruction", 1)
+        self.registers.poke("registered_instruction", 1)
         return p.ERR_NONE
 
     def action(self, now: float) -> int:
@@ -195,55 +176,90 @@ class VirtualServo(ServoMemory):
             return p.ERR_INSTRUCTION
         address, data = self._pending
         self._pending = None
-        self._poke("registered_instruction", 0)
+        self.registers.poke("registered_instruction", 0)
         return self.host_write(address, data, now)
 
     def clear_multi_turn(self, params: bytes, now: float) -> int:
         self.refresh(now)
         if params != CLEAR_KEY:
             return p.ERR_DATA_RANGE
-        if abs(self._motor.v) > self._threshold_pulses():
+        dynamics = self._dynamics
+        if abs(dynamics.motor.v) > dynamics.threshold_pulses():
             return p.ERR_RESULT_FAIL
-        self._motor.p = self._fold(self._motor.p)
-        self._hold_if_position_mode()
+        dynamics.motor.p = dynamics.fold(dynamics.motor.p)
+        dynamics.hold_if_position_mode()
         return p.ERR_NONE
 
-    # ------------------------------------------------------------------ write rules
-    def _check_value(self, name: str, value: int, changes: Changes) -> int:
-        return check_value(self, name, value, changes)
+    # ------------------------------------------------------------------ power cycles
+    def reboot(self, now: float) -> None:
+        """Power cycle: RAM back to defaults, multi-turn folded to one turn, errors cleared.
+        EEPROM, the Indirect Address entries and a control-table backup are kept."""
+        self.refresh(now)
+        self._memory.power_cycle()
+        self._dynamics.restart(now)
+        self._pending = None
+        self._shutdown_latched = False
+        if self.registers.get("startup_configuration") & 0x01:
+            self.registers.poke("torque_enable", 1)
+            self._dynamics.torque_changed(0, 1, now)
 
+    def factory_reset(self, option: int, now: float) -> None:
+        self._memory.factory_values(option)
+        if self.partner is not None:
+            self.partner.registers.poke("baud_rate", self.registers.peek("baud_rate"))
+        self.eeprom_changed = True
+        self.reboot(now)
+
+    def backup(self, params: bytes, now: float) -> int:
+        """Control Table Backup (0x20): see ``Memory.backup``."""
+        self.refresh(now)
+        error = self._memory.backup(params)
+        if error == p.ERR_NONE:
+            self.eeprom_changed = True
+        return error
+
+    def state(self) -> dict:
+        """What survives a power cycle, as JSON-ready values (the bus's ``--state`` file)."""
+        return self._memory.state()
+
+    def load_state(self, state: dict, now: float) -> None:
+        """Power up with a saved EEPROM (and backup), RAM at its defaults."""
+        self._memory.load(state)
+        self.reboot(now)
+
+    # ------------------------------------------------------------------ what a write does
     def _apply(self, name: str, value: int, now: float) -> None:
         """Store an accepted value and do what the firmware does when that item changes."""
-        old = self._get(name)
-        self._poke(name, value)
+        registers, dynamics = self.registers, self._dynamics
+        old = registers.get(name)
+        registers.poke(name, value)
         if name == "torque_enable":
-            self._torque_changed(old, value, now)
+            dynamics.torque_changed(old, value, now)
         elif name == "operating_mode" and value != old:
             self._mode_changed(value)
         elif name == "baud_rate" and self.partner is not None:
-            self.partner._poke("baud_rate", value)
+            self.partner.registers.poke("baud_rate", value)
             self.partner.eeprom_changed = True
         elif name == "bus_watchdog":
-            self._last_instruction = now
+            dynamics.last_instruction = now
         elif name == "goal_position":
-            cmd = self._command()
-            if cmd.target_p is not None:
-                self._profile_kind = profile_kind(cmd.target_p - self._motor.p, cmd.vmax, cmd.amax)
+            dynamics.goal_position_changed()
         elif name.startswith("external_port_data_"):
-            self._port_latch[int(name[-1])] = value
+            dynamics.port_latch[int(name[-1])] = value
 
     def _mode_changed(self, value: int) -> None:
         """The e-Manual: a new operating mode puts gains and profiles back to their defaults."""
+        defaults = self._memory.defaults
         for reset in MODE_RESET_ITEMS:
-            if reset in self._defaults:
-                self._poke(reset, self._defaults[reset])
+            if reset in defaults:
+                self.registers.poke(reset, defaults[reset])
         if value == 3:
-            self._motor.p = self._fold(self._motor.p)
+            self._dynamics.motor.p = self._dynamics.fold(self._dynamics.motor.p)
 
     def _apply_hardware_error(self, bits: int) -> None:
-        if bits & self._get("shutdown", 0xFF):
+        if bits & self.registers.get("shutdown", 0xFF):
             self._shutdown_latched = True
-            self._poke("torque_enable", 0)
-            self._motor.stop()
+            self.registers.poke("torque_enable", 0)
+            self._dynamics.motor.stop()
         elif bits == 0:
             self._shutdown_latched = False
