@@ -82,15 +82,15 @@ def coarse_physics(step_s: float = 0.005) -> str:
     0.1 ms per instruction, so a 12-servo sync write + sync read would cost the simulator 2.5 ms,
     as long as the wire itself (3.5 ms at 1 Mbps), and every contender would measure the simulator.
     Registers are then at most ``step_s`` old, which no figure here depends on."""
-    from dynamixel_handler.sim.servo import VirtualServo
+    from dynamixel_handler.sim.dynamics import Dynamics
 
-    exact = getattr(VirtualServo, "_bench_exact_refresh", VirtualServo.refresh)
+    exact = getattr(Dynamics, "_bench_exact_refresh", Dynamics.refresh)
 
     def refresh(self, now: float) -> None:
         if now - self._t >= step_s or now < self._t:
             exact(self, now)
 
     refresh.__doc__ = exact.__doc__
-    VirtualServo._bench_exact_refresh = exact
-    VirtualServo.refresh = refresh
+    Dynamics._bench_exact_refresh = exact
+    Dynamics.refresh = refresh
     return f"servo motion refreshed every {1000 * step_s:g} ms"
