@@ -6,7 +6,7 @@ Packets are built and parsed by :mod:`..protocol.host`, which works around the d
 ``dynamixel_sdk`` 4.1.0 listed in :mod:`.core`. ``ServoBus`` (:mod:`.api`) is the interface the
 handler uses, which ``DynamixelBus`` and the dummy-servo bus both implement. ROS-free.
 """
-from .api import ServoBus
+from .api import ServoBus, dummy_ids
 from .core import DynamixelBus
 from .errors import BusError
 from .group_read import GroupRead
@@ -15,4 +15,4 @@ from .result import Result
 from .stats import BusStats
 from .writes import PreparedWrite
 
-__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite", "Result", "ServoBus"]
+__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "GroupRead", "PreparedWrite", "Result", "ServoBus", "dummy_ids"]

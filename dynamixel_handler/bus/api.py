@@ -1,5 +1,6 @@
 """``ServoBus``: what the handler needs of a bus. ``DynamixelBus`` (the serial bus) and
-``dummy.BusWithDummies`` (the serial bus plus in-process dummy servos) both implement it."""
+``dummy.BusWithDummies`` (the serial bus plus in-process dummy servos) both implement it; which
+IDs a bus serves in-process is not part of it (``dummy_ids``)."""
 from __future__ import annotations
 
 from typing import Iterable, Mapping, Protocol, runtime_checkable
@@ -35,8 +36,6 @@ class ServoBus(StatsWire, Protocol):
     @property
     def is_open(self) -> bool: ...
     @property
-    def dummies(self) -> Mapping[int, object]: ...
-    @property
     def inflight_eta(self) -> float | None: ...
 
     def open(self) -> None: ...
@@ -63,3 +62,16 @@ class ServoBus(StatsWire, Protocol):
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite: ...
     def send_prepared(self, prepared: PreparedWrite) -> bool: ...
     def send_prepared_result(self, prepared: PreparedWrite) -> Result[bool]: ...
+
+
+@runtime_checkable
+class WithDummies(Protocol):
+    """A bus that serves some IDs in-process (``dummy.BusWithDummies``)."""
+
+    @property
+    def dummies(self) -> Mapping[int, object]: ...
+
+
+def dummy_ids(bus: object) -> list[int]:
+    """The IDs ``bus`` serves in-process, in order (none for a plain serial bus)."""
+    return sorted(bus.dummies) if isinstance(bus, WithDummies) else []

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..bus import dummy_ids
 from .log_limits import PingLog
 from .state import StepReport
 from .watchdog import Watchdog
@@ -77,7 +78,7 @@ class Recovery(Watchdog):
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
         counts towards a servo's removal meanwhile (the device is gone, not the servo); once it is
         back, every servo handled when it went is pinged and set up as at start-up."""
-        dummies = self.bus.dummies
+        dummies = dummy_ids(self.bus)
         if not self.device_lost:
             self.device_lost = True
             self.device_lost_since = time.time()

@@ -5,6 +5,7 @@ import logging
 from typing import Sequence
 
 from .. import units
+from ..bus import dummy_ids
 from ..control_table import model_by_number
 from ..errors import Interrupted, StartupError
 from .deferred import Deferred
@@ -21,7 +22,7 @@ class Startup(Recovery, Deferred):
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
         cfg = self.config
         self._had_device = self.bus.is_open
-        dummies = sorted(self.bus.dummies)
+        dummies = dummy_ids(self.bus)
         expected = cfg["init/expected_servo_num"]
         found = self._scan(dummies, expected)
         self._keep(found, dummies)
