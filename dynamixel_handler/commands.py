@@ -79,7 +79,7 @@ class Commander(SettingsCommands):
     def __init__(self, handler: ServoAccess) -> None:
         self.h = handler
         self.log = handler.log
-        self.verbose = bool(handler.config["verbose/callback"])
+        self.verbose = handler.config.settings.logs.callback
         # a warning repeated within a second (same cause, same servo) is counted, not logged
         self.throttle = Throttle(self.log.warning)
 
@@ -212,7 +212,7 @@ class Commander(SettingsCommands):
     def put_writes(self, what: str, writes: dict[str, dict[int, int]]) -> None:
         if writes:
             self.h.put_goals(writes)
-            if self.h.config["verbose/write_goal"]:
+            if "goal" in self.h.config.settings.logs.writes:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 
     def _goal_rows(self, what: str, field: str, values: Sequence[Any], targets: list[tuple[int, int]],

@@ -101,7 +101,7 @@ class SettingsCommands:
             for item, pulses in values.items():
                 if not self.h.write_eeprom(dxl_id, item, pulses):
                     self.warn(f"{what}: ID {dxl_id} writing {item} failed: {self.h.last_failure}")
-            if values and self.h.config["verbose/write_limit"]:
+            if values and "limit" in self.h.config.settings.logs.writes:
                 self.h.log.info(f"{what}: ID {dxl_id} limits written: {values}")
 
     def _limit_values(self, dxl_id: int, k: int, fields: Fields, what: str) -> dict[str, int]:
