@@ -254,7 +254,7 @@ def _huge_case(node, sim) -> None:
 
 
 def run(VirtualBus, seconds: float) -> None:
-    from dynamixel_handler import trajectory
+    from dynamixel_handler.commands import trajectory
     max_points = getattr(trajectory, "MAX_POINTS", 1_000)  # the code before the maximum: the same size
     sim = VirtualBus(servos={1: abuse.X, 2: abuse.X, 3: abuse.X}, wire_timing=False)
     node = abuse.Node(sim, "init/servo_auto_search.max_id:=3", "init/expected_servo_num:=3", "verbose_ratio:=300",

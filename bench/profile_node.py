@@ -43,7 +43,7 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
     ("message building (convert.py)", ("ros/convert.py",)),
     ("units (pulse <-> physical)", ("units.py", "ServoTable.units", "ServoTable.pulses", "ServoTable.known")),
     ("decode + store (Handler._store)", ("_store",)),
-    ("commands (callbacks, validation, queue)", ("commands.py", "command_topics.py", "_run_ops")),
+    ("commands (callbacks, validation, queue)", ("commands/", "command_topics.py", "_run_ops")),
     ("pending writes -> sync write", ("_encode_pending", "PendingWrites")),
     ("read planning, ping bookkeeping", ("_plan", "_update_ping", "due_items", "send_step", "complete_step")),
     ("bus layer other (stats, locks, reply bookkeeping)", ("bus/core.py", "dummy.py")),

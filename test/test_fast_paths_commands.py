@@ -1,7 +1,7 @@
 """The command path's fast paths against their plain counterparts: the same commands give the same
 writes, registers and warnings.
 
-- Goals and control commands (``goal_bounds.fast_goals``): an ID list checked once per servo table
+- Goals and control commands (``commands.fast_path.FastGoals``): an ID list checked once per servo table
   (``Targets``), the servos' mode and items kept, the values converted in plain Python (a few
   servos) or through numpy (many), every goal position checked against bounds kept per table.
   The same command sequence on two fresh virtual buses, one with the fast path and one without,
@@ -22,8 +22,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynamixel_handler import goal_bounds, units
-from dynamixel_handler.commands import Commander
+from dynamixel_handler import units
+from dynamixel_handler.commands import Commander, CommandPaths, goal_bounds
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.core import requests
 from dynamixel_handler.servos import ServoTable
@@ -91,8 +91,6 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     """The command sequence on a fresh virtual bus: the goal writes the commands handed to the
     core, the registers after each command, every warning and error line, and what the fast path
     answered each time it was asked."""
-    monkeypatch.setattr(goal_bounds, "TARGETS", fast)
-    monkeypatch.setattr(goal_bounds, "SMALL", small)
     monkeypatch.setattr(requests, "TRIPPED_ONCE", fast)
     config = {"mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
               "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
@@ -100,7 +98,7 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     with handler_on_virtual_bus(SERVOS, config, baudrate=1_000_000, patient=True) as (sim, handler):
         lines = capture_log(handler, f"fast_commands_{fast}_{small}", lambda r: f"{r.levelname} {r.getMessage()}")
         handler.log.setLevel(logging.INFO)
-        commander = Commander(handler)
+        commander = Commander(handler, CommandPaths(targets=fast, small=small))
         writes: list = []
         put_goals = handler.put_goals
 
@@ -109,12 +107,12 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
             put_goals(goals)
         handler.put_goals = record
         answers: list[bool] = []
-        fast_goals = goal_bounds.fast_goals
+        fast_goals = commander.fast.goals
 
         def asked(*args, **kwargs) -> bool:
             answers.append(fast_goals(*args, **kwargs))
             return answers[-1]
-        monkeypatch.setattr(goal_bounds, "fast_goals", asked)
+        commander.fast.goals = asked  # type: ignore[method-assign]
         registers = []
         for step in _steps(commander, sim):
             step()
@@ -206,7 +204,6 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
     from dynamixel_handler.ros.cdr import Codec
     from dynamixel_handler.ros.intake import CommandIntake
 
-    monkeypatch.setattr(command_topics, "SKIP_EMPTY", skip)
     config = {"init/servo_auto_search.retry_times": 5,  # a reply lost on a loaded machine
               "mode_change_interval_sec": 0.0, "init/expected_servo_num": 2}
     context = rclpy.Context()
@@ -225,7 +222,8 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
                 queue(what, op)
             handler.queue = record
             intake = CommandIntake(node, raw=True, detached=True)
-            command_topics.CommandTopics(intake, Commander(handler), ("X",), command_line=False)
+            command_topics.CommandTopics(intake, Commander(handler, CommandPaths(skip_empty=skip)), ("X",),
+                                         command_line=False)
             handlers = {entry[3]: entry[2] for entry in intake._entries}
             registers = []
             for topic, msg in _bundles():

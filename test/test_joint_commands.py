@@ -16,7 +16,7 @@ from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from dynamixel_handler.trajectory import Trajectory, make_points
+from dynamixel_handler.commands.trajectory import Trajectory, make_points
 
 from support.rig import SYNC_WRITE, X540, Rig, X
 

@@ -7,7 +7,7 @@ states and writes.
 - CDR decoding: a command part whose sequences are all empty is recognised by one compare of its
   zero counts; the decoded value equals the field-by-field decoding, for the middleware's bytes and
   for this codec's, whatever the padding bytes hold.
-- Goal positions (``goal_bounds.py``): those the servo table shows within their bounds are checked
+- Goal positions (``commands/goal_bounds.py``): those the servo table shows within their bounds are checked
   all at once; the same command sequence on two fresh buses, one per path, leaves the same
   registers on the simulated servos and the same warnings.
 - Sync read replies (``core/read_plan.py``): decoded through a record dtype, equal to the byte-by-byte
@@ -114,18 +114,16 @@ def test_reply_decoding_of_known_bytes():
 def _run_goal_sequence(vector: bool, monkeypatch) -> tuple[list[dict[int, int]], list[str]]:
     """One command sequence on a fresh virtual bus (X, X540, P, Pro); the goal position registers
     after each command and every warning line."""
-    from dynamixel_handler import goal_bounds
-    from dynamixel_handler.commands import Commander
+    from dynamixel_handler.commands import Commander, CommandPaths, goal_bounds
 
     from support.handler_bench import capture_log, handler_on_virtual_bus
     from support.rig import PRO, X540, P, X
 
-    monkeypatch.setattr(goal_bounds, "ENABLED", vector)
     config = {"mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
               "init/used_servo_series.P": True, "init/used_servo_series.Pro": True, "init/expected_servo_num": 4}
     with handler_on_virtual_bus({1: X, 2: X540, 3: P, 4: PRO}, config, baudrate=1_000_000, patient=True) as (sim, handler):
         lines = capture_log(handler, f"goal_bounds_{vector}")
-        commander = Commander(handler)
+        commander = Commander(handler, CommandPaths(bounds=vector))
         registers = []
         steps = [
             lambda: commander.control("X", "position_control", [1, 2], {"position_deg": [10.0, 400.0]}),

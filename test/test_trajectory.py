@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dynamixel_handler.trajectory import (
+from dynamixel_handler.commands.trajectory import (
     GOAL_VIOLATED,
     PATH_VIOLATED,
     RUNNING,

@@ -65,9 +65,6 @@ GROUP_TYPES = {"status": DynamixelStatus, "goal": DynamixelGoal, "gain": Dynamix
                "extra": DynamixelExtra}
 #: the parts of a bundle (commands/x, ...) after its control parts, in the order they apply
 BUNDLE_GROUPS = ("status", "goal", "gain", "limit", "extra")
-#: False: every part of a bundle goes through its handler, also one with an empty id_list (which
-#: does nothing there); for tests and comparisons
-SKIP_EMPTY = True
 #: every message type a command topic carries
 COMMAND_TYPES = (DxlCommandsAll, DynamixelShortcut, *COMMANDS_TYPES.values(),
                  *(t for types in CONTROL_TYPES.values() for t in types.values()), *GROUP_TYPES.values())
@@ -144,15 +141,16 @@ class CommandTopics:
 
     def _bundle(self, series: ServoFamily | None, msg) -> None:
         prefix = "commands/" + (series.suffix if series is not None else "all")
+        skip = self.commander.paths.skip_empty  # False: every part through its handler (comparisons)
         if series is not None:
             for control in CONTROL_TYPES[series]:
                 part = msg[control]
-                if not SKIP_EMPTY or len(part["id_list"]):  # most parts of a bundle are empty: nothing to do
+                if not skip or len(part["id_list"]):  # most parts of a bundle are empty: nothing to do
                     self._control(series, control, part, f"{prefix}.{control}")
         for group in BUNDLE_GROUPS:
             if group in msg:
                 part = msg[group]
-                if not SKIP_EMPTY or len(part["id_list"]):
+                if not skip or len(part["id_list"]):
                     self._group(group, part, f"{prefix}.{group}")
 
     def _shortcut(self, msg: dict) -> None:

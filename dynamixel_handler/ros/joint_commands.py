@@ -20,9 +20,9 @@ import numpy as np
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
-from ..joint_goals import JointGoals
+from ..commands.joint_goals import JointGoals
+from ..commands.trajectory import MAX_POINTS, PREEMPTED, Follower, Job, Points, Tolerances, TrajectoryError, make_points
 from ..joints import JointMap, joint_map
-from ..trajectory import MAX_POINTS, PREEMPTED, Follower, Job, Points, Tolerances, TrajectoryError, make_points
 from .cdr import Codec, self_check
 from .cdr_counts import sequence_counts
 

@@ -36,7 +36,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from .. import trajectory as tr
+from ..commands import trajectory as tr
 from .convert import stamp_of
 from .joint_commands import BAD_JOINTS, TrajectoryRefused, duration_s
 

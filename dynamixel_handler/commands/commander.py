@@ -7,10 +7,11 @@ no callback ever touches the bus: unknown or wrong-series IDs, NaN/inf, unknown 
 out-of-range values are refused or clamped with a warning that names the ID and the field. What
 passes goes down as one request of the core's narrow interface (``core.api.ServoAccess``).
 
-Goals and control topics are here; status, gains, limits and shortcuts in ``settings_commands``.
-A goal or control command that none of these checks would touch (every ID handled once, of the
-series, in the mode; every value a finite number) is applied by ``goal_bounds.fast_goals`` with
-what it checked before kept; the same writes and warnings either way.
+Goals and control topics are here; status, gains, limits and shortcuts in ``servo_settings``, the
+extra fields in ``extra``. The rules themselves (known IDs, finite values, bounds, clamping) are in
+``rules``, once. A goal or control command that none of these checks would touch (every ID handled
+once, of the family, in the mode; every value a finite number) is applied by
+``fast_path.FastGoals`` with what it checked before kept; the same writes and warnings either way.
 """
 from __future__ import annotations
 
@@ -18,27 +19,19 @@ import math
 from functools import partial
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-import numpy as np
-
-from . import goal_bounds, units
-from .command_tables import (
-    BROADCAST_ID,
-    CONTROL_MODES,
-    CURRENT_MODES,
-    GOAL_FIELDS,
-    MAGNITUDE_LIMIT,
-    MAX_ROTATION,
-    SHORTCUTS,
-)
-from .control_table import POSITION_MODES, Model, ServoFamily, family_named
-from .core.api import ServoAccess
-from .extra_commands import apply_extra
-from .logs import Throttle, cut, some_ids
-from .settings_commands import SettingsCommands
+from .. import units
+from ..control_table import POSITION_MODES, ServoFamily, family_named
+from ..core.api import ServoAccess
+from ..logs import Throttle, cut, some_ids
+from .extra import apply_extra
+from .fast_path import FastGoals
+from .goal_bounds import TableBounds
+from .paths import CommandPaths
+from .rules import Row, Rules, fits
+from .servo_settings import SettingsCommands
+from .tables import BROADCAST_ID, CONTROL_MODES, CURRENT_MODES, GOAL_FIELDS, MAX_ROTATION, SHORTCUTS
 
 Fields = Mapping[str, Sequence[Any]]
-#: a goal field of one servo: (ID, value in the field's unit)
-Row = tuple[int, float]
 
 
 def take_fields(what: str, id_list: Sequence[int], fields: Mapping[str, Sequence[Any]],
@@ -76,12 +69,15 @@ def _warn_bad_ids(warn: Callable[[str], None], h: ServoAccess, what: str, unknow
 class Commander(SettingsCommands):
     """Turns commands into checked requests to one core (a ``Handler``)."""
 
-    def __init__(self, handler: ServoAccess) -> None:
+    def __init__(self, handler: ServoAccess, paths: CommandPaths | None = None) -> None:
         self.h = handler
         self.log = handler.log
+        self.paths = paths = paths if paths is not None else CommandPaths()
         self.verbose = handler.config.settings.logs.callback
         # a warning repeated within a second (same cause, same servo) is counted, not logged
         self.throttle = Throttle(self.log.warning)
+        self.rules = Rules(handler, self.warn, TableBounds(paths.bounds))
+        self.fast = FastGoals(handler, self.rules, paths, self.put_writes)
 
     # ============================================================== entry points (any thread)
     def control(self, series: str | ServoFamily, control: str, ids: Sequence[int], fields: Fields) -> None:
@@ -128,68 +124,28 @@ class Commander(SettingsCommands):
         ids = list(ids)
         if allow_all and (not ids or ids == [BROADCAST_ID]):
             return list(enumerate(h.handled_ids))
-        plan = goal_bounds.targets(self, ids, family)
+        plan = self.fast.targets(ids, family)
         if plan is not None:  # every ID handled once and of the series: checked before
             return list(plan.targets)
         last: dict[int, int] = {}  # ID -> index of its last entry (a repeated ID: the last value wins)
         unknown, other = [], []
         for k, dxl_id in enumerate(ids):
-            if not h.handles(dxl_id):
-                unknown.append(dxl_id)
-            elif family is not None and h.model(dxl_id).family is not family:
-                other.append(dxl_id)
-            else:
+            if fits(h, dxl_id, family):
                 last.pop(dxl_id, None)
                 last[dxl_id] = k
+            elif not h.handles(dxl_id):
+                unknown.append(dxl_id)
+            else:
+                other.append(dxl_id)
         _warn_bad_ids(self.warn, self.h, what, unknown, other, family)
         return [(k, dxl_id) for dxl_id, k in last.items()]
 
     def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool:
-        if isinstance(value, float) and not math.isfinite(value):
-            self.warn(f"{what}: ID {dxl_id} '{field}' = {value} refused (not a finite number)")
-            return False
-        return True
+        return self.rules.finite(what, field, dxl_id, value)
 
     def to_pulses(self, what: str, field: str, dxl_id: int, item: str, value: float) -> int | None:
         """Units -> pulses for one servo, clamped to its limits with a warning; None if refused."""
-        model = self.h.model(dxl_id)
-        if not model.has(item):
-            self.warn(f"{what}: ID {dxl_id} ({model.name}) has no {item}: '{field}' ignored")
-            return None
-        return self._clamp(what, field, dxl_id, item, value, int(units.unit_to_pulse([model], item, [value])[0]))
-
-    def _clamp(self, what: str, field: str, dxl_id: int, item: str, value: float, pulses: int) -> int:
-        model = self.h.model(dxl_id)
-        lo, hi = self._limits(dxl_id, item, model)
-        if lo is not None and hi is not None and not lo <= pulses <= hi:
-            clamped = min(max(pulses, lo), hi)
-            shown = float(units.pulse_to_unit([model], item, [clamped])[0])
-            self.warn(f"ID {dxl_id} ({model.name}) '{field}' = {value:g} is beyond the servo's limit: clamped to {shown:g}")
-            pulses = clamped
-        return pulses
-
-    def _clamp_rows(self, what: str, field: str, item: str, rows: list[Row], pulses: np.ndarray) -> list[int]:
-        """``_clamp`` of every row; goal positions the table shows within their limits all at once."""
-        inside = goal_bounds.within(self.h.table, [i for i, _ in rows], pulses) if item == "goal_position" else None
-        return [raw if inside is not None and inside[k] else self._clamp(what, field, dxl_id, item, value, raw)
-                for k, ((dxl_id, value), raw) in enumerate(zip(rows, pulses.tolist()))]
-
-    def _limits(self, dxl_id: int, item: str, model: Model) -> tuple[int | None, int | None]:
-        """The pulses ``item`` may take on this servo now (its register range, narrowed by its
-        limits and mode)."""
-        if item == "goal_position":
-            return goal_bounds.goal_position_limits(self.h, dxl_id, model)
-        spec = model.item(item)
-        lo, hi = spec.min_raw, spec.max_raw
-        bound_item = MAGNITUDE_LIMIT.get(item)
-        if item.startswith("profile_") and model.family.profile_max is not None:
-            bound_item = None  # X: the register's own range, not Velocity Limit
-        bound = self._value(dxl_id, bound_item) if bound_item is not None and model.has(bound_item) else None
-        if bound is not None and bound > 0:
-            return (max(lo, -bound), min(hi, bound)) if item.startswith("goal_") else (0, min(hi, bound))
-        if item.startswith("profile_"):
-            return model.family.profile_bounds(hi)
-        return lo, hi
+        return self.rules.to_pulses(what, field, dxl_id, item, value)
 
     def _value(self, dxl_id: int, item: str) -> int | None:
         return self.h.value(dxl_id, item)
@@ -204,7 +160,8 @@ class Commander(SettingsCommands):
             # one vectorised conversion per item, then each servo's limits
             for item, rows in self._goal_rows(what, field, values, targets, item_of, rotation).items():
                 pulses = units.unit_to_pulse([self.h.model(i) for i, _ in rows], item, [v for _, v in rows])
-                writes.setdefault(item, {}).update(zip([i for i, _ in rows], self._clamp_rows(what, field, item, rows, pulses)))
+                clamped = self.rules.clamp_rows(what, field, item, rows, pulses)
+                writes.setdefault(item, {}).update(zip([i for i, _ in rows], clamped))
         if rotation is not None and "position_deg" not in fields:
             self._rotation_alone(what, targets, rotation, writes)
         self.put_writes(what, writes)
@@ -266,7 +223,7 @@ class Commander(SettingsCommands):
     def _control(self, family: ServoFamily, control: str, ids: list[int], fields: Fields) -> None:
         what = f"{family.suffix}/{control}"
         mode = CONTROL_MODES[control]
-        if goal_bounds.fast_goals(self, what, ids, fields, family, mode):
+        if self.fast.goals(what, ids, fields, family, mode):
             return
         targets = self._in_mode(family, control, self.known_ids(ids, what, family), fields)
         if not targets:
@@ -302,7 +259,7 @@ class Commander(SettingsCommands):
         return ready
 
     def _goal(self, ids: list[int], fields: Fields, what: str) -> None:
-        if goal_bounds.fast_goals(self, what, ids, fields):
+        if self.fast.goals(what, ids, fields):
             return
         targets = self.known_ids(ids, what)
         if targets:

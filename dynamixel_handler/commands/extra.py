@@ -6,9 +6,9 @@ from __future__ import annotations
 import logging
 from typing import Any, Iterable, Mapping, Protocol, Sequence
 
-from . import units
-from .control_table import Model, ServoFamily
-from .core.api import ServoAccess
+from .. import units
+from ..control_table import Model, ServoFamily
+from ..core.api import ServoAccess
 
 
 class Checks(Protocol):

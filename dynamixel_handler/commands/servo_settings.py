@@ -1,18 +1,18 @@
 """Status, gain, limit and shortcut commands -> checked requests to the core (loop thread).
 
-A part of ``commands.Commander`` (it supplies ``h``, ``warn``, ``known_ids`` and ``finite``)."""
+A part of ``Commander`` (it supplies ``h``, ``warn``, ``known_ids`` and ``finite``)."""
 from __future__ import annotations
 
 from functools import partial
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
-from . import units
-from .command_tables import BROADCAST_ID, GAIN_FIELDS, LIMIT_FIELDS
-from .control_table import OPERATING_MODES, ServoFamily
-from .logs import cut
+from .. import units
+from ..control_table import OPERATING_MODES, ServoFamily
+from ..logs import cut
+from .tables import BROADCAST_ID, GAIN_FIELDS, LIMIT_FIELDS
 
 if TYPE_CHECKING:
-    from .core.api import ServoAccess
+    from ..core.api import ServoAccess
 
 Fields = Mapping[str, Sequence[Any]]
 #: limit items that may be negative

@@ -26,15 +26,15 @@ from typing import TYPE_CHECKING, Sequence, cast
 
 import numpy as np
 
-from . import units
-from .commands import Commander
-from .control_table import KEPT_POSITION_MODES, ServoFamily
+from .. import units
+from ..control_table import KEPT_POSITION_MODES, ServoFamily
+from ..groups import MODE_NAMES
+from ..joints import JointMap
+from .commander import Commander
 from .goal_bounds import goal_position_limits
-from .groups import MODE_NAMES
-from .joints import JointMap
 
 if TYPE_CHECKING:
-    from .core.api import ServoAccess
+    from ..core.api import ServoAccess
 
 RAD = 180.0 / math.pi
 #: (series, control) -> (servo IDs, field -> one value per ID): the Commander calls of one command

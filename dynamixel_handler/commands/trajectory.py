@@ -271,7 +271,7 @@ class Job:
 class Follower:
     """Loop hook: commands the active trajectory's positions every loop (one period ahead, as they
     are written with the next loop) and judges it on every read of the present positions. ``goals``
-    is a :class:`~dynamixel_handler.joint_goals.JointGoals`; a new job replaces (preempts) the old."""
+    is a :class:`~dynamixel_handler.commands.joint_goals.JointGoals`; a new job replaces (preempts) the old."""
 
     def __init__(self, goals, period_s: float, log) -> None:
         self.goals = goals

@@ -1,0 +1,69 @@
+"""``commands.fast_path.FastGoals``: which commands it takes, what it keeps, and its switches."""
+import math
+
+import numpy as np
+
+from dynamixel_handler.commands import Commander, CommandPaths
+from dynamixel_handler.control_table import PRO, X
+
+from support.servo_access import FakeAccess
+
+XM430, H54 = 1020, 54024
+VALUES = {"min_position_limit": {1: 0, 2: 0, 3: -100_000}, "max_position_limit": {1: 4095, 2: 4095, 3: 100_000}}
+
+
+def _commander(paths=None, modes=None):
+    access = FakeAccess({1: XM430, 2: XM430, 3: H54}, modes=modes, values=VALUES)
+    return Commander(access, paths), access
+
+
+def test_targets_are_checked_once_per_id_list_and_family_and_forgotten_when_the_servos_change():
+    c, access = _commander()
+    plan = c.fast.targets([1, 2], X)
+    assert plan is not None and plan.ids == [1, 2]
+    assert c.fast.targets([1, 2], X) is plan
+    assert c.fast.targets([1, 2], None) is not plan
+    for refused in ([1, 1], [1, 9], [1, 3], []):  # repeated, unknown, another family, none
+        assert c.fast.targets(refused, X) is None, refused
+    assert c.fast.targets([3], PRO) is not None
+    access.table.add(4, access.model(1))
+    assert c.fast.targets([1, 2], X) is not plan  # a new table version
+
+
+def test_the_common_command_takes_the_fast_path_and_the_others_do_not():
+    c, access = _commander(modes={2: "velocity"})
+    assert c.fast.goals("x", [1], {"position_deg": [1.0]}, X, "position")
+    assert not c.fast.goals("x", [1, 2], {"position_deg": [1.0, 2.0]}, X, "position")  # ID 2 in another mode
+    assert not c.fast.goals("goal", [1], {"position_deg": [math.nan]})
+    assert not c.fast.goals("goal", [1], {"position_deg": [1]})  # an int: checked one by one
+    assert not c.fast.goals("x", [1], {"position_deg": [1.0], "rotation": [1.0]}, X, "position")
+    # the old PRO's speed of a move depends on the model
+    assert not c.fast.goals("pro", [3], {"position_deg": [0.0], "velocity_deg_s": [1.0]}, PRO, "position")
+    assert access.goals == [{"goal_position": {1: 2048 + round(1.0 / (360 / 4096))}}]
+
+
+def test_a_goal_outside_its_bounds_is_clamped_by_the_same_rule_in_plain_python_and_numpy():
+    goals = []
+    for small in (32, 0):
+        c, access = _commander(CommandPaths(small=small))
+        assert c.fast.goals("goal", [1, 2], {"position_deg": [400.0, 10.0]})
+        goals.append(access.goals)
+    assert goals[0] == goals[1] == [{"goal_position": {1: 4095, 2: 2048 + round(10.0 / (360 / 4096))}}]
+
+
+def test_switched_off_it_takes_nothing():
+    c, access = _commander(CommandPaths(targets=False))
+    assert c.fast.targets([1], X) is None
+    assert not c.fast.goals("goal", [1], {"position_deg": [1.0]})
+    c.goal([1], {"position_deg": [1.0]})  # the per-servo path writes it
+    assert access.goals == [{"goal_position": {1: 2048 + round(1.0 / (360 / 4096))}}]
+
+
+def test_many_servos_are_converted_through_numpy_with_the_same_pulses():
+    ids = list(range(1, 41))
+    access = FakeAccess({i: XM430 for i in ids})
+    values = np.linspace(-170.0, 170.0, len(ids)).tolist()
+    for small in (32, 100):
+        c = Commander(access, CommandPaths(small=small))
+        assert c.fast.goals("goal", ids, {"position_deg": values})
+    assert access.goals[0] == access.goals[1]

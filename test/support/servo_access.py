@@ -1,0 +1,86 @@
+"""A small in-process ``ServoAccess`` for unit tests of the command side: a real ``ServoTable``
+of given models, requests run at once and recorded, no bus. Values the table lacks read as None."""
+from __future__ import annotations
+
+import logging
+from typing import Any, Callable, Mapping
+
+from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.control_table import OPERATING_MODES, model_by_number
+from dynamixel_handler.servos import ServoTable
+
+
+class FakeAccess:
+    """``ServoAccess`` over a table of ``servos`` (ID -> model number), each in ``modes`` (default
+    position) and with the register values of ``values`` ({item: {ID: pulses}})."""
+
+    def __init__(self, servos: Mapping[int, int], modes: Mapping[int, str] | None = None,
+                 values: Mapping[str, Mapping[int, int]] | None = None) -> None:
+        self.log = logging.getLogger("fake_access")
+        self.config = validate(defaults())
+        self.table = ServoTable()
+        for dxl_id, number in sorted(servos.items()):
+            self.table.add(dxl_id, model_by_number(number))
+        for dxl_id in servos:
+            self.table.set_value("operating_mode", dxl_id, OPERATING_MODES[(modes or {}).get(dxl_id, "position")])
+        for item, per_id in (values or {}).items():
+            for dxl_id, pulses in per_id.items():
+                self.table.set_value(item, dxl_id, pulses)
+        self.goals: list[dict[str, dict[int, int]]] = []  # put_goals, in order
+        self.calls: list[tuple[Any, ...]] = []  # every other request, in order
+        self.last_failure = ""
+
+    # ------------------------------------------------------------ what is known
+    @property
+    def handled_ids(self) -> list[int]:
+        return list(self.table.ids)
+
+    def handles(self, dxl_id: int) -> bool:
+        return dxl_id in self.table
+
+    def model(self, dxl_id: int):
+        return self.table.model(dxl_id)
+
+    def mode(self, dxl_id: int) -> str | None:
+        value = self.table.value("operating_mode", dxl_id)
+        return {v: k for k, v in OPERATING_MODES.items()}.get(value) if value is not None else None
+
+    def value(self, dxl_id: int, item: str) -> int | None:
+        return self.table.value(item, dxl_id)
+
+    # ------------------------------------------------------------ requests
+    def queue(self, what: str, op: Callable[[], None]) -> None:
+        op()
+
+    def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
+        self.goals.append({item: dict(values) for item, values in writes.items()})
+
+    def change_mode(self, dxl_id: int, mode: str, what: str, warn: Callable[[str], None]) -> str:
+        self.calls.append(("change_mode", dxl_id, mode))
+        self.table.set_value("operating_mode", dxl_id, OPERATING_MODES[mode])
+        return "done"
+
+    def cancel_deferred(self, dxl_id: int) -> None:
+        self.calls.append(("cancel_deferred", dxl_id))
+
+    def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
+        self.calls.append(("defer_mode_change", dxl_id))
+
+    def read_item(self, dxl_id: int, item: str) -> int | None:
+        return self.table.value(item, dxl_id)
+
+    def __getattr__(self, name: str) -> Callable[..., Any]:
+        """Any other request: recorded, answered True."""
+        def request(*args: Any) -> bool:
+            self.calls.append((name, *args))
+            return True
+        return request
+
+
+def warnings_of(access: FakeAccess) -> list[str]:
+    """The warning lines the commander of ``access`` logs from now on."""
+    lines: list[str] = []
+    access.log = logging.getLogger(f"fake_access_{id(access)}")
+    access.log.propagate = False
+    access.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+    return lines
