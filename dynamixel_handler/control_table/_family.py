@@ -8,7 +8,7 @@ family (MX, XL-320, Y) is one more value here, not a new branch in the code.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping, Optional, Tuple
+from typing import FrozenSet, Mapping, Optional, Tuple
 
 #: turns a goal may hold (rotation field; a goal of a family without a multi-turn goal range is
 #: bounded to as many turns)
@@ -34,7 +34,7 @@ class ServoFamily:
     #: of its topics (``commands/<suffix>``, ``command/<suffix>/...``) and messages
     suffix: str
     #: operating modes its control topics offer
-    modes: frozenset
+    modes: FrozenSet[str]
     #: model number a dummy servo of the family has
     dummy_model: int
     #: the X-style control table: 4096 pulses per turn around 2048, PWM 885 full scale, the
@@ -50,7 +50,7 @@ class ServoFamily:
     #: to ("profile_velocity" where the model has it, else the item named here)
     move_speed_field: str
     move_speed_item: str
-    #: the Protocol Type register: None where the family has none (it speaks Protocol 2.0 only)
+    #: the family has a Protocol Type register (False: it speaks Protocol 2.0 only, reported as 2)
     has_protocol_type: bool = True
 
     def __repr__(self) -> str:
