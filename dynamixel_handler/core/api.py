@@ -10,7 +10,7 @@ from typing import Any, Callable, Mapping, Protocol, runtime_checkable
 
 from ..config import Config
 from ..control_table import Model
-from ..servos import ServoTable
+from ..servos import PendingWrites, ServoTable
 
 Warn = Callable[[str], None]
 
@@ -29,6 +29,12 @@ class ServoAccess(Protocol):
     def handled_ids(self) -> list[int]: ...
     @property
     def last_failure(self) -> str: ...
+    @property
+    def pending(self) -> PendingWrites: ...   # read-only here: goals waiting for the next write
+    @property
+    def loop_period_s(self) -> float: ...   # the loop's measured period (0 before the first loops)
+    @property
+    def recheck_loops(self) -> int: ...   # loops until a silent servo is pinged again
     def handles(self, dxl_id: int) -> bool: ...
     def model(self, dxl_id: int) -> Model: ...
     def mode(self, dxl_id: int) -> str | None: ...

@@ -26,10 +26,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from dynamixel_handler_msgs.action import MoveJoints
 from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 
-from ..joints import joint_map
-from ..logs import Throttle
-from .move_checks import checked_positions, targets_of
-from .moves import (
+from ..commands.move_checks import checked_positions, targets_of
+from ..commands.moves import (
     CANCELED,
     DONE,
     ERROR,
@@ -45,6 +43,8 @@ from .moves import (
     TorqueJob,
     new_move,
 )
+from ..joints import joint_map
+from ..logs import Throttle
 
 #: requests (and answers) each service keeps queued: a burst of calls is not dropped for want of room
 QUEUE_DEPTH = 1000

@@ -25,10 +25,10 @@ import time
 from collections import deque
 from typing import Callable, Sequence
 
-from ..commands import Commander
+from ..core.api import ServoAccess
 from ..joints import JointMap
 from ..logs import some_ids
-from ..loop import Handler
+from .commander import Commander
 from .move_checks import (
     CANCELED,
     DEFAULT_TIMEOUT_S,
@@ -118,7 +118,7 @@ class TorqueJob(Job):
         if self.todo:
             return
         if self.failed:
-            book.finish(self, ERROR, f"{self.what} failed on IDs [{listed(self.failed)}]: {h.bus.last_failure}")
+            book.finish(self, ERROR, f"{self.what} failed on IDs [{listed(self.failed)}]: {h.last_failure}")
         else:
             book.finish(self, DONE, f"{self.what}: IDs [{listed(self.ids)}]")
 
@@ -190,7 +190,7 @@ class MoveJob(Job):
 class Book(MoveIO):
     """The jobs under way (any thread adds; the loop thread advances them after each step)."""
 
-    def __init__(self, handler: Handler, commander: Commander, mapping: JointMap | None,
+    def __init__(self, handler: ServoAccess, commander: Commander, mapping: JointMap | None,
                  wake: Callable[[], None] = lambda: None) -> None:
         super().__init__(handler, commander, mapping)
         self.wake = wake  # called when jobs ended or feedback is due (wakes the executor)

@@ -6,15 +6,15 @@ import math
 from typing import Sequence
 
 from .. import units
-from ..commands import Commander
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
+from ..core.api import ServoAccess
 from ..joints import JointMap
-from ..loop import Handler
+from .commander import Commander
 from .move_checks import Move, MoveError, listed
 
 
 class MoveIO:
-    def __init__(self, handler: Handler, commander: Commander, mapping: JointMap | None) -> None:
+    def __init__(self, handler: ServoAccess, commander: Commander, mapping: JointMap | None) -> None:
         self.h = handler
         self.commander = commander
         self.mapping = mapping
