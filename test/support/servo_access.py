@@ -7,7 +7,7 @@ from typing import Any, Callable, Mapping
 
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import OPERATING_MODES, model_by_number
-from dynamixel_handler.servos import ServoTable
+from dynamixel_handler.servos import PendingWrites, ServoTable
 
 
 class FakeAccess:
@@ -27,6 +27,7 @@ class FakeAccess:
             for dxl_id, pulses in per_id.items():
                 self.table.set_value(item, dxl_id, pulses)
         self.goals: list[dict[str, dict[int, int]]] = []  # put_goals, in order
+        self.pending = PendingWrites()  # what put_goals left for the next write
         self.calls: list[tuple[Any, ...]] = []  # every other request, in order
         self.last_failure = ""
 
@@ -54,6 +55,8 @@ class FakeAccess:
 
     def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
         self.goals.append({item: dict(values) for item, values in writes.items()})
+        for item, values in writes.items():
+            self.pending.put(item, values)
 
     def change_mode(self, dxl_id: int, mode: str, what: str, warn: Callable[[str], None]) -> str:
         self.calls.append(("change_mode", dxl_id, mode))
