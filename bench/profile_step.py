@@ -159,23 +159,26 @@ def main(argv: list[str] | None = None) -> int:
     ids = list(range(1, a.n + 1))
 
     t = PartTimer()
-    t.patch(handler, "_run_ops", "commands: queued op (validate, units -> pulses, pending)")
-    t.patch(handler, "_encode_pending", "goal write: encode")
+    t.patch(handler.work, "run_ops", "commands: queued op (validate, units -> pulses, pending)")
+    t.patch(handler.writes, "_encode_pending", "goal write: encode")
     t.patch(handler.bus, "sync_write_result", "goal write: sync write (packet, write syscall)")
     t.patch(handler.bus, "prepare_sync_write", "goal write: sync write packet")
     t.patch(handler.bus, "send_prepared_result", "goal write: sync write send (write syscall)")
     t.patch(handler.bus, "start_sync_read", "sync read: packet, send")
     t.patch(GroupRead, "result", WAIT)
-    t.patch(handler, "_store", "decode + store in the servo table")
-    t.patch(handler, "_plan", "read planning")
-    t.patch(handler, "_update_ping", "ping bookkeeping")
+    t.patch(handler.reads, "store", "decode + store in the servo table")
+    t.patch(handler.reads, "plan", "read planning")
+    t.patch(handler.recovery, "update_ping", "ping bookkeeping")
     t.patch(handler, "step", "step: the rest")
     if a.detail:
-        for name, label in (("prepare", "step: prepare (reconnect, watchdogs, deferred)"),
-                            ("due_items", "step: items due"), ("_build_writes", "step: goal write batching"),
-                            ("complete_step", "step: complete (who answered)"), ("_gather", "step: gather replies"),
-                            ("finish_step", "step: finish (store, logs)"), ("_log_reads", "step: read logs")):
-            t.patch(handler, name, label)
+        for part, name, label in ((handler.steps, "prepare", "step: prepare (reconnect, watchdogs, deferred)"),
+                                  (handler.reads, "due", "step: items due"),
+                                  (handler.writes, "_build_writes", "step: goal write batching"),
+                                  (handler.steps, "complete_step", "step: complete (who answered)"),
+                                  (handler.reads, "gather", "step: gather replies"),
+                                  (handler.steps, "finish_step", "step: finish (store, logs)"),
+                                  (handler.steps, "_log_reads", "step: read logs")):
+            t.patch(part, name, label)
     for name in ("states", "debug", "present", "status", "goal"):
         t.patch(convert, name, "message building (convert.py)")
     t.patch(units, "pulse_to_unit", "units: pulse -> physical (numpy)")

@@ -1,43 +1,314 @@
 """The handler's life on the bus: start-up, one loop step, shutdown. ROS-free.
 
-``Handler`` is composed of rooms with one job each (``dynamixel_handler/core``):
+``Handler`` is a front over parts with one job each (``dynamixel_handler/core``), each an object
+with its own state that is given what it needs (the bus, the servo table, the pending writes, its
+slice of the parameters, the log) and the other parts it calls:
 
-    state        HandlerState: the bus, the parameters, the servo table, each room's bookkeeping;
-                 StepReport: what one loop step did
-    servo_io     one servo at a time: read/write an item, its mode, torque on without a jump
-    pacing       while bus watchdogs are armed: reads cut, mode changes spread over loops; a stop drops the rest
-    read_plan    pub ratios -> the items due -> sync reads per control-table layout; replies stored
-    write_batch  pending values -> one sync write per item, built ahead and sent in one go
-    deferred     EEPROM writes spared and coalesced, mode changes asked for too soon, queued operations
-    watchdog     the bus watchdog time from the loop period; arming, clearing, trips
-    recovery     reboot, a vanished device reopened, silent servos marked and removed
-    startup      scan, expected count, the set-up every servo gets (also add_id)
-    requests     what commands may ask, checked: goals, a mode change, an error clear, a watchdog
-    step         one loop step in four phases (prepare, send, complete, finish), read logs
-    group_io     one item of many servos in one sync write or read per layout
-    shutdown     the servos left as term/* say
+    servo_io     ServoIO: one servo at a time: read/write an item, its mode, torque on without a jump
+    group_io     GroupIO: one item of many servos in one sync write or read per layout
+    pacing       Pacing: while bus watchdogs are armed, reads cut and mode changes spread over loops;
+                 a stop drops the rest
+    read_plan    ReadPlan: pub ratios -> the items due -> sync reads per control-table layout; replies
+                 gathered and stored
+    write_batch  WriteBatch: pending values -> one sync write per item, built ahead and sent in one go
+    deferred     Deferred: EEPROM writes spared and coalesced, mode changes asked for too soon, the
+                 operation queue
+    watchdog     Watchdog: the bus watchdog time from the loop period; arming, clearing, trips
+    recovery     Recovery: reboot, a vanished device reopened, silent servos marked and removed
+    startup      Startup: scan, expected count, the set-up every servo gets (also add_id)
+    requests     Requests: what commands may ask, checked: goals, a mode change, an error clear
+    step         Step: one loop step in four phases (prepare, send, complete, finish), read logs
+    shutdown     Shutdown: the servos left as term/* say
+    state        StepReport: what one loop step did
+    log_limits   LogLimits, PingLog: lines that can repeat, at most one a second per cause and servo
 
 ``Handler.step()`` runs queued operations (torque, mode, reboot...), writes pending values in
 grouped sync writes, reads what the ratios ask for this loop, and returns a ``StepReport`` that
-says which groups were read. The ROS layer turns the table into messages.
+says which groups were read. The ROS layer turns the table into messages. The parts read typed
+settings (``Config.settings``, ``dynamixel_handler.settings``), handed out in one place
+(``_settings`` below): each part gets its slice, again whenever the ``config`` is replaced.
 """
 from __future__ import annotations
 
-from .control_table import OPERATING_MODES
-from .core.deferred import EEPROM_WRITE_INTERVAL_S
-from .core.recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S
-from .core.requests import Requests
+import logging
+from typing import Any, Callable, Mapping
+
+from .bus import PreparedWrite, ServoBus
+from .config import Config
+from .control_table import OPERATING_MODES, Model
+from .core.deferred import EEPROM_WRITE_INTERVAL_S, Deferred
+from .core.group_io import GroupIO
+from .core.log_limits import LogLimits
+from .core.pacing import Pacing
+from .core.read_plan import ReadPlan, ReadSettings, every
+from .core.recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S, Recovery
+from .core.requests import Requests, Warn
+from .core.servo_io import Log, ServoIO
 from .core.shutdown import Shutdown
-from .core.state import StepReport
-from .core.step import RECHECK_LOOPS, Step
-from .core.watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED
+from .core.startup import Startup, StartupSettings
+from .core.state import RECHECK_LOOPS, StepReport, recheck_loops
+from .core.step import Step, StepSettings
+from .core.watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED, Watchdog, WatchdogSettings
+from .core.write_batch import WriteBatch
 from .errors import Interrupted, StartupError
+from .servos import PendingWrites, ServoTable
 
 
-class Handler(Requests, Step, Shutdown):
+def _settings(config: Config) -> dict[str, Any]:
+    """Each part's slice of the typed settings (the one place that hands them out)."""
+    s = config.settings
+    return {
+        "reads": ReadSettings(s.ratios, s.method.fast_read, s.method.split_read),
+        "watchdog": WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
+                                     s.term.servo_auto_stop),
+        "loop": s.loop,
+        "startup": StartupSettings(s.scan, s.start, s.loop.debug),
+        "step": StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
+        "term": s.term,
+    }
+
+
+class Handler:
     """Owns the servos of one bus: ``start()``, then ``step()`` (or its phases) every loop, then
     ``shutdown()``. Commands reach it as operations queued for the loop thread (``queue``) and as
-    pending writes (``pending``)."""
+    pending writes (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
+    by handing each call to the part that does it. ``tripped_once`` False: every goal command looks
+    for tripped bus watchdogs servo by servo (for tests and comparisons)."""
+
+    def __init__(self, bus: ServoBus, config: Config, logger: Log | None = None, *, tripped_once: bool = True) -> None:
+        self.bus = bus
+        self.table = ServoTable()
+        self.pending = PendingWrites()
+        self._log: Log = logger or logging.getLogger("dynamixel_handler")
+        self._config = config
+        s = _settings(config)
+        log = self._log
+        #: why operations are not taken now (a lifecycle node that is not active); None: they are
+        self.refuse_ops: str | None = None
+        #: true once the node is asked to exit: start-up (scan, set-up) stops between two steps
+        self.interrupted: Callable[[], bool] = lambda: False
+        stopping = self._stopping
+        self.io = ServoIO(bus, self.table, log)
+        self.group = GroupIO(bus, self.table, log)
+        self.pacing = Pacing(bus, self.table, stopping)
+        self.reads = ReadPlan(bus, self.table, log, self.pacing, s["reads"])
+        self.writes = WriteBatch(bus, self.table, self.pending, log, config.settings.method.split_write)
+        self.watchdog = Watchdog(self.table, log, self.io, self.group, s["watchdog"], tripped_once)
+        self.work = Deferred(self.table, log, self.io)
+        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s["loop"], self._set_up, self.remove_id)
+        self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s["startup"],
+                               stopping)
+        self.requests = Requests(self.table, self.pending, log, self.io, self.watchdog, self.pacing, self.work,
+                                 self.recovery, s["loop"])
+        self.steps = Step(bus, self.table, log, self.reads, self.writes, self.pacing, self.watchdog, self.recovery,
+                          self.work, self.startup, self.remove_id, s["step"])
+        self.ending = Shutdown(bus, self.table, log, self.io, self.group, s["term"])
+        self._parts: tuple[Any, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
+                                        self.recovery, self.startup, self.requests, self.steps, self.ending)
+        self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
+
+    def _stopping(self) -> bool:
+        return self.interrupted()
+
+    def _set_up(self, dxl_id: int) -> None:
+        self.startup.setup_servo(dxl_id)
+
+    # ---------------------------------------------------------------- what every part shares
+    @property
+    def config(self) -> Config:
+        return self._config
+
+    @config.setter
+    def config(self, config: Config) -> None:
+        """New parameters: each part gets its new slice."""
+        self._config = config
+        s = _settings(config)
+        self.reads.settings, self.watchdog.settings, self.startup.settings = s["reads"], s["watchdog"], s["startup"]
+        self.recovery.settings = self.requests.settings = s["loop"]
+        self.steps.settings, self.ending.settings = s["step"], s["term"]
+        self.writes.split_write = config.settings.method.split_write
+
+    @property
+    def log(self) -> Log:
+        return self._log
+
+    @log.setter
+    def log(self, log: Log) -> None:
+        self._log = log
+        for part in self._parts:
+            part.log = log
+
+    # ---------------------------------------------------------------- life on the bus
+    def start(self) -> None:
+        """Scan, keep the servos of the used series, and set each up as the parameters say."""
+        self.recovery.had_device = self.bus.is_open
+        self.startup.start()
+
+    def shutdown(self) -> None:
+        """Leave the servos as term/* say (``core.shutdown``)."""
+        dropped = self.pacing.dropped_mode_changes | set(self.work.deferred)
+        self.ending.shutdown(dropped, set(self.watchdog.user))
+
+    def step(self) -> StepReport:
+        return self.steps.step()
+
+    def begin_step(self) -> StepReport:
+        return self.steps.begin_step()
+
+    def prepare(self, report: StepReport) -> None:
+        self.steps.prepare(report)
+
+    def apply_now(self) -> None:
+        self.steps.apply_now()
+
+    def encode_writes(self) -> None:
+        self.writes.encode_writes()
+
+    def send_step(self, report: StepReport) -> None:
+        self.steps.send_step(report)
+
+    def send_writes(self, report: StepReport) -> None:
+        self.writes.send()
+
+    def send_reads(self, report: StepReport) -> None:
+        self.steps.send_reads(report)
+
+    def await_replies(self, report: StepReport) -> None:
+        self.steps.await_replies(report)
+
+    def complete_step(self, report: StepReport) -> None:
+        self.steps.complete_step(report)
+
+    def finish_step(self, report: StepReport) -> None:
+        self.steps.finish_step(report)
+
+    @property
+    def writes_ready(self) -> list[PreparedWrite]:
+        return self.writes.writes_ready
+
+    @property
+    def reply_eta(self) -> float | None:
+        return self.bus.inflight_eta
+
+    @property
+    def loop_count(self) -> int:
+        return self.steps.loop_count
+
+    @property
+    def recheck_loops(self) -> int:
+        return self.steps.settings.recheck_loops
+
+    def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
+        return self.reads.due_items(loop)
+
+    # ---------------------------------------------------------------- figures
+    @property
+    def loop_period_s(self) -> float:
+        return self.watchdog.loop_period_s
+
+    def note_loop_period(self, seconds: float) -> None:
+        self.watchdog.note_loop_period(seconds)
+
+    def estimate_loop_s(self) -> float:
+        """The loop period before one is measured: the wire time of a loop's reads."""
+        return self.reads.wire_s_per_loop()
+
+    @property
+    def device_lost(self) -> bool:
+        return self.recovery.device_lost
+
+    @property
+    def device_lost_since(self) -> float | None:
+        return self.recovery.device_lost_since
+
+    @property
+    def reconnects(self) -> int:
+        return self.recovery.reconnects
+
+    @property
+    def watchdog_trips(self) -> int:
+        return self.watchdog.trips
+
+    # ---------------------------------------------------------------- ServoAccess: what is known
+    @property
+    def handled_ids(self) -> list[int]:
+        return list(self.table.ids)
+
+    @property
+    def last_failure(self) -> str:
+        """Why the last bus transaction failed."""
+        return self.bus.last_failure
+
+    def handles(self, dxl_id: int) -> bool:
+        return dxl_id in self.table
+
+    def model(self, dxl_id: int) -> Model:
+        return self.table.model(dxl_id)
+
+    def mode(self, dxl_id: int) -> str | None:
+        return self.io.mode(dxl_id)
+
+    def value(self, dxl_id: int, item: str) -> int | None:
+        return self.io.value(dxl_id, item)
+
+    # ---------------------------------------------------------------- ServoAccess: requests (loop thread)
+    def queue(self, what: str, op: Callable[[], None]) -> None:
+        self.work.queue(what, op)
+
+    def drop_ops(self) -> int:
+        return self.work.drop_ops()
+
+    def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
+        self.requests.put_goals(writes)
+
+    def read_item(self, dxl_id: int, item: str) -> int | None:
+        return self.io.read_item(dxl_id, item)
+
+    def write_item(self, dxl_id: int, item: str, pulses: int) -> bool:
+        return self.io.write_item(dxl_id, item, pulses)
+
+    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
+        return self.work.write_eeprom(dxl_id, item, pulses)
+
+    def torque_on(self, dxl_id: int) -> bool:
+        return self.io.torque_on(dxl_id)
+
+    def torque_off(self, dxl_id: int) -> bool:
+        return self.io.torque_off(dxl_id)
+
+    def reboot(self, dxl_id: int) -> bool:
+        return self.recovery.reboot(dxl_id)
+
+    def add_id(self, dxl_id: int) -> bool:
+        return self.startup.add_id(dxl_id)
+
+    def want_handled(self, dxl_id: int, handled: bool) -> None:
+        self.startup.want_handled(dxl_id, handled)
+
+    def remove_id(self, dxl_id: int) -> None:
+        """Stop handling the servo: every part forgets it."""
+        if dxl_id in self.table:
+            self.table.remove(dxl_id)
+            self.pending.drop_ids([dxl_id])
+            self.work.forget(dxl_id)
+            self.watchdog.forget(dxl_id)
+            self.recovery.forget(dxl_id)
+            self._limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")
+
+    def set_user_watchdog(self, dxl_id: int, pulses: int) -> None:
+        self.watchdog.set_user(dxl_id, pulses)
+
+    def change_mode(self, dxl_id: int, mode: str, what: str, warn: Warn) -> str:
+        return self.requests.change_mode(dxl_id, mode, what, warn)
+
+    def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
+        self.requests.defer_mode_change(dxl_id, what, op)
+
+    def cancel_deferred(self, dxl_id: int) -> None:
+        self.requests.cancel_deferred(dxl_id)
+
+    def clear_error(self, dxl_id: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
+        return self.requests.clear_error(dxl_id, keep_rotation, what, warn)
 
 
 def mode_value(name: str) -> int:

@@ -25,7 +25,6 @@ from hypothesis import strategies as st
 from dynamixel_handler import units
 from dynamixel_handler.commands import Commander, CommandPaths, goal_bounds
 from dynamixel_handler.control_table import model_by_number
-from dynamixel_handler.core import requests
 from dynamixel_handler.servos import ServoTable
 from dynamixel_handler.sim import VirtualBus
 
@@ -91,11 +90,10 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     """The command sequence on a fresh virtual bus: the goal writes the commands handed to the
     core, the registers after each command, every warning and error line, and what the fast path
     answered each time it was asked."""
-    monkeypatch.setattr(requests, "TRIPPED_ONCE", fast)
     config = {"mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
               "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
               "init/servo_auto_search.retry_times": 5, "init/expected_servo_num": 5}
-    with handler_on_virtual_bus(SERVOS, config, baudrate=1_000_000, patient=True) as (sim, handler):
+    with handler_on_virtual_bus(SERVOS, config, baudrate=1_000_000, patient=True, tripped_once=fast) as (sim, handler):
         lines = capture_log(handler, f"fast_commands_{fast}_{small}", lambda r: f"{r.levelname} {r.getMessage()}")
         handler.log.setLevel(logging.INFO)
         commander = Commander(handler, CommandPaths(targets=fast, small=small))

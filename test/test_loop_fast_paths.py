@@ -24,7 +24,9 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 
 import dynamixel_handler_msgs.msg as msgs
-from dynamixel_handler.core.read_plan import _Part, _Read, _record, decode_replies, decode_replies_plain
+from dynamixel_handler.core.read_plan import Read as _Read
+from dynamixel_handler.core.read_plan import ReadPart as _Part
+from dynamixel_handler.core.read_plan import _record, decode_replies, decode_replies_plain
 from dynamixel_handler.ros.cdr import Codec
 
 from support.msg_fill import codec_values, decoded_with, same_value

@@ -1,25 +1,47 @@
 """Work that waits: EEPROM writes spared, per-servo operations due later, operations queued by callbacks."""
 from __future__ import annotations
 
+import collections
 import logging
+import threading
 import time
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
+from ..servos import ServoTable
 from .log_limits import LogLimits
-from .servo_io import ServoIO
+from .servo_io import Log, ServoIO
 
 #: least time between two writes of one EEPROM item of one servo [s]; a value asked for sooner is
 #: written when the time has passed (the latest one asked for)
 EEPROM_WRITE_INTERVAL_S = 1.0
 
 
-class Deferred(ServoIO, LogLimits):
+class Deferred:
     """EEPROM coalescing, deferred per-servo operations (mode changes asked for too soon), the operation queue."""
 
-    _membership: dict[int, bool] | None = None  # Startup's: add_id / remove_id asked for in this loop
+    def __init__(self, table: ServoTable, log: Log, io: ServoIO) -> None:
+        self.table = table
+        self.log = log
+        self.io = io
+        self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
+        self._ops: collections.deque[tuple[str, Callable[[], None]]] = collections.deque()
+        self._ops_lock = threading.Lock()
+        # ID -> (monotonic time when due, what, operation): per-servo work that must wait (a mode
+        # change asked for too soon after the last one); a later request for the servo replaces it
+        self.deferred: dict[int, tuple[float, str, Callable[[], None]]] = {}
+        self._eeprom_written: dict[tuple[int, str], float] = {}  # (ID, item) -> time of the last write
+        self._eeprom_deferred: dict[tuple[int, str], int] = {}  # (ID, item) -> value to write when due
 
-    if TYPE_CHECKING:
-        def _apply_membership(self) -> None: ...  # Startup's
+    @property
+    def waiting(self) -> bool:
+        """Whether EEPROM values or per-servo operations wait for their time (``run_deferred``)."""
+        return bool(self.deferred or self._eeprom_deferred)
+
+    def forget(self, dxl_id: int) -> None:
+        """The servo is no longer handled: nothing waits for it."""
+        self.deferred.pop(dxl_id, None)
+        for key in [k for k in self._eeprom_deferred if k[0] == dxl_id]:
+            del self._eeprom_deferred[key]
 
     def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
         """Write one EEPROM item (see ``write_eeprom_many``)."""
@@ -40,7 +62,7 @@ class Deferred(ServoIO, LogLimits):
             if not model.has(item):
                 continue
             key = (dxl_id, item)
-            if self.read_item(dxl_id, item) == pulses:
+            if self.io.read_item(dxl_id, item) == pulses:
                 self._eeprom_deferred.pop(key, None)  # already so: nothing to write, nothing later
                 continue
             last = self._eeprom_written.get(key)
@@ -55,19 +77,19 @@ class Deferred(ServoIO, LogLimits):
             todo[item] = pulses
         if not todo:
             return True
-        torque = self.torque_off_for_eeprom(dxl_id)
+        torque = self.io.torque_off_for_eeprom(dxl_id)
         ok = True
         for item, pulses in todo.items():
-            if self.write_item(dxl_id, item, pulses):
+            if self.io.write_item(dxl_id, item, pulses):
                 self._eeprom_written[(dxl_id, item)] = time.monotonic()
             else:
                 ok = False
-                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {self.bus.last_failure}")
+                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {self.io.bus.last_failure}")
         if torque:
-            self.torque_on(dxl_id)
+            self.io.torque_on(dxl_id)
         return ok
 
-    def _run_deferred(self) -> None:
+    def run_deferred(self) -> None:
         """EEPROM values and per-servo operations that had to wait, once their time has come."""
         now = time.monotonic()
         if self._eeprom_deferred:
@@ -77,7 +99,7 @@ class Deferred(ServoIO, LogLimits):
                 continue
             del self.deferred[dxl_id]
             if dxl_id in self.table:
-                self._run_op(what, op)
+                self.run_op(what, op)
 
     def _write_due_eeprom(self, now: float) -> None:
         due_ids = {i for (i, item) in self._eeprom_deferred
@@ -90,7 +112,7 @@ class Deferred(ServoIO, LogLimits):
                 for item in values:
                     self._eeprom_deferred.pop((dxl_id, item), None)
 
-    def _run_op(self, what: str, op: Callable[[], None]) -> None:
+    def run_op(self, what: str, op: Callable[[], None]) -> None:
         try:
             op()
         except Exception as exc:  # an operation must never stop the loop
@@ -108,12 +130,10 @@ class Deferred(ServoIO, LogLimits):
             self._ops.clear()
         return count
 
-    def _run_ops(self) -> None:
+    def run_ops(self) -> None:
         while True:
             with self._ops_lock:
                 if not self._ops:
                     break
                 what, op = self._ops.popleft()
-            self._run_op(what, op)
-        if self._membership:  # add_id / remove_id asked for by these operations: once each
-            self._run_op("add_id / remove_id", self._apply_membership)
+            self.run_op(what, op)

@@ -6,11 +6,18 @@ from __future__ import annotations
 from typing import Iterable, Mapping
 
 from .. import units
-from .servo_io import ServoIO
+from ..bus import ServoBus
+from ..servos import ServoTable
+from .servo_io import Log
 
 
-class GroupIO(ServoIO):
+class GroupIO:
     """``read_group`` / ``write_group``: kept in the servo table like the one-servo reads and writes."""
+
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log) -> None:
+        self.bus = bus
+        self.table = table
+        self.log = log
 
     def _layouts(self, item: str, ids: Iterable[int]) -> dict[tuple[int, int], list[int]]:
         """The servos of ``ids`` that have ``item``, by its (address, size) in their model."""

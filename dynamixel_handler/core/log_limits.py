@@ -15,18 +15,17 @@ LINE_INTERVAL_S = 1.0
 
 class LogLimits:
     """``limited(level, msg, key)``: ``msg`` at ``level`` unless ``key`` was logged less than a
-    second ago; the next line of that key says how many were left out."""
+    second ago; the next line of that key says how many were left out. ``emit(level, msg)`` writes
+    a line (a part passes one that looks its logger up at each line: the logger may be replaced)."""
 
-    log: logging.Logger
-    _throttles: dict[int, Throttle] | None = None
+    def __init__(self, emit: Callable[[int, str], None]) -> None:
+        self._emit = emit
+        self._throttles: dict[int, Throttle] = {}
 
-    def limited(self, level: int, msg: str, key: str) -> bool:
-        if self._throttles is None:
-            self._throttles = {}
+    def __call__(self, level: int, msg: str, key: str) -> bool:
         throttle = self._throttles.get(level)
         if throttle is None:
-            # the logger is looked up at each line: a caller may replace it after start-up
-            throttle = self._throttles[level] = Throttle(lambda m: self.log.log(level, m), LINE_INTERVAL_S)
+            throttle = self._throttles[level] = Throttle(lambda m: self._emit(level, m), LINE_INTERVAL_S)
         return throttle(msg, key)
 
 

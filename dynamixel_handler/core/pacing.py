@@ -18,10 +18,12 @@ yet made (``stopping``).
 from __future__ import annotations
 
 import time
+from typing import Callable
 
 import numpy as np
 
-from .state import HandlerState
+from ..bus import ServoBus
+from ..servos import ServoTable
 
 #: longest wire time of one sync read, as a share of the shortest armed bus watchdog time
 READ_SHARE = 1 / 3
@@ -33,21 +35,24 @@ SYNC_READ_BYTES, REPLY_BYTES = 14, 11
 MIN_SPAN = 4
 
 
-class Pacing(HandlerState):
-    """The shortest armed bus watchdog time; the read span and operation time it allows."""
+class Pacing:
+    """The shortest armed bus watchdog time; the read span and operation time it allows.
+    ``interrupted()`` tells that the node is stopping."""
 
-    #: (values, known) arrays of Bus Watchdog last looked at and the shortest armed time [s] they give
-    _armed_seen: tuple[object, object, float | None] = (None, None, None)
-    #: time.monotonic() when the last reads went out (every servo addressed), and the mode changes made since
-    _ops_since: float = 0.0
-    _ops_made: int = 0
-    _dropped: set[int] | None = None
+    def __init__(self, bus: ServoBus, table: ServoTable, interrupted: Callable[[], bool]) -> None:
+        self.bus = bus
+        self.table = table
+        self.interrupted = interrupted
+        #: (values, known) arrays of Bus Watchdog last looked at and the shortest armed time [s] they give
+        self._armed_seen: tuple[object, object, float | None] = (None, None, None)
+        #: time.monotonic() when the last reads went out (every servo addressed), and the mode changes made since
+        self._ops_since = 0.0
+        self._ops_made = 0
+        self._dropped: set[int] = set()
 
     @property
     def dropped_mode_changes(self) -> set[int]:
         """IDs whose mode change was asked for but dropped because the node is stopping."""
-        if self._dropped is None:
-            self._dropped = set()
         return self._dropped
 
     def shortest_armed_s(self) -> float | None:

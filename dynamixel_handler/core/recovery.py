@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import TYPE_CHECKING
+from typing import Callable
 
 import numpy as np
 
-from ..bus import dummy_ids
-from .log_limits import PingLog
+from ..bus import ServoBus, dummy_ids
+from ..servos import ServoTable
+from ..settings import LoopSettings
+from .log_limits import LogLimits, PingLog
+from .servo_io import Log, ServoIO
 from .state import StepReport
 from .watchdog import Watchdog
 
@@ -20,20 +23,33 @@ REBOOT_SLACK_S = 0.05
 RECONNECT_INTERVAL_S = 1.0
 
 
-class Recovery(Watchdog):
-    """Reboot, reconnect, ping state and the removal of servos that stopped answering."""
+class Recovery:
+    """Reboot, reconnect, ping state and the removal of servos that stopped answering. ``set_up``
+    sets a servo up as at start-up (after a reconnect); ``remove`` stops handling one. Of the
+    settings: ``clear_error_interval_s`` (also between two reboots of a servo) and
+    ``no_response_auto_remove``."""
 
-    _ping_log: PingLog | None = None
-    #: IDs handled when the device went, set up again when it is back (None: not gone)
-    _lost_ids: list[int] | None = None
-    _last_reboot: dict[int, float] | None = None  # ID -> time.monotonic() of its last reboot
-
-    @property
-    def ping_log(self) -> PingLog:
-        """The ping false / answers again lines, at most one a second per servo."""
-        if self._ping_log is None:
-            self._ping_log = PingLog(lambda level, msg: self.log.log(level, msg))
-        return self._ping_log
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, io: ServoIO, watchdog: Watchdog,
+                 settings: LoopSettings, set_up: Callable[[int], None], remove: Callable[[int], None]) -> None:
+        self.bus = bus
+        self.table = table
+        self.log = log
+        self.io = io
+        self.watchdog = watchdog
+        self.settings = settings
+        self._set_up = set_up
+        self._remove = remove
+        self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
+        #: the ping false / answers again lines, at most one a second per servo
+        self.ping_log = PingLog(lambda level, msg: self.log.log(level, msg))
+        self.had_device = False  # the device was open at start-up: its loss is watched for
+        self.reconnects = 0
+        self.device_lost = False
+        self.device_lost_since: float | None = None  # time.time() when the device was found gone
+        self._next_reconnect = 0.0
+        #: IDs handled when the device went, set up again when it is back (None: not gone)
+        self._lost_ids: list[int] | None = None
+        self._last_reboot: dict[int, float] = {}  # ID -> time.monotonic() of its last reboot
 
     def reboot(self, dxl_id: int) -> bool:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
@@ -55,15 +71,13 @@ class Recovery(Watchdog):
                 time.sleep(0.02)
             for item, value in kept.items():
                 if value is not None:
-                    self.write_item(dxl_id, item, value)
+                    self.io.write_item(dxl_id, item, value)
             if dxl_id in self.table:
-                self.arm_watchdog(dxl_id)
+                self.watchdog.arm_watchdog(dxl_id)
         return ok
 
     def _reboot_allowed(self, dxl_id: int) -> bool:
-        if self._last_reboot is None:
-            self._last_reboot = {}
-        now, interval = time.monotonic(), float(self.config["clear_error_interval_sec"])
+        now, interval = time.monotonic(), float(self.settings.clear_error_interval_s)
         last = self._last_reboot.get(dxl_id)
         # the slack: an error clear checks its own interval a few reads before its reboot, so its
         # next clear, allowed, must not find the reboot a few milliseconds too soon
@@ -74,7 +88,7 @@ class Recovery(Watchdog):
         self._last_reboot[dxl_id] = now
         return True
 
-    def _reconnect(self, report: StepReport) -> None:
+    def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
         counts towards a servo's removal meanwhile (the device is gone, not the servo); once it is
         back, every servo handled when it went is pinged and set up as at start-up."""
@@ -117,18 +131,15 @@ class Recovery(Watchdog):
             pos = self.table.index[dxl_id]
             self.table.ping[pos] = True
             self.table.no_response[pos] = 0
-            self._setup_servo(dxl_id)
+            self._set_up(dxl_id)
             answered.append(dxl_id)
         self.log.info(f"after the reconnect: {len(answered)} servo(s) {answered} answer and are set up as at start-up"
                       + (f"; no answer yet from {silent} (pinged again as silent servos)" if silent else ""))
 
-    if TYPE_CHECKING:
-        def _setup_servo(self, dxl_id: int) -> None: ...  # Startup's
-
-    def _update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
+    def update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table
         silent = addressed & ~answered
-        if self.device_lost or (self._had_device and not self.bus.is_open):
+        if self.device_lost or (self.had_device and not self.bus.is_open):
             # the device is gone, not the servos: nothing counted, no line per servo (one line says it)
             table.ping[silent] = False
             table.no_response[answered] = 0
@@ -145,7 +156,7 @@ class Recovery(Watchdog):
                 ping_log.change(table.ids[pos], True)
                 # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew
                 # before the next commands are written
-                self._to_arm.add(table.ids[pos])
+                self.watchdog.to_arm.add(table.ids[pos])
         ping_log.flush()
         # each read or ping of the servo that got no answer counts (a silent servo is only pinged every
         # recheck_loops loops): the removal comes after no_response_id_auto_remove_count
@@ -155,21 +166,19 @@ class Recovery(Watchdog):
             table.ping[silent] = False
         table.no_response[answered] = 0
         table.ping[answered] = True
-        limit = self.config["no_response_id_auto_remove_count"]
+        limit = self.settings.no_response_auto_remove
         if limit > 0 and any_silent:
             for pos in reversed(np.flatnonzero(table.no_response >= limit)):
                 dxl_id = table.ids[pos]
                 self.log.warning(f"ID {dxl_id}: no response {limit} times in a row: removed "
                                  "(add it again with the shortcut add_id)")
-                self.remove_id(dxl_id)
+                self._remove(dxl_id)
 
-    def remove_id(self, dxl_id: int) -> None:
-        if dxl_id in self.table:
-            self.table.remove(dxl_id)
-            self.pending.drop_ids([dxl_id])
-            self.deferred.pop(dxl_id, None)
-            self.watchdog_user.pop(dxl_id, None)
-            for key in [k for k in self._eeprom_deferred if k[0] == dxl_id]:
-                del self._eeprom_deferred[key]
-            self.ping_log.forget(dxl_id)
-            self.limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")
+    @property
+    def device_gone(self) -> bool:
+        """The device that was open at start-up is closed (it vanished): ``reconnect`` has work."""
+        return self.had_device and not self.bus.is_open
+
+    def forget(self, dxl_id: int) -> None:
+        """The servo is no longer handled."""
+        self.ping_log.forget(dxl_id)

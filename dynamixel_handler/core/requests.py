@@ -7,73 +7,51 @@ import logging
 import time
 from typing import Callable, Mapping
 
-from ..control_table import OPERATING_MODES, Model
-from .startup import Startup
+from ..control_table import OPERATING_MODES
+from ..servos import PendingWrites, ServoTable
+from ..settings import LoopSettings
+from .deferred import Deferred
+from .log_limits import LogLimits
+from .pacing import Pacing
+from .recovery import Recovery
+from .servo_io import Log, ServoIO
+from .watchdog import Watchdog
 
 Warn = Callable[[str], None]
 #: RAM items the firmware resets on a mode change (written back after it)
 MODE_RESET_ITEMS = ("goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration")
 #: a mode's own goal: left out when the mode changes (it would mean something else in the new one)
 OWN_GOAL = {"pwm": "goal_pwm", "current": "goal_current", "velocity": "goal_velocity"}
-#: False: every goal command looks for tripped watchdogs servo by servo (for tests and comparisons)
-TRIPPED_ONCE = True
 
 
-class Requests(Startup):
-    """What commands may ask of the core, one method per request."""
+class Requests:
+    """What commands may ask of the core, one method per request. Of the settings:
+    ``mode_change_interval_s`` and ``clear_error_interval_s``."""
 
-    #: why the last ``change_mode`` answered "later" (``defer_mode_change`` acts on it)
-    _mode_later: str | None = None
-
-    # ---------------------------------------------------------------- queries
-    def handles(self, dxl_id: int) -> bool:
-        return dxl_id in self.table
-
-    def model(self, dxl_id: int) -> Model:
-        return self.table.model(dxl_id)
-
-    @property
-    def handled_ids(self) -> list[int]:
-        return list(self.table.ids)
-
-    @property
-    def last_failure(self) -> str:
-        """Why the last bus transaction failed."""
-        return self.bus.last_failure
-
-    def value(self, dxl_id: int, item: str) -> int | None:
-        """The item's last known value, read from the servo when none is known."""
-        value = self.table.value(item, dxl_id)
-        return value if value is not None else self.read_item(dxl_id, item)
+    def __init__(self, table: ServoTable, pending: PendingWrites, log: Log, io: ServoIO, watchdog: Watchdog,
+                 pacing: Pacing, work: Deferred, recovery: Recovery, settings: LoopSettings) -> None:
+        self.table = table
+        self.pending = pending
+        self.log = log
+        self.io = io
+        self.watchdog = watchdog
+        self.pacing = pacing
+        self.work = work
+        self.recovery = recovery
+        self.settings = settings
+        self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
+        self._last_mode_change: dict[int, float] = {}  # ID -> time.monotonic() of its last mode change
+        self._last_clear: dict[int, float] = {}  # ID -> time.monotonic() of its last error clear
+        #: why the last ``change_mode`` answered "later" (``defer_mode_change`` acts on it)
+        self._mode_later: str | None = None
 
     # ---------------------------------------------------------------- goals
     def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
         """Goal values {item: {ID: pulses}} written with the next sync writes; a tripped bus
         watchdog of those servos is cleared first (a tripped servo refuses goals)."""
-        if self._any_tripped():
-            self.clear_tripped(sorted({i for values in writes.values() for i in values}))
+        if self.watchdog.any_tripped():
+            self.watchdog.clear_tripped(sorted({i for values in writes.values() for i in values}))
         self.pending.put_many(writes.items())
-
-    #: the bus watchdog arrays last looked at and whether one of them shows a trip
-    _tripped_seen: tuple[object, object, bool] = (None, None, True)
-
-    def _any_tripped(self) -> bool:
-        """Whether the table shows any servo's bus watchdog tripped (``clear_tripped`` has work);
-        answered once per new read or write of the watchdog values."""
-        if not TRIPPED_ONCE:
-            return True
-        values, known = self.table.arrays("bus_watchdog")
-        seen = self._tripped_seen
-        if values is seen[0] and known is seen[1]:
-            return seen[2]
-        tripped = values is not None and known is not None and bool((known & (values < 0)).any())
-        self._tripped_seen = (values, known, tripped)
-        return tripped
-
-    def set_user_watchdog(self, dxl_id: int, pulses: int) -> None:
-        """A bus watchdog the servo keeps whatever its mode (0: off)."""
-        self.watchdog_user[dxl_id] = pulses
-        self.arm_watchdog(dxl_id)
 
     # ---------------------------------------------------------------- mode changes
     def mode_change_wait(self, dxl_id: int) -> float:
@@ -81,7 +59,7 @@ class Requests(Startup):
         last = self._last_mode_change.get(dxl_id)
         if last is None:
             return 0.0
-        interval = float(self.config["mode_change_interval_sec"])
+        interval = float(self.settings.mode_change_interval_s)
         return max(0.0, last + interval - time.monotonic())
 
     def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
@@ -90,21 +68,21 @@ class Requests(Startup):
         replaces it. While the node stops it is dropped (the servo keeps its mode)."""
         why, self._mode_later = self._mode_later, None
         if why == "stopping":
-            self.dropped_mode_changes.add(dxl_id)
+            self.pacing.dropped_mode_changes.add(dxl_id)
             return
         if why == "bus time":
             self.log.debug(f"{what}: waits for the next loop (this loop's mode changes used their bus time)")
-            self.deferred[dxl_id] = (time.monotonic(), what, op)
+            self.work.deferred[dxl_id] = (time.monotonic(), what, op)
             return
         left = self.mode_change_wait(dxl_id)
-        if dxl_id not in self.deferred:
+        if dxl_id not in self.work.deferred:
             self.limited(logging.INFO, f"{what}: the last mode change was less than mode_change_interval_sec="
-                         f"{self.config['mode_change_interval_sec']:g}s ago: applied in {left:.2f}s", f"defer {dxl_id}")
-        self.deferred[dxl_id] = (time.monotonic() + left, what, op)
+                         f"{self.settings.mode_change_interval_s:g}s ago: applied in {left:.2f}s", f"defer {dxl_id}")
+        self.work.deferred[dxl_id] = (time.monotonic() + left, what, op)
 
     def cancel_deferred(self, dxl_id: int) -> None:
         """A later request for the servo wins over a mode change waiting for it."""
-        self.deferred.pop(dxl_id, None)
+        self.work.deferred.pop(dxl_id, None)
 
     def change_mode(self, dxl_id: int, mode: str, what: str, warn: Warn) -> str:
         """Torque off -> operating mode -> goals and profiles written back -> torque back as it
@@ -112,25 +90,25 @@ class Requests(Startup):
         checked that the servo has ``mode``. "done", "failed" (the bus), or "later": the last
         change was less than mode_change_interval_sec ago, or this loop's mode changes used their
         bus time, or the node is stopping (the caller defers the request: ``defer_mode_change``)."""
-        self._mode_later = "interval" if self.mode_change_wait(dxl_id) > 0 else self.ops_wait()
+        self._mode_later = "interval" if self.mode_change_wait(dxl_id) > 0 else self.pacing.ops_wait()
         if self._mode_later is not None:
             return "later"
         self._last_mode_change[dxl_id] = time.monotonic()
         model = self.table.model(dxl_id)
-        own = OWN_GOAL.get(self.mode(dxl_id) or "")
-        keep = {item: self.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
-        torque = self.torque_off_for_eeprom(dxl_id)
-        ok = self.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
+        own = OWN_GOAL.get(self.io.mode(dxl_id) or "")
+        keep = {item: self.io.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
+        torque = self.io.torque_off_for_eeprom(dxl_id)
+        ok = self.io.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
         for item, value in keep.items():
             if value is not None:
-                self.write_item(dxl_id, item, value)
+                self.io.write_item(dxl_id, item, value)
         if torque:
-            self.torque_on(dxl_id)
-        self.arm_after_ops(dxl_id)
+            self.io.torque_on(dxl_id)
+        self.watchdog.arm_after_ops(dxl_id)
         if ok:
             self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
         else:
-            warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {self.bus.last_failure}")
+            warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {self.io.bus.last_failure}")
         return "done" if ok else "failed"
 
     # ---------------------------------------------------------------- error clear
@@ -139,7 +117,7 @@ class Requests(Startup):
         ``keep_rotation`` the multi-turn position survives through the homing offset. Torque comes
         back on if it was on, or if the error's shutdown switched it off (then the error, not the
         user, turned it off). At most once per clear_error_interval_sec per servo."""
-        error = self.read_item(dxl_id, "hardware_error_status")
+        error = self.io.read_item(dxl_id, "hardware_error_status")
         if error is None:
             warn(f"{what}: ID {dxl_id} did not answer the hardware error read: not rebooted")
             return False
@@ -148,25 +126,25 @@ class Requests(Startup):
             return True
         if not self._clear_allowed(dxl_id, what, warn):
             return False
-        torque_was = self.value(dxl_id, "torque_enable")
-        shutdown = self.value(dxl_id, "shutdown")
+        torque_was = self.io.value(dxl_id, "torque_enable")
+        shutdown = self.io.value(dxl_id, "shutdown")
         torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
-        before = self.read_item(dxl_id, "present_position")
-        offset = self.read_item(dxl_id, "homing_offset")
-        if not self.reboot(dxl_id):
-            warn(f"{what}: ID {dxl_id} reboot failed: {self.bus.last_failure}")
+        before = self.io.read_item(dxl_id, "present_position")
+        offset = self.io.read_item(dxl_id, "homing_offset")
+        if not self.recovery.reboot(dxl_id):
+            warn(f"{what}: ID {dxl_id} reboot failed: {self.io.bus.last_failure}")
             return False
-        self.read_item(dxl_id, "torque_enable")
-        self.read_item(dxl_id, "hardware_error_status")
+        self.io.read_item(dxl_id, "torque_enable")
+        self.io.read_item(dxl_id, "hardware_error_status")
         if keep_rotation and before is not None and offset is not None:
             self._keep_turns(dxl_id, before, offset)
         if torque:
-            self.torque_on(dxl_id)
+            self.io.torque_on(dxl_id)
         self.log.info(f"ID {dxl_id}: hardware error cleared ({'turns kept' if keep_rotation else 'turns reset'})")
         return True
 
     def _clear_allowed(self, dxl_id: int, what: str, warn: Warn) -> bool:
-        now, interval = time.monotonic(), self.config["clear_error_interval_sec"]
+        now, interval = time.monotonic(), self.settings.clear_error_interval_s
         last = self._last_clear.get(dxl_id)
         if last is not None and now - last < interval:
             warn(f"{what}: ID {dxl_id} error clear refused: the last one was {now - last:.2f}s ago "
@@ -178,11 +156,11 @@ class Requests(Startup):
     def _keep_turns(self, dxl_id: int, before: int, offset: int) -> None:
         """After a reboot the position restarts within one turn: the turns it had go into the
         homing offset, so the multi-turn position is the one before."""
-        after = self.read_item(dxl_id, "present_position")
+        after = self.io.read_item(dxl_id, "present_position")
         if after is None:
             return
         per_turn = int(round(360.0 / self.table.model(dxl_id).position_deg_per_pulse))
         turns = int(round((before - after) / per_turn))
         if turns:
-            self.write_eeprom(dxl_id, "homing_offset", offset + turns * per_turn)
-            self.read_item(dxl_id, "present_position")
+            self.work.write_eeprom(dxl_id, "homing_offset", offset + turns * per_turn)
+            self.io.read_item(dxl_id, "present_position")

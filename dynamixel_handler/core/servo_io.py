@@ -1,13 +1,24 @@
 """One servo at a time: read or write an item, its mode, torque on without a jump."""
 from __future__ import annotations
 
+import logging
+from typing import Any
+
 from .. import units
+from ..bus import ServoBus
 from ..groups import MODE_NAMES
-from .state import HandlerState
+from ..servos import ServoTable
+
+Log = logging.Logger | logging.LoggerAdapter[Any]
 
 
-class ServoIO(HandlerState):
+class ServoIO:
     """Single-servo reads and writes, kept in the servo table."""
+
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log) -> None:
+        self.bus = bus
+        self.table = table
+        self.log = log
 
     def read_item(self, dxl_id: int, item: str) -> int | None:
         model = self.table.model(dxl_id)
@@ -31,6 +42,11 @@ class ServoIO(HandlerState):
             self.table.set_value(item, dxl_id, pulses)
         return ok
 
+    def value(self, dxl_id: int, item: str) -> int | None:
+        """The item's last known value, read from the servo when none is known."""
+        value = self.table.value(item, dxl_id)
+        return value if value is not None else self.read_item(dxl_id, item)
+
     def mode(self, dxl_id: int) -> str | None:
         value = self.table.value("operating_mode", dxl_id)
         if value is None:
@@ -45,7 +61,7 @@ class ServoIO(HandlerState):
             present = self.read_item(dxl_id, "present_position")
             if present is not None:
                 if mode == "position":
-                    present = self._clip_to_position_limits(dxl_id, present)
+                    present = self.clip_to_position_limits(dxl_id, present)
                 self.write_item(dxl_id, "goal_position", present)
         elif mode == "velocity":
             self.write_item(dxl_id, "goal_velocity", 0)
@@ -75,7 +91,7 @@ class ServoIO(HandlerState):
             self.torque_off(dxl_id)
         return torque or 0
 
-    def _clip_to_position_limits(self, dxl_id: int, pulses: int) -> int:
+    def clip_to_position_limits(self, dxl_id: int, pulses: int) -> int:
         lo = self.table.value("min_position_limit", dxl_id)
         hi = self.table.value("max_position_limit", dxl_id)
         if lo is None:

@@ -2,28 +2,53 @@
 from __future__ import annotations
 
 import logging
-from typing import Sequence
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 from .. import units
-from ..bus import dummy_ids
+from ..bus import ServoBus, dummy_ids
 from ..control_table import model_by_number
 from ..errors import Interrupted, StartupError
+from ..servos import ServoTable
+from ..settings import ScanSettings, StartValues
 from .deferred import Deferred
+from .log_limits import LogLimits
 from .recovery import Recovery
+from .servo_io import Log, ServoIO
+from .watchdog import Watchdog
 
 
-class Startup(Recovery, Deferred):
-    """Scan, expected count, per-servo set-up, add_id."""
+@dataclass(frozen=True)
+class StartupSettings:
+    scan: ScanSettings = ScanSettings()     # which servos are looked for, how they are set up
+    start: StartValues = StartValues()      # the values every servo gets
+    debug: bool = False                     # a start-up problem is logged and the node runs on
 
-    #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
-    _membership: dict[int, bool] | None = None
+
+class Startup:
+    """Scan, expected count, per-servo set-up, add_id. ``interrupted()`` tells that the node is
+    asked to exit (the scan and the set-up stop between two servos)."""
+
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, io: ServoIO, eeprom: Deferred,
+                 recovery: Recovery, watchdog: Watchdog, settings: StartupSettings,
+                 interrupted: Callable[[], bool]) -> None:
+        self.bus = bus
+        self.table = table
+        self.log = log
+        self.io = io
+        self.eeprom = eeprom
+        self.recovery = recovery
+        self.watchdog = watchdog
+        self.settings = settings
+        self.interrupted = interrupted
+        self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
+        #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
+        self.membership: dict[int, bool] | None = None
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
-        cfg = self.config
-        self._had_device = self.bus.is_open
         dummies = dummy_ids(self.bus)
-        expected = cfg["init/expected_servo_num"]
+        expected = self.settings.scan.expected
         found = self._scan(dummies, expected)
         self._keep(found, dummies)
         if expected > 0 and len(self.table) != expected:
@@ -34,7 +59,7 @@ class Startup(Recovery, Deferred):
         for dxl_id in list(self.table.ids):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
-            self._setup_servo(dxl_id)
+            self.setup_servo(dxl_id)
 
     def _enough(self, found: dict[int, int], dummies: Sequence[int], expected: int) -> bool:
         return len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
@@ -42,9 +67,8 @@ class Startup(Recovery, Deferred):
     def _scan(self, dummies: Sequence[int], expected: int) -> dict[int, int]:
         """Scan init/servo_auto_search (retry_times more times until enough servos answer):
         {ID: model number}. Too few ends the start-up (``_startup_problem``)."""
-        cfg = self.config
-        lo, hi = cfg["init/servo_auto_search.min_id"], cfg["init/servo_auto_search.max_id"]
-        attempts = cfg["init/servo_auto_search.retry_times"] + 1
+        lo, hi = self.settings.scan.min_id, self.settings.scan.max_id
+        attempts = self.settings.scan.retry_times + 1
         found: dict[int, int] = {}
         for attempt in range(attempts):
             if self.interrupted():
@@ -66,7 +90,7 @@ class Startup(Recovery, Deferred):
 
     def _keep(self, found: dict[int, int], dummies: Sequence[int]) -> None:
         """Put the servos found that are known models of a used series (or dummies) in the table."""
-        used = set(self.config.used_series)
+        used = set(self.settings.scan.used_series)
         for dxl_id, number in sorted(found.items()):
             try:
                 model = model_by_number(number)
@@ -80,19 +104,19 @@ class Startup(Recovery, Deferred):
             self.table.add(dxl_id, model)
             kind = "dummy" if dxl_id in dummies else f"model {number}"
             self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}) handled")
-        if not len(self.table) and found and not self.config["debug"]:
+        if not len(self.table) and found and not self.settings.debug:
             raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
                                f"{sorted(found)}: enable their series in init/used_servo_series")
 
     def _startup_problem(self, message: str) -> None:
         """Start-up cannot go on (StartupError), unless the debug parameter says to run on anyway."""
-        if not self.config["debug"]:
+        if not self.settings.debug:
             raise StartupError(message)
         self.log.warning(message + " (debug: running on)")
 
     def _usable(self, found: dict[int, int], dummies: Sequence[int]) -> list[int]:
         """IDs among ``found`` that would be handled: known model of a used series, or a dummy."""
-        used = set(self.config.used_series)
+        used = set(self.settings.scan.used_series)
         out = []
         for dxl_id, number in found.items():
             try:
@@ -103,48 +127,51 @@ class Startup(Recovery, Deferred):
                 out.append(dxl_id)
         return out
 
-    def _setup_servo(self, dxl_id: int) -> None:
+    def setup_servo(self, dxl_id: int) -> None:
         """The set-up every servo gets, at start-up and when added later (add_id): hardware error
         cleared (init/hardware_error_auto_clean), return delay, profile defaults, torque as
         init/torque_auto_enable says; the bus watchdog when the loop next runs."""
-        cfg, model = self.config, self.table.model(dxl_id)
-        if cfg["init/hardware_error_auto_clean"]:
-            err = self.read_item(dxl_id, "hardware_error_status")
+        settings, model = self.settings, self.table.model(dxl_id)
+        if settings.scan.hardware_error_auto_clean:
+            err = self.io.read_item(dxl_id, "hardware_error_status")
             if err:
                 self.log.warning(f"ID {dxl_id}: hardware error 0x{err:02X} at start-up: clearing it by reboot")
-                self.reboot(dxl_id)
-        delay = int(units.unit_to_pulse([model], "return_delay_time", [cfg["default/return_delay_time"]])[0])
-        self.write_eeprom(dxl_id, "return_delay_time", delay)
+                self.recovery.reboot(dxl_id)
+        delay = int(units.unit_to_pulse([model], "return_delay_time", [settings.start.return_delay_time])[0])
+        self.eeprom.write_eeprom(dxl_id, "return_delay_time", delay)
         self._setup_ram(dxl_id)
-        if cfg["init/torque_auto_enable"]:
-            self.torque_on(dxl_id)
+        if settings.scan.torque_auto_enable:
+            self.io.torque_on(dxl_id)
 
     def _setup_ram(self, dxl_id: int) -> None:
         """Profile defaults now; the bus watchdog when the loop starts (arming it here, servo by
         servo, would let it trip on the first servos while the last ones are still set up)."""
         model = self.table.model(dxl_id)
-        for item, param in (("profile_acceleration", "default/profile_acc"), ("profile_velocity", "default/profile_vel")):
+        start = self.settings.start
+        for item, param, value in (("profile_acceleration", "default/profile_acc", start.profile_acc),
+                                   ("profile_velocity", "default/profile_vel", start.profile_vel)):
             if model.has(item):
-                pulses = int(units.unit_to_pulse([model], item, [self.config[param]])[0])
-                if not self.write_item(dxl_id, item, pulses):  # e.g. above a P servo's velocity limit
-                    self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {self.config[param]:g} not set "
+                pulses = int(units.unit_to_pulse([model], item, [value])[0])
+                if not self.io.write_item(dxl_id, item, pulses):  # e.g. above a P servo's velocity limit
+                    self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
                                      f"({item} {pulses} refused: {self.bus.last_failure})")
-        self._to_arm.add(dxl_id)
+        self.watchdog.to_arm.add(dxl_id)
 
     def want_handled(self, dxl_id: int, handled: bool) -> None:
         """add_id (True) or remove_id (False) from a command, applied once the queued operations of
         this loop have run: the last request for an ID in a loop wins, so a script that adds and
         removes a servo many times a loop costs at most one change a loop."""
-        if self._membership is None:
-            self._membership = {}
-        self._membership.pop(dxl_id, None)
-        self._membership[dxl_id] = handled
+        if self.membership is None:
+            self.membership = {}
+        self.membership.pop(dxl_id, None)
+        self.membership[dxl_id] = handled
 
-    def _apply_membership(self) -> None:
-        wanted, self._membership = self._membership or {}, None
+    def apply_membership(self, remove: Callable[[int], None]) -> None:
+        """The add_id / remove_id requests of this loop (``remove`` stops handling a servo)."""
+        wanted, self.membership = self.membership or {}, None
         for dxl_id, handled in wanted.items():
             if not handled:
-                self.remove_id(dxl_id)
+                remove(dxl_id)
             elif dxl_id not in self.table:
                 self.add_id(dxl_id)
 
@@ -159,11 +186,11 @@ class Startup(Recovery, Deferred):
         except KeyError:
             self.limited(logging.WARNING, f"ID {dxl_id}: unknown model number {number}, not added", f"not added {dxl_id}")
             return False
-        if model.series not in self.config.used_series:
+        if model.series not in self.settings.scan.used_series:
             self.limited(logging.WARNING, f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in "
                          "init/used_servo_series", f"not added {dxl_id}")
             return False
         self.table.add(dxl_id, model)
         self.limited(logging.INFO, f"ID {dxl_id}: {model.name} added", f"added {dxl_id}")
-        self._setup_servo(dxl_id)  # the same set-up as at start-up
+        self.setup_servo(dxl_id)  # the same set-up as at start-up
         return True

@@ -2,24 +2,56 @@
 from __future__ import annotations
 
 import time
-from typing import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
 from .. import units
+from ..bus import ServoBus
 from ..groups import GROUP_ITEMS, PRESENT
+from ..servos import ServoTable
+from ..settings import LogSettings
 from .deferred import Deferred
-from .group_io import GroupIO
-from .read_plan import _Read
+from .pacing import Pacing
+from .read_plan import ReadPlan
 from .recovery import Recovery
+from .servo_io import Log
+from .startup import Startup
 from .state import RECHECK_LOOPS, StepReport
+from .watchdog import Watchdog
 from .write_batch import WriteBatch
 
-__all__ = ["RECHECK_LOOPS", "Step"]
+__all__ = ["RECHECK_LOOPS", "Step", "StepSettings"]
 
 
-class Step(Recovery, Deferred, WriteBatch, GroupIO):
-    """The loop step and its phases; the read logs."""
+@dataclass(frozen=True)
+class StepSettings:
+    recheck_loops: int = RECHECK_LOOPS      # loops between pings of a silent servo (state.recheck_loops)
+    logs: LogSettings = LogSettings()       # the read logs: values, silent servos, hardware errors
+
+
+class Step:
+    """The loop step and its phases, over the parts that do the work; the read logs.
+    ``remove`` stops handling a servo (the add_id / remove_id requests of a loop)."""
+
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, reads: ReadPlan, writes: WriteBatch,
+                 pacing: Pacing, watchdog: Watchdog, recovery: Recovery, work: Deferred, startup: Startup,
+                 remove: Callable[[int], None], settings: StepSettings) -> None:
+        self.bus = bus
+        self.table = table
+        self.log = log
+        self.reads = reads
+        self.writes = writes
+        self.pacing = pacing
+        self.watchdog = watchdog
+        self.recovery = recovery
+        self.work = work
+        self.startup = startup
+        self._remove = remove
+        self.settings = settings
+        self.loop_count = 0
+        self._reported_errors: dict[int, int] = {}
 
     def step(self) -> StepReport:
         """One whole loop: queued operations, pending writes, the reads due, bookkeeping."""
@@ -44,36 +76,20 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
     def prepare(self, report: StepReport) -> None:
         """Reopen a vanished device, arm watchdogs, run the queued operations (commands). Called
         by ``begin_step``, and again before ``send_step`` for commands that came meanwhile."""
-        if self._had_device and not self.bus.is_open:
-            self._reconnect(report)
-        if self._to_arm:
-            self._arm_watchdogs(sorted(i for i in self._to_arm if i in self.table))
-            self._to_arm.clear()
-        if self._check_watchdogs:
-            self._check_watchdogs = False
-            self.check_watchdogs()
-        if self.deferred or self._eeprom_deferred:
-            self._run_deferred()
-        self._run_ops()
+        if self.recovery.device_gone:
+            self.recovery.reconnect(report)
+        self.watchdog.arm_waiting()
+        if self.work.waiting:
+            self.work.run_deferred()
+        self.work.run_ops()
+        if self.startup.membership:  # add_id / remove_id asked for by these operations: once each
+            self.work.run_op("add_id / remove_id", lambda: self.startup.apply_membership(self._remove))
 
     def apply_now(self) -> None:
         """Between loops: run the queued operations and write what they left pending at once."""
         report = StepReport(loop=self.loop_count)
         self.prepare(report)
-        self._send_writes()
-
-    def _arm_watchdogs(self, ids: list[int]) -> None:
-        """``arm_watchdog`` for many servos at once: the automatic watchdogs in two sync writes
-        (0 first where one is set: clears a trip, allows a new value), so that arming twenty servos
-        on a slow bus does not leave the first ones armed unaddressed while the last ones are
-        written; a watchdog a command set, servo by servo."""
-        auto = [i for i in ids if i not in self.watchdog_user and self.table.model(i).has("bus_watchdog")]
-        for dxl_id in ids:
-            if dxl_id in self.watchdog_user:
-                self.arm_watchdog(dxl_id)
-        pulses = {i: self.watchdog_for(i) for i in auto}
-        self.write_group("bus_watchdog", {i: 0 for i in auto if self.table.value("bus_watchdog", i) != 0}, "watchdog")
-        self.write_group("bus_watchdog", {i: p for i, p in pulses.items() if p}, "watchdog")
+        self.writes.send()
 
     def send_step(self, report: StepReport) -> None:
         self.send_writes(report)
@@ -81,7 +97,7 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
 
     def send_writes(self, report: StepReport) -> None:
         """The first half of ``send_step``: what is pending goes on the wire."""
-        self._send_writes()
+        self.writes.send()
 
     def await_replies(self, report: StepReport) -> None:
         """Wait until the replies of ``report``'s reads are in (``complete_step`` does the rest)."""
@@ -97,15 +113,15 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
         report.seq = self.table.seq
         if not len(self.table):
             return
-        _, present, groups, items = self._due(report.loop)
+        _, present, groups, items = self.reads.due(report.loop)
         report.present, report.groups = set(present), set(groups)
         live = self.table.ping.copy()
         if items:
-            for read in self._plan(items, live):
+            for read in self.reads.plan(items, live):
                 report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
-            self.note_reads_sent()
+            self.pacing.note_reads_sent()
         # servos that stopped answering are pinged now and then, not read every loop
-        if report.loop % self.recheck_loops == 0:
+        if report.loop % self.settings.recheck_loops == 0:
             report.recheck = [self.table.ids[pos] for pos in np.flatnonzero(~live)]
 
     @property
@@ -130,7 +146,7 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
 
         for entry in report.reads:
             read = entry[0]
-            entry[2] = data = self._gather(read, entry[1].result())
+            entry[2] = data = self.reads.gather(read, entry[1].result())
             positions = table.positions(read.ids)
             addressed[positions] = True
             if len(data) == len(read.ids):  # every servo answered (the usual loop)
@@ -142,17 +158,8 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
             if dxl_id in index and self.bus.ping(dxl_id, retries=0) is not None:
                 mark(answered, [dxl_id])
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
-        self._update_ping(addressed, answered)
+        self.recovery.update_ping(addressed, answered)
         report.read_s += time.perf_counter()
-
-    def _gather(self, read: _Read, data: dict[int, bytes]) -> dict[int, bytes]:
-        """One read's replies, completed by a plain Sync Read where a Fast Sync Read stopped short."""
-        if read.fast and self._fast_misses:
-            for dxl_id in data:  # answered the fast read: a miss before was not its firmware
-                self._fast_misses.pop(dxl_id, None)
-        if read.fast and len(data) < len(read.ids):
-            data = self._read_plain(read, data)
-        return data
 
     def finish_step(self, report: StepReport) -> None:
         if report.phase >= 4:
@@ -161,11 +168,11 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
         report.phase = 4
         for read, _, data in report.reads:
             if data:
-                self._store(read, data, report.stamp, report.seq)
+                self.reads.store(read, data, report.stamp, report.seq)
         if len(self.table):
             self._log_reads(report, report.silent)
         if "extra_dynamic" in report.groups:
-            self._check_watchdogs = True  # at the next step, after this loop's states are out
+            self.watchdog.check_due = True  # at the next step, after this loop's states are out
 
     def _log_reads(self, report: StepReport, silent: list[int]) -> None:
         """verbose/read_<group>.{raw,err} and verbose/read_hardware_error, max_log_width IDs a line."""
@@ -173,20 +180,20 @@ class Step(Recovery, Deferred, WriteBatch, GroupIO):
         for group in sorted(groups):
             if group != "error":
                 self._log_group(group, report, silent)
-        if "error" in report.groups and self.config["verbose/read_hardware_error"]:
+        if "error" in report.groups and self.settings.logs.hardware_error:
             self._log_hardware_errors()
 
     def _log_group(self, group: str, report: StepReport, silent: list[int]) -> None:
-        cfg, table = self.config, self.table
+        logs, table = self.settings.logs, self.table
         key = "extra" if group.startswith("extra") else group
-        if cfg.values.get(f"verbose/read_{key}.err") and silent:
+        if key in logs.reads_err and silent:
             self.log.warning(f"read {group}: no answer from IDs {silent}")
-        if not cfg.values.get(f"verbose/read_{key}.raw"):
+        if key not in logs.reads_raw:
             return
         items = [PRESENT[k][0] for k in sorted(report.present)] if group == "present" else list(GROUP_ITEMS[group])
         for item in items:
             if table.known(item).any():
-                self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), cfg["max_log_width"]))
+                self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), logs.max_width))
 
     def _log_hardware_errors(self) -> None:
         """One line per servo whose hardware error bits changed to non-zero."""

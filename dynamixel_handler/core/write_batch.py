@@ -3,18 +3,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bus import PreparedWrite
+from ..bus import PreparedWrite, ServoBus
 from ..logs import Throttle
-from .state import HandlerState
+from ..servos import PendingWrites, ServoTable
+from .servo_io import Log
 
 
-class WriteBatch(HandlerState):
-    """The pending values as prepared sync writes; nothing taken is lost when a loop fails."""
+class WriteBatch:
+    """The pending values as prepared sync writes; nothing taken is lost when a loop fails.
+    ``split_write`` (method/split_write): one sync write per item, adjacent items not merged."""
 
-    #: failed sync writes: one line a second per item and reason (a vanished device fails every loop's)
-    _write_failures: Throttle | None = None
+    def __init__(self, bus: ServoBus, table: ServoTable, pending: PendingWrites, log: Log,
+                 split_write: bool = False) -> None:
+        self.bus = bus
+        self.table = table
+        self.pending = pending
+        self.log = log
+        self.split_write = split_write
+        # writes taken from ``pending`` but not sent yet (encode_writes): {(address, size): {id: bytes}}
+        # per item, and their packets, built for ServoTable.version ``_built_for``. Kept here, not in a
+        # StepReport, so that a loop that fails between taking and sending them loses nothing.
+        self._taken: dict[tuple[int, int], dict[int, bytes]] = {}
+        self._prepared: list[PreparedWrite] = []
+        self._built_for = -1
+        #: failed sync writes: one line a second per item and reason (a vanished device fails every loop's)
+        self._write_failures = Throttle(lambda msg: self.log.warning(msg))
 
-    def _send_writes(self) -> None:
+    def send(self) -> None:
+        """What is pending (and what ``encode_writes`` took before) goes on the wire."""
         self.encode_writes()
         if self._taken and self._built_for != self.table.version:  # servos removed meanwhile
             self._build_writes()
@@ -22,8 +38,6 @@ class WriteBatch(HandlerState):
         for write in prepared:
             sent = self.bus.send_prepared_result(write)
             if not sent:
-                if self._write_failures is None:
-                    self._write_failures = Throttle(self.log.warning)
                 reason = sent.failure
                 self._write_failures(f"sync write @{write.address}x{write.length} to IDs "
                                      f"{sorted((*write.ids, *write.dummies))} failed: {reason}",

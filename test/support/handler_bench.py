@@ -15,18 +15,20 @@ from dynamixel_handler.sim import VirtualBus
 @contextmanager
 def handler_on_virtual_bus(servos: Mapping[int, int], config: Mapping[str, Any] | None = None, *,
                            baudrate: int | None = None, patient: bool = False,
-                           retry_num: int = 1) -> Iterator[tuple[VirtualBus, Handler]]:
+                           retry_num: int = 1, tripped_once: bool = True) -> Iterator[tuple[VirtualBus, Handler]]:
     """A started ``Handler`` for ``servos`` (ID -> model number) with ``config`` over the defaults;
     ``(sim, handler)``. ``baudrate`` None: the servos' factory 57600 bps. ``patient``: a reply
     timeout and retries that a busy host cannot exhaust, for tests comparing two runs reply for
-    reply (a lost reply would part them)."""
+    reply (a lost reply would part them). ``tripped_once`` False: goals look for tripped bus
+    watchdogs servo by servo (``Handler``)."""
     sim = VirtualBus(servos, baudrate=baudrate)
     bus = DynamixelBus(sim.start(), baudrate or 57600, latency_timer_ms=16.0 if patient else 1.0,
                        retry_num=3 if patient else retry_num)
     bus.open()
     try:
         handler = Handler(bus, validate({**defaults(), "device_name": sim.path,
-                                         "init/servo_auto_search.max_id": max(servos), **(config or {})}))
+                                         "init/servo_auto_search.max_id": max(servos), **(config or {})}),
+                          tripped_once=tripped_once)
         handler.start()
         yield sim, handler
     finally:

@@ -1,0 +1,94 @@
+"""Recovery: what happens to a servo that stops answering (ping false, counted, removed), one that
+answers again, a reboot and its limit, and a device that vanishes and comes back."""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core.group_io import GroupIO
+from dynamixel_handler.core.recovery import Recovery
+from dynamixel_handler.core.servo_io import ServoIO
+from dynamixel_handler.core.state import StepReport
+from dynamixel_handler.core.watchdog import Watchdog, WatchdogSettings
+from dynamixel_handler.settings import LoopSettings
+
+from support.fake_bus import XM430, FakeBus, table_of
+
+
+def recovery(servos, remove_after: int = 3, interval_s: float = 1.0):
+    bus = FakeBus(servos)
+    table = table_of(bus)
+    lines: list[str] = []
+    log = logging.getLogger(f"test_recovery_{id(bus)}")
+    log.setLevel(logging.INFO)
+    log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+    io = ServoIO(bus, table, log)
+    dog = Watchdog(table, log, io, GroupIO(bus, table, log), WatchdogSettings(100.0, 1, 500.0, True))
+    removed: list[int] = []
+    set_up: list[int] = []
+
+    def remove(dxl_id: int) -> None:
+        removed.append(dxl_id)
+        table.remove(dxl_id)
+
+    part = Recovery(bus, table, log, io, dog,
+                    LoopSettings(no_response_auto_remove=remove_after, clear_error_interval_s=interval_s),
+                    set_up.append, remove)
+    return bus, table, part, lines, removed, set_up
+
+
+def loop(part: Recovery, table, answering: set[int]) -> None:
+    """One loop's reads addressed every servo; those in ``answering`` answered."""
+    addressed = np.ones(len(table), dtype=bool)
+    answered = np.array([i in answering for i in table.ids])
+    part.update_ping(addressed, answered)
+
+
+def test_a_silent_servo_reads_ping_false_with_one_line_and_is_removed_after_the_count():
+    _, table, part, lines, removed, _ = recovery({1: XM430, 2: XM430}, remove_after=3)
+    loop(part, table, {1})
+    assert list(table.ping) == [True, False] and list(table.no_response) == [0, 1]
+    loop(part, table, {1})
+    assert not removed and lines == ["ID 2: no response (ping false)"]
+    loop(part, table, {1})
+    assert removed == [2] and lines[-1].startswith("ID 2: no response 3 times in a row: removed")
+
+
+def test_a_servo_that_answers_again_is_counted_from_zero_and_its_watchdog_armed_at_the_next_step():
+    _, table, part, lines, removed, _ = recovery({1: XM430}, remove_after=0)
+    for _ in range(5):
+        loop(part, table, set())
+    assert not removed and table.no_response[0] == 5  # 0: never removed
+    loop(part, table, {1})
+    assert table.ping[0] and table.no_response[0] == 0 and part.watchdog.to_arm == {1}
+
+
+def test_a_reboot_waits_for_the_servo_restores_its_profiles_and_a_second_one_too_soon_is_refused():
+    bus, table, part, lines, _, _ = recovery({1: XM430}, interval_s=60.0)
+    table.set_value("operating_mode", 1, OPERATING_MODES["position"])
+    table.set_value("profile_velocity", 1, 77)
+    assert part.reboot(1)
+    assert ("write", "profile_velocity", (1, 77)) in bus.item_writes()
+    assert bus.of("reboot") == [("reboot", 1)] and bus.of("ping")
+    assert not part.reboot(1)
+    assert bus.of("reboot") == [("reboot", 1)]
+    assert lines[-1].startswith("ID 1: reboot refused: the last one was")
+
+
+def test_a_vanished_device_marks_every_servo_silent_without_counting_and_sets_them_up_once_back():
+    bus, table, part, lines, removed, set_up = recovery({1: XM430, 2: XM430}, remove_after=1)
+    part.had_device = True
+    bus.is_open, bus.can_reopen = False, False
+    assert part.device_gone
+    report = StepReport(loop=0)
+    part.reconnect(report)
+    assert part.device_lost and not table.ping.any() and "status" in report.groups
+    loop(part, table, set())
+    assert not removed and not table.no_response.any()  # the device is gone, not the servos
+    bus.can_reopen, bus.silent = True, {2}
+    part._next_reconnect = 0.0  # the next attempt is due (once a second)
+    part.reconnect(StepReport(loop=1))
+    assert not part.device_lost and part.reconnects == 1 and set_up == [1]
+    assert "1 servo(s) [1] answer and are set up as at start-up" in lines[-1]

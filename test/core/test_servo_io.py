@@ -1,0 +1,55 @@
+"""ServoIO and GroupIO: one servo's items and mode, torque on without a jump, one item of many
+servos in one sync transaction per control-table layout."""
+from __future__ import annotations
+
+import logging
+
+from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core.group_io import GroupIO
+from dynamixel_handler.core.servo_io import ServoIO
+
+from support.fake_bus import H54, XM430, FakeBus, table_of
+
+LOG = logging.getLogger("test_servo_io")
+
+
+def test_a_read_or_written_value_is_kept_in_the_table_and_a_failed_one_is_not():
+    bus = FakeBus({1: XM430, 2: XM430})
+    table = table_of(bus)
+    io = ServoIO(bus, table, LOG)
+    bus.set(1, "present_temperature", 41)
+    assert io.read_item(1, "present_temperature") == 41 and table.value("present_temperature", 1) == 41
+    assert io.value(1, "present_temperature") == 41 and len(bus.of("read")) == 1  # known: not read again
+    bus.silent.add(2)
+    assert io.read_item(2, "present_temperature") is None and table.value("present_temperature", 2) is None
+    assert not io.write_item(2, "led", 1) and table.value("led", 2) is None
+    bus.calls.clear()
+    assert not io.write_item(1, "no_such_item", 1) and not bus.calls
+
+
+def test_torque_on_first_sets_the_goal_to_where_the_servo_is_within_its_limits():
+    bus = FakeBus({1: XM430, 2: XM430})
+    table = table_of(bus)
+    io = ServoIO(bus, table, LOG)
+    bus.set(1, "operating_mode", OPERATING_MODES["position"])
+    bus.set(1, "present_position", -20)
+    bus.set(1, "min_position_limit", 0)
+    bus.set(1, "max_position_limit", 4095)
+    bus.set(2, "operating_mode", OPERATING_MODES["pwm"])
+    assert io.torque_on(1) and io.torque_on(2)
+    assert [w[1:] for w in bus.item_writes()] == [("goal_position", (1, 0)), ("torque_enable", (1, 1)),
+                                                  ("goal_pwm", (2, 0)), ("torque_enable", (2, 1))]
+    assert io.mode(1) == "position" and io.mode(2) == "pwm"
+
+
+def test_one_item_of_many_servos_is_one_sync_write_and_one_sync_read_per_layout():
+    bus = FakeBus({1: XM430, 2: XM430, 3: H54})
+    table = table_of(bus)
+    group = GroupIO(bus, table, LOG)
+    group.write_group("goal_position", {1: 10, 2: 20, 3: 30})
+    assert sorted(bus.item_writes(), key=str) == [("sync_write", "goal_position", {1: 10, 2: 20}),
+                                                  ("sync_write", "goal_position", {3: 30})]
+    bus.calls.clear()
+    bus.silent.add(2)
+    assert group.read_group("goal_position", [1, 2, 3]) == {1: 10, 3: 30}
+    assert sorted(c[1:3] for c in bus.of("sync_read")) == [(116, 4), (596, 4)]
