@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from typing import Any
 
     from .bus import BusError, DynamixelBus
-    from .commands import Commander
+    from .commands import Commander, CommandPaths
     from .config import Config, ConfigError, validate
     from .loop import Handler, StepReport
     from .runner import Hooks, Runner
@@ -45,6 +45,7 @@ __version__ = "0.1.0"
 #: name -> the module (relative to the package) it is imported from when first used
 _LAZY = {
     "Handler": "loop", "StepReport": "loop", "Runner": "runner", "Hooks": "runner", "Commander": "commands",
+    "CommandPaths": "commands",
     "DynamixelBus": "bus", "BusError": "bus", "VirtualBus": "sim",
     "Config": "config", "ConfigError": "config", "validate": "config",
     **{name: "settings" for name in ("Settings", "BusSettings", "ScanSettings", "StartValues", "TermSettings",
@@ -53,7 +54,7 @@ _LAZY = {
 }
 
 __all__ = [
-    "BusError", "BusSettings", "Commander", "Config", "ConfigError", "DynamixelBus", "ExternalPortSettings",
+    "BusError", "BusSettings", "CommandPaths", "Commander", "Config", "ConfigError", "DynamixelBus", "ExternalPortSettings",
     "Handler", "Hooks", "LogSettings", "LoopSettings", "Method", "ReadRatios", "Runner", "ScanSettings", "Settings",
     "StartValues", "StepReport", "TermSettings", "TrajectorySettings", "VirtualBus", "validate",
 ]
