@@ -31,11 +31,13 @@ settings (``Config.settings``, ``dynamixel_handler.settings``), handed out in on
 from __future__ import annotations
 
 import logging
-from typing import Any, Callable, Mapping
+from dataclasses import dataclass
+from typing import Callable, Mapping, Protocol
 
 from .bus import PreparedWrite, ServoBus
 from .config import Config
 from .control_table import OPERATING_MODES, Model
+from .core.api import ServoAccess
 from .core.deferred import EEPROM_WRITE_INTERVAL_S, Deferred
 from .core.group_io import GroupIO
 from .core.log_limits import LogLimits
@@ -52,20 +54,39 @@ from .core.watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED, Wa
 from .core.write_batch import WriteBatch
 from .errors import Interrupted, StartupError
 from .servos import PendingWrites, ServoTable
+from .settings import LoopSettings, TermSettings
 
 
-def _settings(config: Config) -> dict[str, Any]:
+@dataclass(frozen=True)
+class _PartSettings:
+    """What each part reads of the settings."""
+
+    reads: ReadSettings
+    watchdog: WatchdogSettings
+    loop: LoopSettings          # Recovery and Requests: the intervals, the removal count
+    startup: StartupSettings
+    step: StepSettings
+    term: TermSettings          # Shutdown
+    split_write: bool           # WriteBatch
+
+
+def _settings(config: Config) -> _PartSettings:
     """Each part's slice of the typed settings (the one place that hands them out)."""
     s = config.settings
-    return {
-        "reads": ReadSettings(s.ratios, s.method.fast_read, s.method.split_read),
-        "watchdog": WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
-                                     s.term.servo_auto_stop),
-        "loop": s.loop,
-        "startup": StartupSettings(s.scan, s.start, s.loop.debug),
-        "step": StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
-        "term": s.term,
-    }
+    return _PartSettings(
+        reads=ReadSettings(s.ratios, s.method.fast_read, s.method.split_read),
+        watchdog=WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
+                                  s.term.servo_auto_stop),
+        loop=s.loop,
+        startup=StartupSettings(s.scan, s.start, s.loop.debug),
+        step=StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
+        term=s.term,
+        split_write=s.method.split_write,
+    )
+
+
+class _Logs(Protocol):
+    log: Log
 
 
 class Handler:
@@ -91,19 +112,19 @@ class Handler:
         self.io = ServoIO(bus, self.table, log)
         self.group = GroupIO(bus, self.table, log)
         self.pacing = Pacing(bus, self.table, stopping)
-        self.reads = ReadPlan(bus, self.table, log, self.pacing, s["reads"])
-        self.writes = WriteBatch(bus, self.table, self.pending, log, config.settings.method.split_write)
-        self.watchdog = Watchdog(self.table, log, self.io, self.group, s["watchdog"], tripped_once)
+        self.reads = ReadPlan(bus, self.table, log, self.pacing, s.reads)
+        self.writes = WriteBatch(bus, self.table, self.pending, log, s.split_write)
+        self.watchdog = Watchdog(self.table, log, self.io, self.group, s.watchdog, tripped_once)
         self.work = Deferred(self.table, log, self.io)
-        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s["loop"], self._set_up, self.remove_id)
-        self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s["startup"],
+        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s.loop, self._set_up, self.remove_id)
+        self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s.startup,
                                stopping)
         self.requests = Requests(self.table, self.pending, log, self.io, self.watchdog, self.pacing, self.work,
-                                 self.recovery, s["loop"])
+                                 self.recovery, s.loop)
         self.steps = Step(bus, self.table, log, self.reads, self.writes, self.pacing, self.watchdog, self.recovery,
-                          self.work, self.startup, self.remove_id, s["step"])
-        self.ending = Shutdown(bus, self.table, log, self.io, self.group, s["term"])
-        self._parts: tuple[Any, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
+                          self.work, self.startup, self.remove_id, s.step)
+        self.ending = Shutdown(bus, self.table, log, self.io, self.group, s.term)
+        self._parts: tuple[_Logs, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
                                         self.recovery, self.startup, self.requests, self.steps, self.ending)
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
 
@@ -123,10 +144,10 @@ class Handler:
         """New parameters: each part gets its new slice."""
         self._config = config
         s = _settings(config)
-        self.reads.settings, self.watchdog.settings, self.startup.settings = s["reads"], s["watchdog"], s["startup"]
-        self.recovery.settings = self.requests.settings = s["loop"]
-        self.steps.settings, self.ending.settings = s["step"], s["term"]
-        self.writes.split_write = config.settings.method.split_write
+        self.reads.settings, self.watchdog.settings, self.startup.settings = s.reads, s.watchdog, s.startup
+        self.recovery.settings = self.requests.settings = s.loop
+        self.steps.settings, self.ending.settings = s.step, s.term
+        self.writes.split_write = s.split_write
 
     @property
     def log(self) -> Log:
@@ -309,6 +330,11 @@ class Handler:
 
     def clear_error(self, dxl_id: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
         return self.requests.clear_error(dxl_id, keep_rotation, what, warn)
+
+
+def _as_servo_access(handler: Handler) -> ServoAccess:
+    """The type checker holds ``Handler`` to ``ServoAccess`` here."""
+    return handler
 
 
 def mode_value(name: str) -> int:
