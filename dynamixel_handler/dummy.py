@@ -51,10 +51,6 @@ class BusWithDummies:
         return self._bus.inflight_eta
 
     @property
-    def last_failure(self) -> str:
-        return self._bus.last_failure
-
-    @property
     def stats(self) -> BusStats:
         return self._bus.stats
 

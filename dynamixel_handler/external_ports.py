@@ -94,8 +94,9 @@ class ExternalPorts:
         if mode not in MODES:
             self.h.log.warning(f"{where}: unknown mode '{mode}' (known: {', '.join([*MODES, UNSET])}): ignored")
             return False
-        if not self.h.write_eeprom(dxl_id, f"external_port_mode_{port}", MODES[mode]):
-            self.h.log.warning(f"{where}: writing mode {mode} failed: {self.h.bus.last_failure}")
+        written = self.h.write_eeprom(dxl_id, f"external_port_mode_{port}", MODES[mode])
+        if not written:
+            self.h.log.warning(f"{where}: writing mode {mode} failed: {written.failure}")
             return False
         if self.verbose_write:
             self.h.log.info(f"{where}: mode -> {mode}")

@@ -34,7 +34,7 @@ import logging
 from dataclasses import dataclass
 from typing import Callable, Mapping, Protocol
 
-from .bus import PreparedWrite, ServoBus
+from .bus import PreparedWrite, Result, ServoBus
 from .config import Config
 from .control_table import OPERATING_MODES, Model
 from .core.api import ServoAccess
@@ -255,11 +255,6 @@ class Handler:
     def handled_ids(self) -> list[int]:
         return list(self.table.ids)
 
-    @property
-    def last_failure(self) -> str:
-        """Why the last bus transaction failed."""
-        return self.bus.last_failure
-
     def handles(self, dxl_id: int) -> bool:
         return dxl_id in self.table
 
@@ -285,19 +280,19 @@ class Handler:
     def read_item(self, dxl_id: int, item: str) -> int | None:
         return self.io.read_item(dxl_id, item)
 
-    def write_item(self, dxl_id: int, item: str, pulses: int) -> bool:
+    def write_item(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
         return self.io.write_item(dxl_id, item, pulses)
 
-    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
+    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
         return self.work.write_eeprom(dxl_id, item, pulses)
 
-    def torque_on(self, dxl_id: int) -> bool:
+    def torque_on(self, dxl_id: int) -> Result[bool]:
         return self.io.torque_on(dxl_id)
 
-    def torque_off(self, dxl_id: int) -> bool:
+    def torque_off(self, dxl_id: int) -> Result[bool]:
         return self.io.torque_off(dxl_id)
 
-    def reboot(self, dxl_id: int) -> bool:
+    def reboot(self, dxl_id: int) -> Result[bool]:
         return self.recovery.reboot(dxl_id)
 
     def add_id(self, dxl_id: int) -> bool:

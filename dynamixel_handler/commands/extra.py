@@ -111,9 +111,9 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
     if item == "bus_watchdog":  # the servo keeps this one, whatever its mode (0: off)
         c.h.set_user_watchdog(dxl_id, pulses)
         return
-    ok = c.h.write_eeprom(dxl_id, item, pulses) if spec.eeprom else c.h.write_item(dxl_id, item, pulses)
-    if not ok:
-        c.warn(f"{what}: ID {dxl_id} writing {item} failed: {c.h.last_failure}")
+    written = c.h.write_eeprom(dxl_id, item, pulses) if spec.eeprom else c.h.write_item(dxl_id, item, pulses)
+    if not written:
+        c.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
 
 
 def _drive_mode(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
@@ -144,8 +144,8 @@ def _pwm_slope(c: Checks, dxl_id: int, model: Model, slope: int, what: str) -> N
     elif not PWM_SLOPE_RANGE[0] <= slope <= PWM_SLOPE_RANGE[1]:
         c.warn(f"{what}: ID {dxl_id} 'pwm_slope_percent' = {slope} is out of range "
                f"{PWM_SLOPE_RANGE[0]}..{PWM_SLOPE_RANGE[1]}: refused")
-    elif not c.h.write_eeprom(dxl_id, "pwm_slope", slope):
-        c.warn(f"{what}: ID {dxl_id} writing pwm_slope failed: {c.h.last_failure}")
+    elif not (written := c.h.write_eeprom(dxl_id, "pwm_slope", slope)):
+        c.warn(f"{what}: ID {dxl_id} writing pwm_slope failed: {written.failure}")
 
 
 def _led(c: Checks, dxl_id: int, model: Model, colour: str, percent: float, what: str) -> None:

@@ -95,6 +95,7 @@ class TorqueJob(Job):
         self.enable = enable
         self.todo = deque(ids)
         self.failed: list[int] = []
+        self.why = ""  # why the last failed servo failed
         self.queued = False
 
     def advance(self, book: Book, now: float) -> None:
@@ -111,14 +112,16 @@ class TorqueJob(Job):
         end = time.perf_counter() + 0.5 * book.period_s
         while self.todo and not self.finished:
             dxl_id = self.todo.popleft()
-            if not (h.torque_on(dxl_id) if self.enable else h.torque_off(dxl_id)):
+            written = h.torque_on(dxl_id) if self.enable else h.torque_off(dxl_id)
+            if not written:
                 self.failed.append(dxl_id)
+                self.why = written.failure
             if time.perf_counter() > end:
                 break
         if self.todo:
             return
         if self.failed:
-            book.finish(self, ERROR, f"{self.what} failed on IDs [{listed(self.failed)}]: {h.last_failure}")
+            book.finish(self, ERROR, f"{self.what} failed on IDs [{listed(self.failed)}]: {self.why}")
         else:
             book.finish(self, DONE, f"{self.what}: IDs [{listed(self.ids)}]")
 

@@ -99,8 +99,9 @@ class SettingsCommands:
         for k, dxl_id in self.known_ids(ids, what):
             values = self._limit_values(dxl_id, k, fields, what)
             for item, pulses in values.items():
-                if not self.h.write_eeprom(dxl_id, item, pulses):
-                    self.warn(f"{what}: ID {dxl_id} writing {item} failed: {self.h.last_failure}")
+                written = self.h.write_eeprom(dxl_id, item, pulses)
+                if not written:
+                    self.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
             if values and "limit" in self.h.config.settings.logs.writes:
                 self.h.log.info(f"{what}: ID {dxl_id} limits written: {values}")
 

@@ -7,6 +7,7 @@ import threading
 import time
 from typing import Callable
 
+from ..bus import Result
 from ..servos import ServoTable
 from .log_limits import LogLimits
 from .servo_io import Log, ServoIO
@@ -43,13 +44,14 @@ class Deferred:
         for key in [k for k in self._eeprom_deferred if k[0] == dxl_id]:
             del self._eeprom_deferred[key]
 
-    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> bool:
+    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
         """Write one EEPROM item (see ``write_eeprom_many``)."""
-        if not self.table.model(dxl_id).has(item):
-            return False
+        model = self.table.model(dxl_id)
+        if not model.has(item):
+            return Result(False, f"ID {dxl_id} ({model.name}) has no {item}")
         return self.write_eeprom_many(dxl_id, {item: pulses})
 
-    def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> bool:
+    def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> Result[bool]:
         """Write EEPROM items of one servo, sparing its EEPROM: a value equal to the servo's is not
         written; an item written less than EEPROM_WRITE_INTERVAL_S ago is written when that time
         has passed (the latest value asked for). Torque goes off for the write and comes back on
@@ -76,18 +78,19 @@ class Deferred:
             self._eeprom_deferred.pop(key, None)
             todo[item] = pulses
         if not todo:
-            return True
+            return _WRITTEN
         torque = self.io.torque_off_for_eeprom(dxl_id)
-        ok = True
+        failure = ""
         for item, pulses in todo.items():
-            if self.io.write_item(dxl_id, item, pulses):
+            written = self.io.write_item(dxl_id, item, pulses)
+            if written:
                 self._eeprom_written[(dxl_id, item)] = time.monotonic()
             else:
-                ok = False
-                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {self.io.bus.last_failure}")
+                failure = failure or written.failure
+                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {written.failure}")
         if torque:
             self.io.torque_on(dxl_id)
-        return ok
+        return Result(False, failure) if failure else _WRITTEN
 
     def run_deferred(self) -> None:
         """EEPROM values and per-servo operations that had to wait, once their time has come."""
@@ -137,3 +140,6 @@ class Deferred:
                     break
                 what, op = self._ops.popleft()
             self.run_op(what, op)
+
+
+_WRITTEN: Result[bool] = Result(True)

@@ -7,7 +7,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..bus import ServoBus, dummy_ids
+from ..bus import Result, ServoBus, dummy_ids
 from ..servos import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
@@ -51,17 +51,18 @@ class Recovery:
         self._lost_ids: list[int] | None = None
         self._last_reboot: dict[int, float] = {}  # ID -> time.monotonic() of its last reboot
 
-    def reboot(self, dxl_id: int) -> bool:
+    def reboot(self, dxl_id: int) -> Result[bool]:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
         loop meanwhile, so that nothing is sent to a servo that is still booting). At most once per
         clear_error_interval_sec per servo, as the error clear (a reboot too): a reboot asked for
         sooner is refused with one line a second (False)."""
-        if not self._reboot_allowed(dxl_id):
-            return False
+        refused = self._reboot_refused(dxl_id)
+        if refused:
+            return Result(False, refused)
         # a reboot resets the RAM area: what the handler had set there comes back afterwards
         kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
-        ok = self.bus.reboot(dxl_id)
-        if ok:
+        rebooted = self.bus.reboot_result(dxl_id)
+        if rebooted:
             deadline = time.monotonic() + REBOOT_WAIT_S
             time.sleep(0.02)
             while self.bus.ping(dxl_id, retries=0) is None:
@@ -74,19 +75,21 @@ class Recovery:
                     self.io.write_item(dxl_id, item, value)
             if dxl_id in self.table:
                 self.watchdog.arm_watchdog(dxl_id)
-        return ok
+        return rebooted
 
-    def _reboot_allowed(self, dxl_id: int) -> bool:
+    def _reboot_refused(self, dxl_id: int) -> str:
+        """Why a reboot of ``dxl_id`` now is refused ("": it is not)."""
         now, interval = time.monotonic(), float(self.settings.clear_error_interval_s)
         last = self._last_reboot.get(dxl_id)
         # the slack: an error clear checks its own interval a few reads before its reboot, so its
         # next clear, allowed, must not find the reboot a few milliseconds too soon
         if last is not None and now - last < interval - REBOOT_SLACK_S:
-            self.limited(logging.WARNING, f"ID {dxl_id}: reboot refused: the last one was {now - last:.2f}s ago "
-                         f"(at most one per clear_error_interval_sec={interval:g}s per servo)", f"reboot {dxl_id}")
-            return False
+            why = (f"the last one was {now - last:.2f}s ago "
+                   f"(at most one per clear_error_interval_sec={interval:g}s per servo)")
+            self.limited(logging.WARNING, f"ID {dxl_id}: reboot refused: {why}", f"reboot {dxl_id}")
+            return f"refused: {why}"
         self._last_reboot[dxl_id] = now
-        return True
+        return ""
 
     def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing

@@ -98,18 +98,18 @@ class Requests:
         own = OWN_GOAL.get(self.io.mode(dxl_id) or "")
         keep = {item: self.io.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
         torque = self.io.torque_off_for_eeprom(dxl_id)
-        ok = self.io.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
+        written = self.io.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
         for item, value in keep.items():
             if value is not None:
                 self.io.write_item(dxl_id, item, value)
         if torque:
             self.io.torque_on(dxl_id)
         self.watchdog.arm_after_ops(dxl_id)
-        if ok:
+        if written:
             self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
         else:
-            warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {self.io.bus.last_failure}")
-        return "done" if ok else "failed"
+            warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {written.failure}")
+        return "done" if written else "failed"
 
     # ---------------------------------------------------------------- error clear
     def clear_error(self, dxl_id: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
@@ -131,8 +131,9 @@ class Requests:
         torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
         before = self.io.read_item(dxl_id, "present_position")
         offset = self.io.read_item(dxl_id, "homing_offset")
-        if not self.recovery.reboot(dxl_id):
-            warn(f"{what}: ID {dxl_id} reboot failed: {self.io.bus.last_failure}")
+        rebooted = self.recovery.reboot(dxl_id)
+        if not rebooted:
+            warn(f"{what}: ID {dxl_id} reboot failed: {rebooted.failure}")
             return False
         self.io.read_item(dxl_id, "torque_enable")
         self.io.read_item(dxl_id, "hardware_error_status")

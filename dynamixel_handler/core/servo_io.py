@@ -5,7 +5,7 @@ import logging
 from typing import Any
 
 from .. import units
-from ..bus import ServoBus
+from ..bus import Result, ServoBus
 from ..groups import MODE_NAMES
 from ..servos import ServoTable
 
@@ -32,15 +32,16 @@ class ServoIO:
         self.table.set_value(item, dxl_id, value)
         return value
 
-    def write_item(self, dxl_id: int, item: str, pulses: int) -> bool:
+    def write_item(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
+        """Write one item of one servo (kept in the table when acknowledged): True, or False and why."""
         model = self.table.model(dxl_id)
         if not model.has(item):
-            return False
+            return Result(False, f"ID {dxl_id} ({model.name}) has no {item}")
         spec = model.item(item)
-        ok = self.bus.write(dxl_id, spec.address, units.encode(spec, [pulses]))
-        if ok:
+        written = self.bus.write_result(dxl_id, spec.address, units.encode(spec, [pulses]))
+        if written:
             self.table.set_value(item, dxl_id, pulses)
-        return ok
+        return written
 
     def value(self, dxl_id: int, item: str) -> int | None:
         """The item's last known value, read from the servo when none is known."""
@@ -53,7 +54,7 @@ class ServoIO:
             value = self.read_item(dxl_id, "operating_mode")
         return MODE_NAMES.get(value) if value is not None else None
 
-    def torque_on(self, dxl_id: int) -> bool:
+    def torque_on(self, dxl_id: int) -> Result[bool]:
         """Enable torque without a jump: goals := present state (position) or neutral, then enable."""
         mode = self.mode(dxl_id)
         model = self.table.model(dxl_id)
@@ -69,12 +70,12 @@ class ServoIO:
             self.write_item(dxl_id, "goal_current", 0)
         elif mode == "pwm":
             self.write_item(dxl_id, "goal_pwm", 0)
-        ok = self.write_item(dxl_id, "torque_enable", 1)
-        if not ok:
-            self.log.warning(f"ID {dxl_id} ({model.name}): torque on failed: {self.bus.last_failure}")
-        return ok
+        enabled = self.write_item(dxl_id, "torque_enable", 1)
+        if not enabled:
+            self.log.warning(f"ID {dxl_id} ({model.name}): torque on failed: {enabled.failure}")
+        return enabled
 
-    def torque_off(self, dxl_id: int) -> bool:
+    def torque_off(self, dxl_id: int) -> Result[bool]:
         return self.write_item(dxl_id, "torque_enable", 0)
 
     def torque_off_for_eeprom(self, dxl_id: int) -> int:

@@ -152,9 +152,10 @@ class Startup:
                                    ("profile_velocity", "default/profile_vel", start.profile_vel)):
             if model.has(item):
                 pulses = int(units.unit_to_pulse([model], item, [value])[0])
-                if not self.io.write_item(dxl_id, item, pulses):  # e.g. above a P servo's velocity limit
+                written = self.io.write_item(dxl_id, item, pulses)
+                if not written:  # e.g. above a P servo's velocity limit
                     self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
-                                     f"({item} {pulses} refused: {self.bus.last_failure})")
+                                     f"({item} {pulses} refused: {written.failure})")
         self.watchdog.to_arm.add(dxl_id)
 
     def want_handled(self, dxl_id: int, handled: bool) -> None:

@@ -114,12 +114,13 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
             ids = list(self.handler.table.ids)
-            failed = [i for i in ids if not self.handler.torque_on(i)]  # goal := present, then torque on
+            enabled = {i: self.handler.torque_on(i) for i in ids}  # goal := present, then torque on
+            failed = [i for i, done in enabled.items() if not done]
             if failed:
                 for i in ids:
                     self.handler.torque_off(i)
                 self.get_logger().error(f"activate failed: torque on failed on IDs {failed}: "
-                                        f"{self.bus.last_failure} (all servos left without torque)")
+                                        f"{enabled[failed[-1]].failure} (all servos left without torque)")
                 return FAILURE
             self._drain_commands()  # nothing sent while inactive is replayed now
             self.start_loop()
@@ -133,12 +134,13 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
             self._stop_loop()
-            failed = [i for i in self.handler.table.ids if not self.handler.torque_off(i)]
+            disabled = {i: self.handler.torque_off(i) for i in self.handler.table.ids}
+            failed = [i for i, done in disabled.items() if not done]
         except Exception as exc:
             self.get_logger().error(f"deactivate: {type(exc).__name__}: {exc}")
             return ERROR
         if failed:
-            self.get_logger().warning(f"deactivate: torque off failed on IDs {failed}: {self.bus.last_failure}")
+            self.get_logger().warning(f"deactivate: torque off failed on IDs {failed}: {disabled[failed[-1]].failure}")
         self.get_logger().info("inactive: loop stopped, torque off")
         return super().on_deactivate(state)
 

@@ -29,7 +29,6 @@ class FakeAccess:
         self.goals: list[dict[str, dict[int, int]]] = []  # put_goals, in order
         self.pending = PendingWrites()  # what put_goals left for the next write
         self.calls: list[tuple[Any, ...]] = []  # every other request, in order
-        self.last_failure = ""
 
     # ------------------------------------------------------------ what is known
     @property
