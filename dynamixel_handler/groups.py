@@ -73,13 +73,6 @@ GROUP_ITEMS: Mapping[str, tuple[str, ...]] = {
     "extra_static": EXTRA_STATIC_ITEMS,
 }
 
-#: group name -> parameter holding its ratio
-GROUP_RATIO_PARAM: Mapping[str, str] = {
-    "status": "pub_ratio/status", "goal": "pub_ratio/goal", "gain": "pub_ratio/gain",
-    "limit": "pub_ratio/limit", "error": "pub_ratio/error",
-    "extra_dynamic": "pub_ratio/extra.dynamic_items", "extra_static": "pub_ratio/extra.static_items",
-}
-
 #: operating mode register value -> mode string of DynamixelStatus
 MODE_NAMES: Mapping[int, str] = {0: "current", 1: "velocity", 3: "position", 4: "ex_position",
                                  5: "cur_position", 16: "pwm"}
