@@ -77,8 +77,10 @@ class Deferred:
                 continue
             self._eeprom_deferred.pop(key, None)
             todo[item] = pulses
-        if not todo:
-            return _WRITTEN
+        return self._write_now(dxl_id, todo) if todo else _WRITTEN
+
+    def _write_now(self, dxl_id: int, todo: dict[str, int]) -> Result[bool]:
+        """Torque off, the EEPROM items written, torque back on if it was on; the first failure."""
         torque = self.io.torque_off_for_eeprom(dxl_id)
         failure = ""
         for item, pulses in todo.items():
