@@ -92,3 +92,10 @@ def test_a_vanished_device_marks_every_servo_silent_without_counting_and_sets_th
     part.reconnect(StepReport(loop=1))
     assert not part.device_lost and part.reconnects == 1 and set_up == [1]
     assert "1 servo(s) [1] answer and are set up as at start-up" in lines[-1]
+
+
+def test_a_refused_reboot_says_why_in_its_result():
+    _, _, part, _, _, _ = recovery({1: XM430}, interval_s=60.0)
+    assert part.reboot(1).failure == ""
+    refused = part.reboot(1)
+    assert refused.value is False and refused.failure.startswith("refused: the last one was")

@@ -53,3 +53,14 @@ def test_one_item_of_many_servos_is_one_sync_write_and_one_sync_read_per_layout(
     bus.silent.add(2)
     assert group.read_group("goal_position", [1, 2, 3]) == {1: 10, 3: 30}
     assert sorted(c[1:3] for c in bus.of("sync_read")) == [(116, 4), (596, 4)]
+
+
+def test_a_failed_write_says_why_in_its_own_result():
+    bus = FakeBus({1: XM430, 2: XM430})
+    io = ServoIO(bus, table_of(bus), LOG)
+    bus.silent.add(2)
+    written = io.write_item(2, "led", 1)
+    assert not written and written.value is False and written.failure == "no reply"
+    assert io.write_item(1, "led", 1).failure == "" and io.torque_off(1)
+    missing = io.write_item(1, "no_such_item", 1)
+    assert not missing and missing.failure == "ID 1 (XM430-W350) has no no_such_item"
