@@ -25,8 +25,8 @@ slice of the parameters, the log) and the other parts it calls:
 ``Handler.step()`` runs queued operations (torque, mode, reboot...), writes pending values in
 grouped sync writes, reads what the ratios ask for this loop, and returns a ``StepReport`` that
 says which groups were read. The ROS layer turns the table into messages. The parts read typed
-settings (``Config.settings``, ``dynamixel_handler.settings``), handed out in one place
-(``_settings`` below): each part gets its slice, again whenever the ``config`` is replaced.
+settings (``dynamixel_handler.settings``), handed out in one place (``_settings`` below): each
+part gets its slice, again whenever ``settings`` is replaced.
 """
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ from .core.watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED, Wa
 from .core.write_batch import WriteBatch
 from .errors import Interrupted, StartupError
 from .servos import PendingWrites, ServoTable
-from .settings import LoopSettings, TermSettings
+from .settings import LoopSettings, Settings, TermSettings
 
 
 @dataclass(frozen=True)
@@ -70,9 +70,8 @@ class _PartSettings:
     split_write: bool           # WriteBatch
 
 
-def _settings(config: Config) -> _PartSettings:
+def _settings(s: Settings) -> _PartSettings:
     """Each part's slice of the typed settings (the one place that hands them out)."""
-    s = config.settings
     return _PartSettings(
         reads=ReadSettings(s.ratios, s.method.fast_read, s.method.split_read),
         watchdog=WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
@@ -94,15 +93,17 @@ class Handler:
     ``shutdown()``. Commands reach it as operations queued for the loop thread (``queue``) and as
     pending writes (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
     by handing each call to the part that does it. ``tripped_once`` False: every goal command looks
-    for tripped bus watchdogs servo by servo (for tests and comparisons)."""
+    for tripped bus watchdogs servo by servo (for tests and comparisons). ``settings``: the typed
+    settings, or the validated parameters (``config.validate``) they are taken from."""
 
-    def __init__(self, bus: ServoBus, config: Config, logger: Log | None = None, *, tripped_once: bool = True) -> None:
+    def __init__(self, bus: ServoBus, settings: Settings | Config, logger: Log | None = None, *,
+                 tripped_once: bool = True) -> None:
         self.bus = bus
         self.table = ServoTable()
         self.pending = PendingWrites()
         self._log: Log = logger or logging.getLogger("dynamixel_handler")
-        self._config = config
-        s = _settings(config)
+        self._settings = settings.settings if isinstance(settings, Config) else settings
+        s = _settings(self._settings)
         log = self._log
         #: why operations are not taken now (a lifecycle node that is not active); None: they are
         self.refuse_ops: str | None = None
@@ -136,14 +137,14 @@ class Handler:
 
     # ---------------------------------------------------------------- what every part shares
     @property
-    def config(self) -> Config:
-        return self._config
+    def settings(self) -> Settings:
+        return self._settings
 
-    @config.setter
-    def config(self, config: Config) -> None:
-        """New parameters: each part gets its new slice."""
-        self._config = config
-        s = _settings(config)
+    @settings.setter
+    def settings(self, settings: Settings) -> None:
+        """New settings (replaced as a whole): each part gets its new slice."""
+        self._settings = settings
+        s = _settings(settings)
         self.reads.settings, self.watchdog.settings, self.startup.settings = s.reads, s.watchdog, s.startup
         self.recovery.settings = self.requests.settings = s.loop
         self.steps.settings, self.ending.settings = s.step, s.term

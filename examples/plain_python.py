@@ -5,10 +5,11 @@
     python examples/plain_python.py --device /dev/ttyUSB0 --baudrate 1000000 --ids 1,2
     python examples/plain_python.py --goal 45 --loops 300 --rate 100
 
-The same parts as the ROS node: ``DynamixelBus`` (the serial line), ``Handler`` (the servos on it),
-``Commander`` (checked commands in physical units) and ``Runner`` (the loop at ``loop_rate``);
-the node only adds topics and services around them. Nothing here imports rclpy: the script says
-so at the end (``rclpy imported: False``).
+The same parts as the ROS node, all from ``dynamixel_handler``: ``DynamixelBus`` (the serial
+line), ``Settings`` (what the node's parameters say, typed, every field defaulting as the
+parameter does), ``Handler`` (the servos on the bus), ``Commander`` (checked commands in physical
+units) and ``Runner`` (the loop at the loop rate); the node only adds topics and services around
+them. Nothing here imports rclpy: the script says so at the end (``rclpy imported: False``).
 
 Output: ``loop N: ID=deg ...`` every ``--print-every`` loops from the loop's states, then
 ``final: ID=deg ...``.
@@ -20,11 +21,17 @@ import logging
 import sys
 import threading
 
-from dynamixel_handler.bus import DynamixelBus
-from dynamixel_handler.commands import Commander
-from dynamixel_handler.config import defaults, validate
-from dynamixel_handler.loop import Handler, StepReport
-from dynamixel_handler.runner import Hooks, Runner
+from dynamixel_handler import (
+    Commander,
+    DynamixelBus,
+    Handler,
+    Hooks,
+    LoopSettings,
+    Runner,
+    ScanSettings,
+    Settings,
+    StepReport,
+)
 
 XM430_W350 = 1020
 
@@ -48,19 +55,16 @@ def main(argv: list[str] | None = None) -> int:
     sim = None
     device = a.device
     if device is None:  # a virtual bus on a pseudo-terminal, served by a thread of this process
-        from dynamixel_handler.sim import VirtualBus
+        from dynamixel_handler import VirtualBus
         sim = VirtualBus(servos={i: XM430_W350 for i in ids}, baudrate=a.baudrate)
         device = sim.start()
         print(f"virtual bus on {device}")
     latency_ms = a.latency_ms if a.latency_ms is not None else 1.0 if sim is not None else 16.0
 
-    # the node's parameters, as the YAML files name them
-    config = validate({**defaults(), "device_name": device, "baudrate": a.baudrate, "loop_rate": a.rate,
-                       "latency_timer": int(latency_ms), "init/servo_auto_search.min_id": min(ids),
-                       "init/servo_auto_search.max_id": max(ids), "init/expected_servo_num": len(ids),
-                       "init/servo_auto_search.retry_times": 5, "verbose_ratio": 0})
-    wire = DynamixelBus(device, a.baudrate, latency_ms, logger=log)
-    handler = Handler(wire, config, log)
+    wire = DynamixelBus(device, a.baudrate, latency_timer_ms=latency_ms, logger=log)
+    settings = Settings(scan=ScanSettings(min_id=min(ids), max_id=max(ids), expected=len(ids), retry_times=5),
+                        loop=LoopSettings(rate_hz=a.rate, verbose_ratio=0))
+    handler = Handler(wire, settings, log)
     commander = Commander(handler)
     wire.open()
     code = 0
@@ -72,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             if report.loop % a.print_every == 0 and "position" in report.present:
                 print(f"loop {report.loop}: {positions(handler)}", flush=True)
 
-        runner = Runner(handler, wire, a.rate, log=log, hooks=Hooks(states_ready=states_ready, gave_up=done.set))
+        runner = Runner(handler, wire, settings.loop.rate_hz, log=log, hooks=Hooks(states_ready=states_ready, gave_up=done.set))
         commander.control("X", "position_control", ids, {"position_deg": [a.goal] * len(ids)})
         runner.run(loops=a.loops)  # on this thread; runner.start() would run it on a thread of its own
         print(f"final: {positions(handler)}")

@@ -215,7 +215,7 @@ def test_the_items_due_worked_out_once_per_pattern_equal_the_ratios_every_loop(r
     first, second = config(ratios[:15]), config(ratios[15:])
     handler = Handler(DynamixelBus("/dev/null"), first)
     for cfg in (first, second, first):
-        handler.config = cfg
+        handler.settings = cfg.settings
         for loop in (0, *loops, 0):
             want = due_items_plain(cfg.settings.ratios, loop)
             assert handler.reads.due(loop) == want

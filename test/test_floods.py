@@ -101,7 +101,7 @@ def test_mode_changes_and_eeprom_writes_asked_for_at_100_hz_log_one_line_a_secon
             commander.status([1], {"mode": ["velocity" if k[0] % 2 else "position"]})
             commander.limit([1], {"velocity_limit_deg_s": [100.0 + 10 * (k[0] % 2)]})
         _run(handler, 3.0, alternate)
-        handler.config.values["mode_change_interval_sec"] = 0.0  # every change applied at once
+        handler.settings = handler.settings.but(loop__mode_change_interval_s=0.0)  # every change applied at once
         _run(handler, 3.0, alternate)
     for pattern in (r"ID 1 \(deferred\): the last mode change", r"ID 1: velocity_limit was written",
                     r"ID 1: operating mode -> "):

@@ -73,7 +73,7 @@ class Commander(SettingsCommands):
         self.h = handler
         self.log = handler.log
         self.paths = paths = paths if paths is not None else CommandPaths()
-        self.verbose = handler.config.settings.logs.callback
+        self.verbose = handler.settings.logs.callback
         # a warning repeated within a second (same cause, same servo) is counted, not logged
         self.throttle = Throttle(self.log.warning)
         self.rules = Rules(handler, self.warn, TableBounds(paths.bounds))
@@ -169,7 +169,7 @@ class Commander(SettingsCommands):
     def put_writes(self, what: str, writes: dict[str, dict[int, int]]) -> None:
         if writes:
             self.h.put_goals(writes)
-            if "goal" in self.h.config.settings.logs.writes:
+            if "goal" in self.h.settings.logs.writes:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 
     def _goal_rows(self, what: str, field: str, values: Sequence[Any], targets: list[tuple[int, int]],

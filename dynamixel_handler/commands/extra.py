@@ -60,7 +60,7 @@ def _apply_one(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
             _led(c, dxl_id, model, colour, min(max(float(fields[field][k]), 0.0), 100.0), what)
     if "reboot" in fields and fields["reboot"][k]:
         _reboot(c, dxl_id)
-    if "extra" in c.h.config.settings.logs.writes:
+    if "extra" in c.h.settings.logs.writes:
         c.log.info(f"{what}: ID {dxl_id} extra fields handled: {', '.join(sorted(fields))}")
 
 

@@ -204,7 +204,7 @@ class Book(MoveIO):
 
     @property
     def period_s(self) -> float:
-        return 1.0 / float(self.h.config.settings.loop.rate_hz)
+        return 1.0 / float(self.h.settings.loop.rate_hz)
 
     @property
     def grace_s(self) -> float:

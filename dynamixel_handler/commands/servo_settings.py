@@ -102,7 +102,7 @@ class SettingsCommands:
                 written = self.h.write_eeprom(dxl_id, item, pulses)
                 if not written:
                     self.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
-            if values and "limit" in self.h.config.settings.logs.writes:
+            if values and "limit" in self.h.settings.logs.writes:
                 self.h.log.info(f"{what}: ID {dxl_id} limits written: {values}")
 
     def _limit_values(self, dxl_id: int, k: int, fields: Fields, what: str) -> dict[str, int]:

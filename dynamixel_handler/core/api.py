@@ -9,9 +9,9 @@ import logging
 from typing import Any, Callable, Mapping, Protocol, runtime_checkable
 
 from ..bus import Result
-from ..config import Config
 from ..control_table import Model
 from ..servos import PendingWrites, ServoTable
+from ..settings import Settings
 
 Warn = Callable[[str], None]
 
@@ -23,7 +23,7 @@ class ServoAccess(Protocol):
 
     # ---------------------------------------------------------------- what is known
     @property
-    def config(self) -> Config: ...
+    def settings(self) -> Settings: ...
     @property
     def table(self) -> ServoTable: ...   # read-only here: vectorised look-ups of many servos
     @property

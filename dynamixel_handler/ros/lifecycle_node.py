@@ -24,7 +24,6 @@ from lifecycle_msgs.srv import ChangeState
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from ..bus import BusError
-from ..config import Config
 from ..loop import StartupError
 from . import fastpath
 from .node import DynamixelHandlerNode, run
@@ -46,7 +45,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     def __init__(self) -> None:
         super().__init__()  # parameters, publishers, subscriptions, services; no bus access
         # torque comes on at activate, not during the configure scan
-        self.handler.config = Config({**self.config.values, "init/torque_auto_enable": False})
+        self.handler.settings = self.settings.but(scan__torque_auto_enable=False)
         # a transition the state machine does not have from the current state (activate while
         # unconfigured, configure twice) fails with an answer, not an exception in the executor
         if not fastpath.lifecycle_guard(self, self._guarded_change_state):

@@ -5,9 +5,9 @@ from __future__ import annotations
 import logging
 from typing import Any, Callable, Mapping
 
-from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import OPERATING_MODES, model_by_number
 from dynamixel_handler.servos import PendingWrites, ServoTable
+from dynamixel_handler.settings import Settings
 
 
 class FakeAccess:
@@ -17,7 +17,7 @@ class FakeAccess:
     def __init__(self, servos: Mapping[int, int], modes: Mapping[int, str] | None = None,
                  values: Mapping[str, Mapping[int, int]] | None = None) -> None:
         self.log = logging.getLogger("fake_access")
-        self.config = validate(defaults())
+        self.settings = Settings()
         self.table = ServoTable()
         for dxl_id, number in sorted(servos.items()):
             self.table.add(dxl_id, model_by_number(number))
