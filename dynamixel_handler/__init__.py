@@ -14,8 +14,6 @@ The names below are imported when first used, so ``import dynamixel_handler`` st
 """
 from __future__ import annotations
 
-import importlib
-
 TYPE_CHECKING = False  # as typing.TYPE_CHECKING (mypy reads it so), without importing typing at run time
 if TYPE_CHECKING:
     from typing import Any
@@ -64,6 +62,8 @@ def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'dynamixel_handler' has no attribute '{name}'")
+    import importlib  # here: the package's own import stays as light as it can be
+
     value = getattr(importlib.import_module(f".{module}", __name__), name)
     globals()[name] = value  # looked up once
     return value
