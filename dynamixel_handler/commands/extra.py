@@ -102,6 +102,9 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
         c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} refused (negative; 0 switches the watchdog off)")
         return
     pulses = int(units.unit_to_pulse([model], item, [value])[0]) if item != "secondary_id" else int(value)
+    if item != "secondary_id" and _saturated(model, item, value, pulses):
+        c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
+        return
     if item == "bus_watchdog" and value > 0:
         pulses = max(1, pulses)  # a time under one register unit is one unit, not off
     spec = model.item(item)
@@ -114,6 +117,13 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
     written = c.h.write_eeprom(dxl_id, item, pulses) if spec.eeprom else c.h.write_item(dxl_id, item, pulses)
     if not written:
         c.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
+
+
+def _saturated(model: Model, item: str, value: float, pulses: int) -> bool:
+    """The conversion clipped ``value`` to what the register's bytes hold: it lies more than one
+    register unit beyond the value ``pulses`` stands for."""
+    back, step = units.pulse_to_unit([model, model], item, [pulses, pulses + 1])
+    return abs(float(back) - value) > abs(float(step) - float(back))
 
 
 def _drive_mode(c: Checks, dxl_id: int, given: _Given, what: str) -> None:

@@ -41,3 +41,12 @@ def test_a_bus_watchdog_time_goes_to_the_core_and_rounds_up_to_one_unit():
     c, access, _ = _commander()
     c.extra([1, 2], {"bus_watchdog_ms": [5.0, 100.0]})
     assert access.calls == [("set_user_watchdog", 1, 1), ("set_user_watchdog", 2, 5)]
+
+
+def test_a_value_beyond_what_the_register_can_hold_is_refused_not_written_at_its_maximum():
+    c, access, lines = _commander()
+    c.extra([1], {"return_delay_time_us": [1e6]})  # 2 us a unit, one byte: 508 us at most
+    assert lines == ["extra: ID 1 'return_delay_time_us' = 1e+06 is out of range: refused"]
+    assert not access.calls
+    c.extra([1], {"return_delay_time_us": [100.0]})
+    assert access.calls == [("write_eeprom", 1, "return_delay_time", 50)]
