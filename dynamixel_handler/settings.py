@@ -12,6 +12,7 @@ Values are not checked here; ``config.validate`` checks the parameters the node 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 from typing import Mapping
 
 #: present item keys (``pub_ratio/present.<key>``) -> default ratio
@@ -93,6 +94,10 @@ class ReadRatios:
     present: Mapping[str, int] = field(default_factory=lambda: dict(PRESENT_RATIOS))
     groups: Mapping[str, int] = field(default_factory=lambda: dict(GROUP_RATIOS))
     outdated_present: bool = True      #: publish present items not read this loop with their last value
+
+    def __post_init__(self) -> None:  # read-only views: the settings are replaced as a whole, never changed
+        object.__setattr__(self, "present", MappingProxyType(dict(self.present)))
+        object.__setattr__(self, "groups", MappingProxyType(dict(self.groups)))
 
     def all(self) -> tuple[int, ...]:
         """Every ratio, present keys first then groups."""

@@ -49,6 +49,8 @@ def test_values_land_in_their_fields():
     assert s.ratios.groups["extra_static"] == 5 and s.ratios.present["current"] == 0
     assert s.logs.reads_raw == {"goal"} and s.logs.writes == {"extra"} and s.logs.reads_err == set()
     assert s.loop.mode_change_interval_s == 2.0 and isinstance(s.loop.mode_change_interval_s, float)
+    with pytest.raises(TypeError):
+        s.ratios.groups["goal"] = 1  # type: ignore[index]  # replaced as a whole, never changed in place
 
 
 def test_but_changes_fields_of_parts_and_keeps_the_rest():
