@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Lint, types and sizes: ruff (ruff.toml) over the code and tests, mypy (mypy.ini) over the package,
-# then scripts/metrics.py --check (no module over 400 lines, class over 250, function of complexity over 12;
-# it also prints the structure figures: lineages, family-name comparisons, import circles, which
-# `--check --structure` turns into failures).
-# Exits 1 when ruff, mypy or the size check report anything.
+# then scripts/metrics.py --check --structure (no module over 400 lines, class over 250, function of
+# complexity over 12; no class lineage over 3 in-package classes or 400 lines, at most 2 family-name
+# comparisons outside control_table/, no import circle).
+# Exits 1 when ruff, mypy or the size and structure check report anything.
 # Usage: scripts/lint.sh        (after scripts/setup.sh; .ci/run runs it before the tests)
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -15,9 +15,10 @@ echo "[lint] ruff check dynamixel_handler bench scripts examples test"
 "$PY" -m ruff check dynamixel_handler bench scripts examples test || status=1
 echo "[lint] mypy dynamixel_handler"
 "$PY" -m mypy dynamixel_handler || status=1
-echo "[lint] sizes: modules <= 400 lines, classes <= 250, functions of complexity <= 12 (structure figures printed)"
-"$PY" scripts/metrics.py --check || status=1
+echo "[lint] sizes and structure: modules <= 400 lines, classes <= 250, functions of complexity <= 12;"
+echo "       lineages of at most 3 in-package classes and 400 lines, family-name comparisons <= 2, no import circle"
+"$PY" scripts/metrics.py --check --structure || status=1
 if [ $status != 0 ]; then
-  echo "[lint] FAILED: fix the ruff/mypy findings above" >&2
+  echo "[lint] FAILED: fix the ruff/mypy/metrics findings above" >&2
 fi
 exit $status

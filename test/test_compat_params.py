@@ -126,14 +126,16 @@ def _refuse_profiles_above_limits(sim: VirtualBus) -> None:
     """The P firmware's range of Profile Velocity / Acceleration (e-Manual: 0 .. Velocity /
     Acceleration Limit), which the virtual P servo does not check by itself."""
     servo = sim.servo(2)
-    check = servo._check_value
+    check = servo.check_write
 
-    def with_profile_limits(name: str, value: int, changes):
-        limit = {"profile_velocity": "velocity_limit", "profile_acceleration": "acceleration_limit"}.get(name)
-        if limit is not None and value > servo.read(limit):
-            return ERR_DATA_LIMIT
-        return check(name, value, changes)
-    servo._check_value = with_profile_limits
+    def with_profile_limits(address: int, data: bytes):
+        error, changes = check(address, data)
+        for item, value in changes:
+            limit = {"profile_velocity": "velocity_limit", "profile_acceleration": "acceleration_limit"}.get(item.name)
+            if not error and limit is not None and value > servo.read(limit):
+                return ERR_DATA_LIMIT, []
+        return error, changes
+    servo.check_write = with_profile_limits  # type: ignore[method-assign]
 
 
 def test_a_default_profile_the_servo_refuses_is_logged():

@@ -101,14 +101,9 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
     if item == "bus_watchdog" and value < 0:
         c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} refused (negative; 0 switches the watchdog off)")
         return
-    pulses = int(units.unit_to_pulse([model], item, [value])[0]) if item != "secondary_id" else int(value)
-    if item != "secondary_id" and _saturated(model, item, value, pulses):
-        c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
-        return
-    if item == "bus_watchdog" and value > 0:
-        pulses = max(1, pulses)  # a time under one register unit is one unit, not off
+    pulses = _pulses(model, item, value)
     spec = model.item(item)
-    if not spec.min_raw <= pulses <= spec.max_raw:
+    if pulses is None or not spec.min_raw <= pulses <= spec.max_raw:
         c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
         return
     if item == "bus_watchdog":  # the servo keeps this one, whatever its mode (0: off)
@@ -119,11 +114,18 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
         c.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
 
 
-def _saturated(model: Model, item: str, value: float, pulses: int) -> bool:
-    """The conversion clipped ``value`` to what the register's bytes hold: it lies more than one
-    register unit beyond the value ``pulses`` stands for."""
+def _pulses(model: Model, item: str, value: float) -> int | None:
+    """``value`` in the register's units; None when it lies beyond what the register's bytes hold
+    (the conversion would clip it: more than one register unit from what the pulses stand for)."""
+    if item == "secondary_id":
+        return int(value)
+    pulses = int(units.unit_to_pulse([model], item, [value])[0])
     back, step = units.pulse_to_unit([model, model], item, [pulses, pulses + 1])
-    return abs(float(back) - value) > abs(float(step) - float(back))
+    if abs(float(back) - value) > abs(float(step) - float(back)):
+        return None
+    if item == "bus_watchdog" and value > 0:
+        pulses = max(1, pulses)  # a time under one register unit is one unit, not off
+    return pulses
 
 
 def _drive_mode(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
