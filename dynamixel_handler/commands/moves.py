@@ -22,6 +22,7 @@ import itertools
 import math
 import threading
 import time
+from abc import ABC, abstractmethod
 from collections import deque
 from typing import Callable, Sequence
 
@@ -63,7 +64,7 @@ MAX_JOBS = 512
 MAX_STARTS = 16
 
 
-class Job:
+class Job(ABC):
     """A request the loop thread carries out; ended once (``finish``), the first end wins."""
 
     _numbers = itertools.count(1)
@@ -82,8 +83,9 @@ class Job:
     def finished(self) -> bool:
         return self.outcome is not None
 
-    def advance(self, book: Book, now: float) -> None:  # loop thread, after a step
-        raise NotImplementedError
+    @abstractmethod
+    def advance(self, book: Book, now: float) -> None:
+        """Loop thread, after a step: carry the job on, and set ``outcome`` once it has ended."""
 
     def overdue(self) -> tuple[int, str]:
         return ERROR, f"the bus loop did not carry out '{self.what}' in time: nothing was written"
