@@ -14,34 +14,15 @@ dynamixel_sdk 4.1.0 defects do not reach users:
 """
 from __future__ import annotations
 
-import os
 import resource
-import select
-import threading
 import time
 
 import pytest
-from dynamixel_sdk.protocol2_packet_handler import Protocol2PacketHandler
 
 from dynamixel_handler.bus import BusError, DynamixelBus
 from dynamixel_handler.bus.port import explain_open_error
 
-_SDK = Protocol2PacketHandler()
-
-
-def sdk_crc(data: bytes) -> int:
-    return _SDK.updateCRC(0, list(data), len(data))
-
-
-def with_crc(packet: bytes) -> bytes:
-    crc = sdk_crc(packet)
-    return packet + bytes([crc & 0xFF, crc >> 8])
-
-
-def status(dxl_id: int, params: bytes = b"", error: int = 0) -> bytes:
-    """A status packet as a servo sends it (params here never need stuffing)."""
-    length = len(params) + 4
-    return with_crc(bytes([0xFF, 0xFF, 0xFD, 0x00, dxl_id, length & 0xFF, length >> 8, 0x55, error]) + params)
+from support.wire_peer import WirePeer, sdk_crc, status, with_crc
 
 
 def fast_reply(segments: list[tuple[int, bytes]], declared: list[int] | None = None) -> bytes:
@@ -55,66 +36,6 @@ def fast_reply(segments: list[tuple[int, bytes]], declared: list[int] | None = N
         packet = with_crc(packet + bytes([0x00, dxl_id]) + data)
     return packet
 
-
-def split_packets(buffer: bytearray) -> list[bytes]:
-    out = []
-    while True:
-        start = buffer.find(b"\xff\xff\xfd\x00")
-        if start < 0 or len(buffer) < start + 7:
-            return out
-        total = 7 + (buffer[start + 5] | (buffer[start + 6] << 8))
-        if len(buffer) < start + total:
-            return out
-        out.append(bytes(buffer[start:start + total]))
-        del buffer[:start + total]
-
-
-class WirePeer:
-    """The far end of a pty: records instruction packets and answers via ``handler``.
-
-    ``handler(packet) -> list`` of bytes to write or floats (seconds to sleep first).
-    """
-
-    def __init__(self, handler=None) -> None:
-        self.master, self.slave = os.openpty()
-        self.path = os.ttyname(self.slave)
-        self.received: list[bytes] = []
-        self.handler = handler or (lambda packet: [])
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        buffer = bytearray()
-        while not self._stop.is_set():
-            try:
-                readable, _, _ = select.select([self.master], [], [], 0.05)
-                if not readable:
-                    continue
-                buffer += os.read(self.master, 4096)
-            except OSError:
-                return
-            for packet in split_packets(buffer):
-                self.received.append(packet)
-                for item in self.handler(packet):
-                    if isinstance(item, float):
-                        time.sleep(item)
-                    else:
-                        os.write(self.master, item)
-
-    def send(self, data: bytes) -> None:
-        os.write(self.master, data)
-
-    def vanish(self) -> None:
-        self._stop.set()
-        self._thread.join()
-        for fd in (self.master, self.slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-
-    close = vanish
 
 
 @pytest.fixture
