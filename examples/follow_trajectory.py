@@ -20,6 +20,7 @@ import argparse
 import math
 import os
 import signal
+import statistics
 import subprocess
 import sys
 import threading
@@ -174,9 +175,10 @@ def main() -> int:
         time.sleep(0.3)  # a few more joint states after the end
         errors = [abs(d - p) for _, desired, actual in node.feedback for d, p in zip(desired, actual)]
         worst = max(errors) if errors else math.nan
+        median = statistics.median(errors) if errors else math.nan
         print(f"result: {CODES.get(result.error_code, result.error_code)} {result.error_string}".rstrip())
         print(f"feedback messages: {len(node.feedback)}, max |commanded - present|: {worst:.4f} rad "
-              f"({math.degrees(worst):.2f} deg)")
+              f"({math.degrees(worst):.2f} deg), median {median:.4f} rad")
         plot(node, joints, traj, t0, Path(args.png))
         print(f"plot saved to {args.png}")
         return 0 if result.error_code == FollowJointTrajectory.Result.SUCCESSFUL else 1

@@ -192,7 +192,9 @@ def test_verbose_line_every_verbose_ratio_loops_and_success_drops_with_a_silent_
     assert all(b - a >= 0.95 for a, b in zip(stamps, stamps[1:])), stamps
     for m in lines:
         loop_ms, read_ms, success, full = map(float, m.groups())
-        assert 0 < read_ms <= loop_ms and 0 <= full <= success <= 100
+        # ms/read averages the loops that read (as the original's t_read/n_any_read), ms/loop every loop
+        # of the window: on a loaded host the first can exceed the second
+        assert 0 < read_ms and 0 < loop_ms and 0 <= full <= success <= 100
     assert float(lines[0].group(3)) == 100.0  # all servos answering at first
 
 

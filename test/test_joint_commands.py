@@ -184,7 +184,9 @@ def test_a_three_point_trajectory_is_followed_with_the_timing_of_time_from_start
     errors = [max(abs(p - path.sample(t).positions[0]), abs(q - path.sample(t).positions[1])) for t, p, q in during]
     print(f"\ntrajectory tracking: {len(during)} goals written, max error {max(errors):.4f} rad "
           f"({math.degrees(max(errors)):.2f} deg), mean {np.mean(errors):.4f} rad")
-    assert max(errors) < 0.1  # a path 0.2 s late would be ~0.3 rad off
+    # a path 0.2 s late would be ~0.3 rad off nearly everywhere; a loop held back on a loaded machine
+    # writes one goal late (the goal of one period ahead of when it was computed), an outlier
+    assert np.percentile(errors, 90) < 0.05 and max(errors) < 0.35
     # the servos went the path's way: through its middle point (0.8, 0.1) on the way to the end
     assert any(abs(p - 0.8) < 0.05 and abs(q - 0.1) < 0.05 for _, p, q in samples)
     # nothing moved before header.stamp

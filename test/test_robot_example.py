@@ -26,9 +26,12 @@ def test_follow_trajectory_example_succeeds_and_saves_its_plot(tmp_path):
     text = out.stdout + out.stderr
     assert out.returncode == 0, text + (tmp_path / "handler.log").read_text()
     assert "result: SUCCESSFUL" in out.stdout
-    worst = float(re.search(r"max \|commanded - present\|: ([\d.]+) rad", out.stdout).group(1))
-    print(f"\nexample trajectory: max |commanded - present| {worst:.4f} rad")
-    assert worst < 0.2
+    m = re.search(r"max \|commanded - present\|: ([\d.]+) rad .*median ([\d.]+) rad", out.stdout)
+    worst, median = float(m.group(1)), float(m.group(2))
+    print(f"\nexample trajectory: |commanded - present| max {worst:.4f} rad, median {median:.4f} rad")
+    # the joints follow the path (median); one loop held back on a loaded machine lags the simulated
+    # servo for a moment (max), a path followed late or not at all is off everywhere
+    assert median < 0.05 and worst < 0.5
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     assert "stopping" in (tmp_path / "handler.log").read_text()  # the handler was stopped, servos made safe
 
