@@ -66,9 +66,8 @@ SCHEMA: tuple[Param, ...] = (
     _p("init/dummy_servo_series", STR_ARRAY, [""],
        "series of the dummy servos: X, P or Pro, one for all or one per ID of dummy_servo_list (\"\": the first used series)"),
     _p("init/baudrate_auto_set", BOOL, False, "at start-up, find servos at other baud rates and set them to `baudrate`"),
-    _p("init/used_servo_series.X", BOOL, True, "handle X series servos"),
-    _p("init/used_servo_series.P", BOOL, False, "handle P series servos"),
-    _p("init/used_servo_series.Pro", BOOL, False, "handle Pro series servos"),
+    *(_p(f"init/used_servo_series.{f.title}", BOOL, f.used_by_default, f"handle {f.title} series servos")
+      for f in FAMILIES),
     _p("init/expected_servo_num", INT, 0, "servos the scan must find (0: at least one)"),
     _p("init/servo_auto_search.min_id", INT, 0, "lowest ID scanned"),
     _p("init/servo_auto_search.max_id", INT, 10, "highest ID scanned"),
@@ -358,7 +357,8 @@ def _check_dummies_and_series(v: Mapping[str, Any]) -> None:
           f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
           f"ID of init/dummy_servo_list ({n_dummies})")
     _need(any(v[f"init/used_servo_series.{f.title}"] for f in FAMILIES),
-          "parameters 'init/used_servo_series.{X,P,Pro}' are all false: enable at least one series")
+          "parameters 'init/used_servo_series.{" + ",".join(f.title for f in FAMILIES)
+          + "}' are all false: enable at least one series")
 
 
 def _check_loop(v: Mapping[str, Any]) -> None:

@@ -52,6 +52,9 @@ class ServoFamily:
     move_speed_item: str
     #: the family has a Protocol Type register (False: it speaks Protocol 2.0 only, reported as 2)
     has_protocol_type: bool = True
+    #: ``init/used_servo_series.<title>`` when no parameter sets it (the original handler's defaults
+    #: for X, P and Pro; a family added later is off, so an older parameter file keeps its meaning)
+    used_by_default: bool = False
 
     def __repr__(self) -> str:
         return f"ServoFamily({self.name})"
@@ -84,7 +87,7 @@ X = ServoFamily(
     name="X", title="X", suffix="x", modes=_ALL_MODES, dummy_model=1020, x_table=True,
     profile_max=32767,  # e-Manual: 0..32767 whatever the limits
     multi_turn_goal=1_048_575,  # e-Manual: -1,048,575..1,048,575 pulses (±256 turns)
-    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity",
+    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity", used_by_default=True,
 )
 P = ServoFamily(
     name="P", title="P", suffix="p", modes=_ALL_MODES - {"cur_position"}, dummy_model=2020, x_table=False,
