@@ -58,3 +58,14 @@ def test_relative_links_in_docs_lead_to_files_that_exist():
             if not path.exists():
                 broken.append(f"{doc.relative_to(ROOT)} -> {target}")
     assert not broken, "broken links: " + ", ".join(broken)
+
+
+def test_the_models_page_lists_every_model_the_control_table_knows():
+    spec = importlib.util.spec_from_file_location("gen_models_doc", ROOT / "scripts" / "gen_models_doc.py")
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    text = (DOCS / "models.md").read_text(encoding="utf-8")
+    assert text == gen.render(), "docs/models.md is out of date: run scripts/gen_models_doc.py --write"
+    from dynamixel_handler.control_table import known_models
+    for model in known_models():
+        assert f"| {model.number} | {model.name} |" in text

@@ -1,0 +1,136 @@
+#!/usr/bin/env python3
+"""Write docs/models.md: one table of every model the handler recognises, from the control table.
+
+The page is generated so that it cannot drift from ``dynamixel_handler/control_table``:
+``test/test_docs.py`` fails when docs/models.md differs from what this script renders.
+
+    scripts/gen_models_doc.py            # print the page on stdout
+    scripts/gen_models_doc.py --write    # write docs/models.md
+    scripts/gen_models_doc.py --check    # exit 1 if docs/models.md is out of date
+
+Needs no ROS.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Iterable, List
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from dynamixel_handler.control_table import FAMILIES, Model, ServoFamily, known_models  # noqa: E402
+from dynamixel_handler.control_table._sdk_files import sdk_model_index  # noqa: E402
+from dynamixel_handler.groups import MODE_NAMES  # noqa: E402
+
+DOC = ROOT / "docs" / "models.md"
+
+#: items a robot developer looks for; a model without one "lacks" it
+NOTABLE = (
+    ("present_current", "current sensing"), ("goal_current", "current goal"), ("goal_pwm", "PWM goal"),
+    ("profile_velocity", "profiles"), ("bus_watchdog", "bus watchdog"),
+    ("hardware_error_status", "hardware error bits"), ("homing_offset", "homing offset"),
+    ("velocity_limit", "velocity limit"),
+)
+
+HEAD = """# Every recognised model
+
+Generated from `dynamixel_handler/control_table/` by `scripts/gen_models_doc.py --write`; do not edit by
+hand. The handler reads each servo's Model Number at the scan; a model not listed here is reported as
+unknown and left out. `dynamixel_handler_sim --list-models` lists the same models, and the virtual bus
+simulates each of them (`dynamixel_handler_sim --servo ID:NAME`).
+
+Columns: the scales are per register unit (pulse); "lacks" names what the spec's messages carry but the
+model's table has not: those fields read back as "not supported" (NaN, 0, "" or false) and commands for
+them are refused with one line. Addresses come from the control-table files shipped in the
+`dynamixel-sdk` wheel where it has one ("SDK file"), else from our own table written after the
+ROBOTIS e-Manual ("e-Manual"); unit scales, operating modes and factory values always from the
+model's e-Manual page (`dynamixel_handler/control_table/`). See [units.md](units.md) for the families'
+units and [compatibility.md](compatibility.md) for what the handler does where a rule cannot apply.
+"""
+
+
+def _num(value: float, digits: int = 4) -> str:
+    if math.isnan(value):
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def topics_of(family: ServoFamily) -> str:
+    """Which command topics drive a family's servos."""
+    suffix = getattr(family, "topic_suffix", family.suffix)
+    if not suffix:
+        return "`commands/all`, `command/*` only"
+    return f"`commands/{suffix}`, `command/{suffix}/*`, `commands/all`"
+
+
+def modes_of(model: Model) -> str:
+    values = getattr(model, "mode_values", None)
+    if values:
+        names = [name for name, value in values.items() if value in model.operating_modes]
+    else:
+        names = [MODE_NAMES.get(v, str(v)) for v in model.operating_modes]
+    return ", ".join(names)
+
+
+def lacks(model: Model) -> str:
+    missing = [what for name, what in NOTABLE if not model.has(name)]
+    if model.has("present_current") and math.isnan(model.current_ma_per_pulse):
+        missing.insert(0, "current sensing")
+    if not model.has("present_current") and model.has("present_load") and "current sensing" in missing:
+        missing[missing.index("current sensing")] = "current sensing (Present Load instead)"
+    return ", ".join(dict.fromkeys(missing)) or "–"
+
+
+def source(model: Model) -> str:
+    sdk = sdk_model_index().get(model.number)
+    return f"SDK file `{sdk}`" if sdk else "e-Manual"
+
+
+def rows(models: Iterable[Model]) -> List[str]:
+    out = ["| number | name | family | driven by | position °/pulse | velocity °/s per unit | current mA per unit "
+           "| operating modes | lacks | addresses from |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for m in models:
+        out.append(f"| {m.number} | {m.name} | {m.family.title} | {topics_of(m.family)} | "
+                   f"{_num(m.position_deg_per_pulse)} | {_num(m.velocity_deg_s_per_pulse)} | "
+                   f"{_num(m.current_ma_per_pulse)} | {modes_of(m)} | {lacks(m)} | {source(m)} |")
+    return out
+
+
+def render() -> str:
+    models = known_models()
+    parts = [HEAD]
+    counts = ", ".join(f"{f.title} {sum(m.family is f for m in models)}" for f in FAMILIES)
+    parts.append(f"{len(models)} models: {counts}.\n")
+    for family in FAMILIES:
+        own = [m for m in models if m.family is family]
+        if own:
+            parts.append(f"## {family.title}\n")
+            parts.append("\n".join(rows(own)) + "\n")
+    return "\n".join(parts)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    group = ap.add_mutually_exclusive_group()
+    group.add_argument("--write", action="store_true", help="write docs/models.md")
+    group.add_argument("--check", action="store_true", help="exit 1 if docs/models.md is out of date")
+    args = ap.parse_args(argv)
+    text = render()
+    if args.write:
+        DOC.write_text(text, encoding="utf-8")
+        print(f"wrote {DOC.relative_to(ROOT)}")
+    elif args.check:
+        if not DOC.exists() or DOC.read_text(encoding="utf-8") != text:
+            print("docs/models.md is out of date: run scripts/gen_models_doc.py --write", file=sys.stderr)
+            return 1
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
