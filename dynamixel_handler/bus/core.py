@@ -35,6 +35,7 @@ from typing import Iterable, Mapping
 from ..protocol import host as p
 from .group_read import GroupRead
 from .instructions import Instructions
+from .port import SerialPort
 from .reads import Reads
 from .result import Result
 from .stats import BusStats
@@ -62,6 +63,11 @@ class DynamixelBus:
     @property
     def baudrate(self) -> int:
         return self._t.port.baudrate
+
+    @property
+    def serial_port(self) -> SerialPort:
+        """The line under the bus, for a tool that speaks Protocol 1.0 on it (the set-up tool's scan)."""
+        return self._t.port
 
     @property
     def latency_timer_ms(self) -> float:

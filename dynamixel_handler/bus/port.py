@@ -27,6 +27,7 @@ import serial
 from dynamixel_sdk import PortHandler
 
 from .errors import BusError
+from .lock_holder import lock_holder
 
 #: Baud rates Dynamixel servos can be set to (X, P and Pro series together).
 DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000,
@@ -78,7 +79,12 @@ def explain_open_error(device: str, exc: BaseException) -> str:
         return (f"permission denied opening {device}: add your user to the 'dialout' group "
                 f"(sudo usermod -aG dialout $USER, then log out and in) or install a udev rule for the adapter.")
     if code in (errno.EAGAIN, errno.EBUSY) or "exclusively lock" in text or "busy" in text.lower():
-        return (f"{device} is busy: another program holds it (another handler, Dynamixel Wizard, a "
+        holder = lock_holder(device)
+        if holder is not None:
+            pid, program = holder
+            return (f"{device} is busy: {program or 'a program'} (pid {pid}) holds it. Stop it first "
+                    f"(Ctrl-C where it runs, or kill {pid}); only one program may use a bus at a time.")
+        return (f"{device} is busy: another program holds it (a running dynamixel_handler, Dynamixel Wizard, a "
                 f"serial console?). Close it; `fuser -v {device}` shows who.")
     if code == errno.ENOTTY or "Inappropriate ioctl" in text or "configure port" in text:
         return f"{device} is not a serial port: point device_name at the adapter's tty (e.g. /dev/ttyUSB0)."
