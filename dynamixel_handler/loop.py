@@ -333,8 +333,9 @@ def _as_servo_access(handler: Handler) -> ServoAccess:
     return handler
 
 
-def mode_value(name: str) -> int:
-    return OPERATING_MODES[name]
+def mode_value(name: str, model: Model | None = None) -> int:
+    """The Operating Mode register value of a mode (on ``model``: its own values, e.g. XL-320)."""
+    return (model.mode_values if model is not None else OPERATING_MODES)[name]
 
 
 __all__ = ["EEPROM_WRITE_INTERVAL_S", "Handler", "Interrupted", "RECHECK_LOOPS", "RECONNECT_INTERVAL_S", "REBOOT_WAIT_S",

@@ -25,7 +25,7 @@ from .control_table import Item, Model
 
 __all__ = [
     "QUANTITY_OF_ITEM", "UNIT_OF_QUANTITY", "quantity_of", "pulse_to_unit", "unit_to_pulse",
-    "encode", "decode", "decode_hardware_error", "decode_shutdown", "encode_shutdown",
+    "encode", "decode", "from_sign_magnitude", "decode_hardware_error", "decode_shutdown", "encode_shutdown",
     "decode_moving_status", "decode_drive_mode", "encode_drive_mode",
     "decode_startup_configuration", "encode_startup_configuration",
 ]
@@ -200,17 +200,29 @@ def encode(item: Item, values: ArrayLike) -> bytes:
         i = int(np.flatnonzero(out_of_range)[0])
         raise ValueError(
             f"{item.name}: value {int(arr[i])} at index {i} outside {item.min_raw}..{item.max_raw}")
+    if item.direction_bit:  # sign-magnitude: the direction bit set for a negative value
+        arr = np.where(arr < 0, -arr | (1 << item.direction_bit), arr)
     return arr.astype(_dtype(item)).tobytes()
 
 
 def decode(item: Item, raw: Union[bytes, bytearray, memoryview, np.ndarray], n: int = 1) -> np.ndarray:
-    """Little-endian bytes -> ``n`` values as int64, sign-extended where the item is signed."""
+    """Little-endian bytes -> ``n`` values as int64, sign-extended where the item is signed (or
+    sign-magnitude)."""
     buf = np.frombuffer(bytes(raw) if not isinstance(raw, np.ndarray) else
                         np.ascontiguousarray(raw, dtype=np.uint8).tobytes(), dtype=np.uint8)
     need = item.size * n
     if buf.size < need:
         raise ValueError(f"{item.name}: need {need} bytes for {n} values, got {buf.size}")
-    return buf[:need].view(_dtype(item)).astype(np.int64)
+    values = buf[:need].view(_dtype(item)).astype(np.int64)
+    return from_sign_magnitude(values, item.direction_bit) if item.direction_bit else values
+
+
+def from_sign_magnitude(values: np.ndarray, bit: int) -> np.ndarray:
+    """Register values (read unsigned) of a sign-magnitude item -> signed numbers: ``bit`` set
+    is the negative (clockwise) direction, the bits below it the magnitude (XL-320 speeds, load)."""
+    magnitude = values & ((1 << bit) - 1)
+    out: np.ndarray = np.where((values >> bit) & 1 == 1, -magnitude, magnitude)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------

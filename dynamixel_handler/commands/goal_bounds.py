@@ -19,14 +19,20 @@ import numpy as np
 
 from .. import units
 from ..control_table import POSITION_LIMITED_MODES, Model
-from ..groups import MODE_NAMES
 from ..servos import ServoTable
 
 if TYPE_CHECKING:
     from ..core.api import ServoAccess
 
-#: operating mode values whose goal positions stay within the position limits
-POSITION_MODE = [value for value, name in MODE_NAMES.items() if name in POSITION_LIMITED_MODES]
+
+@lru_cache(maxsize=64)
+def _limited_mode_values(models: tuple[Model, ...]) -> np.ndarray:
+    """Per model, the operating mode value whose goal positions stay within the position limits
+    (each model's own value: the XL-320's joint mode is 2); -1 where it has none."""
+    values = [next((v for name, v in m.mode_values.items() if name in POSITION_LIMITED_MODES), -1) for m in models]
+    out = np.array(values, dtype=np.int64)
+    out.setflags(write=False)
+    return out
 
 
 #: the bounds of every servo of a table: (lo, hi, ok) arrays; ok False where the table lacks a
@@ -37,7 +43,7 @@ Bounds = tuple[np.ndarray, np.ndarray, np.ndarray]
 def _bounds_of(table: ServoTable) -> Bounds:
     n = len(table)
     modes, mode_known = table.pulses("operating_mode"), table.known("operating_mode")
-    position = np.isin(modes, POSITION_MODE) & mode_known
+    position = (modes == _limited_mode_values(tuple(table.models))) & mode_known
     bounds = np.array([model_bounds(m) for m in table.models], dtype=np.int64).reshape(n, 4)
     lo = np.where(position, bounds[:, 0], bounds[:, 2])
     hi = np.where(position, bounds[:, 1], bounds[:, 3])
@@ -187,7 +193,7 @@ class Targets:
             return held[2]
         name = None
         if raw is not None and known is not None and known[self.positions].all():
-            names = {MODE_NAMES.get(v) for v in raw[self.positions].tolist()}
+            names = {m.mode_name(v) for m, v in zip(self.models, raw[self.positions].tolist())}
             name = names.pop() if len(names) == 1 else None
         self._mode = (raw, known, name)
         return name

@@ -28,7 +28,6 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..groups import MODE_NAMES
 from ..joints import JointMap
 from .commander import Commander
 from .goal_bounds import goal_position_limits
@@ -185,7 +184,7 @@ class JointGoals:
                 continue
             model = table.model(dxl_id)
             raw = table.value("operating_mode", dxl_id)
-            mode = MODE_NAMES.get(raw) if raw is not None else None
+            mode = model.mode_name(raw)
             view = _TableView(table, mode if mode in KEPT_POSITION_MODES else "position")
             pulses = goal_position_limits(cast("ServoAccess", view), dxl_id, model)
             deg = units.pulse_to_unit([model, model], "goal_position", list(pulses))

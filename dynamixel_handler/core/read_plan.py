@@ -11,6 +11,7 @@ from ..bus import ServoBus
 from ..groups import GROUP_ITEMS, PRESENT, due
 from ..servos import ServoTable
 from ..settings import ReadRatios
+from ..units import from_sign_magnitude
 from .pacing import REPLY_BYTES, SYNC_READ_BYTES, Pacing
 from .servo_io import Log
 
@@ -39,8 +40,12 @@ class ReadPart:
     offset: int
     size: int
     signed: bool
+    #: sign-magnitude items (XL-320 speeds, load): the bit that carries the direction; 0: none
+    direction_bit: int = 0
 
 
+#: one item of a model as a read plan sees it: (name, address, size, signed, direction bit)
+_Sig = tuple[str, int, int, bool, int]
 #: items due (in reading order), present keys, groups, and the items sorted without repeats
 _Due = tuple[tuple[str, ...], frozenset[str], frozenset[str], tuple[str, ...]]
 
@@ -115,13 +120,13 @@ class ReadPlan:
         plan = self._plans.get(key)
         if plan is not None:
             return plan
-        layouts: dict[tuple[bool, tuple[tuple[str, int, int, bool], ...]], list[int]] = {}
+        layouts: dict[tuple[bool, tuple[_Sig, ...]], list[int]] = {}
         fast_read = self.settings.fast_read
         for pos, model in enumerate(self.table.models):
             if not live[pos]:
                 continue
-            sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed)
-                        for i in items if model.has(i))
+            sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed,
+                         model.items[i].direction_bit) for i in items if model.has(i))
             fast = fast_read and self.table.ids[pos] not in self.plain_read
             if sig:
                 layouts.setdefault((fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
@@ -215,7 +220,12 @@ def decode_replies(read: Read, joined: bytes) -> list[np.ndarray]:
     if record is None:
         return decode_replies_plain(read, joined)
     rows = np.frombuffer(joined, dtype=record)
-    return [rows[part.item].astype(np.int64) for part in read.parts]
+    return [_signed(part, rows[part.item].astype(np.int64)) for part in read.parts]
+
+
+def _signed(part: ReadPart, values: np.ndarray) -> np.ndarray:
+    """Sign-magnitude values as signed numbers (others as they are)."""
+    return from_sign_magnitude(values, part.direction_bit) if part.direction_bit else values
 
 
 def decode_replies_plain(read: Read, joined: bytes) -> list[np.ndarray]:
@@ -228,7 +238,7 @@ def decode_replies_plain(read: Read, joined: bytes) -> list[np.ndarray]:
         if part.signed:
             half = np.int64(1) << (8 * part.size - 1)
             values = np.where(values >= half, values - 2 * half, values)
-        out.append(values)
+        out.append(_signed(part, values))
     return out
 
 
@@ -242,18 +252,19 @@ def _record(length: int, parts: tuple[ReadPart, ...]) -> np.dtype | None:
                      "offsets": [p.offset for p in parts], "itemsize": length})
 
 
-def _spans(sig: Sequence[tuple[str, int, int, bool]], split: bool,
+def _spans(sig: Sequence[_Sig], split: bool,
            longest: int | None = None) -> list[tuple[int, int, tuple[ReadPart, ...]]]:
     """Cut items (sorted by address) into read spans: one per item, or merged across small gaps
     into spans of at most ``longest`` bytes (None: any length; an item longer stays whole)."""
-    spans: list[tuple[int, int, list[tuple[str, int, int, bool]]]] = []
-    for item, address, size, signed in sig:
+    spans: list[tuple[int, int, list[_Sig]]] = []
+    for member in sig:
+        _, address, size, _, _ = member
         if (spans and not split and address - (spans[-1][0] + spans[-1][1]) <= SPAN_GAP
                 and (longest is None or max(spans[-1][1], address + size - spans[-1][0]) <= longest)):
             start, _, members = spans[-1]
             end = max(start + spans[-1][1], address + size)
-            spans[-1] = (start, end - start, members + [(item, address, size, signed)])
+            spans[-1] = (start, end - start, members + [member])
         else:
-            spans.append((address, size, [(item, address, size, signed)]))
-    return [(start, length, tuple(ReadPart(i, a - start, s, sg) for i, a, s, sg in members))
+            spans.append((address, size, [member]))
+    return [(start, length, tuple(ReadPart(i, a - start, s, sg, d) for i, a, s, sg, d in members))
             for start, length, members in spans]

@@ -7,7 +7,6 @@ import logging
 import time
 from typing import Callable, Mapping
 
-from ..control_table import OPERATING_MODES
 from ..servos import PendingWrites, ServoTable
 from ..settings import LoopSettings
 from .deferred import Deferred
@@ -98,7 +97,7 @@ class Requests:
         own = OWN_GOAL.get(self.io.mode(dxl_id) or "")
         keep = {item: self.io.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
         torque = self.io.torque_off_for_eeprom(dxl_id)
-        written = self.io.write_item(dxl_id, "operating_mode", OPERATING_MODES[mode])
+        written = self.io.write_item(dxl_id, "operating_mode", model.mode_values[mode])
         for item, value in keep.items():
             if value is not None:
                 self.io.write_item(dxl_id, item, value)

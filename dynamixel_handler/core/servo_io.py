@@ -6,7 +6,6 @@ from typing import Any
 
 from .. import units
 from ..bus import Result, ServoBus
-from ..groups import MODE_NAMES
 from ..servos import ServoTable
 
 Log = logging.Logger | logging.LoggerAdapter[Any]
@@ -52,7 +51,7 @@ class ServoIO:
         value = self.table.value("operating_mode", dxl_id)
         if value is None:
             value = self.read_item(dxl_id, "operating_mode")
-        return MODE_NAMES.get(value) if value is not None else None
+        return self.table.model(dxl_id).mode_name(value)
 
     def torque_on(self, dxl_id: int) -> Result[bool]:
         """Enable torque without a jump: goals := present state (position) or neutral, then enable."""

@@ -89,7 +89,7 @@ class WriteBatch:
                 if spec is None:
                     continue
                 try:
-                    data = int(pulses).to_bytes(spec.size, "little", signed=spec.signed)
+                    data = spec.to_bytes(int(pulses))
                 except OverflowError:
                     self.log.error(f"ID {dxl_id}: {item}={pulses} does not fit its {spec.size} bytes: not written")
                     continue

@@ -15,7 +15,7 @@ import numpy as np
 from builtin_interfaces.msg import Time
 
 from .. import units
-from ..groups import ERROR_ITEMS, GAIN, GOAL, LIMIT, MODE_NAMES, PRESENT, STATUS_ITEMS
+from ..groups import ERROR_ITEMS, GAIN, GOAL, LIMIT, PRESENT, STATUS_ITEMS
 from ..servos import ServoTable
 
 Tree = dict[str, Any]
@@ -51,7 +51,8 @@ def status(table: ServoTable) -> Tree:
     known = table.known("operating_mode")
     return {"id_list": u16(table.ids), "torque": _flag(table, "torque_enable"),
             "error": _flag(table, "hardware_error_status"), "ping": table.ping.copy(),
-            "mode": [MODE_NAMES.get(int(v), "") if k else "" for v, k in zip(table.pulses("operating_mode"), known)]}
+            "mode": [(m.mode_name(int(v)) or "") if k else ""
+                     for v, k, m in zip(table.pulses("operating_mode"), known, table.models)]}
 
 
 def present(table: ServoTable, keys: Iterable[str] | None = None, units: Units | None = None) -> Tree:

@@ -43,11 +43,12 @@ class RegisterFile:
 
     # ------------------------------------------------------------------ values
     def peek(self, it: Item) -> int:
-        return int.from_bytes(self.regs[it.address:it.address + it.size], "little", signed=it.signed)
+        return it.from_bytes(self.regs[it.address:it.address + it.size])
 
     def poke(self, it: Item, value: int) -> None:
         mask = (1 << (8 * it.size)) - 1
-        self.regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
+        raw = it.to_unsigned(value) if it.direction_bit else int(value)
+        self.regs[it.address:it.address + it.size] = (raw & mask).to_bytes(it.size, "little")
 
     def factory_indirect(self) -> None:
         """Every Indirect Address points at its own Data byte (plain storage), as shipped."""
@@ -122,7 +123,7 @@ class RegisterFile:
             span = range(it.address, it.address + it.size)
             if any(b not in targets for b in span):
                 return None
-            changes.append((it, int.from_bytes(bytes(targets[b] for b in span), "little", signed=it.signed)))
+            changes.append((it, it.from_bytes(bytes(targets[b] for b in span))))
         return changes
 
     def _owners(self, targets: dict[int, int]) -> list[Item]:
@@ -149,14 +150,15 @@ class Registers:
 
     def peek(self, name: str) -> int:
         it = self.model.item(name)
-        return int.from_bytes(self.regs[it.address:it.address + it.size], "little", signed=it.signed)
+        return it.from_bytes(self.regs[it.address:it.address + it.size])
 
     def poke(self, name: str, value: int) -> None:
         if not self.model.has(name):
             return
         it = self.model.item(name)
         mask = (1 << (8 * it.size)) - 1
-        self.regs[it.address:it.address + it.size] = (int(value) & mask).to_bytes(it.size, "little")
+        raw = it.to_unsigned(value) if it.direction_bit else int(value)
+        self.regs[it.address:it.address + it.size] = (raw & mask).to_bytes(it.size, "little")
 
     def has(self, name: str) -> bool:
         return self.model.has(name)
