@@ -9,31 +9,36 @@ errors, or the whole adapter vanishing and coming back.
 ``VirtualBus`` is the public face (servos, faults, state file, log) over its parts, each an
 object: ``serving.WireServer`` (the serving thread and wire timing), ``instructions.InstructionSet``
 (what the servos do with each instruction) and ``faults.ReplyFaults`` (what goes wrong with replies).
+Protocol 1.0 servos (``protocol1``) share the line, and servos sharing an ID collide (``collision``).
 """
 
 from __future__ import annotations
 
 import collections
-import json
 import os
 import random
 import threading
 import time
-from typing import Callable, Mapping
+from typing import Callable, Iterable, Mapping
 
 from ..protocol import servo as p
 from ..protocol.servo import LoggedInstruction
 from .faults import ReplyFaults
 from .instructions import InstructionSet, Refusal
-from .serving import FACTORY_BAUDRATE, WireServer
+from .plugged import AnyServo, new_servo, pair, read_state, set_bps, state_of, write_state
+from .protocol1 import Protocol1Instructions
+from .serving import FACTORY_BAUDRATE, WireServer, WireSettings
 from .servo import VirtualServo
 from .transport import PtyPort
 
-__all__ = ["VirtualBus", "LoggedInstruction", "FACTORY_BAUDRATE"]
+__all__ = ["VirtualBus", "LoggedInstruction", "FACTORY_BAUDRATE", "AnyServo"]
 
 
-class VirtualBus:
-    """A bus of virtual servos on a pty. ``servos`` maps ID -> model number.
+class VirtualBus(WireSettings):
+    """A bus of virtual servos on a pty. ``servos`` maps ID -> model number, or is a list of
+    (ID, model number) pairs, where an ID given twice puts two servos at it (they collide, see
+    ``collision``). A Protocol 1.0 model number (``protocol1.PROTOCOL1_MODELS``: 12 AX-12A,
+    18 AX-18A, 29 MX-28) adds a servo answering only Protocol 1.0.
 
     By default the servos are as unboxed: factory values, Baud Rate 57600 (1 Mbps on the XM335),
     and they behave as on a real bus:
@@ -52,7 +57,8 @@ class VirtualBus:
     writes it, so ID, baud rate and limits survive a restart as on hardware.
     """
 
-    def __init__(self, servos: Mapping[int, int] | None = None, baudrate: int | None = None,
+    def __init__(self, servos: Mapping[int, int] | Iterable[tuple[int, int]] | None = None,
+                 baudrate: int | None = None,
                  latency_s: float = 0.0, link: str | None = None,
                  clock: Callable[[], float] = time.monotonic, seed: int | None = None,
                  log_size: int = 100_000, check_baudrate: bool = True, wire_timing: bool = True,
@@ -61,64 +67,24 @@ class VirtualBus:
         self.state_file = state_file
         self.clock = clock
         self._lock = threading.RLock()
-        self._servos: list[VirtualServo] = []  # changed in place: the instruction set holds it
+        self._servos: list[AnyServo] = []  # changed in place: the instruction sets hold it
         self._port = PtyPort(link)
         self.stats: collections.Counter[str] = collections.Counter()
         #: writes a servo refused: (time, id, address, data, error code) — sync writes included,
         #: which get no reply on a real bus, so tests can tell what a servo rejected
         self.refused: collections.deque[Refusal] = collections.deque(maxlen=10_000)
         self._log: collections.deque[LoggedInstruction] = collections.deque(maxlen=log_size)
-        self._instructions = InstructionSet(self._servos, clock, self._log, self.stats, self.refused)
+        self._instructions = InstructionSet(self._servos, clock, self._log,  # type: ignore[arg-type]
+                                            self.stats, self.refused)
         self._faults = ReplyFaults(random.Random(seed), self.stats)
         self._server = WireServer(self._port, self._lock, self._instructions, self._faults, self.stats,
-                                  baudrate, latency_s, check_baudrate, wire_timing)
-        for servo_id, model in (servos or {}).items():
+                                  baudrate, latency_s, check_baudrate, wire_timing,
+                                  Protocol1Instructions(self._servos, self.stats))
+        pairs = servos.items() if isinstance(servos, Mapping) else (servos or [])
+        for servo_id, model in pairs:
             self.add_servo(servo_id, model)
         if state_file and os.path.exists(state_file):
             self.load_state(state_file)
-
-    # ------------------------------------------------------------------ the wire's settings
-    @property
-    def baudrate(self) -> int | None:
-        """Line speed the wire is timed at (None: the host's, when ``wire_timing``)."""
-        return self._server.baudrate
-
-    @baudrate.setter
-    def baudrate(self, bps: int | None) -> None:
-        self._server.baudrate = bps
-
-    @property
-    def latency_s(self) -> float:
-        return self._server.latency_s
-
-    @latency_s.setter
-    def latency_s(self, seconds: float) -> None:
-        self._server.latency_s = seconds
-
-    @property
-    def check_baudrate(self) -> bool:
-        return self._server.check_baudrate
-
-    @check_baudrate.setter
-    def check_baudrate(self, on: bool) -> None:
-        self._server.check_baudrate = on
-
-    @property
-    def wire_timing(self) -> bool:
-        return self._server.wire_timing
-
-    @wire_timing.setter
-    def wire_timing(self, on: bool) -> None:
-        self._server.wire_timing = on
-
-    @property
-    def crc_error_rate(self) -> float:
-        """Share of replies whose CRC is corrupted (0..1)."""
-        return self._faults.crc_error_rate
-
-    @crc_error_rate.setter
-    def crc_error_rate(self, rate: float) -> None:
-        self._faults.crc_error_rate = rate
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> str:
@@ -155,32 +121,23 @@ class VirtualBus:
         return self._port.path
 
     # ------------------------------------------------------------------ servos
-    def add_servo(self, servo_id: int, model_number: int) -> VirtualServo:
+    def add_servo(self, servo_id: int, model_number: int) -> AnyServo:
+        """Plug a servo in (factory values, this ID). An ID already in use gets a second servo:
+        both answer it and their replies collide, as on hardware."""
         with self._lock:
-            servo = VirtualServo(int(model_number), int(servo_id), self.clock)
+            servo = new_servo(int(model_number), int(servo_id), self.clock)
             if self._servo_bps is not None:
-                _set_bps(servo, self._servo_bps)
-            self._pair(servo)
+                set_bps(servo, self._servo_bps)
+            pair(servo, self._servos)
             self._servos.append(servo)
             return servo
-
-    def _pair(self, servo: VirtualServo) -> None:
-        """A dual servo (2XL430, 2XC430) is two IDs sharing one Baud Rate: each one added is
-        paired with the first unpaired one of its model, in the order they were added."""
-        if not servo.model.name.startswith("2X"):
-            return
-        for other in self._servos:
-            if other.model.number == servo.model.number and other.partner is None:
-                servo.partner, other.partner = other, servo
-                servo.write("baud_rate", other.read("baud_rate"))
-                return
 
     def set_baudrate(self, bps: int) -> None:
         """Put every servo at ``bps`` (its Baud Rate register, as if configured earlier) and the
         servos added later too; wire timing is left as it is."""
         with self._lock:
             for servo in self._servos:
-                _set_bps(servo, bps)
+                set_bps(servo, bps)
             self._servo_bps = bps
 
     # ------------------------------------------------------------------ state file
@@ -188,31 +145,16 @@ class VirtualBus:
         """Write every servo's EEPROM (and control-table backup) to ``path`` (default: the
         ``state_file``) as JSON, atomically."""
         path = path or self.state_file
-        if not path:
-            return
-        with self._lock:
-            data = {"servos": [s.state() for s in sorted(self._servos, key=lambda s: s.id)]}
-            for s in self._servos:
-                s.eeprom_changed = False
-        tmp = f"{path}.{os.getpid()}.tmp"
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=1)
-        os.replace(tmp, path)
+        if path:
+            with self._lock:
+                data = state_of(self._servos)
+            write_state(path, data)
 
     def load_state(self, path: str) -> None:
         """Replace the servos by those saved in ``path`` (model, EEPROM, backup), powered up."""
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
+        servos = read_state(path, self.clock)
         with self._lock:
-            servos = []
-            for entry in data["servos"]:
-                servo = VirtualServo(int(entry["model"]), 1, self.clock)
-                servo.load_state(entry, self.clock())
-                servos.append(servo)
-            self._servos.clear()
-            for servo in servos:
-                self._pair(servo)
-                self._servos.append(servo)
+            self._servos[:] = servos
 
     @property
     def eeprom_changed(self) -> bool:
@@ -221,25 +163,58 @@ class VirtualBus:
             return any(s.eeprom_changed for s in self._servos)
 
     def remove_servo(self, servo_id: int) -> None:
+        """Unplug every servo at ``servo_id``."""
         with self._lock:
             self._servos[:] = [s for s in self._servos if s.id != servo_id]
 
+    def unplug(self, servo: AnyServo) -> None:
+        """Unplug this one servo (another at its ID stays)."""
+        with self._lock:
+            self._servos[:] = [s for s in self._servos if s is not servo]
+
+    @property
+    def lock(self) -> threading.RLock:
+        """The lock the serving thread holds while servos execute a packet."""
+        return self._lock
+
     def servo(self, servo_id: int) -> VirtualServo:
+        """The (first added) Protocol 2.0 servo at ``servo_id``; ``servos_at`` gives them all."""
         with self._lock:
             for s in self._servos:
-                if s.id == servo_id:
+                if s.id == servo_id and isinstance(s, VirtualServo):
                     return s
         raise KeyError(f"no virtual servo with ID {servo_id}")
 
+    def servos_at(self, servo_id: int) -> list[AnyServo]:
+        """Every servo at ``servo_id`` (Protocol 1.0 ones included), in the order added: more
+        than one means they collide."""
+        with self._lock:
+            return [s for s in self._servos if s.id == servo_id]
+
     @property
     def servos(self) -> dict[int, VirtualServo]:
+        """The Protocol 2.0 servos by ID (the first added, where two share an ID)."""
         with self._lock:
-            return {s.id: s for s in sorted(self._servos, key=lambda s: s.id)}
+            out: dict[int, VirtualServo] = {}
+            for s in sorted(self._servos, key=lambda s: s.id):
+                if isinstance(s, VirtualServo):
+                    out.setdefault(s.id, s)
+            return out
+
+    @property
+    def all_servos(self) -> list[AnyServo]:
+        """Every servo on the bus, Protocol 1.0 ones and IDs shared included, sorted by ID."""
+        with self._lock:
+            return sorted(self._servos, key=lambda s: s.id)
 
     # ------------------------------------------------------------------ faults
     def set_silent(self, servo_id: int, silent: bool = True) -> None:
-        """The servo stops hearing and answering (cable cut) or comes back."""
-        self.servo(servo_id).silent = bool(silent)
+        """The servo stops hearing and answering (cable cut) or comes back (every servo at the ID)."""
+        servos = self.servos_at(servo_id)
+        if not servos:
+            raise KeyError(f"no virtual servo with ID {servo_id}")
+        for servo in servos:
+            servo.silent = bool(silent)
 
     def inject_garbage(self, nbytes: int) -> None:
         """Noise bytes sent just before the next reply (never 0xFF, so never a header)."""
@@ -279,9 +254,3 @@ class VirtualBus:
             self._log.clear()
 
 
-def _set_bps(servo: VirtualServo, bps: int) -> None:
-    values = {rate: v for v, rate in servo.baud_rates.items()}
-    if bps not in values:
-        raise ValueError(f"{servo.model.name} cannot run at {bps} bps "
-                         f"(it can: {', '.join(str(b) for b in sorted(values))})")
-    servo.write("baud_rate", values[bps])

@@ -20,7 +20,8 @@ from typing import Callable
 from dynamixel_handler.control_table import known_models, model_by_number
 
 from . import DEFAULT_SERVOS
-from .bus import VirtualBus
+from .bus import AnyServo, VirtualBus
+from .protocol1 import PROTOCOL1_MODELS, protocol1_model
 
 SAVE_PERIOD_S = 0.5
 
@@ -31,19 +32,27 @@ COMMANDS_HELP = """commands (one per line on stdin):
   truncate [N]                 cut the next N replies short
   hwerr ID BITS                set hardware error bits (torque drops per shutdown mask)
   vanish | reappear            unplug / replug the adapter
-  add ID MODEL | remove ID     add or remove a servo
+  add ID MODEL [--again]       plug in a servo (factory values, this ID); --again: also when a
+                               servo already answers at that ID (both collide on the wire)
+  remove ID                    unplug the servo(s) at ID
   list | help | quit"""
 
 
 def parse_model(text: str) -> int:
-    """A model number or a model name such as XM430-W350 (case-insensitive)."""
+    """A model number or a model name such as XM430-W350 or AX-12A (case-insensitive)."""
     text = text.strip()
+    old = protocol1_model(text)
+    if old is not None:
+        return old.number
     if text.isdigit():
         number = int(text)
         model_by_number(number)
         return number
     for model in known_models():
         if model.name.lower() == text.lower():
+            return model.number
+    for model in known_models():  # MX-28 for MX-28(2.0): the only firmware of it this bus speaks
+        if model.name.lower().replace("(2.0)", "") == text.lower():
             return model.number
     raise argparse.ArgumentTypeError(f"unknown model {text!r} (see --list-models)")
 
@@ -107,32 +116,68 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _servos_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> dict[int, int]:
-    servos: dict[int, int] = {}
-    if args.ids:
-        models = [parse_model(m) for m in (args.models or "XM430-W350").split(",")]
-        if len(models) == 1:
-            models *= len(args.ids)
-        if len(models) != len(args.ids):
-            ap.error("--models needs one model or one per ID")
-        servos.update(zip(args.ids, models))
-    elif args.models:
-        ap.error("--models needs --ids")
-    servos.update(dict(args.servo))
-    for sid in servos:
+def _ids_models(args: argparse.Namespace, ap: argparse.ArgumentParser) -> dict[int, int]:
+    """{ID: model} of ``--ids`` and ``--models``."""
+    if not args.ids:
+        if args.models:
+            ap.error("--models needs --ids")
+        return {}
+    models = [parse_model(m) for m in (args.models or "XM430-W350").split(",")]
+    if len(models) == 1:
+        models *= len(args.ids)
+    if len(models) != len(args.ids):
+        ap.error("--models needs one model or one per ID")
+    return dict(zip(args.ids, models))
+
+
+def _servos_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> list[tuple[int, int]]:
+    """(ID, model) per servo: ``--servo`` replaces an ``--ids`` entry of its ID, and a ``--servo``
+    ID given twice puts two servos at it (they collide)."""
+    servos = _ids_models(args, ap)
+    given = {sid for sid, _ in args.servo}
+    pairs = [(sid, model) for sid, model in servos.items() if sid not in given] + list(args.servo)
+    for sid, _ in pairs:
         if not 0 <= sid <= 252:
             ap.error(f"ID {sid} out of range 0..252")
-    return servos or dict(DEFAULT_SERVOS)
+    return pairs or list(DEFAULT_SERVOS.items())
 
 
-def _ok(_done: object) -> None:
-    """A command's answer when it has nothing to say but "ok"."""
-    return None
+def describe_servo(bus: VirtualBus, servo: AnyServo) -> str:
+    """One line per servo: ID, model, baud rate, protocol, and whether it collides or is silent."""
+    marks = " [Protocol 1.0]" if not servo.speaks_protocol_2 else ""
+    if len(_colliding(bus, servo)) > 1:
+        marks += " [shares its ID: collides]"
+    marks += " [silent]" if servo.silent else ""
+    return f"ID {servo.id}: {servo.model.name} ({servo.model.number}) at {servo.baudrate} bps{marks}"
+
+
+def _colliding(bus: VirtualBus, servo: AnyServo) -> list[AnyServo]:
+    """The servos that answer together with ``servo``: same ID, protocol and baud rate."""
+    return [s for s in bus.servos_at(servo.id)
+            if s.speaks_protocol_2 == servo.speaks_protocol_2 and s.baudrate == servo.baudrate]
 
 
 def _list(bus: VirtualBus, rest: list[str]) -> str:
-    return "\n".join(f"ID {i}: {s.model.name} ({s.model.number})" + (" [silent]" if s.silent else "")
-                     for i, s in bus.servos.items())
+    return "\n".join(describe_servo(bus, s) for s in bus.all_servos)
+
+
+def _add(bus: VirtualBus, rest: list[str]) -> str | None:
+    """``add ID MODEL [--again]``: refused when a servo already answers at that ID (same protocol
+    and baud rate as the new one) unless ``--again`` asks for the collision."""
+    again = "--again" in rest
+    words = [w for w in rest if w != "--again"]
+    servo_id, model = int(words[0]), parse_model(words[1])
+    if not 0 <= servo_id <= 252:
+        raise ValueError(f"ID {servo_id} out of range 0..252")
+    with bus.lock:
+        servo = bus.add_servo(servo_id, model)
+        others = [s for s in _colliding(bus, servo) if s is not servo]
+        if others and not again:
+            bus.unplug(servo)
+            raise ValueError(f"ID {servo_id} already answers ({others[0].model.name} at "
+                             f"{others[0].baudrate} bps); 'add {servo_id} {words[1]} --again' puts a "
+                             "second servo at it (their replies collide)")
+    return f"ok; ID {servo_id} now has {len(others) + 1} servos: their replies collide" if others else None
 
 
 # Run-time commands: name -> what it does (an answer, or None for "ok").
@@ -145,7 +190,7 @@ _COMMANDS: dict[str, Callable[[VirtualBus, list[str]], str | None]] = {
     "hwerr": lambda bus, rest: bus.set_hardware_error(int(rest[0]), int(rest[1], 0)),
     "vanish": lambda bus, rest: bus.vanish(),
     "reappear": lambda bus, rest: f"device {bus.reappear()}",
-    "add": lambda bus, rest: _ok(bus.add_servo(int(rest[0]), parse_model(rest[1]))),
+    "add": _add,
     "remove": lambda bus, rest: bus.remove_servo(int(rest[0])),
     "list": _list,
     "help": lambda bus, rest: COMMANDS_HELP,
@@ -194,6 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.list_models:
         for model in known_models():
             print(f"{model.number:6d}  {model.name}  ({model.series})")
+        for old in PROTOCOL1_MODELS.values():
+            print(f"{old.number:6d}  {old.name}  (Protocol 1.0: answers only 1.0 packets; not driven by the handler)")
         return 0
     bus = _bus_from(args, ap)
     stop = threading.Event()
@@ -202,8 +249,8 @@ def main(argv: list[str] | None = None) -> int:
     path = bus.start()
     print(path, flush=True)
     if not args.quiet:
-        for sid, servo in bus.servos.items():
-            print(f"ID {sid}: {servo.model.name} ({servo.model.number})", file=sys.stderr)
+        for servo in bus.all_servos:
+            print(describe_servo(bus, servo), file=sys.stderr)
         print("serving; Ctrl-C to stop", file=sys.stderr, flush=True)
     threading.Thread(target=_console, args=(bus, stop, args.quiet), daemon=True).start()
     try:

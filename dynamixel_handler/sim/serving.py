@@ -4,7 +4,8 @@ One thread blocks in ``select()`` on the pty master (and a wake-up pipe), parses
 packets, has the servos execute them (``InstructionSet``) and writes their status packets
 back: with wire timing, each byte at the line speed the host set, each servo's reply after its
 Return Delay Time, so a client sees the timing of hardware. ``ReplyFaults`` spoils the replies
-on their way out.
+on their way out. The same bytes go to a Protocol 1.0 reader too (``protocol1``): each protocol's
+servos hear only their own packets. Replies of servos sharing an ID collide (``collision``).
 """
 
 from __future__ import annotations
@@ -16,8 +17,10 @@ import threading
 import time
 
 from ..protocol import servo as p
+from .collision import DEFAULT_SKEW_BYTES, overlap, status_id_1, status_id_2
 from .faults import Replies, ReplyFaults
 from .instructions import InstructionSet
+from .protocol1 import Protocol1Instructions, Protocol1Parser
 from .transport import PtyPort, wait_until
 
 INTER_BYTE_TIMEOUT_S = 0.1
@@ -30,7 +33,8 @@ class WireServer:
 
     def __init__(self, port: PtyPort, lock: threading.RLock, instructions: InstructionSet, faults: ReplyFaults,
                  stats: collections.Counter[str], baudrate: int | None, latency_s: float,
-                 check_baudrate: bool, wire_timing: bool) -> None:
+                 check_baudrate: bool, wire_timing: bool,
+                 instructions1: Protocol1Instructions | None = None) -> None:
         self.port = port
         self._lock = lock
         self._instructions = instructions
@@ -42,6 +46,10 @@ class WireServer:
         self.check_baudrate = check_baudrate
         self.wire_timing = wire_timing
         self._parser = p.PacketParser()
+        self._instructions1 = instructions1
+        self._parser1 = Protocol1Parser()
+        #: byte-times between the starts of two colliding replies (see ``collision``)
+        self.collision_skew_bytes = DEFAULT_SKEW_BYTES
         self._thread: threading.Thread | None = None
         self._wake_r, self._wake_w = os.pipe()
         self._running = False
@@ -98,7 +106,7 @@ class WireServer:
     def _do(self, what: str) -> None:
         if what == "vanish" and self.port.is_open:
             self.port.close()
-            self._parser.reset()
+            self._reset_parsers()
         elif what == "reappear" and not self.port.is_open:
             self.port.open()
 
@@ -118,7 +126,7 @@ class WireServer:
                     return
                 fd = self.port.master
             fds = [self._wake_r] + ([fd] if fd is not None else [])
-            timeout = INTER_BYTE_TIMEOUT_S if self._parser.pending else None
+            timeout = INTER_BYTE_TIMEOUT_S if self._parser.pending or self._parser1.pending else None
             try:
                 ready, _, _ = select.select(fds, [], [], timeout)
             except (OSError, ValueError):
@@ -126,7 +134,7 @@ class WireServer:
             if self._wake_r in ready:
                 self._run_requests()
             elif not ready:
-                self._parser.reset()  # a packet that stopped half-way is dropped, as a servo does
+                self._reset_parsers()  # a packet that stopped half-way is dropped, as a servo does
             else:
                 self._receive()
 
@@ -140,15 +148,26 @@ class WireServer:
         for packet in self._parser.feed(data):
             self._transact(packet, arrival, line)
         self._stats["crc_errors"] = self._parser.crc_errors
+        if self._instructions1 is not None:
+            for packet in self._parser1.feed(data):
+                self._transact(packet, arrival, line, protocol=1)
 
-    def _transact(self, packet: p.Packet, arrival: float, line_bps: int | None = None) -> None:
+    def _reset_parsers(self) -> None:
+        self._parser.reset()
+        self._parser1.reset()
+
+    def _transact(self, packet: p.Packet, arrival: float, line_bps: int | None = None,
+                  protocol: int = 2) -> None:
         with self._lock:
-            instructions = self._instructions
+            instructions = self._instructions if protocol == 2 else self._instructions1
+            assert instructions is not None
             instructions.line_bps = line_bps if self.check_baudrate else None
             try:
                 replies = instructions.execute(packet)
             finally:
                 instructions.line_bps = None
+            replies = overlap(replies, self.baudrate or line_bps or FACTORY_BAUDRATE,
+                              status_id_2 if protocol == 2 else status_id_1, self.collision_skew_bytes)
             out = self._faults.apply(replies)
         bps = self.baudrate or (line_bps or FACTORY_BAUDRATE if self.wire_timing else None)
         if bps:
@@ -170,3 +189,62 @@ class WireServer:
             wait_until(t)
             self.port.write(reply)
         self._wire_free_at = t
+
+
+class WireSettings:
+    """The wire's settings of a bus, kept by its ``WireServer`` and ``ReplyFaults`` (see
+    ``VirtualBus`` for what each does)."""
+
+    _server: WireServer
+    _faults: ReplyFaults
+
+    @property
+    def baudrate(self) -> int | None:
+        """Line speed the wire is timed at (None: the host's, when ``wire_timing``)."""
+        return self._server.baudrate
+
+    @baudrate.setter
+    def baudrate(self, bps: int | None) -> None:
+        self._server.baudrate = bps
+
+    @property
+    def latency_s(self) -> float:
+        return self._server.latency_s
+
+    @latency_s.setter
+    def latency_s(self, seconds: float) -> None:
+        self._server.latency_s = seconds
+
+    @property
+    def check_baudrate(self) -> bool:
+        return self._server.check_baudrate
+
+    @check_baudrate.setter
+    def check_baudrate(self, on: bool) -> None:
+        self._server.check_baudrate = on
+
+    @property
+    def wire_timing(self) -> bool:
+        return self._server.wire_timing
+
+    @wire_timing.setter
+    def wire_timing(self, on: bool) -> None:
+        self._server.wire_timing = on
+
+    @property
+    def collision_skew_bytes(self) -> int:
+        """Byte-times between the starts of the replies of two servos at one ID (``collision``)."""
+        return self._server.collision_skew_bytes
+
+    @collision_skew_bytes.setter
+    def collision_skew_bytes(self, n: int) -> None:
+        self._server.collision_skew_bytes = int(n)
+
+    @property
+    def crc_error_rate(self) -> float:
+        """Share of replies whose CRC is corrupted (0..1)."""
+        return self._faults.crc_error_rate
+
+    @crc_error_rate.setter
+    def crc_error_rate(self, rate: float) -> None:
+        self._faults.crc_error_rate = rate
