@@ -230,9 +230,10 @@ class Commander(SettingsCommands):
             return
 
         def item_of(field: str, dxl_id: int) -> str | None:
-            if field == family.move_speed_field and mode in POSITION_MODES:
-                # the speed of the move (old Pro: goal velocity; where the model has it, profile velocity)
-                return family.speed_item(self.h.model(dxl_id).has("profile_velocity"))
+            model = self.h.model(dxl_id)  # its own family: XL-320 servos on the X topics take their speed item
+            if field == model.family.move_speed_field and mode in POSITION_MODES:
+                # the speed of the move (old Pro, XL-320: goal velocity; where the model has it, profile velocity)
+                return model.family.speed_item(model.has("profile_velocity"))
             return GOAL_FIELDS.get(field)
         self._goal_writes(what, targets, fields, item_of, self._checked_rotation(what, targets, fields))
 
@@ -269,7 +270,7 @@ class Commander(SettingsCommands):
         """The servo to ``mode`` if its model has it: "done", "refused" (no such mode), "failed"
         (the bus) or "later" (too soon after the last change: the caller defers the request)."""
         model = self.h.model(dxl_id)
-        if mode not in model.family.modes:
+        if mode not in model.modes:
             self.warn(f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored")
             return "refused"
         if mode in CURRENT_MODES and not model.has("current_limit"):

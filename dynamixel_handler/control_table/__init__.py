@@ -17,7 +17,7 @@ import functools
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Dict, List, Mapping, Optional, Tuple
+from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Tuple
 
 from ._factory import FACTORY
 from ._facts import (
@@ -163,9 +163,17 @@ class Model:
     mode_values: Mapping[str, int] = field(default_factory=lambda: OPERATING_MODES, repr=False)
     #: the inverse: register value -> mode name
     mode_names: Mapping[int, str] = field(init=False, repr=False)
+    #: the handler switches it only to its own modes (``mode_values``), not to every mode of its
+    #: family (MX-28(2.0): no current modes; RH-P12-RN(A): current and current-based position only)
+    own_modes: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "mode_names", MappingProxyType({v: k for k, v in self.mode_values.items()}))
+
+    @property
+    def modes(self) -> FrozenSet[str]:
+        """The operating modes (by name) a command may switch it to."""
+        return frozenset(self.mode_values) if self.own_modes else self.family.modes
 
     def mode_name(self, value: Optional[int]) -> Optional[str]:
         """The mode an Operating Mode register value means on this model (None: none or unknown)."""
@@ -236,8 +244,11 @@ def _build(number: int, facts: ModelFacts) -> Model:
     else:
         position_scale = 180.0 / facts.half_turn_pulses
         zero, pmin, pmax = 0, -facts.half_turn_pulses, facts.half_turn_pulses
+    if facts.position_range is not None:
+        pmin, pmax = facts.position_range
     ports = tuple(n for n in (1, 2, 3, 4) if f"external_port_data_{n}" in items)
-    indirect_key = "XM335" if facts.name.startswith("XM335") else layout
+    indirect_key = "XM335" if facts.name.startswith(("XM335", "XC335")) else layout
+    modes = facts.modes or OPERATING_MODES_OF[layout]
     blocks, targets = INDIRECT[indirect_key]
     return Model(
         number=number,
@@ -255,12 +266,21 @@ def _build(number: int, facts: ModelFacts) -> Model:
         external_ports=ports,
         layout=layout,
         baud_rates=MappingProxyType(dict(BAUD_RATES[layout])),
-        operating_modes=facts.modes or OPERATING_MODES_OF[layout],
+        operating_modes=modes,
         indirect=blocks,
         indirect_targets=targets,
         table_size=TABLE_SIZE[indirect_key],
         factory=MappingProxyType({k: v for k, v in FACTORY.get(number, {}).items() if k in items}),
+        **_own_modes(facts, modes),
     )
+
+
+def _own_modes(facts: ModelFacts, modes: Tuple[int, ...]) -> Dict[str, Any]:
+    """A model with modes of its own: its mode names and values (the others keep their family's)."""
+    if not facts.own_modes:
+        return {}
+    values = {name: value for name, value in OPERATING_MODES.items() if value in modes}
+    return {"own_modes": True, "mode_values": MappingProxyType(values)}
 
 
 @functools.lru_cache(maxsize=None)

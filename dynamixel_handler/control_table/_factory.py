@@ -76,8 +76,14 @@ _24V = (300, 110)
 _X330_5V = (70, 35)
 _X330_12V = (140, 55)
 
+_MX_GAINS = (1920, 100, 0, 0, 850)
+
 # Model number -> factory values; the comment names the e-Manual page (docs/en/dxl/...).
 FACTORY: Dict[int, Values] = {
+    # ---- MX (2.0): no current limit on the MX-28; an Acceleration Limit (40) of 32767 ----------
+    30: _x(380, 0, _MX_GAINS, acceleration_limit=32767),            # mx/mx-28-2
+    311: _x(435, 1941, _MX_GAINS, acceleration_limit=32767),        # mx/mx-64-2
+    321: _x(360, 2047, _MX_GAINS, acceleration_limit=32767),        # mx/mx-106-2
     # ---- X430 ---------------------------------------------------------------------------------
     1000: _x(130, 648, _XH430_W),                                   # x/xh430-w350
     1001: _x(130, 648, _XH430_W),                                   # x/xd430-t350 (= XH430-W350)
@@ -117,6 +123,8 @@ FACTORY: Dict[int, Values] = {
     1240: _x(350, 2352, (1600, 50, 500, 0, 1100), temperature=70, volts=_X330_5V, pwm_slope=140),   # x/xc330-m288
     1710: _x(320, 910, (1200, 40, 0, 0, 900), temperature=70, volts=_X330_12V, pwm_slope=255,
              baud_rate=3, max_position_limit=3072, min_position_limit=1024),  # x/xm335-t323
+    # XC335-T332 has no e-Manual page: the values of the XC330-T288 page, whose table it shares
+    1700: _x(320, 910, (1200, 40, 0, 0, 900), temperature=70, volts=_X330_12V, pwm_slope=255),
     # ---- P ------------------------------------------------------------------------------------
     2000: _p(2920, 4500, 10765, 303454, gains=(502, 1332, 0, 0, 879)),          # p/ph42-020-s300-r
     2010: _p(2920, 15900, 4255632, 501433, gains=(1290, 3593, 0, 0, 502)),      # p/ph54-100-s500-r
@@ -131,6 +139,10 @@ FACTORY: Dict[int, Values] = {
     51201: _p(2920, 4500, 10765, 303454, shutdown=52),                          # pro/h42-20-s300-ra
     53769: _p(2920, 15900, 10639, 501433, shutdown=52, moving_threshold=50),    # pro/h54-100-s500-ra
     54025: _p(2900, 22740, 9982, 501433, shutdown=52),                          # pro/h54-200-s500-ra
+    # ---- RH-P12-RN(A) (platform/rh_p12_rn_a): current-based position mode from the box; the
+    # stroke 0 (open) .. 1150 pulses; gains "-" -------------------------------------------------
+    35074: {**_p(2970, 1984, 3447, 1150, shutdown=52, moving_threshold=80), "min_position_limit": 0,
+            "operating_mode": 5},
     # ---- old PRO "-R": the shared table of pro/h54-200-s500-r and its siblings -----------------
     **{number: _old_pro() for number in (43288, 46096, 46352, 51200, 53768, 54024, 37896, 37928, 38152, 38176)},
     35072: _old_pro(shutdown=48),                                   # pro/l42-10-s300-r

@@ -67,11 +67,17 @@ class ModelFacts:
     extra_items: Dict[str, Tuple[int, int]] = field(default_factory=dict)
     old_pro: bool = False
     modes: Optional[Tuple[int, ...]] = None  # operating modes, when not those of the layout
+    #: (lowest, highest) goal/present position in pulses where the model has a range of its own
+    #: instead of a turn around its zero (the RH-P12-RN(A) stroke)
+    position_range: Optional[Tuple[int, int]] = None
+    #: the topics switch it only to its own operating modes, whatever its family offers
+    own_modes: bool = False
 
 
-def _x(name: str, sdk_file: str, current_ma: float, extra: Optional[Dict[str, Tuple[int, int]]] = None) -> ModelFacts:
+def _x(name: str, sdk_file: str, current_ma: float, extra: Optional[Dict[str, Tuple[int, int]]] = None,
+       modes: Optional[Tuple[int, ...]] = None) -> ModelFacts:
     return ModelFacts(name, "X", sdk_file, current_ma, X_VELOCITY_RPM, X_ACCELERATION_RPM2,
-                      X_PWM_FULL_SCALE, 0, dict(extra or {}))
+                      X_PWM_FULL_SCALE, 0, dict(extra or {}), modes=modes, own_modes=modes is not None)
 
 
 def _p(name: str, series: str, sdk_file: str, half_turn: int,
@@ -99,10 +105,31 @@ _CURRENT_X330 = 1.0
 _CURRENT_XH430_V = 1.34
 _NO_CURRENT = NAN  # XL430, XC430, 2XL430, 2XC430: no current sensor (Present Load instead)
 
+_CURRENT_MX = 3.36  # MX-64(2.0), MX-106(2.0): "about 3.36 [mA]" per LSB
+
+# MX(2.0): MX-28 has velocity, position, extended position and PWM control only (no current
+# sensor: Present Load at 126); MX-64 and MX-106 have all six modes of the X table.
+_MX_28_MODES = (1, 3, 4, 16)
+
+# RH-P12-RN(A) (e-Manual platform/rh_p12_rn_a): the P table (model file rh_p12_rn.model) with the
+# P units (1 mA, 0.01 rev/min, 1 rev/min^2, PWM 2009); Operating Mode 0 (current) or 5 (current-based
+# position, the default) only; Goal/Present Position 1 pulse over 0 (open) .. 1,150 (its limits), and
+# the page's "Degree of Precision 0.088 deg" (12-bit encoder over 360 deg) makes a pulse 360/4096 deg.
+# The SDK file's type info (740 pulses = 1.099 rad, 0.0851 deg a pulse) and its velocity unit (0.114 rpm)
+# disagree with the page; the page is followed.
+_RH_P12_RN_A = ModelFacts("RH-P12-RN(A)", "P", "rh_p12_rn.model", 1.0, P_VELOCITY_RPM, P_ACCELERATION_RPM2,
+                          P_PWM_FULL_SCALE, 2048, {"external_port_data_1": (600, 2), "external_port_data_2": (602, 2),
+                                                   "external_port_data_3": (604, 2), "external_port_data_4": (606, 2)},
+                          modes=(0, 5), position_range=(0, 1150), own_modes=True)
+
 _PRO_54 = 33000.0 / 2048.0
 _PRO_42 = 8250.0 / 2048.0
 
 MODEL_FACTS: Dict[int, ModelFacts] = {
+    # ---- MX (2.0) firmware: the X table (SDK files mx_*.model; e-Manual dxl/mx/mx-*-2) ----------
+    30: _x("MX-28(2.0)", "mx_28.model", _NO_CURRENT, modes=_MX_28_MODES),
+    311: _x("MX-64(2.0)", "mx_64.model", _CURRENT_MX),
+    321: _x("MX-106(2.0)", "mx_106.model", _CURRENT_MX),
     # ---- X series ------------------------------------------------------------------------------
     1000: _x("XH430-W350", "xh430_w350.model", _CURRENT_X, _X430_540_EXTRA),
     1001: _x("XD430-T350", "xd430_t350.model", _CURRENT_X, _X430_540_EXTRA),
@@ -136,6 +163,10 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     # XM335-T323 (e-Manual page xm335-t323): the X330 items plus Backup Ready, 1 mA, 0.229 rpm;
     # its table equals the XC330 one (no SDK file of its own), 28 indirect entries at 168/224.
     1710: _x("XM335-T323", "xc330_t288.model", _CURRENT_X330, _X330_EXTRA),
+    # XC335-T332: no e-Manual page; its model file (dynamixel_hardware_interface param/dxl_model/
+    # xc335_t332.model) has the XC330 rows (and Startup Configuration at 60) and 28 indirect
+    # entries at 168 / 224 as XM335; current in 1 mA as every 330/335 servo.
+    1700: _x("XC335-T332", "xc330_t288.model", _CURRENT_X330, _X330_EXTRA),
     1270: _x("XW430-T333", "xw430_t333.model", _CURRENT_X, _X430_540_EXTRA),
     # XW430-T200 has a table file but is missing from the SDK's number index.
     1280: _x("XW430-T200", "xw430_t200.model", _CURRENT_X, _X430_540_EXTRA),
@@ -154,6 +185,8 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     51201: _p("H42-20-S300-R(A)", "P", "h42_20_s300_ra.model", 303750),
     53769: _p("H54-100-S500-R(A)", "P", "h54_100_s500_ra.model", 501923),
     54025: _p("H54-200-S500-R(A)", "P", "h54_200_s500_ra.model", 501923),
+    # ---- RH-P12-RN(A) gripper: the P table, its own stroke and modes -----------------------------
+    35074: _RH_P12_RN_A,
     # ---- old PRO "-R" firmware: our own table (OLD_PRO_ITEMS) ------------------------------------
     43288: _old_pro("M42-10-S260-R", 0.00389076, _PRO_42, 131593),
     46096: _old_pro("M54-40-S250-R", 0.00397746, _PRO_54, 125708),
