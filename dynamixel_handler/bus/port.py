@@ -79,19 +79,24 @@ def explain_open_error(device: str, exc: BaseException) -> str:
         return (f"permission denied opening {device}: add your user to the 'dialout' group "
                 f"(sudo usermod -aG dialout $USER, then log out and in) or install a udev rule for the adapter.")
     if code in (errno.EAGAIN, errno.EBUSY) or "exclusively lock" in text or "busy" in text.lower():
-        holder = lock_holder(device)
-        if holder is not None:
-            pid, program = holder
-            return (f"{device} is busy: {program or 'a program'} (pid {pid}) holds it. Stop it first "
-                    f"(Ctrl-C where it runs, or kill {pid}); only one program may use a bus at a time.")
-        return (f"{device} is busy: another program holds it (a running dynamixel_handler, Dynamixel Wizard, a "
-                f"serial console?). Close it; `fuser -v {device}` shows who.")
+        return _busy(device)
     if code == errno.ENOTTY or "Inappropriate ioctl" in text or "configure port" in text:
         return f"{device} is not a serial port: point device_name at the adapter's tty (e.g. /dev/ttyUSB0)."
     if code == errno.ENOENT or "No such file" in text or not os.path.exists(device):
         return (f"{device} does not exist: is the adapter plugged in and powered? "
                 f"Check `ls /dev/ttyUSB* /dev/ttyACM* /dev/serial/by-id/` and the device_name parameter.")
     return f"cannot open {device}: {text}"
+
+
+def _busy(device: str) -> str:
+    """Why ``device`` cannot be opened when another program holds its lock: who, and how to stop it."""
+    holder = lock_holder(device)
+    if holder is not None:
+        pid, program = holder
+        return (f"{device} is busy: {program or 'a program'} (pid {pid}) holds it. Stop it first "
+                f"(Ctrl-C where it runs, or kill {pid}); only one program may use a bus at a time.")
+    return (f"{device} is busy: another program holds it (a running dynamixel_handler, Dynamixel Wizard, a "
+            f"serial console?). Close it; `fuser -v {device}` shows who.")
 
 
 def _sysfs_latency_path(device: str) -> str | None:

@@ -1,0 +1,192 @@
+"""The command line of ``dynamixel_handler_setup``: verbs, the options every verb takes, and the
+run of one verb (exit code 0 done, 1 a step failed, 2 bad arguments; every error one line)."""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Callable, NoReturn, Sequence
+
+from ..bus import DYNAMIXEL_BAUDRATES
+from . import backup, monitor, verbs_bus, verbs_config
+from .context import Context
+from .errors import StepFailed
+from .output import Output
+from .port import default_device, open_bus
+
+__all__ = ["build_parser", "main", "parse_ids", "parse_rates"]
+
+PROG = "dynamixel_handler_setup"
+Verb = Callable[[Context, argparse.Namespace], None]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad command line in one line (exit code 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"error: {message} (see {self.prog} --help)", file=sys.stderr)
+        sys.exit(2)
+
+
+def parse_ids(text: str) -> list[int]:
+    """``"1-5,8"`` -> [1, 2, 3, 4, 5, 8] (IDs 0..252)."""
+    ids: set[int] = set()
+    try:
+        for part in text.split(","):
+            lo, _, hi = part.strip().partition("-")
+            first, last = int(lo), int(hi) if hi else int(lo)
+            if not 0 <= first <= last <= 252:
+                raise ValueError
+            ids.update(range(first, last + 1))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a list of IDs 0..252 (e.g. 1-5,8)") from None
+    return sorted(ids)
+
+
+def baud(text: str) -> int:
+    try:
+        value = int(float(text.lower().replace("m", "e6").replace("k", "e3")))
+    except ValueError:
+        value = -1
+    if value not in DYNAMIXEL_BAUDRATES:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a Dynamixel baud rate "
+                                         f"({', '.join(map(str, DYNAMIXEL_BAUDRATES))})")
+    return value
+
+
+def parse_rates(text: str) -> list[int]:
+    """``all`` or ``57600,1000000`` (``1M`` works too)."""
+    if text.strip().lower() == "all":
+        return []
+    return [baud(part) for part in text.split(",")]
+
+
+def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
+    """The options every verb takes (before or after the verb)."""
+    def default(value: object) -> object:
+        return argparse.SUPPRESS if suppress else value
+
+    g = parser.add_argument_group("options every verb takes")
+    g.add_argument("--device", default=default(None), metavar="PATH",
+                   help="the adapter: a tty, a /dev/serial/by-id link or serial:<USB serial> "
+                        "(default: $DXL_DEVICE, else /dev/ttyUSB0)")
+    g.add_argument("--baud", default=default(None), metavar="BPS",
+                   help="where the servos are (scan and assign-ids: all|LIST, and they look everywhere when not given; "
+                        "other verbs look for the servo at every rate when not given)")
+    g.add_argument("--yes", "-y", action="store_true", default=default(False), help="no confirmation before EEPROM writes")
+    g.add_argument("--json", action="store_true", default=default(False), help="one JSON document on stdout")
+    g.add_argument("--latency", type=float, default=default(4.0), metavar="MS",
+                   help="adapter latency timer [ms] for reply timeouts (default 4; FTDI adapters are set to it)")
+    g.add_argument("--retries", type=int, default=default(2), metavar="N", help="retries of a failed transaction")
+
+
+def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    def verb(name: str, fn: Verb, text: str) -> argparse.ArgumentParser:
+        p: argparse.ArgumentParser = sub.add_parser(name, help=text, description=text)
+        _common(p, suppress=True)
+        p.set_defaults(verb=fn, verb_name=name)
+        return p
+
+    p = verb("scan", verbs_bus.scan, "find every servo: all baud rates and IDs, Protocol 2.0 and 1.0")
+    p.add_argument("--ids", type=parse_ids, default=list(range(253)), metavar="RANGE", help="IDs (default 0-252)")
+    p.add_argument("--protocol", choices=("2", "1", "both"), default="both", help="protocols to look for")
+    p = verb("info", verbs_config.info, "every control-table item of a servo, in units and raw")
+    p.add_argument("id", type=int)
+    p.add_argument("--all", action="store_true", help="also the indirect address and data entries")
+    p = verb("get", verbs_config.get, "read one item")
+    p.add_argument("id", type=int)
+    p.add_argument("item")
+    p = verb("set", verbs_config.set_item, "write one item: a raw value or with a unit (170deg, 1.5rad, 300mA, 12.0V)")
+    p.add_argument("id", type=int)
+    p.add_argument("item")
+    p.add_argument("value")
+    p = verb("set-id", verbs_config.set_id, "give a servo another ID (refused when the new one is in use)")
+    p.add_argument("old", type=int)
+    p.add_argument("new", type=int)
+    p = verb("set-baud", verbs_config.set_baud, "give a servo another baud rate and find it there")
+    p.add_argument("id", type=int)
+    p.add_argument("bps", type=baud)
+    p = verb("set-mode", verbs_config.set_mode, "operating mode: current, velocity, position, ex_position, "
+             "cur_position, pwm or a register value")
+    p.add_argument("id", type=int)
+    p.add_argument("mode")
+    p = verb("assign-ids", verbs_bus.assign_ids, "connect new servos one at a time: each gets the next free ID "
+             "and the bus's baud rate")
+    p.add_argument("start", type=int)
+    p.add_argument("--ids", type=parse_ids, default=list(range(253)), metavar="RANGE",
+                   help="IDs new servos may have (default 0-252)")
+    p.add_argument("--search-baud", type=parse_rates, default=[], metavar="LIST",
+                   help="rates new servos may be at (default all)")
+    p = verb("reboot", verbs_bus.reboot, "reboot a servo (or all)")
+    p.add_argument("id")
+    p = verb("factory-reset", verbs_bus.factory_reset, "reset a servo to its factory values")
+    p.add_argument("id", type=int)
+    keep = p.add_mutually_exclusive_group(required=True)
+    keep.add_argument("--keep", choices=("id", "id,baud"), help="keep the ID (and the baud rate)")
+    keep.add_argument("--all", action="store_true", help="reset everything: the servo comes back as ID 1 at 57600 bps")
+    p = verb("backup", backup.backup, "save servos' EEPROM items and model to a YAML file")
+    p.add_argument("file")
+    p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found at the bus's rate)")
+    p = verb("restore", backup.restore, "write a backup back: model checked, only what differs, verified")
+    p.add_argument("file")
+    p.add_argument("--dry-run", action="store_true", help="show what would change, write nothing")
+    p = verb("monitor", monitor.monitor, "a live table of the servos (q quits)")
+    p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found at the bus's rate)")
+    p.add_argument("--rate", type=float, default=5.0, metavar="HZ", help="refreshes a second (default 5)")
+    p.add_argument("--count", type=int, metavar="N", help="print N refreshes as plain text and stop")
+    p.add_argument("--once", action="store_const", const=1, dest="count", help="one refresh (--count 1)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog=PROG, description="Set up Dynamixel servos from a terminal: find them, give them IDs, "
+                     "baud rates, modes and limits, back them up, watch them. The handler must not run on the bus.")
+    _common(parser, suppress=False)
+    sub = parser.add_subparsers(title="verbs", metavar="VERB", required=True, parser_class=_Parser)
+    _verbs(sub)
+    return parser
+
+
+def _bus_rate(args: argparse.Namespace) -> tuple[int, bool]:
+    """The rate to open the bus at and whether it was given; scan/assign-ids keep their list."""
+    if args.baud is None:
+        return 57600, False
+    if args.verb_name == "scan":
+        args.rates = parse_rates(args.baud)
+        return (args.rates or [57600])[0], True
+    return baud(args.baud), True
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    out = Output(as_json=args.json)
+    try:
+        rate, given = _bus_rate(args)
+    except argparse.ArgumentTypeError as exc:
+        parser.error(f"argument --baud: {exc}")
+    bus = None
+    code = 0
+    try:
+        bus = open_bus(args.device or default_device(), rate, args.latency, args.retries)
+        args.verb(Context(bus, out, given, args.yes), args)
+    except StepFailed as exc:
+        out.error(str(exc))
+        out.document["error"] = str(exc)
+        code = exc.exit_code
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = 1
+    except KeyboardInterrupt:
+        out.error("interrupted")
+        out.document["error"] = "interrupted"
+        code = 1
+    finally:
+        if bus is not None:
+            bus.close()
+    out.document["ok"] = code == 0
+    try:
+        out.finish()
+    except BrokenPipeError:  # `| head`: the reader left; nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return code
+

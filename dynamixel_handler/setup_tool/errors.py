@@ -1,0 +1,17 @@
+"""The tool's two kinds of failure: a step that failed (exit 1) and bad arguments (exit 2). Each
+carries one line that names the servo and the cause."""
+from __future__ import annotations
+
+__all__ = ["StepFailed", "BadArguments"]
+
+
+class StepFailed(Exception):
+    """A step failed (no reply, refused write, read-back mismatch, busy port): exit code 1."""
+
+    exit_code = 1
+
+
+class BadArguments(StepFailed):
+    """The command line asks for something impossible (unknown item, value out of range): exit code 2."""
+
+    exit_code = 2

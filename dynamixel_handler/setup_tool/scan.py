@@ -1,0 +1,170 @@
+"""Finding servos: every baud rate and ID, Protocol 2.0 (one broadcast ping per rate, then a ping
+per ID only where the reply train was garbled) and Protocol 1.0 (a ping per ID), with the details a
+person needs (model, firmware, mode, torque, hardware error) and two servos at one ID told apart
+from one: their replies collide (CRC errors or bytes that belong to no reply, at that ID only)."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Callable, Sequence
+
+from ..bus import BusError, DynamixelBus
+from ..control_table import OPERATING_MODES, model_by_number
+from ..units import decode_hardware_error
+from .protocol1 import SWITCH_TO_2, model_name1, ping1
+from .servo import Servo
+
+__all__ = ["Found", "ScanResult", "scan_bus", "scan_steps"]
+
+_MODE_NAMES = {value: name for name, value in OPERATING_MODES.items()}
+#: pings per found ID that must all come back clean for it to count as one servo
+_CLEAN_PINGS = 3
+
+
+@dataclass
+class Found:
+    """One servo (or one ID where servos collide) seen by the scan."""
+
+    dxl_id: int
+    baudrate: int
+    protocol: int
+    model_number: int | None = None
+    model: str = "?"
+    firmware: int | None = None
+    mode: str = ""
+    torque: bool | None = None
+    hardware_error: list[str] = field(default_factory=list)
+    collision: bool = False
+    note: str = ""
+
+    def row(self) -> list[object]:
+        return [self.dxl_id, self.model, "" if self.model_number is None else self.model_number,
+                "" if self.firmware is None else self.firmware, self.baudrate, f"{self.protocol}.0", self.mode,
+                {True: "on", False: "off", None: ""}[self.torque], ",".join(self.hardware_error) or "-",
+                self.note]
+
+
+COLUMNS = ["ID", "model", "number", "firmware", "baud", "protocol", "mode", "torque", "hardware error", "note"]
+
+
+@dataclass
+class ScanResult:
+    found: list[Found] = field(default_factory=list)
+    #: rates the adapter refused, with why
+    skipped: dict[int, str] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, object]:
+        return {"servos": [asdict(f) for f in self.found], "skipped_rates": {str(k): v for k, v in self.skipped.items()}}
+
+
+def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int]) -> float:
+    """Progress units of a scan (one per broadcast ping, one per Protocol 1.0 ping)."""
+    return len(rates) * ((1 if 2 in protocols else 0) + (len(ids) if 1 in protocols else 0))
+
+
+def _noise(bus: DynamixelBus) -> int:
+    return bus.stats.crc_errors + bus.stats.discarded_bytes
+
+
+def _collides(bus: DynamixelBus, dxl_id: int) -> bool:
+    """True when the replies at ``dxl_id`` are garbled or doubled (two servos answering)."""
+    before = _noise(bus)
+    answers = sum(bus.ping_result(dxl_id, retries=0).value is not None for _ in range(_CLEAN_PINGS))
+    bus.ping_result(dxl_id, retries=0)  # its input flush counts what came after the last reply
+    return answers < _CLEAN_PINGS or _noise(bus) != before
+
+
+def _details(bus: DynamixelBus, dxl_id: int, number: int) -> Found:
+    found = Found(dxl_id, bus.baudrate, 2, number, firmware=bus.firmware_versions.get(dxl_id))
+    try:
+        servo = Servo(bus, dxl_id, model_by_number(number))
+    except KeyError:
+        found.model = f"unknown ({number})"
+        found.note = "model not in the control table: the handler cannot drive it"
+        return found
+    found.model = servo.model.name
+    for name, setter in (("operating_mode", lambda v: setattr(found, "mode", _MODE_NAMES.get(v, str(v)))),
+                         ("torque_enable", lambda v: setattr(found, "torque", v == 1)),
+                         ("hardware_error_status", lambda v: setattr(found, "hardware_error", _errors(v)))):
+        if servo.model.has(name):
+            _read_into(servo, name, setter)
+    return found
+
+
+def _read_into(servo: Servo, name: str, setter: Callable[[int], None]) -> None:
+    item = servo.model.item(name)
+    got = servo.bus.read_result(servo.dxl_id, item.address, item.size)
+    if got.value is not None:
+        setter(int.from_bytes(got.value[:item.size], "little"))
+
+
+def _errors(bits: int) -> list[str]:
+    return [name for name, on in decode_hardware_error(bits).items() if bool(on[0])]
+
+
+def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -> None:
+    before = _noise(bus)
+    answered = bus.scan(ids, broadcast=len(ids) >= 5)
+    suspects: list[int] = []
+    if _noise(bus) != before:  # a garbled reply train: which IDs garble?
+        for dxl_id in ids:
+            if dxl_id not in answered:
+                mark = _noise(bus)
+                bus.ping_result(dxl_id, retries=0)
+                bus.ping_result(dxl_id, retries=0)
+                if _noise(bus) != mark:
+                    suspects.append(dxl_id)
+    for dxl_id, number in answered.items():
+        found = _details(bus, dxl_id, number)
+        found.collision = _collides(bus, dxl_id)
+        result.found.append(found)
+    for dxl_id in suspects:
+        result.found.append(Found(dxl_id, bus.baudrate, 2, collision=True))
+    for found in result.found:
+        if found.collision:
+            found.note = ("two servos answer at this ID (garbled or doubled replies): connect them one at a time "
+                          "and give each its own ID (assign-ids)")
+
+
+def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, tick: Callable[[], None]) -> None:
+    taken = {(f.dxl_id, f.baudrate) for f in result.found}
+    for dxl_id in ids:
+        tick()
+        if (dxl_id, bus.baudrate) in taken:
+            continue
+        got = ping1(bus, dxl_id)
+        if got is None:
+            continue
+        number, firmware = got
+        if number in SWITCH_TO_2:
+            note = (f"Protocol 1.0: not driven by the handler; to switch it to Protocol 2.0 install its 2.0 firmware "
+                    f"(DYNAMIXEL Wizard 2.0, Firmware Recovery, {SWITCH_TO_2[number]}(2.0))")
+        else:
+            note = "Protocol 1.0 only: the handler does not drive it (no Protocol 2.0 firmware exists for it)"
+        result.found.append(Found(dxl_id, bus.baudrate, 1, number, model_name1(number), firmware, note=note))
+
+
+def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int],
+             tick: Callable[[float, str | None], None]) -> ScanResult:
+    """Every servo at ``rates`` x ``ids`` in ``protocols``; the bus is left at the first rate."""
+    result = ScanResult()
+    for bps in rates:
+        try:
+            bus.set_baudrate(bps)
+        except BusError as exc:
+            result.skipped[bps] = str(exc)
+            tick(scan_steps([bps], ids, protocols), None)
+            continue
+        if 2 in protocols:
+            tick(0, f"{bps} bps, Protocol 2.0")
+            before = len(result.found)
+            rate = ScanResult()
+            _scan_protocol2(bus, ids, rate)
+            result.found[before:] = rate.found
+            tick(1, None)
+        if 1 in protocols:
+            tick(0, f"{bps} bps, Protocol 1.0")
+            _scan_protocol1(bus, ids, result, lambda: tick(1, None))
+    if rates and rates[0] not in result.skipped:
+        bus.set_baudrate(rates[0])
+    result.found.sort(key=lambda f: (f.dxl_id, f.baudrate, f.protocol))
+    return result

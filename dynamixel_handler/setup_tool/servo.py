@@ -1,0 +1,120 @@
+"""One servo as the tool sees it: its model from the control table, reads and writes by item name,
+and the checked write every verb uses (only when the value differs; EEPROM with torque off and
+torque restored; read back and verified; a failure says which state the servo is left in)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from ..bus import BusError, DynamixelBus
+from ..control_table import Item, Model, model_by_number
+from ..units import decode, encode
+from .errors import StepFailed
+from .items import find_item, show_value
+
+__all__ = ["Servo", "connect", "locate"]
+
+#: where unboxed servos are, then the other rates (9600 last: slow and rare)
+SEARCH_ORDER = (57600, 1_000_000, 115200, 2_000_000, 3_000_000, 4_000_000, 4_500_000, 6_000_000,
+                10_500_000, 9600)
+
+
+@dataclass
+class Servo:
+    bus: DynamixelBus
+    dxl_id: int
+    model: Model
+
+    @property
+    def who(self) -> str:
+        return f"ID {self.dxl_id} ({self.model.name})"
+
+    def item(self, name: str) -> Item:
+        return find_item(self.model, name)
+
+    def read(self, name: str) -> int:
+        item = self.item(name)
+        got = self.bus.read_result(self.dxl_id, item.address, item.size)
+        if got.value is None:
+            raise StepFailed(f"{self.who}: reading {item.name} failed: {_cause(got.failure)}")
+        return int(decode(item, got.value)[0])
+
+    def read_block(self, first: Item, last: Item) -> bytes:
+        """The bytes from ``first`` to the end of ``last`` in one read."""
+        size = last.address + last.size - first.address
+        got = self.bus.read_result(self.dxl_id, first.address, size)
+        if got.value is None:
+            raise StepFailed(f"{self.who}: reading {first.name}..{last.name} failed: {_cause(got.failure)}")
+        return bytes(got.value)
+
+    def write(self, name: str, raw: int) -> None:
+        item = self.item(name)
+        done = self.bus.write_result(self.dxl_id, item.address, encode(item, raw))
+        if not done:
+            raise StepFailed(f"{self.who}: writing {item.name} = {show_value(self.model, item, raw)} "
+                             f"failed: {_cause(done.failure)}")
+
+    def torque_on(self) -> bool:
+        return self.read("torque_enable") == 1
+
+    def set_checked(self, name: str, raw: int, after: Callable[[], Servo] | None = None) -> bool:
+        """Write ``raw`` to the item if it differs; EEPROM with torque off, torque restored; read back.
+        ``after``: the servo to verify on once written (an ID or baud rate change). True if written."""
+        item = self.item(name)
+        if self.read(item.name) == raw:
+            return False
+        torque = item.eeprom and self.torque_on()
+        if torque:
+            self.write("torque_enable", 0)
+        try:
+            self.write(item.name, raw)
+        except StepFailed as exc:
+            self._restore_torque(torque, self)
+            raise StepFailed(f"{exc}; nothing was changed{' (torque back on)' if torque else ''}") from None
+        target = after() if after is not None else self
+        got = target.read(item.name)
+        target._restore_torque(torque, target)
+        if got != raw:
+            raise StepFailed(f"{target.who}: {item.name} reads {show_value(self.model, item, got)} after writing "
+                             f"{show_value(self.model, item, raw)}")
+        return True
+
+    def _restore_torque(self, was_on: bool, servo: Servo) -> None:
+        if was_on:
+            servo.write("torque_enable", 1)
+
+
+def _cause(failure: str) -> str:
+    """The bus's reason without its own prefix ("read ID 3 @64x1: no reply ..." -> "no reply ...")."""
+    return failure.split(": ", 1)[1] if ": " in failure else failure or "no reply"
+
+
+def connect(bus: DynamixelBus, dxl_id: int) -> Servo:
+    """The servo at ``dxl_id`` on the bus at its present rate; StepFailed when it does not answer
+    or its model is not one the control table knows."""
+    got = bus.ping_result(dxl_id)
+    if got.value is None:
+        raise StepFailed(f"ID {dxl_id}: no servo answers at {bus.baudrate} bps ({_cause(got.failure)})")
+    try:
+        return Servo(bus, dxl_id, model_by_number(got.value))
+    except KeyError:
+        raise StepFailed(f"ID {dxl_id}: model number {got.value} is not in the control table; "
+                         "the tool only sets up models the handler knows") from None
+
+
+def locate(bus: DynamixelBus, dxl_id: int, baud_given: bool) -> Servo:
+    """``connect``, looking at every baud rate (the given one first) when ``--baud`` was not given."""
+    if baud_given or bus.ping_result(dxl_id, retries=1).value is not None:
+        return connect(bus, dxl_id)
+    start = bus.baudrate
+    for bps in SEARCH_ORDER:
+        if bps == start:
+            continue
+        try:
+            bus.set_baudrate(bps)
+        except BusError:  # the adapter cannot use this rate: the servo cannot be there either
+            continue
+        if bus.ping_result(dxl_id, retries=1).value is not None:
+            return connect(bus, dxl_id)
+    bus.set_baudrate(start)
+    raise StepFailed(f"ID {dxl_id}: no servo answers at any baud rate ({', '.join(map(str, SEARCH_ORDER))} bps)")

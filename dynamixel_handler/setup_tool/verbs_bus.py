@@ -1,0 +1,177 @@
+"""The verbs about the bus as a whole: scan, assign-ids, reboot, factory-reset."""
+from __future__ import annotations
+
+import argparse
+import time
+
+from ..bus import DynamixelBus
+from .context import Context
+from .errors import BadArguments, StepFailed
+from .scan import COLUMNS, Found, scan_bus, scan_steps
+from .servo import SEARCH_ORDER, Servo, connect
+
+__all__ = ["scan", "assign_ids", "reboot", "factory_reset"]
+
+#: how long a rebooted or reset servo may take to answer again [s]
+_BACK_WITHIN_S = 3.0
+#: where every servo is after a full factory reset (ROBOTIS e-Manual, Factory Reset 0xFF)
+_FACTORY_ID, _FACTORY_BPS = 1, 57600
+_RESET_OPTION = {"id": 0x01, "id,baud": 0x02, "all": 0xFF}
+
+
+def _rates(args: argparse.Namespace) -> list[int]:
+    return list(getattr(args, "rates", None) or SEARCH_ORDER)
+
+
+def scan(ctx: Context, args: argparse.Namespace) -> None:
+    rates = _rates(args)
+    protocols = {"2": [2], "1": [1], "both": [2, 1]}[args.protocol]
+    started = time.monotonic()
+    with ctx.out.progress(scan_steps(rates, args.ids, protocols), "scanning") as tick:
+        result = scan_bus(ctx.bus, rates, args.ids, protocols, tick)
+    took = time.monotonic() - started
+    styles = ["red" if f.collision or f.hardware_error else ("yellow" if f.protocol == 1 else None) for f in result.found]
+    ctx.out.table("", COLUMNS, [f.row() for f in result.found], styles)
+    for bps, why in result.skipped.items():
+        ctx.out.say(f"{bps} bps skipped: {why}")
+    ctx.out.say(f"{len(result.found)} servo(s) found at {len(rates) - len(result.skipped)} baud rate(s), "
+                f"IDs {args.ids[0]}-{args.ids[-1]}, in {took:.1f} s")
+    ctx.out.document.update(result.as_dict(), seconds=round(took, 2))
+
+
+def _wait_back(bus: DynamixelBus, dxl_id: int) -> int | None:
+    """The model number once ``dxl_id`` answers again (after a reboot or reset), None if it does not."""
+    deadline = time.monotonic() + _BACK_WITHIN_S
+    while time.monotonic() < deadline:
+        time.sleep(0.1)
+        number = bus.ping_result(dxl_id, retries=0).value
+        if number is not None:
+            return number
+    return None
+
+
+def reboot(ctx: Context, args: argparse.Namespace) -> None:
+    if args.id == "all":
+        ids = sorted(ctx.bus.scan(range(253)))
+        if not ids:
+            raise StepFailed(f"no servo answers at {ctx.bus.baudrate} bps: nothing rebooted")
+    else:
+        try:
+            ids = [int(args.id)]
+        except ValueError:
+            raise BadArguments(f"reboot takes an ID or 'all', not '{args.id}'") from None
+    failed = []
+    for dxl_id in ids:
+        servo = ctx.servo(dxl_id)
+        done = ctx.bus.reboot_result(dxl_id)
+        back = _wait_back(ctx.bus, dxl_id) if done else None
+        if back is None:
+            why = done.failure or f"it does not answer within {_BACK_WITHIN_S:.0f} s"
+            failed.append(f"{servo.who}: reboot failed: {why}")
+        else:
+            ctx.out.say(f"{servo.who} rebooted and answers again")
+    ctx.out.document.update(rebooted=[i for i in ids], failed=failed)
+    if failed:
+        raise StepFailed("; ".join(failed))
+
+
+def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
+    level = "all" if args.all else args.keep
+    servo = ctx.servo(args.id)
+    keeps = {"all": "nothing: it comes back as ID 1 at 57600 bps", "id": "its ID (baud rate back to 57600)",
+             "id,baud": "its ID and baud rate"}[level]
+    ctx.confirm(f"{servo.who}: factory reset of every EEPROM item, keeping {keeps}?")
+    if servo.torque_on():
+        servo.write("torque_enable", 0)
+    if not ctx.bus.factory_reset(servo.dxl_id, _RESET_OPTION[level]):
+        raise StepFailed(f"{servo.who}: factory reset refused: {ctx.bus.last_failure or 'no reply'}; nothing was reset "
+                         "(torque left off)")
+    where_id = servo.dxl_id if level != "all" else _FACTORY_ID
+    where_bps = ctx.bus.baudrate if level == "id,baud" else _FACTORY_BPS
+    ctx.bus.set_baudrate(where_bps)
+    if _wait_back(ctx.bus, where_id) is None:
+        raise StepFailed(f"{servo.who}: reset sent, but no servo answers at ID {where_id}, {where_bps} bps afterwards")
+    ctx.out.say(f"{servo.who}: factory reset done; it answers at ID {where_id}, {where_bps} bps")
+    ctx.out.document.update(id=where_id, baudrate=where_bps, kept=level)
+
+
+# ------------------------------------------------------------------------------- assign-ids
+def _look(ctx: Context, rates: list[int], ids: list[int]) -> list[Found]:
+    with ctx.out.progress(scan_steps(rates, ids, [2]), "looking for servos") as tick:
+        return scan_bus(ctx.bus, rates, ids, [2], tick).found
+
+
+def _next_id(start: int, taken: set[int]) -> int:
+    new = start
+    while new in taken:
+        new += 1
+    if new > 252:
+        raise StepFailed("no free ID left (0..252)")
+    return new
+
+
+def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
+    """Move the servo found at ``new`` to ``new_id`` and ``target`` bps; returns it there."""
+    bus = ctx.bus
+    bus.set_baudrate(new.baudrate)
+    servo = connect(bus, new.dxl_id)
+    if new_id != servo.dxl_id:
+        if bus.ping_result(new_id, retries=1).value is not None:
+            raise StepFailed(f"{servo.who}: ID {new_id} is in use at {new.baudrate} bps; not changed")
+        servo.set_checked("id", new_id, after=lambda: connect(bus, new_id))
+        servo = connect(bus, new_id)
+    if target != new.baudrate:
+        by_bps = {bps: value for value, bps in servo.model.baud_rates.items()}
+        if target not in by_bps:
+            raise StepFailed(f"{servo.who} cannot use {target} bps; it keeps {new.baudrate} bps")
+
+        def there() -> Servo:
+            bus.set_baudrate(target)
+            return connect(bus, new_id)
+
+        servo.set_checked("baud_rate", by_bps[target], after=there)
+    bus.set_baudrate(target)
+    return connect(bus, new_id)
+
+
+def _one_round(ctx: Context, known: set[tuple[int, int]], rates: list[int], ids: list[int],
+               next_id: int, target: int) -> tuple[Found, Servo] | None:
+    found = [f for f in _look(ctx, rates, ids) if (f.dxl_id, f.baudrate) not in known]
+    if not found:
+        ctx.out.say("no new servo found: is it connected and powered? Press Enter to look again")
+        return None
+    if len(found) > 1 or found[0].collision:
+        ctx.out.say(f"{len(found)} new servos answer ({', '.join(f'ID {f.dxl_id} at {f.baudrate} bps' for f in found)}): "
+                    "connect one at a time; press Enter when only one new servo is connected")
+        return None
+    return found[0], _give(ctx, found[0], next_id, target)
+
+
+def assign_ids(ctx: Context, args: argparse.Namespace) -> None:
+    rates = list(args.search_baud or SEARCH_ORDER)
+    target = ctx.bus.baudrate if ctx.baud_given else _FACTORY_BPS
+    ids = args.ids
+    known = {(f.dxl_id, f.baudrate) for f in _look(ctx, rates, ids)}
+    taken = {i for i, bps in known if bps == target}
+    assigned: list[dict[str, object]] = []
+    ctx.out.say(f"{len(known)} servo(s) already on the bus; new servos get IDs from {args.start} at {target} bps")
+    while True:
+        next_id = _next_id(args.start, taken)
+        if (next_id, target) == (_FACTORY_ID, _FACTORY_BPS):
+            raise BadArguments(f"ID {_FACTORY_ID} at {_FACTORY_BPS} bps is where every new servo arrives: the next one "
+                               "would collide with it; start at 2 or more, or give --baud")
+        ctx.out.say(f"Connect one new servo and press Enter (it gets ID {next_id}); q and Enter to finish")
+        line = ctx.line()
+        if line is None or line.strip().lower() in ("q", "quit", "done"):
+            break
+        got = _one_round(ctx, known, rates, ids, next_id, target)
+        if got is None:
+            continue
+        was, servo = got
+        known.add((next_id, target))
+        taken.add(next_id)
+        assigned.append({"id": next_id, "model": servo.model.name, "was_id": was.dxl_id, "was_baudrate": was.baudrate})
+        ctx.out.say(f"{servo.model.name}: ID {was.dxl_id} at {was.baudrate} bps -> ID {next_id} at {target} bps, verified")
+    ctx.out.table("assigned", ["ID", "model", "was ID", "was baud"],
+                  [[a["id"], a["model"], a["was_id"], a["was_baudrate"]] for a in assigned])
+    ctx.out.document.update(assigned=assigned, baudrate=target)

@@ -1,0 +1,162 @@
+"""The verbs that read and set one servo: info, get, set, set-id, set-baud, set-mode.
+
+Values are by item name and in physical units, range checked against the model's control table
+before anything is sent; EEPROM items are written with torque off and torque restored, read back
+and verified, and only when they differ (EEPROM wear)."""
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..bus import BusError
+from ..control_table import OPERATING_MODES, Item
+from ..units import decode
+from .context import Context
+from .errors import BadArguments, StepFailed
+from .items import parse_value, show_value, to_unit, unit_of
+from .servo import Servo, connect
+
+__all__ = ["info", "get", "set_item", "set_id", "set_baud", "set_mode"]
+
+#: items `info` leaves out unless --all (hundreds of indirect entries)
+_BULKY = ("indirect_address_", "indirect_data_")
+#: bytes per read of `info`
+_CHUNK = 64
+
+
+def _read_all(servo: Servo, items: list[Item]) -> dict[str, int]:
+    """Every item's raw value, read in runs of neighbouring items (up to ``_CHUNK`` bytes each)."""
+    values: dict[str, int] = {}
+    runs: list[list[Item]] = []
+    for item in sorted(items, key=lambda i: i.address):
+        if runs and item.address + item.size - runs[-1][0].address <= _CHUNK:
+            runs[-1].append(item)
+        else:
+            runs.append([item])
+    for run in runs:
+        data = servo.read_block(run[0], run[-1])
+        for it in run:
+            values[it.name] = int(decode(it, data[it.address - run[0].address:])[0])
+    return values
+
+
+def info(ctx: Context, args: argparse.Namespace) -> None:
+    servo = ctx.servo(args.id)
+    model = servo.model
+    items = [i for i in model.items.values() if args.all or not i.name.startswith(_BULKY)]
+    values = _read_all(servo, items)
+    rows: dict[bool, list[list[object]]] = {True: [], False: []}
+    styles: dict[bool, list[str | None]] = {True: [], False: []}
+    doc: dict[str, Any] = {}
+    for item in sorted(items, key=lambda i: i.address):
+        raw = values[item.name]
+        factory = model.factory.get(item.name)
+        differs = factory is not None and factory != raw
+        value = to_unit(model, item, raw)
+        rows[item.eeprom].append([item.address, item.name, f"{value:.4g}" if value is not None else "",
+                                  unit_of(model, item), raw, "" if factory is None else factory,
+                                  "*" if differs else ""])
+        styles[item.eeprom].append("yellow" if differs else None)
+        doc[item.name] = {"raw": raw, "value": value, "unit": unit_of(model, item), "eeprom": item.eeprom,
+                          "address": item.address, "factory": factory, "differs_from_factory": differs}
+    head = f"ID {servo.dxl_id}: {model.name} (model {model.number}) at {ctx.bus.baudrate} bps"
+    ctx.out.say(head)
+    columns = ["addr", "item", "value", "unit", "raw", "factory", "differs"]
+    ctx.out.table("EEPROM (written with torque off)", columns, rows[True], styles[True])
+    ctx.out.table("RAM", columns, rows[False], styles[False])
+    ctx.out.say("* differs from the factory value of the model (ROBOTIS e-Manual)")
+    ctx.out.document.update(id=servo.dxl_id, model=model.name, model_number=model.number,
+                            baudrate=ctx.bus.baudrate, items=doc)
+
+
+def get(ctx: Context, args: argparse.Namespace) -> None:
+    servo = ctx.servo(args.id)
+    item = servo.item(args.item)
+    raw = servo.read(item.name)
+    ctx.out.say(f"{servo.who} {item.name} = {show_value(servo.model, item, raw)}")
+    ctx.out.document.update(id=servo.dxl_id, item=item.name, raw=raw, value=to_unit(servo.model, item, raw),
+                            unit=unit_of(servo.model, item))
+
+
+def _apply(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
+    """Confirm (EEPROM), write when it differs, verify, report."""
+    before = servo.read(item.name)
+    shown = show_value(servo.model, item, raw)
+    doc = {"id": servo.dxl_id, "item": item.name, "raw": raw, "before": before}
+    if before == raw:
+        ctx.out.say(f"{servo.who} {item.name} is already {shown}: nothing written")
+        ctx.out.document.update(doc, written=False)
+        return
+    if item.eeprom:
+        ctx.confirm(f"{servo.who}: write {item.name} (EEPROM) from {show_value(servo.model, item, before)} to {shown}?")
+    servo.set_checked(item.name, raw)
+    ctx.out.say(f"{servo.who} {item.name} = {shown} (was {show_value(servo.model, item, before)}), read back")
+    ctx.out.document.update(doc, written=True)
+
+
+def set_item(ctx: Context, args: argparse.Namespace) -> None:
+    servo = ctx.servo(args.id)
+    item = servo.item(args.item)
+    if item.name in ("id", "baud_rate"):
+        raise BadArguments(f"{servo.who}: use set-{'id' if item.name == 'id' else 'baud'} for {item.name} "
+                           "(it checks the new address and finds the servo there)")
+    _apply(ctx, servo, item, parse_value(servo.model, item, args.value, servo.who))
+
+
+def set_mode(ctx: Context, args: argparse.Namespace) -> None:
+    servo = ctx.servo(args.id)
+    text = str(args.mode).strip().lower()
+    raw = OPERATING_MODES[text] if text in OPERATING_MODES else None
+    if raw is None:
+        try:
+            raw = int(text)
+        except ValueError:
+            raise BadArguments(f"{servo.who}: unknown operating mode '{args.mode}' "
+                               f"(one of {', '.join(OPERATING_MODES)} or a register value)") from None
+    item = servo.item("operating_mode")
+    _apply(ctx, servo, item, parse_value(servo.model, item, str(raw), servo.who))
+
+
+def set_id(ctx: Context, args: argparse.Namespace) -> None:
+    servo = ctx.servo(args.old)
+    item = servo.item("id")
+    new = parse_value(servo.model, item, str(args.new), servo.who)
+    if new == servo.dxl_id:
+        ctx.out.say(f"{servo.who} already has ID {new}: nothing written")
+        ctx.out.document.update(id=new, written=False)
+        return
+    taken = ctx.bus.ping_result(new, retries=1).value
+    if taken is not None:
+        raise StepFailed(f"{servo.who}: ID {new} is already in use at {ctx.bus.baudrate} bps (model {taken}): "
+                         "two servos at one ID cannot be told apart; choose another")
+    ctx.confirm(f"{servo.who}: change its ID to {new} (EEPROM)?")
+    servo.set_checked("id", new, after=lambda: connect(ctx.bus, new))
+    ctx.out.say(f"ID {servo.dxl_id} -> {new} ({servo.model.name}): answers at ID {new}, read back")
+    ctx.out.document.update(old=servo.dxl_id, id=new, written=True)
+
+
+def set_baud(ctx: Context, args: argparse.Namespace) -> None:
+    servo = ctx.servo(args.id)
+    by_bps = {bps: value for value, bps in servo.model.baud_rates.items()}
+    if args.bps not in by_bps:
+        raise BadArguments(f"{servo.who} cannot use {args.bps} bps (it takes {', '.join(map(str, sorted(by_bps)))})")
+    old = ctx.bus.baudrate
+    if old == args.bps:
+        ctx.out.say(f"{servo.who} is already at {old} bps: nothing written")
+        ctx.out.document.update(id=servo.dxl_id, baudrate=old, written=False)
+        return
+    ctx.confirm(f"{servo.who}: change its baud rate from {old} to {args.bps} bps (EEPROM)?")
+
+    def found_again() -> Servo:
+        try:
+            ctx.bus.set_baudrate(args.bps)
+        except BusError as exc:
+            raise StepFailed(f"{servo.who} was set to {args.bps} bps but the adapter cannot use it: {exc}") from None
+        try:
+            return connect(ctx.bus, servo.dxl_id)
+        except StepFailed as exc:
+            raise StepFailed(f"{exc}: its Baud Rate was written; it is at {args.bps} bps or still at {old}") from None
+
+    servo.set_checked("baud_rate", by_bps[args.bps], after=found_again)
+    ctx.out.say(f"{servo.who}: {old} -> {args.bps} bps, found again at {args.bps} bps")
+    ctx.out.document.update(id=servo.dxl_id, baudrate=args.bps, was=old, written=True)
