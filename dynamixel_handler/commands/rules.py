@@ -20,8 +20,12 @@ Row = tuple[int, float]
 
 
 def fits(h: ServoAccess, dxl_id: int, family: ServoFamily | None) -> bool:
-    """The servo is handled (and of ``family``, if one is asked for)."""
-    return h.handles(dxl_id) and (family is None or h.model(dxl_id).family is family)
+    """The servo is handled (and of ``family``, or of a family driven through its topics: XL-320
+    servos take the X commands, if one is asked for)."""
+    if not h.handles(dxl_id):
+        return False
+    own = h.model(dxl_id).family
+    return family is None or own is family or own.commanded_as is family
 
 
 def all_finite(values: list[float]) -> bool:

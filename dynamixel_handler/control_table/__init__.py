@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Tuple
 
+from . import _xl320
 from ._factory import FACTORY
 from ._facts import (
     BAUD_RATES,
@@ -283,9 +284,27 @@ def _own_modes(facts: ModelFacts, modes: Tuple[int, ...]) -> Dict[str, Any]:
     return {"own_modes": True, "mode_values": MappingProxyType(values)}
 
 
+def _build_xl320() -> Model:
+    """The XL-320 from its SDK file and the facts of ``_xl320`` (a table and modes of its own)."""
+    rows = _xl320.rows(load_sdk_table(_xl320.SDK_FILE).rows)
+    items = {n: Item(n, address, size, False, address < _xl320.EEPROM_END, bit, span)
+             for n, (address, size, bit, span) in sorted(rows.items(), key=lambda kv: kv[1][0])}
+    return Model(
+        number=_xl320.NUMBER, name=_xl320.NAME, family=family_named("XL320"), items=MappingProxyType(items),
+        position_deg_per_pulse=_xl320.POSITION_DEG_PER_PULSE, position_zero_pulse=_xl320.POSITION_ZERO_PULSE,
+        velocity_deg_s_per_pulse=_xl320.VELOCITY_RPM * 6.0, pwm_percent_per_pulse=100.0 / _xl320.OUTPUT_FULL_SCALE,
+        position_max_pulse=1023, position_min_pulse=0, layout="XL320",
+        baud_rates=MappingProxyType(dict(_xl320.BAUD_RATES)), operating_modes=tuple(sorted(_xl320.MODE_VALUES.values())),
+        table_size=_xl320.TABLE_SIZE, factory=MappingProxyType(dict(_xl320.FACTORY)),
+        mode_values=MappingProxyType(dict(_xl320.MODE_VALUES)),
+    )
+
+
 @functools.lru_cache(maxsize=None)
 def _registry() -> Mapping[int, Model]:
-    return MappingProxyType({number: _build(number, facts) for number, facts in sorted(MODEL_FACTS.items())})
+    models = {number: _build(number, facts) for number, facts in MODEL_FACTS.items()}
+    models[_xl320.NUMBER] = _build_xl320()
+    return MappingProxyType(dict(sorted(models.items())))
 
 
 def model_by_number(number: int) -> Model:

@@ -55,9 +55,20 @@ class ServoFamily:
     #: ``init/used_servo_series.<title>`` when no parameter sets it (the original handler's defaults
     #: for X, P and Pro; a family added later is off, so an older parameter file keeps its meaning)
     used_by_default: bool = False
+    #: the family whose command topics and messages drive this one (XL-320: the X ones, where an
+    #: item exists); None: its own
+    commanded_as: Optional["ServoFamily"] = None
+    #: Hardware Error Status / Shutdown bits where they differ from the X and P layout: (cause,
+    #: bit) pairs; (): that layout
+    error_bits: Tuple[Tuple[str, int], ...] = ()
 
     def __repr__(self) -> str:
         return f"ServoFamily({self.name})"
+
+    @property
+    def topics(self) -> "ServoFamily":
+        """The family whose command topics and messages drive this one (itself, or ``commanded_as``)."""
+        return self.commanded_as or self
 
     @property
     def speed_item_is_per_model(self) -> bool:
@@ -102,8 +113,18 @@ PRO = ServoFamily(
     has_protocol_type=False,
 )
 
+# XL-320 (e-Manual docs/en/dxl/x/xl320): a small table of its own, Joint (position) and Wheel
+# (velocity) mode only, Moving Speed as the speed of a move; driven through the X topics.
+XL320 = ServoFamily(
+    name="XL320", title="XL320", suffix="x", modes=frozenset({"velocity", "position"}),
+    dummy_model=350, x_table=False, profile_max=None, multi_turn_goal=None,
+    move_speed_field="profile_vel_deg_s", move_speed_item="goal_velocity",
+    has_protocol_type=False, commanded_as=X,
+    error_bits=(("overload", 0), ("overheating", 1), ("input_voltage", 2)),
+)
+
 #: every family, in the order parameters, topics and logs list them
-FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO)
+FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO, XL320)
 _BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES}
 _BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
 

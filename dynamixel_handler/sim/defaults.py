@@ -28,17 +28,19 @@ class Family:
 
 # Firmware version per control-table layout: X330 v52 (Indirect Data at 208), X430/X540 v48,
 # P and PRO "-R(A)" v13 (Fast Read from v12), old PRO "-R" v25 (no fast read).
-_FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25}
-# The supply a servo runs on, from its factory Max Voltage Limit: 5 V parts (up to 7.0 V), 12 V
-# parts (up to 16.0 V), 24 V parts.
-_NOMINAL_V = ((70, 5.0), (160, 12.0))
+_FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25, "XL320": 23}
+# Layouts without Fast Sync/Bulk Read: old PRO "-R", XL-320 (v23 a representative number).
+_NO_FAST_READ = frozenset({"OLD_PRO", "XL320"})
+# The supply a servo runs on, from its factory Max Voltage Limit: 5 V parts (up to 7.0 V), the
+# XL-320 (9.0 V: 7.4 V recommended), 12 V parts (up to 16.0 V), 24 V parts.
+_NOMINAL_V = ((70, 5.0), (90, 7.4), (160, 12.0))
 
 
 def family(model: Model) -> Family:
     """The firmware, the Fast Read support and the supply voltage of a model."""
     max_v = model.factory.get("max_voltage_limit", 400)
     nominal = next((volts for limit, volts in _NOMINAL_V if max_v <= limit), 24.0)
-    fast = model.layout != "OLD_PRO" and not model.name.startswith("2X")
+    fast = model.layout not in _NO_FAST_READ and not model.name.startswith("2X")
     return Family(nominal, _FIRMWARE[model.layout], fast)
 
 

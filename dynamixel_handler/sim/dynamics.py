@@ -13,7 +13,8 @@ import math
 from .motion import Command, Motor, profile_kind
 from .registers import Registers
 
-POSITION_MODES = (3, 4, 5)
+#: modes whose goal is a position (by name: the Operating Mode values are the model's own)
+POSITION_MODES = ("position", "ex_position", "cur_position")
 LAG_S = 0.05
 _ANALOG_INPUT = 2048
 
@@ -59,18 +60,30 @@ class Dynamics:
     def _user_position(self) -> float:
         return self._sign() * self.motor.p + self._r.get("homing_offset")
 
+    def _mode(self) -> str | None:
+        """The operating mode by name (the XL-320's Control Mode values are its own)."""
+        return self._r.model.mode_name(self._r.get("operating_mode"))
+
     def _revolution(self) -> int:
-        return 4096 if self._r.x else 2 * self._r.model.position_max_pulse
+        if self._r.x:
+            return 4096
+        model = self._r.model
+        if model.position_min_pulse >= 0:  # XL-320: 0..1023 over 300 deg, the rest of a turn unseen
+            return int(round(360.0 / model.position_deg_per_pulse))
+        return 2 * model.position_max_pulse
+
+    def _unsigned_positions(self) -> bool:
+        return self._r.x or self._r.model.position_min_pulse >= 0
 
     def fold(self, raw: float) -> float:
         rev = self._revolution()
-        if self._r.x:
+        if self._unsigned_positions():
             return raw % rev
         half = rev // 2
         return ((raw + half) % rev) - half
 
     def hold_if_position_mode(self) -> None:
-        if self._r.get("operating_mode") in POSITION_MODES:
+        if self._mode() in POSITION_MODES:
             self._r.poke("goal_position", int(round(self._user_position())))
 
     def _scale(self, kind: str) -> float:
@@ -86,7 +99,7 @@ class Dynamics:
     def torque_changed(self, old: int, value: int, now: float) -> None:
         """Torque on: the shaft holds where it is (position modes); off: it stops."""
         if value == 1 and old == 0:
-            if self._r.get("operating_mode") == 3:
+            if self._mode() == "position":
                 self.motor.p = self.fold(self.motor.p)
             self.hold_if_position_mode()
             self.last_instruction = now
@@ -96,21 +109,31 @@ class Dynamics:
     # ------------------------------------------------------------------ command
     def command(self) -> Command:
         torque = self._r.get("torque_enable") == 1
-        mode = self._r.get("operating_mode")
+        mode = self._mode()
         s = self._sign()
-        vlim = max(self._r.get("velocity_limit"), 1) * self._scale("v")
+        vlim = self._velocity_limit()
         if mode in POSITION_MODES:
             return self._position_command(torque, vlim)
         amax = self._profile_acceleration()
-        if mode == 1:
+        if mode == "velocity":
             return Command(torque, s * self._r.get("goal_velocity") * self._scale("v"), None, vlim, amax)
-        if mode == 16:
+        if mode == "pwm":
             full = float(self._pwm_full_scale())
             return Command(torque, s * self._r.get("goal_pwm") / full * vlim, None, vlim, math.inf, LAG_S)
-        if mode == 0:
+        if mode == "current":
             limit = max(self._r.get("current_limit"), 1)
             return Command(torque, s * self._r.get("goal_current") / limit * vlim, None, vlim, math.inf, LAG_S)
         return Command(False)
+
+    def _velocity_limit(self) -> float:
+        """The top speed in pulses/s: Velocity Limit, or where a model has none (XL-320) its
+        goal velocity's top (1023: the no-load speed)."""
+        if self._r.has("velocity_limit"):
+            pulses = self._r.get("velocity_limit")
+        else:
+            goal = self._r.model.items.get("goal_velocity")
+            pulses = goal.max_raw if goal is not None else 0
+        return max(pulses, 1) * self._scale("v")
 
     def _profile_acceleration(self) -> float:
         prof_a = self._r.get("profile_acceleration")
@@ -183,19 +206,19 @@ class Dynamics:
     def _publish_effort(self, torque: bool) -> None:
         """Current (or load), PWM and the temperature the current heats the servo to."""
         m, s = self.motor, self._sign()
-        vlim = max(self._r.get("velocity_limit"), 1) * self._scale("v")
-        mode = self._r.get("operating_mode")
+        vlim = self._velocity_limit()
+        mode = self._mode()
         frac_v = s * m.v / vlim
         frac_a = max(-1.0, min(1.0, s * m.a / (10.0 * vlim)))
         load = (0.05 * frac_v + 0.3 * frac_a) if torque else 0.0
         limit = self._r.get("current_limit", 0)
-        current = self._r.get("goal_current") if (mode == 0 and torque) else int(round(load * limit))
+        current = self._r.get("goal_current") if (mode == "current" and torque) else int(round(load * limit))
         self._r.poke("present_current", current)
         self._r.poke("present_load", int(round(load * 1000)))
         full = self._pwm_full_scale()
         if not torque:
             pwm = 0
-        elif mode == 16:
+        elif mode == "pwm":
             pwm = self._r.get("goal_pwm")
         else:
             pwm = int(round((frac_v + 0.1 * frac_a) * full))

@@ -253,7 +253,7 @@ class VirtualServo:
         for reset in MODE_RESET_ITEMS:
             if reset in defaults:
                 self.registers.poke(reset, defaults[reset])
-        if value == 3:
+        if self.model.mode_name(value) == "position":
             self._dynamics.motor.p = self._dynamics.fold(self._dynamics.motor.p)
 
     def _apply_hardware_error(self, bits: int) -> None:

@@ -76,6 +76,9 @@ def check_value(servo: Registers, name: str, value: int, changes: Changes, latch
 
 def _range(servo: Registers, name: str) -> tuple[int, int] | None:
     model = servo.model
+    item = model.items.get(name)
+    if item is not None and item.value_range is not None:  # the register's own range (XL-320)
+        return item.value_range
     if name in ("max_position_limit", "min_position_limit"):
         return model.position_min_pulse, model.position_max_pulse
     if name == "pwm_limit":
@@ -125,7 +128,8 @@ def _limit_error(servo: Registers, name: str, value: int, changes: Changes) -> i
         return p.ERR_DATA_LIMIT
     if name == "goal_position":
         mode = new("operating_mode")
-        if mode == 3 and not new("min_position_limit") <= value <= new("max_position_limit"):
+        if mode == servo.model.mode_values.get("position") and \
+                not new("min_position_limit") <= value <= new("max_position_limit"):
             return p.ERR_DATA_LIMIT
         if mode in EXTENDED_MODES and servo.x and abs(value) > X_EXTENDED_GOAL_LIMIT:
             return p.ERR_DATA_LIMIT
