@@ -7,10 +7,14 @@ in its own modes only.
 """
 from __future__ import annotations
 
+import importlib
 import math
+import shlex
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
+import yaml
 
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelGoal, DynamixelLimit, DynamixelStatus
 
@@ -174,3 +178,36 @@ def test_what_a_model_lacks_reads_back_as_the_spec_says(rig):
     assert rig.state_of("extra", "restore_configuration.startup_torque_on", 1) is False
     assert rig.state_of("extra", "drive_mode.reverse_mode", GRIPPER) is False
     assert math.isnan(rig.state_of("extra", "pwm_slope_percent", GRIPPER))
+
+
+def doc_lines() -> list[tuple[str, object]]:
+    """The ``ros2 topic pub`` lines of docs/gripper.md as (topic, message)."""
+    text = (Path(__file__).resolve().parent.parent / "docs" / "gripper.md").read_text(encoding="utf-8")
+    found = []
+    for line in text.splitlines():
+        if line.startswith("ros2 topic pub"):
+            args = [a for a in shlex.split(line)[3:] if not a.startswith("--")]
+            package, _, name = args[1].partition("/msg/")
+            cls = getattr(importlib.import_module(f"{package}.msg"), name)
+            found.append((args[0], cls(**yaml.safe_load(args[2]))))
+    return found
+
+
+def test_gripper_doc_lines():
+    """docs/gripper.md's lines close and open a gripper at its factory ID with a current limit."""
+    lines = doc_lines()
+    assert [topic for topic, _ in lines] == ["/dynamixel/command/status", "/dynamixel/command/goal",
+                                             "/dynamixel/command/goal"]
+    deg = MANUALS[GRIPPER].deg
+    r = Rig({1: SERVOS[GRIPPER]}, "mode_change_interval_sec:=0.0")
+    try:
+        servo = r.sim.servo(1)
+        r.publish(*lines[0])
+        wait_regs(r, 1, {"torque_enable": 1, "operating_mode": MODE["cur_position"]})
+        for (topic, msg), goal, current in zip(lines[1:], (740, 0), (400, 150)):
+            r.publish(topic, msg)
+            wait_regs(r, 1, {"goal_position": goal, "goal_current": current})
+            assert pulses(msg.position_deg[0], deg) == goal
+            r.wait(lambda g=goal: abs(servo.read("present_position") - g) <= 10, what=f"fingers at {goal}")
+    finally:
+        assert r.close() == 0
