@@ -149,6 +149,14 @@ class BusWithDummies:
     def clear_multi_turn(self, dxl_id: int) -> bool:
         return self.clear_multi_turn_result(dxl_id).value
 
+    def clear_error_result(self, dxl_id: int, params: bytes) -> Result[bool]:
+        if dxl_id in self.dummies:
+            error = self.dummies[dxl_id].clear(bytes(params), time.monotonic())
+            return Result(False, f"error clear ID {dxl_id}: {p.error_text(error)}") if error & 0x7F else _DONE
+        if not self._real_ok():
+            return _failed(self._unusable(f"error clear ID {dxl_id}"))
+        return self._bus.clear_error_result(dxl_id, params)
+
     # ------------------------------------------------------------ groups
     def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
         real, dummy = self._split(ids)

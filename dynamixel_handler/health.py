@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import units
+from . import error_state, units
 from .servos import ServoTable
 
 OK, WARN, ERROR = 0, 1, 2  # the levels of diagnostic_msgs/DiagnosticStatus
@@ -70,11 +70,17 @@ def _check_ping(h: Health, table: ServoTable, pos: int) -> None:
 
 
 def _check_hardware_error(h: Health, table: ServoTable, dxl_id: int) -> None:
-    bits = table.value("hardware_error_status", dxl_id)
-    h.values.append(("hardware error", "unknown" if bits is None else f"0x{bits:02X}"))
-    if bits:
-        causes = [name for name, flag in units.decode_hardware_error([bits]).items() if flag[0]]
-        h.raise_to(ERROR, f"hardware error: {', '.join(causes) or f'0x{bits:02X}'} (clear it with clear_error)")
+    model = table.model(dxl_id)
+    value = table.value(error_state.error_item(model), dxl_id)  # bits, or a Y error code
+    what = "unknown" if value is None else error_state.describe(model, value)
+    h.values.append(("hardware error", what))
+    codes = model.family.error_codes
+    bits = codes.bits(value) if codes is not None and value else value
+    if error_state.is_error(model, value):
+        causes = [name for name, flag in units.decode_hardware_error([bits or 0]).items() if flag[0]]
+        h.raise_to(ERROR, f"hardware error: {', '.join(causes) or what} (clear it with clear_error)")
+    elif value:  # a warning code (Y battery warning): the servo runs on
+        h.raise_to(WARN, f"{what}")
 
 
 def _check_temperature(h: Health, table: ServoTable, pos: int) -> None:

@@ -104,7 +104,7 @@ class _Plan:
                 scale, offset = _LOAD_PERCENT_PER_PULSE, 0.0
             else:
                 attr, zeroed = _SCALE_SOURCE[kind]
-                scale = float(getattr(model, attr))
+                scale = float(model.item_scales.get(item, getattr(model, attr)))
                 offset = float(model.position_zero_pulse) if zeroed else 0.0
             self.lo[i], self.hi[i] = entry.min_raw, entry.max_raw
             if np.isfinite(scale):

@@ -219,6 +219,10 @@ class DynamixelBus:
         """Reset the present position to within one turn (Clear instruction, servo must be stopped)."""
         return self._one.clear_multi_turn(dxl_id).value
 
+    def clear_error_result(self, dxl_id: int, params: bytes) -> Result[bool]:
+        """Clear a servo's error with the Clear instruction (``params``: the family's error clear)."""
+        return self._one.clear_error(dxl_id, params)
+
     def factory_reset(self, dxl_id: int, option: int = 0x02) -> bool:
         """Factory reset; option 0xFF all, 0x01 all but ID, 0x02 (default) all but ID and baud rate."""
         return self._one.factory_reset(dxl_id, option).value

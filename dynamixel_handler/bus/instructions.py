@@ -60,6 +60,10 @@ class Instructions:
     def clear_multi_turn(self, dxl_id: int) -> Result[bool]:
         return self.send(p.CLEAR, "clear multi-turn", dxl_id, b"\x01\x44\x58\x4c\x22")
 
+    def clear_error(self, dxl_id: int, params: bytes) -> Result[bool]:
+        """The error clear of a servo that has one (Y: Clear with P1 0x02 and its key)."""
+        return self.send(p.CLEAR, "error clear", dxl_id, bytes(params))
+
     def factory_reset(self, dxl_id: int, option: int = 0x02) -> Result[bool]:
         if option not in (0x01, 0x02, 0xFF):
             raise ValueError(f"factory reset option must be 0x01, 0x02 or 0xFF, got {option:#x}")

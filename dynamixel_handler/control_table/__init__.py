@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Tuple
 
-from . import _xl320
+from . import _xl320, _y
 from ._factory import FACTORY
 from ._facts import (
     BAUD_RATES,
@@ -167,6 +167,9 @@ class Model:
     #: the handler switches it only to its own modes (``mode_values``), not to every mode of its
     #: family (MX-28(2.0): no current modes; RH-P12-RN(A): current and current-based position only)
     own_modes: bool = False
+    #: unit per pulse of an item whose scale differs from its quantity's (Y: Present Input Voltage
+    #: in 0.01 V, the voltage limits in 0.1 V); NaN: the item has no physical unit
+    item_scales: Mapping[str, float] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "mode_names", MappingProxyType({v: k for k, v in self.mode_values.items()}))
@@ -284,6 +287,26 @@ def _own_modes(facts: ModelFacts, modes: Tuple[int, ...]) -> Dict[str, Any]:
     return {"own_modes": True, "mode_values": MappingProxyType(values)}
 
 
+def _build_y(number: int) -> Model:
+    """A DYNAMIXEL-Y model from its SDK file and the facts of ``_y``."""
+    name, sdk_file = _y.SDK_FILES[number]
+    rows = _y.rows(load_sdk_table(sdk_file).rows)
+    items = {n: Item(n, address, size, signed, eeprom)
+             for n, (address, size, signed, eeprom) in sorted(rows.items(), key=lambda kv: kv[1][0])}
+    return Model(
+        number=number, name=name, family=family_named("Y"), items=MappingProxyType(items),
+        position_deg_per_pulse=180.0 / _y.HALF_TURN, position_zero_pulse=0,
+        velocity_deg_s_per_pulse=_y.VELOCITY_RPM * 6.0, acceleration_deg_ss_per_pulse=_y.ACCELERATION_RPM2 / 10.0,
+        current_ma_per_pulse=_y.CURRENT_MA, pwm_percent_per_pulse=100.0 / _y.PWM_FULL_SCALE,
+        position_max_pulse=_y.HALF_TURN, position_min_pulse=-_y.HALF_TURN, layout="Y",
+        baud_rates=MappingProxyType(dict(_y.BAUD_RATES)), operating_modes=_y.OPERATING_MODES,
+        indirect=_y.INDIRECT, indirect_targets=_y.INDIRECT_TARGETS, table_size=_y.TABLE_SIZE,
+        factory=MappingProxyType({k: v for k, v in _y.FACTORY[number].items() if k in items}),
+        mode_values=MappingProxyType({m: v for m, v in OPERATING_MODES.items() if v in _y.OPERATING_MODES}),
+        item_scales=MappingProxyType(dict(_y.ITEM_SCALES)),
+    )
+
+
 def _build_xl320() -> Model:
     """The XL-320 from its SDK file and the facts of ``_xl320`` (a table and modes of its own)."""
     rows = _xl320.rows(load_sdk_table(_xl320.SDK_FILE).rows)
@@ -303,6 +326,7 @@ def _build_xl320() -> Model:
 @functools.lru_cache(maxsize=None)
 def _registry() -> Mapping[int, Model]:
     models = {number: _build(number, facts) for number, facts in MODEL_FACTS.items()}
+    models.update({number: _build_y(number) for number in _y.SDK_FILES})
     models[_xl320.NUMBER] = _build_xl320()
     return MappingProxyType(dict(sorted(models.items())))
 

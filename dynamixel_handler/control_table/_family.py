@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import FrozenSet, Mapping, Optional, Tuple
 
+from ._error_codes import Y_ERROR_CODES, ErrorCodes
+
 #: turns a goal may hold (rotation field; a goal of a family without a multi-turn goal range is
 #: bounded to as many turns)
 MAX_ROTATION = 256.0
@@ -55,6 +57,11 @@ class ServoFamily:
     #: ``init/used_servo_series.<title>`` when no parameter sets it (the original handler's defaults
     #: for X, P and Pro; a family added later is off, so an older parameter file keeps its meaning)
     used_by_default: bool = False
+    #: the family has command topics of its own (``commands/<suffix>``, ``command/<suffix>/...``);
+    #: False: it is driven through the series-independent topics only (Y)
+    series_topics: bool = True
+    #: the family reports one error code instead of Hardware Error Status bits (None: the bits)
+    error_codes: Optional[ErrorCodes] = None
     #: the family whose command topics and messages drive this one (XL-320: the X ones, where an
     #: item exists); None: its own
     commanded_as: Optional["ServoFamily"] = None
@@ -113,6 +120,15 @@ PRO = ServoFamily(
     has_protocol_type=False,
 )
 
+# DYNAMIXEL-Y (e-Manual docs/en/dxl/y/...): current, velocity and position control only; Profile
+# Velocity / Acceleration bounded by Velocity / Acceleration Limit; no command messages of its own.
+Y = ServoFamily(
+    name="Y", title="Y", suffix="y", modes=frozenset({"current", "velocity", "position"}),
+    dummy_model=4170, x_table=False, profile_max=None, multi_turn_goal=None,
+    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity",
+    series_topics=False, error_codes=Y_ERROR_CODES,
+)
+
 # XL-320 (e-Manual docs/en/dxl/x/xl320): a small table of its own, Joint (position) and Wheel
 # (velocity) mode only, Moving Speed as the speed of a move; driven through the X topics.
 XL320 = ServoFamily(
@@ -124,7 +140,7 @@ XL320 = ServoFamily(
 )
 
 #: every family, in the order parameters, topics and logs list them
-FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO, XL320)
+FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO, Y, XL320)
 _BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES}
 _BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
 

@@ -77,6 +77,17 @@ class Recovery:
                 self.watchdog.arm_watchdog(dxl_id)
         return rebooted
 
+    def clear_error(self, dxl_id: int, params: bytes) -> Result[bool]:
+        """The error clear of a servo that has one (Y: the Clear instruction with ``params``): no
+        reboot; the error item and torque are read again afterwards."""
+        cleared = self.bus.clear_error_result(dxl_id, params)
+        model = self.table.model(dxl_id)
+        codes = model.family.error_codes
+        for item in ("torque_enable", codes.item if codes is not None else ""):
+            if model.has(item):
+                self.io.read_item(dxl_id, item)
+        return cleared
+
     def _reboot_refused(self, dxl_id: int) -> str:
         """Why a reboot of ``dxl_id`` now is refused ("": it is not)."""
         now, interval = time.monotonic(), float(self.settings.clear_error_interval_s)

@@ -7,6 +7,7 @@ import logging
 import time
 from typing import Callable, Mapping
 
+from .. import error_state
 from ..servos import PendingWrites, ServoTable
 from ..settings import LoopSettings
 from .deferred import Deferred
@@ -115,16 +116,24 @@ class Requests:
         """Reboot to clear a hardware error (a servo without one is not rebooted); with
         ``keep_rotation`` the multi-turn position survives through the homing offset. Torque comes
         back on if it was on, or if the error's shutdown switched it off (then the error, not the
-        user, turned it off). At most once per clear_error_interval_sec per servo."""
-        error = self.io.read_item(dxl_id, "hardware_error_status")
+        user, turned it off). At most once per clear_error_interval_sec per servo. A servo with an
+        error code (Y) is cleared by its error clear instruction instead, not rebooted."""
+        model = self.table.model(dxl_id)
+        error = self.io.read_item(dxl_id, error_state.error_item(model))
         if error is None:
             warn(f"{what}: ID {dxl_id} did not answer the hardware error read: not rebooted")
             return False
-        if error == 0:
+        if not error_state.is_error(model, error):
             self.log.debug(f"{what}: ID {dxl_id} has no hardware error: nothing to clear (not rebooted)")
             return True
         if not self._clear_allowed(dxl_id, what, warn):
             return False
+        codes = model.family.error_codes
+        if codes is not None and codes.clear_params is not None:
+            return self._clear_code(dxl_id, error, codes.clear_params, what, warn)
+        return self._clear_by_reboot(dxl_id, error, keep_rotation, what, warn)
+
+    def _clear_by_reboot(self, dxl_id: int, error: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
         torque_was = self.io.value(dxl_id, "torque_enable")
         shutdown = self.io.value(dxl_id, "shutdown")
         torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
@@ -141,6 +150,23 @@ class Requests:
         if torque:
             self.io.torque_on(dxl_id)
         self.log.info(f"ID {dxl_id}: hardware error cleared ({'turns kept' if keep_rotation else 'turns reset'})")
+        return True
+
+    def _clear_code(self, dxl_id: int, error: int, params: bytes, what: str, warn: Warn) -> bool:
+        """An error code cleared by the servo's error clear; torque back on if it was on or the
+        error switched it off (as after a reboot that clears hardware error bits)."""
+        model = self.table.model(dxl_id)
+        codes = model.family.error_codes
+        code = codes.code(error) if codes is not None else None
+        torque = bool(self.io.value(dxl_id, "torque_enable")) or (code is None or code.torque_off)
+        name = error_state.describe(model, error)
+        cleared = self.recovery.clear_error(dxl_id, params)
+        if not cleared:
+            warn(f"{what}: ID {dxl_id} {name} not cleared: {cleared.failure}")
+            return False
+        if torque:
+            self.io.torque_on(dxl_id)
+        self.log.info(f"ID {dxl_id}: {name} cleared (error clear instruction, no reboot)")
         return True
 
     def _clear_allowed(self, dxl_id: int, what: str, warn: Warn) -> bool:

@@ -5,7 +5,7 @@ import logging
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-from .. import units
+from .. import error_state, units
 from ..bus import ServoBus, dummy_ids
 from ..control_table import model_by_number
 from ..errors import Interrupted, StartupError
@@ -133,15 +133,28 @@ class Startup:
         init/torque_auto_enable says; the bus watchdog when the loop next runs."""
         settings, model = self.settings, self.table.model(dxl_id)
         if settings.scan.hardware_error_auto_clean:
-            err = self.io.read_item(dxl_id, "hardware_error_status")
-            if err:
-                self.log.warning(f"ID {dxl_id}: hardware error 0x{err:02X} at start-up: clearing it by reboot")
-                self.recovery.reboot(dxl_id)
+            self._clear_error(dxl_id)
         delay = int(units.unit_to_pulse([model], "return_delay_time", [settings.start.return_delay_time])[0])
         self.eeprom.write_eeprom(dxl_id, "return_delay_time", delay)
         self._setup_ram(dxl_id)
         if settings.scan.torque_auto_enable:
             self.io.torque_on(dxl_id)
+
+    def _clear_error(self, dxl_id: int) -> None:
+        """A hardware error at start-up cleared by reboot; an error code (Y) by its error clear."""
+        model = self.table.model(dxl_id)
+        err = self.io.read_item(dxl_id, error_state.error_item(model))
+        if not error_state.is_error(model, err):
+            return
+        codes = model.family.error_codes
+        if codes is not None and codes.clear_params is not None:
+            self.log.warning(f"ID {dxl_id}: {error_state.describe(model, err or 0)} at start-up: clearing it")
+            cleared = self.recovery.clear_error(dxl_id, params=codes.clear_params)
+            if not cleared:
+                self.log.warning(f"ID {dxl_id}: error not cleared: {cleared.failure}")
+            return
+        self.log.warning(f"ID {dxl_id}: hardware error 0x{err or 0:02X} at start-up: clearing it by reboot")
+        self.recovery.reboot(dxl_id)
 
     def _setup_ram(self, dxl_id: int) -> None:
         """Profile defaults now; the bus watchdog when the loop starts (arming it here, servo by

@@ -7,7 +7,7 @@ from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
-from .. import units
+from .. import error_state, units
 from ..bus import ServoBus
 from ..groups import GROUP_ITEMS, PRESENT
 from ..servos import ServoTable
@@ -51,7 +51,7 @@ class Step:
         self._remove = remove
         self.settings = settings
         self.loop_count = 0
-        self._reported_errors: dict[int, int] = {}
+        self._reported_errors: dict[int, tuple[int, str | None]] = {}
 
     def step(self) -> StepReport:
         """One whole loop: queued operations, pending writes, the reads due, bookkeeping."""
@@ -196,17 +196,20 @@ class Step:
                 self.log.info(f"read {group} {item}: " + _rows(table.ids, table.pulses(item), logs.max_width))
 
     def _log_hardware_errors(self) -> None:
-        """One line per servo whose hardware error bits changed to non-zero."""
+        """One line per servo whose hardware error bits (or error code, named) changed to non-zero."""
         table = self.table
-        bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
+        bits = error_state.hardware_bits(table)
+        codes = error_state.codes_by_position(table)  # Y: the error code by name
         flags = units.decode_hardware_error(bits)
-        for pos in np.flatnonzero(bits):
+        errors = {table.ids[pos]: (int(bits[pos]), codes.get(pos)) for pos in {int(i) for i in np.flatnonzero(bits)} | set(codes)}
+        for pos in sorted(table.index[i] for i in errors):
             dxl_id = table.ids[pos]
-            if self._reported_errors.get(dxl_id) != bits[pos]:
-                causes = [name for name, f in flags.items() if f[pos]]
-                self.log.error(f"ID {dxl_id}: hardware error {', '.join(causes)} (0x{int(bits[pos]):02X}): "
+            if self._reported_errors.get(dxl_id) != errors[dxl_id]:
+                causes = ", ".join(name for name, f in flags.items() if f[pos])
+                what = codes.get(pos) or f"0x{int(bits[pos]):02X}"
+                self.log.error(f"ID {dxl_id}: hardware error {causes or what} ({what}): "
                                "clear it with the shortcut clear_error (CE)")
-        self._reported_errors = {table.ids[pos]: bits[pos] for pos in np.flatnonzero(bits)}
+        self._reported_errors = errors
 
 
 def _rows(ids: Sequence[int], values: np.ndarray, width: int) -> str:

@@ -93,7 +93,8 @@ class CommandTopics:
         def sub(typ, topic, callback, depth):
             intake.subscribe(typ, topic, callback, depth)
         # a family driven through another's topics (XL-320: the X ones) subscribes those, once
-        families = list(dict.fromkeys(family_named(s).topics for s in series))
+        # a family without series topics (Y) is driven through the series-independent ones only
+        families = [f for f in dict.fromkeys(family_named(s).topics for s in series) if f.series_topics]
         for f in families:
             sub(COMMANDS_TYPES[f], f"dynamixel/commands/{f.suffix}",
                 self._guard(f"commands/{f.suffix}", lambda m, f=f: self._bundle(f, m)), 10)

@@ -14,7 +14,7 @@ from typing import Any, Callable, Iterable, Mapping
 import numpy as np
 from builtin_interfaces.msg import Time
 
-from .. import units
+from .. import error_state, units
 from ..groups import ERROR_ITEMS, GAIN, GOAL, LIMIT, PRESENT, STATUS_ITEMS
 from ..servos import ServoTable
 
@@ -50,7 +50,7 @@ def _flag(table: ServoTable, item: str) -> np.ndarray:
 def status(table: ServoTable) -> Tree:
     known = table.known("operating_mode")
     return {"id_list": u16(table.ids), "torque": _flag(table, "torque_enable"),
-            "error": _flag(table, "hardware_error_status"), "ping": table.ping.copy(),
+            "error": error_state.in_error(table), "ping": table.ping.copy(),
             "mode": [(m.mode_name(int(v)) or "") if k else ""
                      for v, k, m in zip(table.pulses("operating_mode"), known, table.models)]}
 
@@ -92,7 +92,7 @@ def limit(table: ServoTable, units: Units | None = None) -> Tree:
 
 def error(table: ServoTable) -> Tree:
     msg: Tree = {"id_list": u16(table.ids)}
-    bits = np.where(table.known("hardware_error_status"), table.pulses("hardware_error_status"), 0)
+    bits = error_state.hardware_bits(table)  # a Y error code as the bits it stands for
     for name, flags in units.decode_hardware_error(bits).items():
         msg[name] = np.asarray(flags, dtype=bool)
     return msg

@@ -27,8 +27,9 @@ class Family:
 
 
 # Firmware version per control-table layout: X330 v52 (Indirect Data at 208), X430/X540 v48,
-# P and PRO "-R(A)" v13 (Fast Read from v12), old PRO "-R" v25 (no fast read).
-_FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25, "XL320": 23}
+# P and PRO "-R(A)" v13 (Fast Read from v12), old PRO "-R" v25 (no fast read), Y v13 (a
+# representative number: the Y pages give none; Fast Read is part of its Protocol 2.0).
+_FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25, "Y": 13, "XL320": 23}
 # Layouts without Fast Sync/Bulk Read: old PRO "-R", XL-320 (v23 a representative number).
 _NO_FAST_READ = frozenset({"OLD_PRO", "XL320"})
 # The supply a servo runs on, from its factory Max Voltage Limit: 5 V parts (up to 7.0 V), the
@@ -101,5 +102,6 @@ READ_ONLY = frozenset({
     "hardware_error_status", "realtime_tick", "moving", "moving_status", "present_pwm",
     "present_current", "present_load", "present_velocity", "present_position",
     "velocity_trajectory", "position_trajectory", "present_input_voltage", "present_temperature",
-    "backup_ready",
+    "backup_ready", "error_code", "controller_state", "present_inverter_temperature",
+    *(f"error_code_history_{n}" for n in range(1, 17)),
 })

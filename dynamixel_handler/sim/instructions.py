@@ -198,7 +198,7 @@ def _simple_error(servo: VirtualServo, pk: p.Packet, now: float) -> int | None:
     if inst == p.BACKUP:
         return servo.backup(pk.params, now)
     if inst == p.CLEAR:
-        return servo.clear_multi_turn(pk.params, now)
+        return servo.clear(pk.params, now)
     if inst == p.REBOOT:
         return p.ERR_NONE
     option = pk.params[0] if pk.params else 0xFF  # factory reset

@@ -14,6 +14,7 @@ from typing import Callable
 from dynamixel_handler.control_table import Item, Model, model_by_number
 
 from ..protocol import servo as p
+from . import error_codes
 from .defaults import MODE_RESET_ITEMS, factory_defaults, family
 from .dynamics import Dynamics
 from .memory import Memory
@@ -80,8 +81,8 @@ class VirtualServo:
         """Poke a value with no checks (a test's way to set a state a host could not)."""
         self.refresh(self._clock())
         self.registers.poke(name, int(value))
-        if name == "hardware_error_status":
-            self._apply_hardware_error(int(value))
+        if name in error_codes.ERROR_ITEMS:  # Hardware Error Status, or a Y Error Code
+            self._apply_hardware_error(int(value), name)
 
     def pin(self, name: str, value: int | None) -> None:
         """Hold a present-value item at ``value`` (None releases it), e.g. a sensor reading."""
@@ -131,7 +132,7 @@ class VirtualServo:
 
     def error_flags(self, error: int) -> int:
         """The status packet's error byte: ``error`` plus the alert bit on a hardware error."""
-        return error | (p.ALERT_BIT if self.registers.peek("hardware_error_status") else 0)
+        return error | (p.ALERT_BIT if error_codes.alert(self.registers) else 0)
 
     # ------------------------------------------------------------------ host instructions
     def note_instruction(self, now: float) -> None:
@@ -178,6 +179,15 @@ class VirtualServo:
         self._pending = None
         self.registers.poke("registered_instruction", 0)
         return self.host_write(address, data, now)
+
+    def clear(self, params: bytes, now: float) -> int:
+        """Clear (0x10): the multi-turn clear, or (Y) the error clear (``error_codes.clear``)."""
+        if not error_codes.is_error_clear(self.model, params):
+            return self.clear_multi_turn(params, now)
+        self.refresh(now)
+        error = error_codes.clear(self.registers)
+        self._shutdown_latched &= error != p.ERR_NONE
+        return error
 
     def clear_multi_turn(self, params: bytes, now: float) -> int:
         self.refresh(now)
@@ -256,8 +266,8 @@ class VirtualServo:
         if self.model.mode_name(value) == "position":
             self._dynamics.motor.p = self._dynamics.fold(self._dynamics.motor.p)
 
-    def _apply_hardware_error(self, bits: int) -> None:
-        if bits & self.registers.get("shutdown", 0xFF):
+    def _apply_hardware_error(self, bits: int, item: str = "hardware_error_status") -> None:
+        if error_codes.switches_torque_off(self.registers, item, bits):
             self._shutdown_latched = True
             self.registers.poke("torque_enable", 0)
             self._dynamics.motor.stop()

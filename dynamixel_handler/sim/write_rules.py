@@ -81,8 +81,8 @@ def _range(servo: Registers, name: str) -> tuple[int, int] | None:
         return item.value_range
     if name in ("max_position_limit", "min_position_limit"):
         return model.position_min_pulse, model.position_max_pulse
-    if name == "pwm_limit":
-        return 0, 885 if servo.x else 2009
+    if name == "pwm_limit":  # full scale: X 885, P 2009, Y 1000
+        return 0, int(round(100.0 / model.pwm_percent_per_pulse))
     if servo.x and name in _X_RANGES:  # X e-Manual ranges
         return _X_RANGES[name]
     return _COMMON_RANGES.get(name)
