@@ -1,0 +1,174 @@
+"""Regenerate the pictures of docs/setup_tool.md: ``scan`` and ``monitor`` as a terminal shows them.
+
+Each picture is the real command's real output: a virtual bus (``dynamixel_handler_sim``, wire
+timing on) stands in for the servos, ``dynamixel_handler_setup`` runs in a pseudo-terminal of
+110 x 40 (so it draws its rich tables and progress bar as on a terminal; ``monitor`` gets a ``q``
+after a few refreshes), and the screen it leaves is rebuilt from its bytes (carriage return, line
+feed, cursor up, erase line; colours kept) and recorded with rich's ``Console(record=True)`` as SVG:
+
+* ``docs/img/setup_scan.svg``: a full scan (every baud rate, IDs 0-252, Protocol 2.0 and 1.0) of
+  five servos at three baud rates, two of them sharing ID 4, and an AX-12A (Protocol 1.0);
+* ``docs/img/setup_monitor.svg``: ``monitor`` of three servos at 1 Mbps, one turning in velocity
+  mode and one with an overheating error.
+
+Usage: ``python scripts/setup_tool_pictures.py [--out docs/img] [--link /tmp/ttyDXL]`` (about a minute).
+"""
+from __future__ import annotations
+
+import argparse
+import fcntl
+import os
+import re
+import select
+import struct
+import subprocess
+import sys
+import tempfile
+import termios
+import time
+
+from rich.console import Console
+from rich.text import Text
+
+from dynamixel_handler.sim import VirtualBus
+
+COLS, ROWS = 110, 40
+TOOL = "dynamixel_handler_setup"
+_TOKEN = re.compile(rb"\x1b\[[0-9;?]*[A-Za-z]|\r|\n|[^\x1b\r\n]+|\x1b")
+
+
+def screen_of(raw: bytes) -> str:
+    """The lines a terminal shows after ``raw`` (rich's output: it moves up and erases whole lines,
+    so a line is only rewritten from its start); SGR colour codes are kept."""
+    lines, row, overwrite = [""], 0, False
+    for token in _TOKEN.findall(raw):
+        if token == b"\n":
+            row += 1
+            lines += [""] * (row + 1 - len(lines))
+        elif token == b"\r":
+            overwrite = True
+        elif token.startswith(b"\x1b["):
+            if token.endswith(b"A"):
+                row = max(0, row - int(token[2:-1] or b"1"))
+            elif token.endswith(b"K"):
+                lines[row] = ""
+            elif token.endswith(b"m"):
+                lines[row] += token.decode()
+        elif token != b"\x1b":
+            text = token.decode("utf-8", "replace")
+            lines[row] = text if overwrite else lines[row] + text
+            overwrite = False
+    while lines and not re.sub(r"\x1b\[[0-9;]*m", "", lines[-1]).strip():
+        lines.pop()
+    return "\n".join(lines)
+
+
+def run_in_terminal(argv: list[str], keys: bytes = b"", key_after_s: float | None = None,
+                    timeout_s: float = 300.0) -> bytes:
+    """Everything ``argv`` writes to a pseudo-terminal of COLS x ROWS (stdin, stdout and stderr)."""
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", ROWS, COLS, 0, 0))
+    env = {**os.environ, "COLUMNS": str(COLS), "LINES": str(ROWS), "TERM": "xterm-256color"}
+    env.pop("NO_COLOR", None)
+    proc = subprocess.Popen(argv, stdin=slave, stdout=slave, stderr=slave, env=env, close_fds=True)
+    os.close(slave)
+    out, started, sent = b"", time.monotonic(), key_after_s is None
+    while time.monotonic() - started < timeout_s:
+        if not sent and time.monotonic() - started > key_after_s:  # type: ignore[operator]
+            os.write(master, keys)
+            sent = True
+        ready, _, _ = select.select([master], [], [], 0.1)
+        if ready:
+            try:
+                data = os.read(master, 65536)
+            except OSError:  # the command ended and closed its side
+                break
+            if not data:
+                break
+            out += data
+        elif proc.poll() is not None:
+            break
+    else:
+        proc.kill()
+    proc.wait()
+    os.close(master)
+    return out
+
+
+def save_svg(command: str, raw: bytes, path: str, title: str) -> None:
+    """The screen after ``raw``, under a prompt line with ``command``, as an SVG."""
+    console = Console(record=True, width=COLS, force_terminal=True, color_system="truecolor",
+                      file=open(os.devnull, "w"))
+    console.print(Text.assemble(("$ ", "green"), command))
+    console.print(Text.from_ansi(screen_of(raw)))
+    console.save_svg(path, title=title)
+
+
+def _bus(servos: list[tuple[int, int, int]], folder: str, link: str) -> tuple[subprocess.Popen, str]:
+    """A virtual bus of (ID, model, bps) in its own process; returns it and its device path."""
+    state = os.path.join(folder, "bus.json")
+    bus = VirtualBus([(sid, model) for sid, model, _ in servos], wire_timing=False)
+    for servo, (_, _, bps) in zip(bus.all_servos, sorted(servos, key=lambda s: s[0])):
+        servo.write("baud_rate", {rate: v for v, rate in servo.baud_rates.items()}[bps])
+    bus.save_state(state)
+    bus.close()
+    proc = subprocess.Popen([sys.executable, "-m", "dynamixel_handler.sim", "--quiet", "--state", state,
+                             "--link", link], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    proc.stdout.readline()
+    return proc, link
+
+
+def _tool(*args: str) -> list[str]:
+    return [sys.executable, "-m", "dynamixel_handler.setup_tool", *args]
+
+
+def scan_picture(out: str, link: str) -> None:
+    servos = [(1, 1020, 57600), (2, 1020, 57600), (3, 1200, 1_000_000), (4, 1070, 115200),
+              (4, 1070, 115200), (7, 12, 1_000_000)]
+    with tempfile.TemporaryDirectory() as folder:
+        proc, device = _bus(servos, folder, link)
+        try:
+            raw = run_in_terminal(_tool("scan", "--device", device))
+        finally:
+            proc.communicate("quit\n", timeout=30)
+    save_svg(f"{TOOL} scan --device {device}", raw, os.path.join(out, "setup_scan.svg"), f"{TOOL} scan")
+
+
+def monitor_picture(out: str, link: str) -> None:
+    servos = [(1, 1020, 1_000_000), (2, 1020, 1_000_000), (3, 1120, 1_000_000)]
+    with tempfile.TemporaryDirectory() as folder:
+        proc, device = _bus(servos, folder, link)
+        try:
+            common = ("--device", device, "--baud", "1000000", "--yes")
+            for step in (("set-mode", "2", "velocity"), ("set", "2", "torque_enable", "1"),
+                         ("set", "2", "goal_velocity", "30rpm"), ("set", "1", "torque_enable", "1")):
+                subprocess.run(_tool(*step, *common), check=True, capture_output=True, timeout=60)
+            assert proc.stdin is not None
+            proc.stdin.write("hwerr 3 0x04\n")  # overheating
+            proc.stdin.flush()
+            time.sleep(0.5)
+            raw = run_in_terminal(_tool("monitor", "--device", device, "--baud", "1000000"), b"q", 3.0)
+        finally:
+            proc.communicate("quit\n", timeout=30)
+    save_svg(f"{TOOL} monitor --device {device} --baud 1000000", raw, os.path.join(out, "setup_monitor.svg"),
+             f"{TOOL} monitor")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "..", "docs", "img"))
+    ap.add_argument("--link", default="/tmp/ttyDXL", help="the virtual bus's device link (shown in the pictures)")
+    ap.add_argument("--only", choices=("scan", "monitor"))
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    if args.only in (None, "scan"):
+        scan_picture(args.out, args.link)
+    if args.only in (None, "monitor"):
+        monitor_picture(args.out, args.link)
+    print(f"pictures written to {os.path.normpath(args.out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
