@@ -1,9 +1,9 @@
-"""MX-28/64/106 (2.0), XC335-T332 and the RH-P12-RN(A) gripper through the real node on the virtual
-bus: each is recognised with its name, a command in units lands as the pulses the e-Manual's units
+"""MX-28/64/106 (2.0), XC335-T332 and the RH-P12-RN(A) gripper (and its older RH-P12-RN firmware)
+through the real node on the virtual bus: each is recognised with its name, a command in units lands as the pulses the e-Manual's units
 give (written out here, not taken from the product's tables), present values come back in units, a
 mode change and a limit write work, and what a model lacks reads back as the spec says (NaN, false).
-The MX and XC335 take the X topics; the gripper the series-independent ones (status, goal, limit),
-in its own modes only.
+The MX and XC335 take the X topics; the grippers the series-independent ones (status, goal, limit),
+in their own modes only.
 """
 from __future__ import annotations
 
@@ -42,9 +42,12 @@ MANUALS = {
     4: Manual("XC335-T332", X_DEG, 2048, X_DEG_S, 1.0, ("ex_position", "position"), "warp"),
     # RH-P12-RN(A): 1 pulse = 0.088 deg (12-bit encoder over 360 deg), 0 = open; 0.01 rpm; 1 mA
     5: Manual("RH-P12-RN(A)", 360.0 / 4096, 0, 0.01 * 6.0, 1.0, ("current", "cur_position"), "position"),
+    # RH-P12-RN (older firmware, the old PRO table): the same stroke, 0.114 rpm, about 4.02 mA
+    6: Manual("RH-P12-RN", 360.0 / 4096, 0, 0.114 * 6.0, 4.02, ("current", "cur_position"), "ex_position"),
 }
-SERVOS = {1: 30, 2: 311, 3: 321, 4: 1700, 5: 35074}
-X_IDS, GRIPPER = [1, 2, 3, 4], 5
+SERVOS = {1: 30, 2: 311, 3: 321, 4: 1700, 5: 35074, 6: 35073}
+X_IDS, GRIPPER, OLD_GRIPPER = [1, 2, 3, 4], 5, 6
+SERIES = {GRIPPER: "P", OLD_GRIPPER: "Pro"}
 MODE = {"current": 0, "velocity": 1, "position": 3, "ex_position": 4, "cur_position": 5, "pwm": 16}
 
 
@@ -55,7 +58,7 @@ def pulses(value: float, per_lsb: float) -> int:
 @pytest.fixture(scope="module")
 def rig():
     r = Rig(SERVOS, "mode_change_interval_sec:=0.0", "pub_ratio/status:=3", "pub_ratio/goal:=3",
-            "pub_ratio/limit:=3", "pub_ratio/extra.dynamic_items:=3", "pub_ratio/extra.static_items:=3")
+            "pub_ratio/limit:=3", "pub_ratio/gain:=3", "pub_ratio/extra.dynamic_items:=3", "pub_ratio/extra.static_items:=3")
     yield r
     assert r.close() == 0
 
@@ -90,7 +93,7 @@ def test_recognised_at_start_up_with_its_name(rig, dxl_id):
     assert f"ID {dxl_id}: {MANUALS[dxl_id].name}" in rig.output, rig.output
     rig.wait(lambda: rig.state_of("extra", "model_number", dxl_id) == SERVOS[dxl_id],
              what=f"extra.model_number of ID {dxl_id}")
-    assert rig.state_of("extra", "model", dxl_id) == ("P" if dxl_id == GRIPPER else "X")  # the series
+    assert rig.state_of("extra", "model", dxl_id) == SERIES.get(dxl_id, "X")  # the series
 
 
 @pytest.mark.parametrize("dxl_id", X_IDS)
@@ -102,17 +105,18 @@ def test_x_topic_position_in_degrees_lands_as_raw_goal(rig, dxl_id):
                             "goal_position": man.zero + pulses(45.0 - 10 * dxl_id, man.deg)})
 
 
-def test_gripper_closes_to_a_goal_position_with_a_current_limit(rig):
+@pytest.mark.parametrize("dxl_id", [GRIPPER, OLD_GRIPPER])
+def test_gripper_closes_to_a_goal_position_with_a_current_limit(rig, dxl_id):
     """The gripper ships in current-based position mode: the series-independent goal topic sets the
     stroke and the current it may use, without a mode change."""
-    man = MANUALS[GRIPPER]
-    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[GRIPPER], torque=[True]))
-    wait_regs(rig, GRIPPER, {"torque_enable": 1})
-    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[GRIPPER], position_deg=[60.0], current_ma=[400.0]))
-    wait_regs(rig, GRIPPER, {"operating_mode": MODE["cur_position"], "goal_position": pulses(60.0, man.deg),
-                             "goal_current": 400})
-    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[GRIPPER], position_deg=[0.0], current_ma=[150.0]))
-    wait_regs(rig, GRIPPER, {"goal_position": 0, "goal_current": 150})
+    man = MANUALS[dxl_id]
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[dxl_id], torque=[True]))
+    wait_regs(rig, dxl_id, {"torque_enable": 1})
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[60.0], current_ma=[400.0]))
+    wait_regs(rig, dxl_id, {"operating_mode": MODE["cur_position"], "goal_position": pulses(60.0, man.deg),
+                            "goal_current": pulses(400.0, man.ma)})
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[0.0], current_ma=[150.0]))
+    wait_regs(rig, dxl_id, {"goal_position": 0, "goal_current": pulses(150.0, man.ma)})
 
 
 @pytest.mark.parametrize("dxl_id", sorted(SERVOS))
@@ -178,6 +182,12 @@ def test_what_a_model_lacks_reads_back_as_the_spec_says(rig):
     assert rig.state_of("extra", "restore_configuration.startup_torque_on", 1) is False
     assert rig.state_of("extra", "drive_mode.reverse_mode", GRIPPER) is False
     assert math.isnan(rig.state_of("extra", "pwm_slope_percent", GRIPPER))
+    # the older RH-P12-RN: no PWM, no Homing Offset, no velocity gains
+    wait_state(rig, "present", "pwm_percent", OLD_GRIPPER, math.nan, 0)
+    rig.wait(lambda: rig.state_of("gain", "position_p_gain_pulse", OLD_GRIPPER) is not None, what="gains of ID 6")
+    assert rig.state_of("gain", "velocity_p_gain_pulse", OLD_GRIPPER) == 0  # uint: 0 where none
+    assert rig.state_of("gain", "position_i_gain_pulse", OLD_GRIPPER) == reg(rig, OLD_GRIPPER, "position_i_gain")
+    assert math.isnan(rig.state_of("extra", "homing_offset_deg", OLD_GRIPPER))
 
 
 def doc_lines() -> list[tuple[str, object]]:

@@ -218,11 +218,14 @@ class Model:
 
 def _raw_items(facts: ModelFacts) -> Tuple[Dict[str, Tuple[int, int]], Dict[str, float]]:
     if facts.old_pro:
-        return dict(OLD_PRO_ITEMS), {}
-    table = load_sdk_table(facts.sdk_file)
-    rows = dict(table.rows)
+        rows, type_info = dict(OLD_PRO_ITEMS), {}
+    else:
+        table = load_sdk_table(facts.sdk_file)
+        rows, type_info = dict(table.rows), table.type_info
     rows.update(facts.extra_items)
-    return rows, table.type_info
+    for name in facts.missing_items:
+        del rows[name]
+    return rows, type_info
 
 
 def _layout(facts: ModelFacts) -> str:

@@ -146,4 +146,7 @@ FACTORY: Dict[int, Values] = {
     # ---- old PRO "-R": the shared table of pro/h54-200-s500-r and its siblings -----------------
     **{number: _old_pro() for number in (43288, 46096, 46352, 51200, 53768, 54024, 37896, 37928, 38152, 38176)},
     35072: _old_pro(shutdown=48),                                   # pro/l42-10-s300-r
+    # RH-P12-RN (platform/rh_p12_rn): the old PRO page's values and its limits; gains "-"
+    35073: {**_old_pro(shutdown=48), "acceleration_limit": 255, "current_limit": 820, "velocity_limit": 100,
+            "max_position_limit": 1150, "min_position_limit": 0, "moving_threshold": 10, "operating_mode": 5},
 }

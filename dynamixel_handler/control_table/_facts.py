@@ -72,6 +72,8 @@ class ModelFacts:
     position_range: Optional[Tuple[int, int]] = None
     #: the topics switch it only to its own operating modes, whatever its family offers
     own_modes: bool = False
+    #: items of the table it is built on (the old PRO one) that this model lacks
+    missing_items: Tuple[str, ...] = ()
 
 
 def _x(name: str, sdk_file: str, current_ma: float, extra: Optional[Dict[str, Tuple[int, int]]] = None,
@@ -121,6 +123,15 @@ _RH_P12_RN_A = ModelFacts("RH-P12-RN(A)", "P", "rh_p12_rn.model", 1.0, P_VELOCIT
                           P_PWM_FULL_SCALE, 2048, {"external_port_data_1": (600, 2), "external_port_data_2": (602, 2),
                                                    "external_port_data_3": (604, 2), "external_port_data_4": (606, 2)},
                           modes=(0, 5), position_range=(0, 1150), own_modes=True)
+
+# RH-P12-RN, the gripper's older firmware (e-Manual platform/rh_p12_rn): model number 35073, the old
+# PRO "-R" table without Homing Offset and the velocity gains, with Position D / I Gain at 590 / 592;
+# Present Current "about 4.02 mA", velocity 0.114 rpm, Goal Acceleration 214.577 rev/min^2, no PWM;
+# position 0 (open) .. 1,150 pulses of 0.088 deg; modes 0 and 5 only. Not in the SDK's files.
+_RH_P12_RN = ModelFacts("RH-P12-RN", "PRO", None, 4.02, 0.114, 214.577, NAN, 2048,
+                        {"position_d_gain": (590, 2), "position_i_gain": (592, 2)}, old_pro=True, modes=(0, 5),
+                        position_range=(0, 1150), own_modes=True,
+                        missing_items=("homing_offset", "velocity_i_gain", "velocity_p_gain"))
 
 _PRO_54 = 33000.0 / 2048.0
 _PRO_42 = 8250.0 / 2048.0
@@ -198,6 +209,7 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     # 0.00346667, L54-*-S500 0.00199234, L54-30-S400 0.00249657 rpm; resolution 207,692 /
     # 361,384 / 288,395 pulses per turn. L42-10-S300-R: 4096 pulses per turn, 0.114 rpm per LSB,
     # Goal Acceleration "214 RPM^2 @ Core Motor" (gear 303.75), velocity and position modes only.
+    35073: _RH_P12_RN,
     35072: _old_pro("L42-10-S300-R", 0.114, _PRO_42, 2048, acceleration_rpm2=214.0 / 303.75, modes=(1, 3)),
     37896: _old_pro("L54-30-S500-R", 0.00199234, _PRO_54, 180692),
     37928: _old_pro("L54-30-S400-R", 0.00249657, _PRO_54, 144197),

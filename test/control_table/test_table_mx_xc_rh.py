@@ -124,3 +124,25 @@ def test_other_models_keep_their_family_modes():
     for number in (1020, 1060, 2020, 54025, 54024):
         model = model_by_number(number)
         assert model.modes == model.family.modes and not model.own_modes
+
+
+def test_rh_p12_rn_old_firmware_is_the_old_pro_table_without_what_it_lacks():
+    """RH-P12-RN (model 35073, e-Manual platform/rh_p12_rn): the old PRO "-R" addresses, no Homing
+    Offset and no velocity gains but Position D / I Gain, its own units and two modes."""
+    model = model_by_number(35073)
+    assert (model.name, model.family.name, model.layout) == ("RH-P12-RN", "PRO", "OLD_PRO")
+    assert addresses(35073, "torque_enable", "position_d_gain", "position_i_gain", "position_p_gain",
+                     "goal_position", "goal_velocity", "goal_current", "profile_acceleration",
+                     "present_position", "present_current", "status_return_level") == [
+        (562, 1), (590, 2), (592, 2), (594, 2), (596, 4), (600, 4), (604, 2), (606, 4), (611, 4), (621, 2), (891, 1)]
+    assert not any(model.has(n) for n in ("homing_offset", "velocity_i_gain", "velocity_p_gain", "goal_pwm"))
+    assert model.modes == {"current", "cur_position"} and model.operating_modes == (0, 5)
+    assert model.current_ma_per_pulse == pytest.approx(4.02)
+    assert model.velocity_deg_s_per_pulse == pytest.approx(0.114 * 6)
+    assert model.acceleration_deg_ss_per_pulse == pytest.approx(214.577 / 10)
+    assert math.isnan(model.pwm_percent_per_pulse)
+    assert (model.position_min_pulse, model.position_max_pulse) == (0, 1150)
+    assert model.indirect == ((49, 634, 256),)
+    factory = model.factory
+    assert (factory["operating_mode"], factory["current_limit"], factory["velocity_limit"]) == (5, 820, 100)
+    assert (factory["acceleration_limit"], factory["max_position_limit"], factory["shutdown"]) == (255, 1150, 48)
