@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import units
 from .control_table import Model
 from .servos import ServoTable
 
@@ -39,9 +40,40 @@ def _codes_of(table: ServoTable) -> list[tuple[int, int, Model]]:
     return out
 
 
+def common_bits(model: Model, bits: int) -> int:
+    """Hardware Error Status (or Shutdown) bits in the X and P layout the handler decodes: the
+    XL-320 has its own order (``ServoFamily.error_bits``: overload 0, overheating 1, input voltage 2)."""
+    layout = model.family.error_bits
+    if not layout or not bits:
+        return bits
+    return units.encode_shutdown(**{f"{name}_error": bool(bits >> bit & 1) for name, bit in layout})
+
+
+def own_bits(model: Model, common: int) -> int:
+    """``common_bits`` the other way: bits of the X and P layout as the model's register holds them."""
+    layout = model.family.error_bits
+    if not layout:
+        return common
+    flags = units.decode_shutdown([common])
+    return sum(1 << bit for name, bit in layout if flags[f"{name}_error"][0])
+
+
+def common_array(models: list[Model], values: np.ndarray) -> np.ndarray:
+    """``common_bits`` for a table's array of bits (a copy where a model has its own layout)."""
+    own = [pos for pos, m in enumerate(models) if m.family.error_bits]
+    if not own:
+        return values
+    out = np.array(values, dtype=np.int64)
+    for pos in own:
+        out[pos] = common_bits(models[pos], int(out[pos]))
+    return out
+
+
 def hardware_bits(table: ServoTable) -> np.ndarray:
-    """Hardware error bits per servo (0 where unknown): read, or what an error code stands for."""
+    """Hardware error bits per servo (0 where unknown): read, or what an error code stands for, in
+    the X and P layout."""
     bits = np.where(table.known(HARDWARE_ERROR), table.pulses(HARDWARE_ERROR), 0).astype(np.int64)
+    bits = common_array(table.models, bits)
     for pos, code, model in _codes_of(table):
         codes = model.family.error_codes
         if codes is not None:

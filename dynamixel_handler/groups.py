@@ -57,8 +57,8 @@ LIMIT: Mapping[str, str] = {
 # a servo reports its errors in Hardware Error Status, or (Y) in Error Code (``error_state``)
 STATUS_ITEMS = ("operating_mode", "torque_enable", "hardware_error_status", "error_code")
 ERROR_ITEMS = ("hardware_error_status", "error_code")
-EXTRA_DYNAMIC_ITEMS = ("led", "led_red", "led_green", "led_blue", "realtime_tick", "moving", "moving_status",
-                       "bus_watchdog")
+EXTRA_DYNAMIC_ITEMS = ("led", "led_red", "led_green", "led_blue", "led_colour", "realtime_tick", "moving",
+                       "moving_status", "bus_watchdog")
 EXTRA_STATIC_ITEMS = ("model_number", "firmware_version", "return_delay_time", "drive_mode", "secondary_id",
                       "protocol_type", "homing_offset", "moving_threshold", "startup_configuration", "pwm_slope",
                       "shutdown")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 from typing import Any, Iterable, Mapping, Protocol, Sequence
 
-from .. import units
+from .. import error_state, units
 from ..control_table import Model, ServoFamily
 from ..core.api import ServoAccess
 
@@ -78,9 +78,10 @@ def _bit_registers(c: Checks, dxl_id: int, model: Model, given: _Given, what: st
     if any(f in fields for f in _RESTORE) and model.has("startup_configuration"):
         _restore_configuration(c, dxl_id, given)
     if any(f.startswith("shutdown.") for f in fields) and model.has("shutdown"):
-        old = units.decode_shutdown([c._value(dxl_id, "shutdown") or 0])
+        # in the X and P bit layout; the XL-320's own order (error_state.common_bits) on its register
+        old = units.decode_shutdown([error_state.common_bits(model, c._value(dxl_id, "shutdown") or 0)])
         flags = {name: bool(given(f"shutdown.{name}", old[name][0])) for name in old}
-        c.h.write_eeprom(dxl_id, "shutdown", units.encode_shutdown(**flags))
+        c.h.write_eeprom(dxl_id, "shutdown", error_state.own_bits(model, units.encode_shutdown(**flags)))
 
 
 class _Given:
@@ -165,5 +166,9 @@ def _led(c: Checks, dxl_id: int, model: Model, colour: str, percent: float, what
         c.h.write_item(dxl_id, f"led_{colour}", int(percent * 255.0 / 100.0 + 0.5))
     elif colour == "red" and model.has("led"):  # X: one LED, on from 50 %
         c.h.write_item(dxl_id, "led", 1 if percent >= 50.0 else 0)
+    elif model.has("led_colour"):  # XL-320: one colour, a bit per LED (0 red, 1 green, 2 blue), on from 50 %
+        bit = 1 << ("red", "green", "blue").index(colour)
+        old = c._value(dxl_id, "led_colour") or 0
+        c.h.write_item(dxl_id, "led_colour", old | bit if percent >= 50.0 else old & ~bit)
     else:
         c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {colour} LED: ignored")

@@ -98,6 +98,19 @@ def error(table: ServoTable) -> Tree:
     return msg
 
 
+def _led(table: ServoTable) -> Tree:
+    """LED brightness per colour in %: P / Pro 0..255 per colour; X one LED (red) on or off; XL-320
+    one colour of three bits (0 red, 1 green, 2 blue), each on or off."""
+    colour_known, colour = table.known("led_colour"), table.pulses("led_colour")
+    out: Tree = {}
+    for bit, name in enumerate(("red", "green", "blue")):
+        fallback = np.where(colour_known, ((colour >> bit) & 1) * 100.0, np.nan)
+        if name == "red":  # X: one LED
+            fallback = np.where(table.known("led"), table.pulses("led") * 100.0, fallback)
+        out[f"{name}_percent"] = np.where(table.known(f"led_{name}"), table.pulses(f"led_{name}") * 100.0 / 255.0, fallback)
+    return out
+
+
 def extra(table: ServoTable) -> Tree:
     n = len(table)
     has = table.known("moving_status")
@@ -113,7 +126,6 @@ def extra(table: ServoTable) -> Tree:
     has = table.known("startup_configuration")
     ram_restore, startup_torque = units.decode_startup_configuration(table.pulses("startup_configuration"))
     has_shutdown = table.known("shutdown")
-    led = np.where(table.known("led"), table.pulses("led") * 100.0, np.nan)
     return {
         "id_list": u16(table.ids),
         "model": [m.family.title for m in table.models],  # the series (design); the
@@ -134,11 +146,9 @@ def extra(table: ServoTable) -> Tree:
         "restore_configuration": {"ram_restore": np.asarray(ram_restore, bool) & has,
                                   "startup_torque_on": np.asarray(startup_torque, bool) & has},
         "pwm_slope_percent": np.where(table.known("pwm_slope"), table.pulses("pwm_slope"), np.nan).astype(np.float64),
-        "shutdown": {name: np.asarray(flags, bool) & has_shutdown
-                     for name, flags in units.decode_shutdown(table.pulses("shutdown")).items()},
-        "led": {"red_percent": np.where(table.known("led_red"), table.pulses("led_red") * 100.0 / 255.0, led),
-                "green_percent": np.where(table.known("led_green"), table.pulses("led_green") * 100.0 / 255.0, np.nan),
-                "blue_percent": np.where(table.known("led_blue"), table.pulses("led_blue") * 100.0 / 255.0, np.nan)},
+        "shutdown": {name: np.asarray(flags, bool) & has_shutdown for name, flags in units.decode_shutdown(
+            error_state.common_array(table.models, table.pulses("shutdown"))).items()},  # XL-320: its own bit order
+        "led": _led(table),
         "bus_watchdog_ms": table.units("bus_watchdog"),
         "reboot": np.zeros(n, dtype=bool),
     }
