@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
-from typing import Callable, NoReturn, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES
 from . import backup, monitor, verbs_bus, verbs_config
@@ -21,7 +22,12 @@ Verb = Callable[[Context, argparse.Namespace], None]
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports a bad command line in one line (exit code 2)."""
+    """argparse that reports a bad command line in one line (exit code 2) and takes a value with a
+    unit that starts with a minus (``-90deg``) as a value, as it takes ``-90``."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str) -> NoReturn:
         print(f"error: {message} (see {self.prog} --help)", file=sys.stderr)

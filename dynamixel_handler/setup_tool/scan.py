@@ -61,16 +61,27 @@ def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int
     return len(rates) * ((1 if 2 in protocols else 0) + (len(ids) if 1 in protocols else 0))
 
 
-def _noise(bus: DynamixelBus) -> int:
-    return bus.stats.crc_errors + bus.stats.discarded_bytes
+#: bytes of one ping's status reply (Protocol 2.0: header 4, ID, length 2, instruction, error, 3 params, CRC 2)
+_PING_REPLY_BYTES = 14
 
 
-def _collides(bus: DynamixelBus, dxl_id: int) -> bool:
-    """True when the replies at ``dxl_id`` are garbled or doubled (two servos answering)."""
-    before = _noise(bus)
-    answers = sum(bus.ping_result(dxl_id, retries=0).value is not None for _ in range(_CLEAN_PINGS))
-    bus.ping_result(dxl_id, retries=0)  # its input flush counts what came after the last reply
-    return answers < _CLEAN_PINGS or _noise(bus) != before
+def _probe(bus: DynamixelBus, dxl_id: int, pings: int) -> tuple[int | None, bool]:
+    """Ping ``dxl_id`` ``pings`` times: (its model number or None, whether two servos seem to answer).
+
+    Two servos at one ID show as CRC errors, as bytes read while waiting that made no valid reply
+    (overlapping replies), or as a second complete reply after an answered ping (counted when the
+    next ping flushes the input, so with ``pings`` > 1 the first ping only flushes what came
+    before). A reply that is merely late (a loaded host) is none of these.
+    """
+    first = bus.ping_result(dxl_id, retries=0).value if pings > 1 else None
+    stats = bus.stats
+    crc, rx, discarded = stats.crc_errors, stats.bytes_rx, stats.discarded_bytes
+    models = [bus.ping_result(dxl_id, retries=0).value for _ in range(max(1, pings - 1))]
+    answered = [m for m in models if m is not None]
+    garbled = stats.crc_errors != crc or stats.bytes_rx - rx > len(answered) * _PING_REPLY_BYTES
+    if pings > 1 and len(answered) == len(models):
+        garbled = garbled or stats.discarded_bytes != discarded
+    return (answered[0] if answered else first), garbled
 
 
 def _details(bus: DynamixelBus, dxl_id: int, number: int) -> Found:
@@ -102,27 +113,28 @@ def _errors(bits: int) -> list[str]:
 
 
 def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -> None:
-    before = _noise(bus)
+    before = bus.stats.crc_errors + bus.stats.discarded_bytes
     answered = bus.scan(ids, broadcast=len(ids) >= 5)
-    suspects: list[int] = []
-    if _noise(bus) != before:  # a garbled reply train: which IDs garble?
-        for dxl_id in ids:
-            if dxl_id not in answered:
-                mark = _noise(bus)
-                bus.ping_result(dxl_id, retries=0)
-                bus.ping_result(dxl_id, retries=0)
-                if _noise(bus) != mark:
-                    suspects.append(dxl_id)
-    for dxl_id, number in answered.items():
-        found = _details(bus, dxl_id, number)
-        found.collision = _collides(bus, dxl_id)
-        result.found.append(found)
-    for dxl_id in suspects:
-        result.found.append(Found(dxl_id, bus.baudrate, 2, collision=True))
-    for found in result.found:
-        if found.collision:
+    garbled_train = bus.stats.crc_errors + bus.stats.discarded_bytes != before
+    for dxl_id in ids:
+        number = answered.get(dxl_id)
+        if number is None:
+            if not garbled_train:
+                continue  # a clean reply train: nobody at this ID
+            quick, noisy = _probe(bus, dxl_id, 1)
+            if quick is None and not noisy:
+                continue
+        # the last ping's input flush is the next one's: one more than needed counts doubled replies
+        probed, collision = _probe(bus, dxl_id, _CLEAN_PINGS + 2)
+        number = number if number is not None else probed
+        if number is None and not collision:
+            continue
+        found = _details(bus, dxl_id, number) if number is not None else Found(dxl_id, bus.baudrate, 2)
+        if collision:
+            found.collision = True
             found.note = ("two servos answer at this ID (garbled or doubled replies): connect them one at a time "
                           "and give each its own ID (assign-ids)")
+        result.found.append(found)
 
 
 def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, tick: Callable[[], None]) -> None:

@@ -104,7 +104,7 @@ def connect(bus: DynamixelBus, dxl_id: int) -> Servo:
 
 def locate(bus: DynamixelBus, dxl_id: int, baud_given: bool) -> Servo:
     """``connect``, looking at every baud rate (the given one first) when ``--baud`` was not given."""
-    if baud_given or bus.ping_result(dxl_id, retries=1).value is not None:
+    if baud_given or bus.ping_result(dxl_id).value is not None:
         return connect(bus, dxl_id)
     start = bus.baudrate
     for bps in SEARCH_ORDER:
