@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler
+
 from support.ros import NodeProcess, node_command
 from support.sdk import PatientPort
 
