@@ -150,8 +150,12 @@ def _report(args, wire: bool, rates: list[int], tool_s: float, document: dict, s
     collided = sorted({s["dxl_id"] for s in servos if s.get("collision")})
     print(f"tool  dynamixel_handler_setup scan: {tool_s:7.1f} s wall (its own figure {document.get('seconds', 0):.1f} s); "
           f"found {len(tool_found)}: {tool_found}; collisions at IDs {collided}")
-    loop = " + Protocol 2.0 ping loop" if args.sdk_ping_loop_2 else ""
-    print(f"sdk   broadcastPing + Protocol 1.0 ping loop{loop}: {sdk_s:7.1f} s; found {len(sdk_found)}: {sdk_found}"
+    parts = []
+    if args.protocol in ("2", "both"):
+        parts.append("broadcastPing" + (" + Protocol 2.0 ping loop" if args.sdk_ping_loop_2 else ""))
+    if args.protocol in ("1", "both"):
+        parts.append("Protocol 1.0 ping loop")
+    print(f"sdk   {' + '.join(parts)}: {sdk_s:7.1f} s; found {len(sdk_found)}: {sdk_found}"
           + (f"; rates the port refused: {refused}" if refused else ""))
     print(f"ratio sdk / tool: {sdk_s / tool_s:.2f} (above 1: the tool is faster)")
     if args.json:
