@@ -190,6 +190,17 @@ def test_what_a_model_lacks_reads_back_as_the_spec_says(rig):
     assert math.isnan(rig.state_of("extra", "homing_offset_deg", OLD_GRIPPER))
 
 
+@pytest.mark.parametrize("dxl_id", [GRIPPER, OLD_GRIPPER])
+def test_a_goal_beyond_the_stroke_is_clamped_to_the_position_limit(rig, dxl_id):
+    """The gripper refuses a goal position outside its position limits (e-Manual: Limit Error) in
+    current-based position mode: the handler clamps it to the limit and says so."""
+    limit = reg(rig, dxl_id, "max_position_limit")
+    mark = rig.mark()
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[150.0], current_ma=[200.0]))
+    rig.wait_log("clamped", f"ID {dxl_id}", since=mark)
+    wait_regs(rig, dxl_id, {"goal_position": limit})
+
+
 def doc_lines() -> list[tuple[str, object]]:
     """The ``ros2 topic pub`` lines of docs/gripper.md as (topic, message)."""
     text = (Path(__file__).resolve().parent.parent / "docs" / "gripper.md").read_text(encoding="utf-8")

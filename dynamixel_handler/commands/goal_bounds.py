@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 
 from .. import units
-from ..control_table import POSITION_LIMITED_MODES, Model
+from ..control_table import Model
 from ..servos import ServoTable
 
 if TYPE_CHECKING:
@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 def _limited_mode_values(models: tuple[Model, ...]) -> np.ndarray:
     """Per model, the operating mode value whose goal positions stay within the position limits
     (each model's own value: the XL-320's joint mode is 2); -1 where it has none."""
-    values = [next((v for name, v in m.mode_values.items() if name in POSITION_LIMITED_MODES), -1) for m in models]
+    values = [next((v for name, v in m.mode_values.items() if name in m.position_limited_modes), -1) for m in models]
     out = np.array(values, dtype=np.int64)
     out.setflags(write=False)
     return out
@@ -119,7 +119,7 @@ def goal_position_limits(h: ServoAccess, dxl_id: int, model: Model) -> tuple[int
     """One servo's goal position bounds in pulses, from its mode, its position limits (read from
     the servo when the table lacks them) and its model."""
     bounds = model_bounds(model)
-    if h.mode(dxl_id) in POSITION_LIMITED_MODES:
+    if h.mode(dxl_id) in model.position_limited_modes:
         a, b = h.value(dxl_id, "min_position_limit"), h.value(dxl_id, "max_position_limit")
         if a is not None and b is not None and a <= b:
             return a, b

@@ -167,6 +167,9 @@ class Model:
     #: the handler switches it only to its own modes (``mode_values``), not to every mode of its
     #: family (MX-28(2.0): no current modes; RH-P12-RN(A): current and current-based position only)
     own_modes: bool = False
+    #: the modes whose goal positions stay within the position limits (a gripper's stroke: every
+    #: position mode it has)
+    position_limited_modes: Tuple[str, ...] = POSITION_LIMITED_MODES
     #: unit per pulse of an item whose scale differs from its quantity's (Y: Present Input Voltage
     #: in 0.01 V, the voltage limits in 0.1 V); NaN: the item has no physical unit
     item_scales: Mapping[str, float] = field(default_factory=dict, repr=False)
@@ -287,7 +290,10 @@ def _own_modes(facts: ModelFacts, modes: Tuple[int, ...]) -> Dict[str, Any]:
     if not facts.own_modes:
         return {}
     values = {name: value for name, value in OPERATING_MODES.items() if value in modes}
-    return {"own_modes": True, "mode_values": MappingProxyType(values)}
+    own: Dict[str, Any] = {"own_modes": True, "mode_values": MappingProxyType(values)}
+    if facts.position_range is not None:  # a stroke, not turns: no goal beyond its limits
+        own["position_limited_modes"] = POSITION_LIMITED_MODES + ("cur_position",)
+    return own
 
 
 def _build_y(number: int) -> Model:

@@ -128,7 +128,7 @@ def _limit_error(servo: Registers, name: str, value: int, changes: Changes) -> i
         return p.ERR_DATA_LIMIT
     if name == "goal_position":
         mode = new("operating_mode")
-        if mode == servo.model.mode_values.get("position") and \
+        if servo.model.mode_name(mode) in servo.model.position_limited_modes and \
                 not new("min_position_limit") <= value <= new("max_position_limit"):
             return p.ERR_DATA_LIMIT
         if mode in EXTENDED_MODES and servo.x and abs(value) > X_EXTENDED_GOAL_LIMIT:

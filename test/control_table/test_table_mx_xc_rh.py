@@ -146,3 +146,28 @@ def test_rh_p12_rn_old_firmware_is_the_old_pro_table_without_what_it_lacks():
     factory = model.factory
     assert (factory["operating_mode"], factory["current_limit"], factory["velocity_limit"]) == (5, 820, 100)
     assert (factory["acceleration_limit"], factory["max_position_limit"], factory["shutdown"]) == (255, 1150, 48)
+
+
+def test_virtual_servos_refuse_what_the_hardware_refuses():
+    """The virtual bus from these tables: a gripper refuses a goal beyond its position limits in
+    current-based position mode (an X servo there does not: multi-turn), the MX-28(2.0) refuses the
+    current modes and the gripper every mode but its two."""
+    from dynamixel_handler.protocol import servo as wire
+    from dynamixel_handler.sim.servo import VirtualServo
+
+    def error(number: int, item: str, value: int) -> int:
+        servo = VirtualServo(number, 1, lambda: 0.0)
+        spec = servo.model.item(item)
+        return servo.check_write(spec.address, spec.to_bytes(value))[0]
+
+    for number in (RH_P12_RN_A, 35073):
+        assert error(number, "goal_position", 1151) == wire.ERR_DATA_LIMIT
+        assert error(number, "goal_position", 740) == wire.ERR_NONE
+        assert error(number, "operating_mode", 3) == wire.ERR_DATA_RANGE
+        assert error(number, "operating_mode", 0) == wire.ERR_NONE
+    assert error(MX_28, "operating_mode", 0) == wire.ERR_DATA_RANGE
+    assert error(MX_28, "operating_mode", 5) == wire.ERR_DATA_RANGE
+    assert error(MX_28, "operating_mode", 16) == wire.ERR_NONE
+    x = VirtualServo(MX_64, 1, lambda: 0.0)
+    x.write("operating_mode", 5)
+    assert x.check_write(116, (5000).to_bytes(4, "little"))[0] == wire.ERR_NONE
