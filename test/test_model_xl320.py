@@ -33,14 +33,16 @@ PERCENT = 100.0 / 1023.0   # Max Torque: % per unit
 CW = 1 << 10               # the direction bit of speeds and load
 JOINT, WHEEL = 2, 1        # Control Mode values
 XL320, IDS = 350, (1, 2)
+XM430, X_ID = 1020, 3      # an X servo on the same bus, set to 1 Mbps
 
 
 @pytest.fixture(scope="module")
 def rig():
-    r = Rig({i: XL320 for i in IDS}, "baudrate:=1000000", "init/used_servo_series.XL320:=true",
+    r = Rig({**{i: XL320 for i in IDS}, X_ID: XM430}, "baudrate:=1000000", "init/used_servo_series.XL320:=true",
             "mode_change_interval_sec:=0.0", "pub_ratio/status:=3", "pub_ratio/goal:=3", "pub_ratio/gain:=3",
             "pub_ratio/limit:=3", "pub_ratio/error:=3", "pub_ratio/extra.dynamic_items:=3",
-            "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0")
+            "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
+            sim_kwargs={"baudrate": 1_000_000})
     yield r
     assert r.close() == 0
 
@@ -104,6 +106,16 @@ def test_x_position_command_in_degrees_lands_as_the_raw_goal(rig):
     bundle.position_control = DynamixelControlXPosition(id_list=[1], position_deg=[-45.0])
     rig.publish("/dynamixel/commands/x", bundle)
     wait_raw(rig, 1, {GOAL_POSITION: ZERO - 153})  # 45 / 0.2933 = 153.45
+
+
+def test_one_x_command_for_an_xl320_and_an_x_servo(rig):
+    """The speed of the move goes to each servo's own item: Moving Speed on the XL-320, Profile
+    Velocity on the XM430 (0.229 rpm a unit, 4096 pulses a turn around 2048)."""
+    set_mode(rig, 1, "position", JOINT)
+    rig.publish("/dynamixel/command/x/position_control",
+                DynamixelControlXPosition(id_list=[1, X_ID], position_deg=[20.0, 20.0], profile_vel_deg_s=[60.0, 60.0]))
+    wait_raw(rig, 1, {GOAL_POSITION: ZERO + 68, MOVING_SPEED: 90})  # 20 / 0.2933 = 68.2
+    wait_raw(rig, X_ID, {(116, 4): 2048 + 228, (112, 4): 44})     # 20 / 0.0879 = 227.6; 60 / 1.374 = 43.7
 
 
 def test_present_position_and_velocity_come_back_in_units_with_the_direction_bit(rig):
