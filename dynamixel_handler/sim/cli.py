@@ -51,7 +51,9 @@ def parse_model(text: str) -> int:
     for model in known_models():
         if model.name.lower() == text.lower():
             return model.number
-    for model in known_models():  # MX-28 for MX-28(2.0): the only firmware of it this bus speaks
+    # MX-64 for MX-64(2.0), whose Protocol 1.0 firmware the bus does not have; "MX-28" is the 1.0
+    # firmware above (model 29), "MX-28(2.0)" or 30 the 2.0 one
+    for model in known_models():
         if model.name.lower().replace("(2.0)", "") == text.lower():
             return model.number
     raise argparse.ArgumentTypeError(f"unknown model {text!r} (see --list-models)")
