@@ -168,8 +168,9 @@ def test_limit_write_lands_in_eeprom_units(rig):
     rig.publish("/dynamixel/command/limit",
                 DynamixelLimit(id_list=[1], max_position_limit_deg=[100.0], min_position_limit_deg=[-100.0],
                                temperature_limit_degc=[60.0], pwm_limit_percent=[50.0]))
-    # CCW / CW Angle Limit 512 +- 341 (100 / 0.2933 = 341.0), Temperature Limit 60, Max Torque 511.5 -> 512
-    wait_raw(rig, 1, {(8, 2): ZERO + 341, (6, 2): ZERO - 341, (12, 1): 60, (15, 2): 512})
+    # CCW / CW Angle Limit 512 +- 341 (100 / 0.2933 = 341.0), Temperature Limit 60, Max Torque 511.5 -> 512;
+    # Torque Limit (35), which the servo takes from Max Torque only at power on, too: the limit holds at once
+    wait_raw(rig, 1, {(8, 2): ZERO + 341, (6, 2): ZERO - 341, (12, 1): 60, (15, 2): 512, (35, 2): 512})
     wait_state(rig, "limit", "max_position_limit_deg", 1, 341 * DEG)
     wait_state(rig, "limit", "pwm_limit_percent", 1, 512 * PERCENT)
     # a goal beyond the new limit is held to it

@@ -173,6 +173,9 @@ class Model:
     #: unit per pulse of an item whose scale differs from its quantity's (Y: Present Input Voltage
     #: in 0.01 V, the voltage limits in 0.1 V); NaN: the item has no physical unit
     item_scales: Mapping[str, float] = field(default_factory=dict, repr=False)
+    #: EEPROM item -> the RAM item the servo copies it into at power on (XL-320: Max Torque ->
+    #: Torque Limit): the handler writes the RAM item too, so a new limit holds at once
+    ram_copies: Mapping[str, str] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "mode_names", MappingProxyType({v: k for k, v in self.mode_values.items()}))
@@ -328,7 +331,7 @@ def _build_xl320() -> Model:
         position_max_pulse=1023, position_min_pulse=0, layout="XL320",
         baud_rates=MappingProxyType(dict(_xl320.BAUD_RATES)), operating_modes=tuple(sorted(_xl320.MODE_VALUES.values())),
         table_size=_xl320.TABLE_SIZE, factory=MappingProxyType(dict(_xl320.FACTORY)),
-        mode_values=MappingProxyType(dict(_xl320.MODE_VALUES)),
+        mode_values=MappingProxyType(dict(_xl320.MODE_VALUES)), ram_copies=MappingProxyType(dict(_xl320.RAM_COPIES)),
     )
 
 

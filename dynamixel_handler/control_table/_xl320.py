@@ -81,6 +81,9 @@ FACTORY: Mapping[str, int] = {
     "registered_instruction": 0, "moving": 0, "hardware_error_status": 0, "punch": 32,
 }
 
+#: EEPROM item -> the RAM item the servo copies it into at power on (Torque Limit := Max Torque)
+RAM_COPIES: Mapping[str, str] = {"pwm_limit": "torque_limit"}
+
 #: Hardware Error Status / Shutdown bits: cause -> bit
 ERROR_BITS: Mapping[str, int] = {"overload": 0, "overheating": 1, "input_voltage": 2}
 

@@ -79,6 +79,13 @@ class Deferred:
             todo[item] = pulses
         return self._write_now(dxl_id, todo) if todo else _WRITTEN
 
+    def _ram_copy(self, dxl_id: int, item: str, pulses: int) -> None:
+        """The RAM item the servo takes an EEPROM item's value into at power on (XL-320: Torque
+        Limit from Max Torque), written too: the new value holds at once, not after a reboot."""
+        copy = self.table.model(dxl_id).ram_copies.get(item)
+        if copy is not None:
+            self.io.write_item(dxl_id, copy, pulses)
+
     def _write_now(self, dxl_id: int, todo: dict[str, int]) -> Result[bool]:
         """Torque off, the EEPROM items written, torque back on if it was on; the first failure."""
         torque = self.io.torque_off_for_eeprom(dxl_id)
@@ -87,6 +94,7 @@ class Deferred:
             written = self.io.write_item(dxl_id, item, pulses)
             if written:
                 self._eeprom_written[(dxl_id, item)] = time.monotonic()
+                self._ram_copy(dxl_id, item, pulses)
             else:
                 failure = failure or written.failure
                 self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {written.failure}")

@@ -151,3 +151,12 @@ def test_virtual_xl320_unboxed_its_write_rules_and_wheel_mode():
     clock.t += 1.0
     assert servo.read("present_velocity") == -300
     assert int.from_bytes(servo.read_raw(39, 2), "little") == 1024 + 300
+
+
+def test_virtual_xl320_takes_torque_limit_from_max_torque_at_power_on():
+    clock = Clock()
+    servo = VirtualServo(350, 1, clock)
+    assert servo.host_write(15, (600).to_bytes(2, "little"), clock.t) == ERR_NONE  # Max Torque (EEPROM)
+    assert servo.read("torque_limit") == 1023  # RAM: still the value taken at power on
+    servo.reboot(clock.t)
+    assert (servo.read("pwm_limit"), servo.read("torque_limit")) == (600, 600)
