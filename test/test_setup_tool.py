@@ -350,3 +350,54 @@ def test_refused_while_a_handler_holds_the_port_and_a_second_handler_fails_at_st
         assert node.stop() == 0 or True
     out = tool(sim, "get", "1", "id", "--baud", "57600")  # the handler stopped: the port is free again
     assert out.returncode == 0 and "ID 1 (XM430-W350) id = 1" in out.stdout, out.text
+
+
+def test_servos_at_one_id_answering_one_after_the_other_are_told_apart(sim_of):
+    """Return Delay Times a reply's length apart: the host gets two valid replies for one ping."""
+    sim = sim_of("6:XM430-W350", "8:XM430-W350", "2:XM540-W270")
+    sdk_write1(sim.path, 57600, 8, 9, 0)  # Return Delay Time 0 (the other keeps 250 = 500 us)
+    for dxl_id in (6, 8, 2):
+        sdk_write1(sim.path, 57600, dxl_id, BAUD_RATE_ADDR, 3)  # 1 Mbps: a ping reply is 140 us on the wire
+    sdk_write1(sim.path, 1_000_000, 8, 7, 6)  # ID 8 -> 6
+    out = tool(sim, "scan", "--ids", "0-9", "--baud", "1000000", "--protocol", "2", "--json")
+    assert out.returncode == 0, out.text
+    found = {f["dxl_id"]: f for f in json.loads(out.stdout)["servos"]}
+    assert sorted(found) == [2, 6] and found[6]["collision"] and not found[2]["collision"], out.text
+    assert found[6]["model_number"] == XM430  # each reply alone is valid: the model is known
+
+
+def test_monitor_on_a_terminal_is_a_live_table_that_q_quits(sim_of):
+    import pty
+
+    sim = sim_of("1:XM430-W350")
+    cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
+    pid, fd = pty.fork()
+    if pid == 0:  # the child: the tool on a terminal
+        os.execvpe(cmd[0], [*cmd, "--device", sim.path, "--latency", "10", "monitor", "--baud", "57600"],
+                   dict(ENV, COLUMNS="160", LINES="40"))
+    screen = b""
+    end = time.monotonic() + 30
+    while b"XM430-W350" not in screen and time.monotonic() < end - 10:
+        screen += _read_some(fd)
+    os.write(fd, b"q")
+    while time.monotonic() < end:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        screen += _read_some(fd)
+    else:
+        os.kill(pid, signal.SIGKILL)
+        raise AssertionError(f"monitor did not quit on q:\n{screen.decode(errors='replace')}")
+    text = screen.decode(errors="replace")
+    assert os.waitstatus_to_exitcode(status) == 0, text
+    assert "(q quits)" in text and "XM430-W350" in text and "\x1b[" in text  # a rich table, with colours
+
+
+def _read_some(fd: int) -> bytes:
+    import select
+
+    readable, _, _ = select.select([fd], [], [], 0.2)
+    try:
+        return os.read(fd, 65536) if readable else b""
+    except OSError:
+        return b""

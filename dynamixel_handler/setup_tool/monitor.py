@@ -32,22 +32,35 @@ _SHOWN = (("position", "present_position", "{:.1f} deg"), ("velocity", "present_
           ("voltage", "present_input_voltage", "{:.1f} V"))
 
 
-def _row(servo: Servo, mode: str) -> tuple[list[object], bool]:
-    """One table row and whether the servo has something wrong (no reply, hardware error)."""
+def _sample(servo: Servo, mode: str) -> dict[str, object]:
+    """One servo's present values in units (None where the model lacks one), or ``reply: False``."""
     model = servo.model
     names = [n for _, n, _ in _SHOWN if model.has(n)] + ["torque_enable", "hardware_error_status"]
     items = sorted((model.item(n) for n in names if model.has(n)), key=lambda i: i.address)
     got = servo.bus.read_result(servo.dxl_id, items[0].address, items[-1].address + items[-1].size - items[0].address)
+    sample: dict[str, object] = {"id": servo.dxl_id, "model": model.name, "mode": mode, "reply": got.value is not None}
     if got.value is None:
-        return [servo.dxl_id, model.name, "no reply", "", "", "", "", mode, "", ""], True
+        return sample
     raw = {i.name: int.from_bytes(got.value[i.address - items[0].address:][:i.size], "little", signed=i.signed)
            for i in items}
-    row: list[object] = [servo.dxl_id, model.name]
-    for _, name, fmt in _SHOWN:
-        value = to_unit(model, model.item(name), raw[name]) if name in raw else None
-        row.append(fmt.format(value) if value is not None else "-")
-    errors = _errors(raw.get("hardware_error_status", 0))
-    row += [mode, "on" if raw.get("torque_enable") == 1 else "off", ",".join(errors) or "-"]
+    for column, name, _ in _SHOWN:
+        sample[column] = to_unit(model, model.item(name), raw[name]) if name in raw else None
+    sample["torque"] = raw.get("torque_enable") == 1
+    sample["errors"] = _errors(raw.get("hardware_error_status", 0))
+    return sample
+
+
+def _row(sample: dict[str, object]) -> tuple[list[object], bool]:
+    """One table row and whether the servo has something wrong (no reply, hardware error)."""
+    row: list[object] = [sample["id"], sample["model"]]
+    if not sample["reply"]:
+        return row + ["no reply", "", "", "", "", sample["mode"], "", ""], True
+    for column, _, fmt in _SHOWN:
+        value = sample[column]
+        row.append(fmt.format(value) if isinstance(value, float) else "-")
+    errors = sample["errors"]
+    assert isinstance(errors, list)
+    row += [sample["mode"], "on" if sample["torque"] else "off", ",".join(errors) or "-"]
     return row, bool(errors)
 
 
@@ -87,11 +100,12 @@ def _quit_pressed(timeout: float) -> bool:
 def monitor(ctx: Context, args: argparse.Namespace) -> None:
     servos = _servos(ctx, args.ids)
     period = 1.0 / max(0.2, min(args.rate, 50.0))
-    snapshots = []
+    snapshots: list[list[dict[str, object]]] = []
 
     def table() -> tuple[list[list[object]], list[str | None]]:
-        rows = [_row(s, mode) for s, mode in servos]
-        snapshots.append([r for r, _ in rows])
+        samples = [_sample(s, mode) for s, mode in servos]
+        snapshots.append(samples)
+        rows = [_row(sample) for sample in samples]
         return [r for r, _ in rows], ["red" if bad else None for _, bad in rows]
 
     live = ctx.out.human and args.count is None and sys.stdin.isatty()
@@ -104,8 +118,8 @@ def monitor(ctx: Context, args: argparse.Namespace) -> None:
             if k + 1 < (args.count or 1):
                 time.sleep(period)
     else:
-        ctx.out.say("q quits")
-        with _keys(), Live(rich_table("", COLUMNS, *table()), console=ctx.out.console, auto_refresh=False) as view:
+        title = f"{ctx.bus.device} at {ctx.bus.baudrate} bps (q quits)"
+        with _keys(), Live(rich_table(title, COLUMNS, *table()), console=ctx.out.console, auto_refresh=False) as view:
             while not _quit_pressed(period):
-                view.update(rich_table(f"{ctx.bus.device} at {ctx.bus.baudrate} bps", COLUMNS, *table()), refresh=True)
-    ctx.out.document.update(columns=COLUMNS, refreshes=snapshots)
+                view.update(rich_table(title, COLUMNS, *table()), refresh=True)
+    ctx.out.document.update(refreshes=snapshots)

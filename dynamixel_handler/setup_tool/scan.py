@@ -4,6 +4,7 @@ person needs (model, firmware, mode, torque, hardware error) and two servos at o
 from one: their replies collide (CRC errors or bytes that belong to no reply, at that ID only)."""
 from __future__ import annotations
 
+import time
 from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
@@ -65,6 +66,13 @@ def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int
 _PING_REPLY_BYTES = 14
 
 
+def _ping(bus: DynamixelBus, dxl_id: int, pause_s: float) -> int | None:
+    model = bus.ping_result(dxl_id, retries=0).value
+    if pause_s:
+        time.sleep(pause_s)
+    return model
+
+
 def _probe(bus: DynamixelBus, dxl_id: int, pings: int) -> tuple[int | None, bool]:
     """Ping ``dxl_id`` ``pings`` times: (its model number or None, whether two servos seem to answer).
 
@@ -73,10 +81,13 @@ def _probe(bus: DynamixelBus, dxl_id: int, pings: int) -> tuple[int | None, bool
     next ping flushes the input, so with ``pings`` > 1 the first ping only flushes what came
     before). A reply that is merely late (a loaded host) is none of these.
     """
-    first = bus.ping_result(dxl_id, retries=0).value if pings > 1 else None
+    # a second servo's reply may come up to a Return Delay Time (508 us at most) after the first one:
+    # each ping waits for it, so the next ping's input flush counts it instead of taking it as its answer
+    pause_s = (0.0015 + 2 * _PING_REPLY_BYTES * 10.0 / bus.baudrate) if pings > 1 else 0.0
+    first = _ping(bus, dxl_id, pause_s) if pings > 1 else None
     stats = bus.stats
     crc, rx, discarded = stats.crc_errors, stats.bytes_rx, stats.discarded_bytes
-    models = [bus.ping_result(dxl_id, retries=0).value for _ in range(max(1, pings - 1))]
+    models = [_ping(bus, dxl_id, pause_s) for _ in range(max(1, pings - 1))]
     answered = [m for m in models if m is not None]
     garbled = stats.crc_errors != crc or stats.bytes_rx - rx > len(answered) * _PING_REPLY_BYTES
     if pings > 1 and len(answered) == len(models):

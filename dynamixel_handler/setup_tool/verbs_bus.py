@@ -75,11 +75,27 @@ def reboot(ctx: Context, args: argparse.Namespace) -> None:
         raise StepFailed("; ".join(failed))
 
 
+def _check_free_after_reset(ctx: Context, servo: Servo, level: str) -> None:
+    """Refuse a reset that would put the servo where another one answers (it would collide there)."""
+    where_id = servo.dxl_id if level != "all" else _FACTORY_ID
+    where_bps = ctx.bus.baudrate if level == "id,baud" else _FACTORY_BPS
+    if (where_id, where_bps) == (servo.dxl_id, ctx.bus.baudrate):
+        return
+    here = ctx.bus.baudrate
+    ctx.bus.set_baudrate(where_bps)
+    other = ctx.bus.ping_result(where_id, retries=1).value
+    ctx.bus.set_baudrate(here)
+    if other is not None:
+        raise StepFailed(f"{servo.who}: after this reset it would answer at ID {where_id}, {where_bps} bps, where another "
+                         f"servo (model {other}) answers: they would collide; nothing was reset")
+
+
 def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
     level = "all" if args.all else args.keep
     servo = ctx.servo(args.id)
     keeps = {"all": "nothing: it comes back as ID 1 at 57600 bps", "id": "its ID (baud rate back to 57600)",
              "id,baud": "its ID and baud rate"}[level]
+    _check_free_after_reset(ctx, servo, level)
     ctx.confirm(f"{servo.who}: factory reset of every EEPROM item, keeping {keeps}?")
     if servo.torque_on():
         servo.write("torque_enable", 0)

@@ -145,6 +145,12 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
         ctx.out.say(f"{servo.who} is already at {old} bps: nothing written")
         ctx.out.document.update(id=servo.dxl_id, baudrate=old, written=False)
         return
+    ctx.bus.set_baudrate(args.bps)
+    there = ctx.bus.ping_result(servo.dxl_id, retries=1).value
+    ctx.bus.set_baudrate(old)
+    if there is not None:
+        raise StepFailed(f"{servo.who}: another servo (model {there}) answers at ID {servo.dxl_id} at {args.bps} bps: "
+                         "the two would collide there; give one another ID first")
     ctx.confirm(f"{servo.who}: change its baud rate from {old} to {args.bps} bps (EEPROM)?")
 
     def found_again() -> Servo:
