@@ -181,6 +181,13 @@ def test_scan_prints_a_plain_table_when_piped(sim_of):
     assert lines[0].split()[:3] == ["ID", "model", "number"]
     assert lines[1].split()[:5] == ["1", "XM430-W350", "1020", "48", "57600"]
     assert "\x1b[" not in out.stdout and "2 servo(s) found at 1 baud rate(s)" in out.stdout
+    picture = sim.path.replace("/", "_") + ".svg"
+    svg = Path(os.environ.get("TMPDIR", "/tmp")) / picture
+    out = tool(sim, "scan", "--ids", "0-3", "--baud", "57600", "--protocol", "2", "--svg", str(svg))
+    text = svg.read_text()
+    svg.unlink()
+    assert out.returncode == 0 and text.startswith("<svg") and "XM540-W270" in text, text[:300]
+    assert "dynamixel_handler_setup&#160;scan" in text
 
 
 # ---------------------------------------------------------------------- set-id / set-baud / set
@@ -307,6 +314,11 @@ def test_info_get_and_monitor(sim_of):
     out = tool(sim, "get", "2", "present_input_voltage", "--json")
     doc = json.loads(out.stdout)
     assert doc["unit"] == "V" and doc["value"] == pytest.approx(doc["raw"] * 0.1)
+
+    sdk_write1(sim.path, 57600, 2, 65, 1)  # LED on (RAM)
+    out = tool(sim, "reboot", "2")
+    assert out.returncode == 0 and "ID 2 (XM540-W270) rebooted and answers again" in out.stdout, out.text
+    assert sdk_read(sim.path, 57600, 2, 65, 1) == 0  # RAM back to its defaults: it did reboot
 
     out = tool(sim, "monitor", "--count", "2", "--rate", "10", "--baud", "57600")
     assert out.returncode == 0, out.text

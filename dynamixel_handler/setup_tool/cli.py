@@ -84,6 +84,8 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
     g.add_argument("--latency", type=float, default=default(4.0), metavar="MS",
                    help="adapter latency timer [ms] for reply timeouts (default 4; FTDI adapters are set to it)")
     g.add_argument("--retries", type=int, default=default(2), metavar="N", help="retries of a failed transaction")
+    g.add_argument("--svg", default=default(None), metavar="FILE",
+                   help="also save the output as it looks in a terminal, as an SVG picture")
 
 
 def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -165,7 +167,7 @@ def _bus_rate(args: argparse.Namespace) -> tuple[int, bool]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    out = Output(as_json=args.json)
+    out = Output(as_json=args.json, svg=args.svg)
     try:
         rate, given = _bus_rate(args)
     except argparse.ArgumentTypeError as exc:
@@ -191,7 +193,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             bus.close()
     out.document["ok"] = code == 0
     try:
-        out.finish()
+        out.finish(f"{PROG} {args.verb_name}")
     except BrokenPipeError:  # `| head`: the reader left; nothing more to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return code

@@ -37,6 +37,8 @@ def _sample(servo: Servo, mode: str) -> dict[str, object]:
     model = servo.model
     names = [n for _, n, _ in _SHOWN if model.has(n)] + ["torque_enable", "hardware_error_status"]
     items = sorted((model.item(n) for n in names if model.has(n)), key=lambda i: i.address)
+    if not items:
+        return {"id": servo.dxl_id, "model": model.name, "mode": mode, "reply": False}
     got = servo.bus.read_result(servo.dxl_id, items[0].address, items[-1].address + items[-1].size - items[0].address)
     sample: dict[str, object] = {"id": servo.dxl_id, "model": model.name, "mode": mode, "reply": got.value is not None}
     if got.value is None:
@@ -108,17 +110,19 @@ def monitor(ctx: Context, args: argparse.Namespace) -> None:
         rows = [_row(sample) for sample in samples]
         return [r for r, _ in rows], ["red" if bad else None for _, bad in rows]
 
-    live = ctx.out.human and args.count is None and sys.stdin.isatty()
+    live = ctx.out.human and args.count is None and sys.stdin.isatty() and ctx.out.svg is None
+    title = f"{ctx.bus.device} at {ctx.bus.baudrate} bps (q quits)"
     if not live:
         for k in range(args.count or 1):
-            rows, _ = table()
-            if not ctx.out.as_json:
+            rows, styles = table()
+            if ctx.out.console is not None:
+                ctx.out.console.print(rich_table(title, COLUMNS, rows, styles))
+            elif not ctx.out.as_json:
                 print(plain_table(COLUMNS, rows), file=ctx.out.stream, flush=True)
                 print("", file=ctx.out.stream, flush=True)
             if k + 1 < (args.count or 1):
                 time.sleep(period)
     else:
-        title = f"{ctx.bus.device} at {ctx.bus.baudrate} bps (q quits)"
         with _keys(), Live(rich_table(title, COLUMNS, *table()), console=ctx.out.console, auto_refresh=False) as view:
             while not _quit_pressed(period):
                 view.update(rich_table(title, COLUMNS, *table()), refresh=True)

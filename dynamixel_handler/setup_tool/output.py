@@ -13,6 +13,9 @@ from rich.table import Table
 
 __all__ = ["Output", "Ticker", "plain_table"]
 
+#: columns of a recorded terminal (``--svg``)
+_SVG_WIDTH = 118
+
 
 class Ticker(Protocol):
     def __call__(self, steps: float = 1.0, what: str | None = None) -> None: ...
@@ -28,12 +31,19 @@ def plain_table(columns: Sequence[str], rows: Sequence[Sequence[object]]) -> str
 class Output:
     """Where results go. ``human``: a terminal (rich); else plain text; ``as_json``: one document."""
 
-    def __init__(self, as_json: bool = False, stream: TextIO | None = None, err: TextIO | None = None) -> None:
+    def __init__(self, as_json: bool = False, stream: TextIO | None = None, err: TextIO | None = None,
+                 svg: str | None = None) -> None:
         self.stream = stream if stream is not None else sys.stdout
         self.err = err if err is not None else sys.stderr
         self.as_json = as_json
-        self.human = not as_json and self.stream.isatty()
-        self.console = Console(file=self.stream, highlight=False) if self.human else None
+        #: ``--svg FILE``: the terminal output (tables, colours) recorded and saved as a picture
+        self.svg = svg
+        self.human = not as_json and (self.stream.isatty() or svg is not None)
+        self.console: Console | None = None
+        if svg is not None:
+            self.console = Console(file=self.stream, highlight=False, record=True, force_terminal=True, width=_SVG_WIDTH)
+        elif self.human:
+            self.console = Console(file=self.stream, highlight=False)
         #: what ``--json`` prints at the end (verbs fill it)
         self.document: dict[str, Any] = {}
 
@@ -60,14 +70,16 @@ class Output:
             return
         self.console.print(rich_table(title, columns, rows, styles))
 
-    def finish(self) -> None:
+    def finish(self, title: str = "dynamixel_handler_setup") -> None:
+        if self.svg is not None and self.console is not None:
+            self.console.save_svg(self.svg, title=title)
         if self.as_json:
             print(json.dumps(self.document, indent=1, sort_keys=True), file=self.stream, flush=True)
 
     @contextmanager
     def progress(self, total: float, what: str) -> Iterator[Ticker]:
         """A progress bar with the time left on a terminal (nothing when piped); yields ``tick``."""
-        if not self.human or self.console is None:
+        if not self.human or self.console is None or self.svg is not None:
             yield lambda steps=1.0, what=None: None
             return
         columns = (TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
