@@ -131,6 +131,16 @@ def sdk_write1(path: str, bps: int, dxl_id: int, address: int, value: int) -> No
         port.closePort()
 
 
+def sdk_write4(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
+    port = PatientPort(path)
+    assert port.openPort() and port.setBaudRate(bps)
+    try:
+        comm, err = PacketHandler(2.0).write4ByteTxRx(port, dxl_id, address, value & 0xFFFFFFFF)
+        assert comm == COMM_SUCCESS and err == 0
+    finally:
+        port.closePort()
+
+
 def sdk_ping(path: str, bps: int, dxl_id: int) -> int | None:
     port = PatientPort(path)
     assert port.openPort() and port.setBaudRate(bps)
@@ -235,6 +245,22 @@ def test_an_eeprom_write_turns_torque_off_and_back_on_and_a_value_already_there_
     assert sdk_read(sim.path, 57600, 1, 44, 4) == doc["raw"] and sdk_read(sim.path, 57600, 1, 64, 1) == 1
     again = tool(sim, "set", "1", "velocity_limit", str(doc["raw"]), "--yes", "--json")
     assert json.loads(again.stdout)["written"] is False and "nothing written" in again.stderr
+
+
+def test_torque_comes_back_without_a_move_the_user_did_not_ask_for(sim_of):
+    sim = sim_of("1:XM430-W350")
+    sdk_write1(sim.path, 57600, 1, 11, 1)  # velocity mode
+    sdk_write1(sim.path, 57600, 1, 64, 1)  # torque on
+    sdk_write4(sim.path, 57600, 1, 104, 100)  # Goal Velocity: it turns
+    out = tool(sim, "set", "1", "velocity_limit", "300", "--yes")
+    assert out.returncode == 0, out.text
+    assert sdk_read(sim.path, 57600, 1, 64, 1) == 1  # torque back on ...
+    assert sdk_read(sim.path, 57600, 1, 104, 4) == 0  # ... at rest, not turning on by itself
+    out = tool(sim, "set-mode", "1", "position", "--yes")
+    assert out.returncode == 0, out.text
+    present = sdk_read(sim.path, 57600, 1, 132, 4)
+    assert sdk_read(sim.path, 57600, 1, 64, 1) == 1
+    assert abs(sdk_read(sim.path, 57600, 1, 116, 4) - present) < 20  # Goal Position := where it is
 
 
 # ---------------------------------------------------------------------- assign-ids

@@ -71,7 +71,7 @@ def _allowed(model: Model, item: Item) -> dict[int, str] | None:
     if item.name == "baud_rate":
         return {value: f"{bps} bps" for value, bps in model.baud_rates.items()}
     if item.name == "operating_mode" and model.operating_modes:
-        return {value: f"mode {value}" for value in model.operating_modes}
+        return {value: model.mode_name(value) or f"mode {value}" for value in model.operating_modes}
     return None
 
 

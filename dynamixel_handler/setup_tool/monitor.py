@@ -14,7 +14,6 @@ from typing import Iterator
 
 from rich.live import Live
 
-from ..control_table import OPERATING_MODES
 from .context import Context
 from .errors import StepFailed
 from .items import to_unit
@@ -25,7 +24,6 @@ from .servo import Servo
 __all__ = ["monitor"]
 
 COLUMNS = ["ID", "model", "position", "velocity", "current", "temp", "voltage", "mode", "torque", "errors"]
-_MODE_NAMES = {value: name for name, value in OPERATING_MODES.items()}
 #: (column, item, format)
 _SHOWN = (("position", "present_position", "{:.1f} deg"), ("velocity", "present_velocity", "{:.1f} deg/s"),
           ("current", "present_current", "{:.0f} mA"), ("temp", "present_temperature", "{:.0f} degC"),
@@ -74,7 +72,7 @@ def _servos(ctx: Context, ids: list[int] | None) -> list[tuple[Servo, str]]:
     servos = []
     for dxl_id in ids:
         servo = ctx.servo(dxl_id)
-        mode = _MODE_NAMES.get(servo.read("operating_mode"), "?") if servo.model.has("operating_mode") else "-"
+        mode = (servo.model.mode_name(servo.read("operating_mode")) or "?") if servo.model.has("operating_mode") else "-"
         servos.append((servo, mode))
     return servos
 

@@ -9,14 +9,13 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
 from ..bus import BusError, DynamixelBus
-from ..control_table import OPERATING_MODES, model_by_number
+from ..control_table import model_by_number
 from ..units import decode_hardware_error
 from .protocol1 import SWITCH_TO_2, model_name1, ping1
 from .servo import Servo
 
 __all__ = ["Found", "ScanResult", "scan_bus", "scan_steps"]
 
-_MODE_NAMES = {value: name for name, value in OPERATING_MODES.items()}
 #: pings per found ID that must all come back clean for it to count as one servo
 _CLEAN_PINGS = 3
 
@@ -104,7 +103,8 @@ def _details(bus: DynamixelBus, dxl_id: int, number: int) -> Found:
         found.note = "model not in the control table: the handler cannot drive it"
         return found
     found.model = servo.model.name
-    for name, setter in (("operating_mode", lambda v: setattr(found, "mode", _MODE_NAMES.get(v, str(v)))),
+    model = servo.model
+    for name, setter in (("operating_mode", lambda v: setattr(found, "mode", model.mode_name(v) or str(v))),
                          ("torque_enable", lambda v: setattr(found, "torque", v == 1)),
                          ("hardware_error_status", lambda v: setattr(found, "hardware_error", _errors(v)))):
         if servo.model.has(name):

@@ -71,8 +71,11 @@ class Servo:
         except StepFailed as exc:
             self._restore_torque(torque, self)
             raise StepFailed(f"{exc}; nothing was changed{' (torque back on)' if torque else ''}") from None
-        target = after() if after is not None else self
-        got = target.read(item.name)
+        try:
+            target = after() if after is not None else self
+            got = target.read(item.name)
+        except StepFailed as exc:
+            raise StepFailed(f"{exc}{' (torque left off)' if torque else ''}") from None
         target._restore_torque(torque, target)
         if got != raw:
             raise StepFailed(f"{target.who}: {item.name} reads {show_value(self.model, item, got)} after writing "
@@ -81,7 +84,23 @@ class Servo:
 
     def _restore_torque(self, was_on: bool, servo: Servo) -> None:
         if was_on:
-            servo.write("torque_enable", 1)
+            servo.torque_on_in_place()
+
+    def torque_on_in_place(self) -> None:
+        """Torque on without a jump, as the handler does: the goal of the servo's mode first set to
+        where it is (position modes, clipped to the limits in position mode) or to rest (0)."""
+        model = self.model
+        mode = model.mode_name(self.read("operating_mode")) if model.has("operating_mode") else None
+        if mode in ("position", "ex_position", "cur_position") and model.has("goal_position"):
+            goal = self.read("present_position")
+            if mode == "position" and model.has("min_position_limit") and model.has("max_position_limit"):
+                goal = min(max(goal, self.read("min_position_limit")), self.read("max_position_limit"))
+            self.write("goal_position", goal)
+        else:
+            rest = {"velocity": "goal_velocity", "current": "goal_current", "pwm": "goal_pwm"}.get(mode or "")
+            if rest is not None and model.has(rest):
+                self.write(rest, 0)
+        self.write("torque_enable", 1)
 
 
 def _cause(failure: str) -> str:

@@ -9,7 +9,7 @@ import argparse
 from typing import Any
 
 from ..bus import BusError
-from ..control_table import OPERATING_MODES, Item
+from ..control_table import Item
 from ..units import decode
 from .context import Context
 from .errors import BadArguments, StepFailed
@@ -106,13 +106,14 @@ def set_item(ctx: Context, args: argparse.Namespace) -> None:
 def set_mode(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
     text = str(args.mode).strip().lower()
-    raw = OPERATING_MODES[text] if text in OPERATING_MODES else None
+    modes = servo.model.mode_values
+    raw = modes.get(text)
     if raw is None:
         try:
             raw = int(text)
         except ValueError:
-            raise BadArguments(f"{servo.who}: unknown operating mode '{args.mode}' "
-                               f"(one of {', '.join(OPERATING_MODES)} or a register value)") from None
+            raise BadArguments(f"{servo.who}: {servo.model.name} has no operating mode '{args.mode}' "
+                               f"(one of {', '.join(modes)} or a register value)") from None
     item = servo.item("operating_mode")
     _apply(ctx, servo, item, parse_value(servo.model, item, str(raw), servo.who))
 
