@@ -33,6 +33,8 @@ class Memory:
             if r.model.item(name).address >= ram_start:
                 r.poke(name, value)
         r.poke("backup_ready", 1 if self._backup is not None else 0)
+        for eeprom, ram in r.model.ram_copies.items():  # XL-320: Torque Limit := Max Torque
+            r.poke(ram, r.peek(eeprom))
 
     def factory_values(self, option: int) -> None:
         """Factory Reset's values: 0x01 keeps the ID, 0x02 the ID and the Baud Rate, 0xFF nothing

@@ -209,8 +209,6 @@ class VirtualServo:
         self._dynamics.restart(now)
         self._pending = None
         self._shutdown_latched = False
-        for eeprom, ram in self.model.ram_copies.items():  # XL-320: Torque Limit := Max Torque
-            self.registers.poke(ram, self.registers.peek(eeprom))
         if self.registers.get("startup_configuration") & 0x01:
             self.registers.poke("torque_enable", 1)
             self._dynamics.torque_changed(0, 1, now)
