@@ -10,11 +10,12 @@ from typing import Any
 
 import yaml
 
+from ..bus import DYNAMIXEL_BAUDRATES
 from ..control_table import Item, model_by_number
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .items import check_raw, show_value, to_unit, unit_of
-from .servo import Servo, connect
+from .servo import Servo
 
 __all__ = ["backup", "restore"]
 
@@ -39,7 +40,8 @@ def _ids(ctx: Context, given: list[int] | None) -> list[int]:
 
 def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
     model = servo.model
-    lines = [f"  {servo.dxl_id}:", f"    model: {model.name}", f"    model_number: {model.number}"]
+    lines = [f"  {servo.dxl_id}:", f"    model: {model.name}", f"    model_number: {model.number}",
+             f"    baudrate: {servo.bus.baudrate}"]
     if firmware is not None:
         lines.append(f"    firmware: {firmware}")
     lines.append("    eeprom:")
@@ -86,9 +88,15 @@ def _load(path: str) -> dict[int, dict[str, Any]]:
     return servos
 
 
-def _plan(ctx: Context, dxl_id: int, entry: dict[str, Any], path: str) -> tuple[Servo, list[tuple[Item, int, int]]]:
-    """The servo and its (item, now, from the file) that differ; BadArguments on a model mismatch."""
-    servo = connect(ctx.bus, dxl_id)
+Plan = tuple[Servo, int, list[tuple[Item, int, int]]]
+
+
+def _plan(ctx: Context, dxl_id: int, entry: dict[str, Any], path: str) -> Plan:
+    """The servo, its baud rate and its (item, now, from the file) that differ; BadArguments on a
+    model mismatch. Without --baud the servo is looked for at the file's rate first, then everywhere."""
+    if not ctx.baud_given and entry.get("baudrate") in DYNAMIXEL_BAUDRATES:
+        ctx.bus.set_baudrate(int(entry["baudrate"]))
+    servo = ctx.servo(dxl_id)
     number = entry.get("model_number")
     if number != servo.model.number:
         try:
@@ -110,18 +118,19 @@ def _plan(ctx: Context, dxl_id: int, entry: dict[str, Any], path: str) -> tuple[
         if now != raw:
             changes.append((item, now, raw))
     changes.sort(key=lambda c: (c[0].name in _LAST, c[0].address))
-    return servo, changes
+    return servo, ctx.bus.baudrate, changes
 
 
 def restore(ctx: Context, args: argparse.Namespace) -> None:
     entries = _load(args.file)
     plans = [_plan(ctx, dxl_id, entry, args.file) for dxl_id, entry in sorted(entries.items())]
+    changed = [(s, item, now, raw) for s, _bps, changes in plans for item, now, raw in changes]
     rows = [[s.dxl_id, item.name, show_value(s.model, item, now), show_value(s.model, item, raw)]
-            for s, changes in plans for item, now, raw in changes]
+            for s, item, now, raw in changed]
     ctx.out.table(f"restore from {args.file}", ["ID", "item", "now", "from the file"], rows)
-    changed = [{"id": s.dxl_id, "item": item.name, "now": now, "file": raw} for s, changes in plans
-               for item, now, raw in changes]
-    ctx.out.document.update(file=args.file, changes=changed, dry_run=bool(args.dry_run))
+    ctx.out.document.update(file=args.file, dry_run=bool(args.dry_run),
+                            changes=[{"id": s.dxl_id, "item": item.name, "now": now, "file": raw}
+                                     for s, item, now, raw in changed])
     if not rows:
         ctx.out.say(f"every servo already matches {args.file}: nothing written")
         return
@@ -129,7 +138,8 @@ def restore(ctx: Context, args: argparse.Namespace) -> None:
         ctx.out.say(f"dry run: {len(rows)} item(s) would be written, nothing written")
         return
     ctx.confirm(f"write these {len(rows)} EEPROM item(s)?")
-    for servo, changes in plans:
+    for servo, bps, changes in plans:
+        ctx.bus.set_baudrate(bps)
         for item, _now, raw in changes:
             if item.name in _LAST:
                 raise StepFailed(f"{servo.who}: {item.name} differs from {args.file} ({raw}); change it with "

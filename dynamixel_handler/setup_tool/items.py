@@ -123,6 +123,8 @@ def _converted(model: Model, item: Item, number: float, unit: str, who: str) -> 
 def show_value(model: Model, item: Item, raw: int) -> str:
     """``"170.0 deg (raw 3982)"``, or the raw value when the item has no unit."""
     value = to_unit(model, item, raw)
+    if item.name == "operating_mode" and model.mode_name(raw):
+        return f"{raw} ({model.mode_name(raw)})"
     if value is None:
         return str(raw)
     return f"{value:.4g} {unit_of(model, item)} (raw {raw})"
