@@ -34,10 +34,13 @@ def pulses(value: float, per_lsb: float) -> int:
     return round(value / per_lsb)
 
 
+PARAMS = ("init/used_servo_series.Y:=true", "mode_change_interval_sec:=0.0", "pub_ratio/status:=3",
+          "pub_ratio/error:=3", "pub_ratio/limit:=5", "clear_error_interval_sec:=0.0")
+
+
 @pytest.fixture(scope="module")
 def rig():
-    r = Rig({1: YM080_A099, 2: YM070_M001}, "init/used_servo_series.Y:=true", "mode_change_interval_sec:=0.0",
-            "pub_ratio/status:=3", "pub_ratio/error:=3", "pub_ratio/limit:=5", "clear_error_interval_sec:=0.0")
+    r = Rig({1: YM080_A099, 2: YM070_M001}, *PARAMS)
     yield r
     assert r.close() == 0
 
@@ -154,3 +157,20 @@ def test_unsupported_items_read_as_not_supported(rig):
     assert rig.state_of("extra", "restore_configuration.ram_restore", 1) is False
     assert math.isnan(rig.state_of("extra", "pwm_slope_percent", 1))
     assert rig.state_of("present", "pwm_percent", 1) == pytest.approx(0.0, abs=100.0)  # Y has PWM
+
+
+def test_hybrid_area_is_written_at_start_up_only_where_it_differs(rig):
+    """Gains and profiles are Y's Hybrid area, stored in non-volatile memory when written with
+    torque off: the start-up's profile defaults (1000 deg/s, 6008 deg/s^2) go only to a servo that
+    holds other values."""
+    assert rig.stop_node() == 0
+    rig.sim.servo(1).write("profile_velocity", pulses(1000.0, DEG_S))
+    rig.sim.servo(1).write("profile_acceleration", 6008)  # 10 rev/min^2 = 1 deg/s^2 a unit
+    rig.sim.servo(2).write("profile_velocity", 123)
+    rig.sim.clear_log()
+    rig.start_node(*PARAMS)
+    rig.wait_new(["debug"], 3)  # the new node's loop runs (its set-up is done): not the last node's messages
+    writes = [(e.ids, e.address) for e in rig.transactions() if e.name == "write" and e.address in (240, 244)]
+    assert ((1,), 244) not in writes and ((1,), 240) not in writes, writes
+    assert ((2,), 244) in writes, writes
+    assert rig.sim.servo(2).read("profile_velocity") == pulses(1000.0, DEG_S)

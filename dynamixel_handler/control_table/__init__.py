@@ -176,6 +176,9 @@ class Model:
     #: EEPROM item -> the RAM item the servo copies it into at power on (XL-320: Max Torque ->
     #: Torque Limit): the handler writes the RAM item too, so a new limit holds at once
     ram_copies: Mapping[str, str] = field(default_factory=dict, repr=False)
+    #: items kept in non-volatile memory when written with torque off although writable with torque
+    #: on (Y's Hybrid area): the handler writes them only when the value differs
+    hybrid_items: FrozenSet[str] = frozenset()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "mode_names", MappingProxyType({v: k for k, v in self.mode_values.items()}))
@@ -315,7 +318,7 @@ def _build_y(number: int) -> Model:
         indirect=_y.INDIRECT, indirect_targets=_y.INDIRECT_TARGETS, table_size=_y.TABLE_SIZE,
         factory=MappingProxyType({k: v for k, v in _y.FACTORY[number].items() if k in items}),
         mode_values=MappingProxyType({m: v for m, v in OPERATING_MODES.items() if v in _y.OPERATING_MODES}),
-        item_scales=MappingProxyType(dict(_y.ITEM_SCALES)),
+        item_scales=MappingProxyType(dict(_y.ITEM_SCALES)), hybrid_items=_y.HYBRID,
     )
 
 

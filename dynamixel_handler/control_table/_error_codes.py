@@ -46,6 +46,8 @@ class ErrorCodes:
     codes: Tuple[ErrorCode, ...]
     #: parameters of the Clear instruction that clears an error (None: a reboot clears it)
     clear_params: Optional[bytes] = None
+    #: the code a tripped bus watchdog sets (writing Bus Watchdog 0 clears it too); None: none
+    watchdog: Optional[int] = None
 
     def code(self, value: int) -> Optional[ErrorCode]:
         """The code a register value holds; None for 0 (no error) and values the manual lacks."""
@@ -89,4 +91,5 @@ Y_ERROR_CODES = ErrorCodes(
         ErrorCode(20, "Position Limit Reached Error", 0, torque_off=False),
     ),
     clear_params=bytes([0x02, 0x45, 0x52, 0x43, 0x4C]),
+    watchdog=18,
 )

@@ -60,6 +60,13 @@ RAM_BELOW_512: FrozenSet[str] = frozenset({
     "profile_acceleration_time", "profile_time", *(f"error_code_history_{n}" for n in range(1, 17)),
 })
 EEPROM_END = 512
+#: the Hybrid area: written like RAM with torque on, stored in non-volatile memory when written with
+#: torque off ("Hybrid Save(170)"), so an equal value is not written again
+HYBRID: FrozenSet[str] = frozenset({
+    "velocity_i_gain", "velocity_p_gain", "velocity_ff_gain", "position_d_gain", "position_i_gain",
+    "position_p_gain", "position_ff_gain", "profile_acceleration", "profile_velocity",
+    "profile_acceleration_time", "profile_time",
+})
 SIGNED: FrozenSet[str] = frozenset({"pwm_offset", "current_offset", "velocity_offset"})
 
 HALF_TURN = 262_144

@@ -36,6 +36,8 @@ class ServoIO:
         model = self.table.model(dxl_id)
         if not model.has(item):
             return Result(False, f"ID {dxl_id} ({model.name}) has no {item}")
+        if item in model.hybrid_items and self.value(dxl_id, item) == pulses:
+            return Result(True)  # Y's Hybrid area, stored when torque is off: not written again
         spec = model.item(item)
         written = self.bus.write_result(dxl_id, spec.address, units.encode(spec, [pulses]))
         if written:

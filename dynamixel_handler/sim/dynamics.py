@@ -181,6 +181,9 @@ class Dynamics:
             self._r.poke(goal, 0)
         self.hold_if_position_mode()
         self._r.poke("bus_watchdog", -1)
+        codes = self._r.model.family.error_codes
+        if codes is not None and codes.watchdog is not None:  # Y: Error Code 18 as well
+            self._r.poke(codes.item, codes.watchdog)
 
     # ------------------------------------------------------------------ present values
     def _publish(self, now: float) -> None:

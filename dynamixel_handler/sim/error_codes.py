@@ -32,6 +32,13 @@ def is_error_clear(model: Model, params: bytes) -> bool:
     return codes is not None and params == codes.clear_params
 
 
+def watchdog_written(registers: Registers, value: int) -> None:
+    """Bus Watchdog written: 0 ends a trip, and on Y the Bus Watchdog Error code with it."""
+    codes = registers.model.family.error_codes
+    if value == 0 and codes is not None and registers.peek(codes.item) == codes.watchdog:
+        registers.poke(codes.item, 0)
+
+
 def clear(registers: Registers) -> int:
     """The Error Clear (Y, e-Manual "Error Clear Packet"): a clearable code goes (a tripped bus
     watchdog with it); one it cannot clear stays and the servo answers Result Fail."""

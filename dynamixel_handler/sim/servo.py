@@ -252,16 +252,18 @@ class VirtualServo:
             self.partner.eeprom_changed = True
         elif name == "bus_watchdog":
             dynamics.last_instruction = now
+            error_codes.watchdog_written(registers, value)
         elif name == "goal_position":
             dynamics.goal_position_changed()
         elif name.startswith("external_port_data_"):
             dynamics.port_latch[int(name[-1])] = value
 
     def _mode_changed(self, value: int) -> None:
-        """The e-Manual: a new operating mode puts gains and profiles back to their defaults."""
+        """The e-Manual: a new operating mode puts gains and profiles back to their defaults (not
+        those Y keeps in its Hybrid area)."""
         defaults = self._memory.defaults
         for reset in MODE_RESET_ITEMS:
-            if reset in defaults:
+            if reset in defaults and reset not in self.model.hybrid_items:
                 self.registers.poke(reset, defaults[reset])
         if self.model.mode_name(value) == "position":
             self._dynamics.motor.p = self._dynamics.fold(self._dynamics.motor.p)

@@ -183,3 +183,17 @@ def test_x_servos_keep_their_error_bits():
     assert x.clear(ERROR_CLEAR, time.monotonic()) == p.ERR_DATA_RANGE  # not a multi-turn clear key either
     assert all(m.family.error_codes is None for m in known_models() if m.series in ("X", "P", "PRO"))
     assert np.array_equal(error_state.hardware_bits(_table(1020)), [0])
+
+
+def test_virtual_y_servo_bus_watchdog_sets_its_error_code():
+    clock = [100.0]
+    servo = VirtualServo(4170, 1, lambda: clock[0])
+    assert servo.host_write(33, bytes([1]), clock[0]) == p.ERR_NONE   # velocity mode
+    assert servo.host_write(512, bytes([1]), clock[0]) == p.ERR_NONE
+    assert servo.host_write(8, (5).to_bytes(2, "little"), clock[0]) == p.ERR_NONE  # 100 ms
+    clock[0] += 0.2
+    assert servo.read("bus_watchdog") == -1 and servo.read("error_code") == 18
+    assert servo.read("torque_enable") == 1  # a hold error: torque stays on
+    assert servo.host_write(528, (10).to_bytes(4, "little"), clock[0]) == p.ERR_DATA_RANGE
+    assert servo.host_write(8, (0).to_bytes(2, "little"), clock[0]) == p.ERR_NONE
+    assert servo.read("error_code") == 0 and servo.read("bus_watchdog") == 0
