@@ -287,6 +287,24 @@ def test_assign_ids_gives_three_unboxed_servos_connected_one_after_another_their
     assert sdk_ping(sim.path, 57600, 1) is None
 
 
+def test_assign_ids_says_so_when_the_new_servo_arrives_where_a_known_one_is(sim_of):
+    sim = sim_of("1:XM430-W350")  # connected before: ID 1 at 57600 bps, where every new servo comes
+    cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
+    run = Lines([*cmd, "--device", sim.path, "--latency", "10", "assign-ids", "5", "--ids", "0-3",
+                 "--search-baud", "57600"])
+    try:
+        mark = run.wait_for("Connect one new servo and press Enter (it gets ID 5)")
+        sim.send("add 1 XL330-M288 --again")
+        time.sleep(0.3)
+        run.send("")
+        mark = run.wait_for("the new servo answers where another one is (ID 1 at 57600 bps)", mark)
+        run.send("q")
+        assert run.proc.wait(20) == 0, "\n".join(run.lines)
+    finally:
+        run.stop()
+    assert not any("-> ID 5" in line for line in run.lines)  # nothing was written to either of them
+
+
 # ---------------------------------------------------------------------- backup / reset / restore
 def test_backup_factory_reset_restore_gives_back_the_same_eeprom_bytes(sim_of, tmp_path):
     sim = sim_of("1:XM430-W350", "3:PH54-200-S500-R")

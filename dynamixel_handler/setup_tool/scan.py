@@ -149,11 +149,8 @@ def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -
 
 
 def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, tick: Callable[[], None]) -> None:
-    taken = {(f.dxl_id, f.baudrate) for f in result.found}
-    for dxl_id in ids:
+    for dxl_id in ids:  # a Protocol 2.0 servo at the same ID ignores these packets
         tick()
-        if (dxl_id, bus.baudrate) in taken:
-            continue
         got = ping1(bus, dxl_id)
         if got is None:
             continue

@@ -152,7 +152,14 @@ def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
 
 def _one_round(ctx: Context, known: set[tuple[int, int]], rates: list[int], ids: list[int],
                next_id: int, target: int) -> tuple[Found, Servo] | None:
-    found = [f for f in _look(ctx, rates, ids) if (f.dxl_id, f.baudrate) not in known]
+    seen = _look(ctx, rates, ids)
+    clash = [f for f in seen if f.collision and (f.dxl_id, f.baudrate) in known]
+    if clash:
+        where = ", ".join(f"ID {f.dxl_id} at {f.baudrate} bps" for f in clash)
+        ctx.out.say(f"the new servo answers where another one is ({where}): disconnect it, give the other one its own "
+                    "ID (set-id), connect the new one again and press Enter")
+        return None
+    found = [f for f in seen if (f.dxl_id, f.baudrate) not in known]
     if not found:
         ctx.out.say("no new servo found: is it connected and powered? Press Enter to look again")
         return None
