@@ -52,9 +52,10 @@ def parse_model(text: str) -> int:
         if model.name.lower() == text.lower():
             return model.number
     # MX-64 for MX-64(2.0), whose Protocol 1.0 firmware the bus does not have; "MX-28" is the 1.0
-    # firmware above (model 29), "MX-28(2.0)" or 30 the 2.0 one
+    # firmware above (model 29), "MX-28(2.0)" or 30 the 2.0 one; YM080-230-A099 for
+    # YM080-230-A099-RH (the SDK's and the spelling of the Y names)
     for model in known_models():
-        if model.name.lower().replace("(2.0)", "") == text.lower():
+        if model.name.lower().replace("(2.0)", "").removesuffix("-rh") == text.lower():
             return model.number
     raise argparse.ArgumentTypeError(f"unknown model {text!r} (see --list-models)")
 

@@ -197,3 +197,8 @@ def test_virtual_y_servo_bus_watchdog_sets_its_error_code():
     assert servo.host_write(528, (10).to_bytes(4, "little"), clock[0]) == p.ERR_DATA_RANGE
     assert servo.host_write(8, (0).to_bytes(2, "little"), clock[0]) == p.ERR_NONE
     assert servo.read("error_code") == 0 and servo.read("bus_watchdog") == 0
+
+
+def test_the_virtual_bus_takes_y_names_with_or_without_rh():
+    from dynamixel_handler.sim.cli import parse_model
+    assert parse_model("YM080-230-A099") == 4170 and parse_model("ym070-210-m001-rh") == 4000
