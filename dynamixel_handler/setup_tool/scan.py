@@ -18,6 +18,8 @@ __all__ = ["Found", "ScanResult", "scan_bus", "scan_steps"]
 
 #: pings per found ID that must all come back clean for it to count as one servo
 _CLEAN_PINGS = 3
+#: bytes of one ping's status reply (Protocol 2.0: header 4, ID, length 2, instruction, error, 3 params, CRC 2)
+_PING_REPLY_BYTES = 14
 
 
 @dataclass
@@ -56,13 +58,27 @@ class ScanResult:
         return {"servos": [asdict(f) for f in self.found], "skipped_rates": {str(k): v for k, v in self.skipped.items()}}
 
 
-def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int]) -> float:
-    """Progress units of a scan (one per broadcast ping, one per Protocol 1.0 ping)."""
-    return len(rates) * ((1 if 2 in protocols else 0) + (len(ids) if 1 in protocols else 0))
+#: each ID's time slot in a broadcast ping's reply train [ms] (as the bus waits for it)
+_SLOT_MS = 3.0
 
 
-#: bytes of one ping's status reply (Protocol 2.0: header 4, ID, length 2, instruction, error, 3 params, CRC 2)
-_PING_REPLY_BYTES = 14
+def _broadcast_ms(bps: int, ids: Sequence[int], latency_ms: float) -> float:
+    return 2 * latency_ms + (max(ids) + 1) * (_PING_REPLY_BYTES * 10_000.0 / bps + _SLOT_MS)
+
+
+def _ping1_ms(bps: int, latency_ms: float) -> float:
+    return 2 * latency_ms + 12 * 10_000.0 / bps
+
+
+def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int], latency_ms: float) -> float:
+    """Progress units of a scan: the time [ms] its steps should take, so the time left is right."""
+    total = 0.0
+    for bps in rates:
+        if 2 in protocols:
+            total += _broadcast_ms(bps, ids, latency_ms)
+        if 1 in protocols:
+            total += len(ids) * _ping1_ms(bps, latency_ms)
+    return total
 
 
 def _ping(bus: DynamixelBus, dxl_id: int, pause_s: float) -> int | None:
@@ -165,14 +181,16 @@ def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, t
 
 def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int],
              tick: Callable[[float, str | None], None]) -> ScanResult:
-    """Every servo at ``rates`` x ``ids`` in ``protocols``; the bus is left at the first rate."""
+    """Every servo at ``rates`` x ``ids`` in ``protocols``; the bus is left at the first rate.
+    ``tick(ms, what)``: progress in the units of ``scan_steps``."""
     result = ScanResult()
+    latency = bus.latency_timer_ms
     for bps in rates:
         try:
             bus.set_baudrate(bps)
         except BusError as exc:
             result.skipped[bps] = str(exc)
-            tick(scan_steps([bps], ids, protocols), None)
+            tick(scan_steps([bps], ids, protocols, latency), None)
             continue
         if 2 in protocols:
             tick(0, f"{bps} bps, Protocol 2.0")
@@ -180,10 +198,11 @@ def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protoc
             rate = ScanResult()
             _scan_protocol2(bus, ids, rate)
             result.found[before:] = rate.found
-            tick(1, None)
+            tick(_broadcast_ms(bps, ids, latency), None)
         if 1 in protocols:
             tick(0, f"{bps} bps, Protocol 1.0")
-            _scan_protocol1(bus, ids, result, lambda: tick(1, None))
+            step = _ping1_ms(bps, latency)
+            _scan_protocol1(bus, ids, result, lambda: tick(step, None))
     if rates and rates[0] not in result.skipped:
         bus.set_baudrate(rates[0])
     result.found.sort(key=lambda f: (f.dxl_id, f.baudrate, f.protocol))

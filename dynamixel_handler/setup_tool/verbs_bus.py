@@ -27,7 +27,7 @@ def scan(ctx: Context, args: argparse.Namespace) -> None:
     rates = _rates(args)
     protocols = {"2": [2], "1": [1], "both": [2, 1]}[args.protocol]
     started = time.monotonic()
-    with ctx.out.progress(scan_steps(rates, args.ids, protocols), "scanning") as tick:
+    with ctx.out.progress(scan_steps(rates, args.ids, protocols, ctx.bus.latency_timer_ms), "scanning") as tick:
         result = scan_bus(ctx.bus, rates, args.ids, protocols, tick)
     took = time.monotonic() - started
     styles = ["red" if f.collision or f.hardware_error else ("yellow" if f.protocol == 1 else None) for f in result.found]
@@ -113,7 +113,7 @@ def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
 
 # ------------------------------------------------------------------------------- assign-ids
 def _look(ctx: Context, rates: list[int], ids: list[int]) -> list[Found]:
-    with ctx.out.progress(scan_steps(rates, ids, [2]), "looking for servos") as tick:
+    with ctx.out.progress(scan_steps(rates, ids, [2], ctx.bus.latency_timer_ms), "looking for servos") as tick:
         return scan_bus(ctx.bus, rates, ids, [2], tick).found
 
 
