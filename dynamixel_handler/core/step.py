@@ -207,7 +207,8 @@ class Step:
             if self._reported_errors.get(dxl_id) != errors[dxl_id]:
                 causes = ", ".join(name for name, f in flags.items() if f[pos])
                 what = codes.get(pos) or f"0x{int(bits[pos]):02X}"
-                self.log.error(f"ID {dxl_id}: hardware error {causes or what} ({what}): "
+                label = (causes or what) if pos in codes else causes  # a Y code without a bit: by name
+                self.log.error(f"ID {dxl_id}: hardware error {label} ({what}): "
                                "clear it with the shortcut clear_error (CE)")
         self._reported_errors = errors
 
