@@ -27,7 +27,7 @@ INPUT_VOLTAGE, HALL_SENSOR, OVERHEATING, ENCODER, ELECTRICAL_SHOCK, OVERLOAD = (
 class ErrorCode:
     """One code: its value, its name, the hardware error bits it stands for (0: none matches),
     whether it is a warning only, whether the Clear instruction clears it, whether it switches
-    torque off."""
+    torque off (the others hold the servo: torque on, goal writes refused)."""
 
     value: int
     name: str
@@ -35,6 +35,11 @@ class ErrorCode:
     warning: bool = False
     clearable: bool = True
     torque_off: bool = True
+
+    @property
+    def hold(self) -> bool:
+        """An error that keeps torque on but holds the servo where it is (not a warning)."""
+        return not self.torque_off and not self.warning
 
 
 @dataclass(frozen=True)

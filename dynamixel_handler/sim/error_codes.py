@@ -26,6 +26,17 @@ def alert(registers: Registers) -> bool:
     return any(registers.get(name, 0) for name in ERROR_ITEMS)
 
 
+def holds(registers: Registers) -> bool:
+    """Y: an error that keeps torque on holds the servo: goal writes are refused while torque is
+    on (e-Manual "Error Code(153)", the Hold column: following error, bus watchdog, over speed,
+    position limit reached)."""
+    codes = registers.model.family.error_codes
+    if codes is None or registers.peek("torque_enable") != 1:
+        return False
+    code = codes.code(registers.peek(codes.item))
+    return code is not None and code.hold
+
+
 def is_error_clear(model: Model, params: bytes) -> bool:
     """A Clear instruction's parameters ask for the error clear of a model that has one."""
     codes = model.family.error_codes

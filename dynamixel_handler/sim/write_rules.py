@@ -15,6 +15,7 @@ from typing import Sequence
 from dynamixel_handler.control_table import Item
 
 from ..protocol import servo as p
+from . import error_codes
 from .defaults import READ_ONLY
 from .registers import Registers
 
@@ -100,8 +101,8 @@ def _setting_error(servo: Registers, name: str, value: int, latched: bool) -> in
     while a shutdown error holds."""
     if name in ("operating_mode", "baud_rate", "drive_mode"):
         return p.ERR_NONE if _known_setting(servo, name, value) else p.ERR_DATA_RANGE
-    if name.startswith("goal_") and servo.get("bus_watchdog") < 0:
-        return p.ERR_DATA_RANGE  # goals are read-only after a bus watchdog error
+    if name.startswith("goal_") and (servo.get("bus_watchdog") < 0 or error_codes.holds(servo)):
+        return p.ERR_DATA_RANGE  # goals are read-only after a bus watchdog error (Y: a hold error)
     if name == "torque_enable" and value == 1 and latched:
         return p.ERR_RESULT_FAIL
     return p.ERR_NONE

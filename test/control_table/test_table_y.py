@@ -202,3 +202,14 @@ def test_virtual_y_servo_bus_watchdog_sets_its_error_code():
 def test_the_virtual_bus_takes_y_names_with_or_without_rh():
     from dynamixel_handler.sim.cli import parse_model
     assert parse_model("YM080-230-A099") == 4170 and parse_model("ym070-210-m001-rh") == 4000
+
+
+def test_virtual_y_servo_holds_on_a_following_error():
+    now = time.monotonic()
+    servo = VirtualServo(4170, 1, time.monotonic)
+    assert servo.host_write(512, bytes([1]), now) == p.ERR_NONE
+    servo.write("error_code", 17)  # Following Error: torque stays on, goals refused
+    assert servo.read("torque_enable") == 1
+    assert servo.host_write(532, (1000).to_bytes(4, "little", signed=True), now) == p.ERR_DATA_RANGE
+    assert servo.clear(ERROR_CLEAR, now) == p.ERR_NONE
+    assert servo.host_write(532, (1000).to_bytes(4, "little", signed=True), now) == p.ERR_NONE
