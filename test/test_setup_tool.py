@@ -261,6 +261,11 @@ def test_torque_comes_back_without_a_move_the_user_did_not_ask_for(sim_of):
     present = sdk_read(sim.path, 57600, 1, 132, 4)
     assert sdk_read(sim.path, 57600, 1, 64, 1) == 1
     assert abs(sdk_read(sim.path, 57600, 1, 116, 4) - present) < 20  # Goal Position := where it is
+    sdk_write1(sim.path, 57600, 1, 64, 0)
+    sdk_write4(sim.path, 57600, 1, 116, (present + 1000) % 4096)  # a goal left from before, far away
+    out = tool(sim, "set", "1", "torque_enable", "1")
+    assert out.returncode == 0, out.text
+    assert abs(sdk_read(sim.path, 57600, 1, 116, 4) - sdk_read(sim.path, 57600, 1, 132, 4)) < 20
 
 
 # ---------------------------------------------------------------------- assign-ids

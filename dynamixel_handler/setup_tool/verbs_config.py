@@ -89,7 +89,12 @@ def _apply(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
         return
     if item.eeprom:
         ctx.confirm(f"{servo.who}: write {item.name} (EEPROM) from {show_value(servo.model, item, before)} to {shown}?")
-    servo.set_checked(item.name, raw)
+    if item.name == "torque_enable" and raw == 1:
+        servo.torque_on_in_place()  # as the handler does: the goal where the servo is, no jump
+        if servo.read(item.name) != 1:
+            raise StepFailed(f"{servo.who}: torque_enable reads 0 after torque on")
+    else:
+        servo.set_checked(item.name, raw)
     ctx.out.say(f"{servo.who} {item.name} = {shown} (was {show_value(servo.model, item, before)}), read back")
     ctx.out.document.update(doc, written=True)
 
