@@ -101,3 +101,17 @@ def test_item_names_and_shown_values():
     assert show_value(m, find_item(m, "max_voltage_limit"), 160) == "16 V (raw 160)"
     assert show_value(m, find_item(m, "operating_mode"), 3) == "3 (position)"
     assert show_value(m, find_item(m, "drive_mode"), 4) == "4"
+
+
+def test_the_device_is_found_by_its_usb_serial_number_as_the_handler_finds_it(tmp_path):
+    links = tmp_path / "by-id"
+    links.mkdir()
+    with VirtualBus({3: XM430}, wire_timing=False) as sim:
+        (links / "usb-FTDI_USB__-__Serial_Converter_FT4TFSJ1-if00-port0").symlink_to(sim.path)
+        env = dict(os.environ, DYNAMIXEL_HANDLER_SERIAL_BY_ID_DIR=str(links))
+        cmd = [sys.executable, "-m", "dynamixel_handler.setup_tool", "--device", "serial:FT4TFSJ1", "get", "3", "id"]
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=30, cwd=ROOT, env=env)
+        assert out.returncode == 0 and "ID 3 (XM430-W350) id = 3" in out.stdout, out.stdout + out.stderr
+        cmd[cmd.index("serial:FT4TFSJ1")] = "serial:NOSUCH1"
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=30, cwd=ROOT, env=env)
+        assert out.returncode == 1 and "no adapter with USB serial number NOSUCH1; adapters seen: FT4TFSJ1" in out.stderr
