@@ -382,7 +382,9 @@ def test_bad_arguments_exit_2_with_one_line(sim_of):
              ("set", "1", "no_such_item", "3"): "XM430-W350 has no control-table item 'no_such_item'",
              ("set", "1", "current_limit", "3V"): "current_limit is in mA, not 'V'",
              ("scan", "--ids", "7-300"): "not a list of IDs", ("--baud", "12345", "get", "1", "id"): "not a Dynamixel baud",
-             ("factory-reset", "1"): "one of the arguments --keep --all is required"}
+             ("factory-reset", "1"): "one of the arguments --keep --all is required",
+             ("info", "300"): "'300' is not a servo ID (0..252)", ("--latency", "0", "info", "1"): "not a number above 0",
+             ("monitor", "--count", "0"): "not a whole number above 0"}
     for args, text in cases.items():
         out = tool(sim, *args, "--yes")
         assert out.returncode == 2, (args, out.text)

@@ -49,6 +49,38 @@ def parse_ids(text: str) -> list[int]:
     return sorted(ids)
 
 
+def servo_id(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 252:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a servo ID (0..252)")
+    return value
+
+
+def _positive(kind: type) -> Callable[[str], Any]:
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            value = 0
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"'{text}' is not a {'whole ' if kind is int else ''}number above 0")
+        return value
+    return parse
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number of 0 or more")
+    return value
+
+
 def baud(text: str) -> int:
     try:
         value = int(float(text.lower().replace("m", "e6").replace("k", "e3")))
@@ -81,9 +113,9 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                         "other verbs look for the servo at every rate when not given)")
     g.add_argument("--yes", "-y", action="store_true", default=default(False), help="no confirmation before EEPROM writes")
     g.add_argument("--json", action="store_true", default=default(False), help="one JSON document on stdout")
-    g.add_argument("--latency", type=float, default=default(4.0), metavar="MS",
+    g.add_argument("--latency", type=_positive(float), default=default(4.0), metavar="MS",
                    help="adapter latency timer [ms] for reply timeouts (default 4; FTDI adapters are set to it)")
-    g.add_argument("--retries", type=int, default=default(2), metavar="N", help="retries of a failed transaction")
+    g.add_argument("--retries", type=_count, default=default(2), metavar="N", help="retries of a failed transaction")
     g.add_argument("--svg", default=default(None), metavar="FILE",
                    help="also save the output as it looks in a terminal, as an SVG picture")
 
@@ -99,28 +131,28 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--ids", type=parse_ids, default=list(range(253)), metavar="RANGE", help="IDs (default 0-252)")
     p.add_argument("--protocol", choices=("2", "1", "both"), default="both", help="protocols to look for")
     p = verb("info", verbs_config.info, "every control-table item of a servo, in units and raw")
-    p.add_argument("id", type=int)
+    p.add_argument("id", type=servo_id)
     p.add_argument("--all", action="store_true", help="also the indirect address and data entries")
     p = verb("get", verbs_config.get, "read one item")
-    p.add_argument("id", type=int)
+    p.add_argument("id", type=servo_id)
     p.add_argument("item")
     p = verb("set", verbs_config.set_item, "write one item: a raw value or with a unit (170deg, 1.5rad, 300mA, 12.0V)")
-    p.add_argument("id", type=int)
+    p.add_argument("id", type=servo_id)
     p.add_argument("item")
     p.add_argument("value")
     p = verb("set-id", verbs_config.set_id, "give a servo another ID (refused when the new one is in use)")
-    p.add_argument("old", type=int)
-    p.add_argument("new", type=int)
+    p.add_argument("old", type=servo_id)
+    p.add_argument("new", type=servo_id)
     p = verb("set-baud", verbs_config.set_baud, "give a servo another baud rate and find it there")
-    p.add_argument("id", type=int)
+    p.add_argument("id", type=servo_id)
     p.add_argument("bps", type=baud)
     p = verb("set-mode", verbs_config.set_mode, "operating mode: current, velocity, position, ex_position, "
              "cur_position, pwm or a register value")
-    p.add_argument("id", type=int)
+    p.add_argument("id", type=servo_id)
     p.add_argument("mode")
     p = verb("assign-ids", verbs_bus.assign_ids, "connect new servos one at a time: each gets the next free ID "
              "and the bus's baud rate")
-    p.add_argument("start", type=int)
+    p.add_argument("start", type=servo_id)
     p.add_argument("--ids", type=parse_ids, default=list(range(253)), metavar="RANGE",
                    help="IDs new servos may have (default 0-252)")
     p.add_argument("--search-baud", type=parse_rates, default=[], metavar="LIST",
@@ -128,7 +160,7 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = verb("reboot", verbs_bus.reboot, "reboot a servo (or all)")
     p.add_argument("id")
     p = verb("factory-reset", verbs_bus.factory_reset, "reset a servo to its factory values")
-    p.add_argument("id", type=int)
+    p.add_argument("id", type=servo_id)
     keep = p.add_mutually_exclusive_group(required=True)
     keep.add_argument("--keep", choices=("id", "id,baud"), help="keep the ID (and the baud rate)")
     keep.add_argument("--all", action="store_true", help="reset everything: the servo comes back as ID 1 at 57600 bps")
@@ -140,8 +172,8 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--dry-run", action="store_true", help="show what would change, write nothing")
     p = verb("monitor", monitor.monitor, "a live table of the servos (q quits)")
     p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found at the bus's rate)")
-    p.add_argument("--rate", type=float, default=5.0, metavar="HZ", help="refreshes a second (default 5)")
-    p.add_argument("--count", type=int, metavar="N", help="print N refreshes as plain text and stop")
+    p.add_argument("--rate", type=_positive(float), default=5.0, metavar="HZ", help="refreshes a second (default 5)")
+    p.add_argument("--count", type=_positive(int), metavar="N", help="print N refreshes as plain text and stop")
     p.add_argument("--once", action="store_const", const=1, dest="count", help="one refresh (--count 1)")
 
 
@@ -187,6 +219,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         out.error("interrupted")
         out.document["error"] = "interrupted"
+        code = 1
+    except Exception as exc:  # a defect: still one line (and the exit code of a failed step)
+        out.error(f"unexpected {type(exc).__name__}: {exc} (a defect of {PROG}: please report it)")
+        out.document["error"] = f"{type(exc).__name__}: {exc}"
         code = 1
     finally:
         if bus is not None:
