@@ -108,7 +108,8 @@ class VirtualBus(WireSettings):
     def feed(self, data: bytes) -> list[bytes]:
         """Process raw instruction bytes without the pty; returns the status packets.
 
-        Useful for tools and for inspecting replies without wire timing.
+        Useful for tools and for inspecting replies without wire timing. Protocol 2.0 only, and
+        the replies of servos sharing an ID come whole, one after the other (no collision).
         """
         replies: list[bytes] = []
         for packet in p.PacketParser().feed(data):
