@@ -170,31 +170,59 @@ def _one_round(ctx: Context, known: set[tuple[int, int]], rates: list[int], ids:
     return found[0], _give(ctx, found[0], next_id, target)
 
 
-def assign_ids(ctx: Context, args: argparse.Namespace) -> None:
-    rates = list(args.search_baud or SEARCH_ORDER)
-    target = ctx.bus.baudrate if ctx.baud_given else _FACTORY_BPS
-    ids = args.ids
-    known = {(f.dxl_id, f.baudrate) for f in _look(ctx, rates, ids)}
-    taken = {i for i, bps in known if bps == target}
-    assigned: list[dict[str, object]] = []
-    ctx.out.say(f"{len(known)} servo(s) already on the bus; new servos get IDs from {args.start} at {target} bps")
-    while True:
-        next_id = _next_id(args.start, taken)
-        if (next_id, target) == (_FACTORY_ID, _FACTORY_BPS):
+class _Assigner:
+    """assign-ids' state: the addresses known, the IDs taken at the target rate, what was done."""
+
+    def __init__(self, ctx: Context, args: argparse.Namespace) -> None:
+        self.ctx = ctx
+        self.rates = list(args.search_baud or SEARCH_ORDER)
+        self.ids: list[int] = args.ids
+        self.start: int = args.start
+        self.target = ctx.bus.baudrate if ctx.baud_given else _FACTORY_BPS
+        self.known = {(f.dxl_id, f.baudrate) for f in _look(ctx, self.rates, self.ids)}
+        self.taken = {i for i, bps in self.known if bps == self.target}
+        self.assigned: list[dict[str, object]] = []
+        self.failures: list[str] = []
+
+    def next_id(self) -> int:
+        new = _next_id(self.start, self.taken)
+        if (new, self.target) == (_FACTORY_ID, _FACTORY_BPS):
             raise BadArguments(f"ID {_FACTORY_ID} at {_FACTORY_BPS} bps is where every new servo arrives: the next one "
                                "would collide with it; start at 2 or more, or give --baud")
+        return new
+
+    def one(self, next_id: int) -> None:
+        """Find the one new servo and give it ``next_id`` and the target rate (a failure is said and kept)."""
+        ctx = self.ctx
+        try:
+            got = _one_round(ctx, self.known, self.rates, self.ids, next_id, self.target)
+        except StepFailed as exc:  # this servo only: say why and let the person try again or go on
+            self.failures.append(str(exc))
+            ctx.out.error(f"{exc}; press Enter to look again, or q")
+            return
+        if got is None:
+            return
+        was, servo = got
+        self.known.add((next_id, self.target))
+        self.taken.add(next_id)
+        self.assigned.append({"id": next_id, "model": servo.model.name, "was_id": was.dxl_id,
+                              "was_baudrate": was.baudrate})
+        ctx.out.say(f"{servo.model.name}: ID {was.dxl_id} at {was.baudrate} bps -> ID {next_id} at {self.target} bps, "
+                    "verified")
+
+
+def assign_ids(ctx: Context, args: argparse.Namespace) -> None:
+    job = _Assigner(ctx, args)
+    ctx.out.say(f"{len(job.known)} servo(s) already on the bus; new servos get IDs from {args.start} at {job.target} bps")
+    while True:
+        next_id = job.next_id()
         ctx.out.say(f"Connect one new servo and press Enter (it gets ID {next_id}); q and Enter to finish")
         line = ctx.line()
         if line is None or line.strip().lower() in ("q", "quit", "done"):
             break
-        got = _one_round(ctx, known, rates, ids, next_id, target)
-        if got is None:
-            continue
-        was, servo = got
-        known.add((next_id, target))
-        taken.add(next_id)
-        assigned.append({"id": next_id, "model": servo.model.name, "was_id": was.dxl_id, "was_baudrate": was.baudrate})
-        ctx.out.say(f"{servo.model.name}: ID {was.dxl_id} at {was.baudrate} bps -> ID {next_id} at {target} bps, verified")
+        job.one(next_id)
     ctx.out.table("assigned", ["ID", "model", "was ID", "was baud"],
-                  [[a["id"], a["model"], a["was_id"], a["was_baudrate"]] for a in assigned])
-    ctx.out.document.update(assigned=assigned, baudrate=target)
+                  [[a["id"], a["model"], a["was_id"], a["was_baudrate"]] for a in job.assigned])
+    ctx.out.document.update(assigned=job.assigned, baudrate=job.target, failures=job.failures)
+    if job.failures:
+        raise StepFailed(f"{len(job.failures)} step(s) failed during assign-ids, the last: {job.failures[-1]}")
