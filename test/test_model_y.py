@@ -144,6 +144,19 @@ def test_an_error_the_clear_cannot_clear_is_reported(rig):
         servo.write("error_code", 0)
 
 
+def test_a_warning_code_is_logged_but_is_no_error(rig):
+    servo = rig.sim.servo(1)
+    mark = rig.mark()
+    servo.write("error_code", 9)  # Battery Warning: torque stays on, nothing to clear
+    try:
+        line = rig.wait_log("ID 1", "Battery Warning", since=mark)
+        assert "WARN" in line and "clear_error" not in line, line
+        rig.fresh_states(count=5)
+        assert rig.state_of("status", "error", 1) is False
+    finally:
+        servo.write("error_code", 0)
+
+
 def test_unsupported_items_read_as_not_supported(rig):
     rig.fresh_states(count=5)
     rig.wait(lambda: rig.group("extra") is not None, what="extra read")

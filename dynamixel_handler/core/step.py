@@ -201,6 +201,7 @@ class Step:
         bits = error_state.hardware_bits(table)
         codes = error_state.codes_by_position(table)  # Y: the error code by name
         flags = units.decode_hardware_error(bits)
+        failing = error_state.in_error(table)
         errors = {table.ids[pos]: (int(bits[pos]), codes.get(pos)) for pos in {int(i) for i in np.flatnonzero(bits)} | set(codes)}
         for pos in sorted(table.index[i] for i in errors):
             dxl_id = table.ids[pos]
@@ -208,6 +209,9 @@ class Step:
                 causes = ", ".join(name for name, f in flags.items() if f[pos])
                 what = codes.get(pos) or f"0x{int(bits[pos]):02X}"
                 label = (causes or what) if pos in codes else causes  # a Y code without a bit: by name
+                if not failing[pos]:  # a warning code (Y battery warning): the servo runs on
+                    self.log.warning(f"ID {dxl_id}: {what}")
+                    continue
                 self.log.error(f"ID {dxl_id}: hardware error {label} ({what}): "
                                "clear it with the shortcut clear_error (CE)")
         self._reported_errors = errors
