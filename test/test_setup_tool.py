@@ -163,7 +163,7 @@ BAUD_RATE_ADDR, MAX_POSITION_ADDR = 8, 48  # X series (ROBOTIS e-Manual, XM430-W
 # ---------------------------------------------------------------------- scan
 def test_scan_finds_five_servos_at_three_rates_two_that_collide_and_an_ax12(sim_of):
     sim = sim_of("1:XM430-W350", "2:XM540-W270", "3:PH54-200-S500-R", "4:H54-200-S500-R", "5:XL330-M288",
-                 "6:XM430-W350", "6:XM430-W350", "7:AX-12A")
+                 "6:XM430-W350", "6:XM430-W350", "7:AX-12A", "8:MX-28")
     # servos 3 and 5 at 1 Mbps, 4 at 115200 (Baud Rate register 3 / 2), written with the SDK
     for dxl_id, value in ((3, 3), (4, 2), (5, 3)):
         sdk_write1(sim.path, 57600, dxl_id, BAUD_RATE_ADDR, value)
@@ -176,9 +176,11 @@ def test_scan_finds_five_servos_at_three_rates_two_that_collide_and_an_ax12(sim_
     collided = [f for f in found if f["collision"]]
     assert [(f["dxl_id"], f["baudrate"]) for f in collided] == [(6, 57600)], out.text
     assert "two servos answer at this ID" in collided[0]["note"]
-    ax = [f for f in found if f["protocol"] == 1]
-    assert [(f["dxl_id"], f["model"], f["model_number"], f["baudrate"]) for f in ax] == [(7, "AX-12A", AX12, 1_000_000)]
-    assert "the handler does not drive it" in ax[0]["note"]
+    old = [f for f in found if f["protocol"] == 1]  # Protocol 1.0: AX at 1 Mbps, MX-28 at 57600 bps from the box
+    assert [(f["dxl_id"], f["model"], f["model_number"], f["baudrate"]) for f in old] == [
+        (7, "AX-12A", AX12, 1_000_000), (8, "MX-28", 29, 57600)]
+    assert "the handler does not drive it" in old[0]["note"]
+    assert "Firmware Recovery, MX-28(2.0)" in old[1]["note"]
     x = next(f for f in found if f["dxl_id"] == 1)
     assert (x["model"], x["mode"], x["torque"], x["hardware_error"]) == ("XM430-W350", "position", False, [])
 
