@@ -60,9 +60,9 @@ def _num(value: float, digits: int = 4) -> str:
 
 def topics_of(family: ServoFamily) -> str:
     """Which command topics drive a family's servos."""
-    suffix = getattr(family, "topic_suffix", family.suffix)
-    if not suffix:
-        return "`commands/all`, `command/*` only"
+    if not family.series_topics:
+        return "`commands/all`, `command/{status,goal,gain,limit,extra}` only"
+    suffix = family.topics.suffix
     return f"`commands/{suffix}`, `command/{suffix}/*`, `commands/all`"
 
 
