@@ -23,7 +23,6 @@ sys.path.insert(0, str(ROOT))
 
 from dynamixel_handler.control_table import FAMILIES, Model, ServoFamily, known_models  # noqa: E402
 from dynamixel_handler.control_table._sdk_files import sdk_model_index  # noqa: E402
-from dynamixel_handler.groups import MODE_NAMES  # noqa: E402
 
 DOC = ROOT / "docs" / "models.md"
 
@@ -67,11 +66,12 @@ def topics_of(family: ServoFamily) -> str:
 
 
 def modes_of(model: Model) -> str:
-    values = getattr(model, "mode_values", None)
-    if values:
-        names = [name for name, value in values.items() if value in model.operating_modes]
-    else:
-        names = [MODE_NAMES.get(v, str(v)) for v in model.operating_modes]
+    """The modes a command may switch the model to (a model without current sensing has no current
+    modes: the handler refuses them with one line)."""
+    names = [name for name, value in sorted(model.mode_values.items(), key=lambda kv: kv[1])
+             if name in model.modes and value in model.operating_modes]
+    if math.isnan(model.current_ma_per_pulse):
+        names = [n for n in names if n not in ("current", "cur_position")]
     return ", ".join(names)
 
 
