@@ -11,7 +11,13 @@ feed, cursor up, erase line; colours kept) and recorded with rich's ``Console(re
 * ``docs/img/setup_monitor.svg``: ``monitor`` of three servos at 1 Mbps, one turning in velocity
   mode and one with an overheating error.
 
-Usage: ``python scripts/setup_tool_pictures.py [--out docs/img] [--link /tmp/ttyDXL]`` (about a minute).
+``--walkthrough`` runs the page's first day instead (three unboxed servos at ID 1: scan, assign-ids
+plugging them in one at a time through the bus's ``add`` command, limits, a mode, info, backup,
+monitor, then the handler for a few seconds) and prints each step's commands with their real
+output as the page's console blocks, to paste when the tool's output changes (about 4 minutes).
+
+Usage: ``python scripts/setup_tool_pictures.py [--out docs/img] [--link /tmp/ttyDXL] [--walkthrough]``
+(the pictures: about a minute).
 """
 from __future__ import annotations
 
@@ -20,6 +26,7 @@ import fcntl
 import os
 import re
 import select
+import signal
 import struct
 import subprocess
 import sys
@@ -155,12 +162,109 @@ def monitor_picture(out: str, link: str) -> None:
              f"{TOOL} monitor")
 
 
+class FirstDay:
+    """The walk-through of docs/setup_tool.md on a virtual bus at ``link``: each step's commands and
+    output, keyed by step, as console blocks."""
+
+    def __init__(self, link: str, folder: str) -> None:
+        self.link, self.folder = link, folder
+        self.blocks: dict[str, str] = {}
+        self.sim = subprocess.Popen(
+            ["dynamixel_handler_sim", "--link", link, "--state", "first_day.json", "--servo", "1:XM430-W350",
+             "--servo", "1:XM430-W350", "--servo", "1:XM540-W270"],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, cwd=folder)
+        assert self.sim.stdout is not None
+        self.sim.stdout.readline()
+
+    def show(self, step: str, command: str, output: str) -> None:
+        self.blocks[step] = self.blocks.get(step, "") + f"$ {command}\n{output.rstrip()}\n"
+
+    def bus(self, command: str) -> None:
+        """A line on the virtual bus's stdin (``add 1 XM430-W350`` plugs a new servo in)."""
+        assert self.sim.stdin is not None
+        self.sim.stdin.write(command + "\n")
+        self.sim.stdin.flush()
+        time.sleep(0.3)
+
+    def tool(self, step: str, args: str, cut=None) -> None:
+        done = subprocess.run([TOOL, *args.split()], capture_output=True, text=True, timeout=600, cwd=self.folder)
+        output = (done.stdout + done.stderr).rstrip() + ("" if done.returncode == 0 else f"\n[exit {done.returncode}]")
+        self.show(step, f"{TOOL} {args}", cut(output) if cut else output)
+
+    def assign_ids(self, args: str, plugs: list[str]) -> None:
+        """``assign-ids`` answering each prompt: the next servo plugged in and Enter, then q."""
+        proc = subprocess.Popen([TOOL, *args.split()], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, cwd=self.folder)
+        assert proc.stdin is not None and proc.stdout is not None
+        lines, left = [], list(plugs)
+        for line in proc.stdout:
+            lines.append(line)
+            if line.startswith("Connect one new servo"):
+                answer = "q\n"
+                if left:
+                    self.bus(left.pop(0))
+                    answer = "\n"
+                lines.append("<Enter>\n" if answer == "\n" else answer)
+                proc.stdin.write(answer)
+                proc.stdin.flush()
+        proc.wait()
+        self.show("assign", f"{TOOL} {args}", "".join(lines))
+
+    def handler(self, seconds: float) -> None:
+        params = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config",
+                              "config_dynamixel_handler.yaml")
+        args = ["-p", f"device_name:={self.link}", "-p", "baudrate:=1000000"]
+        node = subprocess.Popen(["dynamixel_handler", "--ros-args", "--params-file", params, *args],
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=self.folder)
+        time.sleep(seconds)
+        node.send_signal(signal.SIGINT)
+        output, _ = node.communicate(timeout=30)
+        self.show("handler", f"dynamixel_handler --ros-args --params-file config/config_dynamixel_handler.yaml "
+                  f"{' '.join(args)}", output)
+
+    def run(self) -> dict[str, str]:
+        device = f"--device {self.link}"
+        at = f"{device} --baud 1000000"
+        try:
+            self.tool("scan_all", f"scan {device}")
+            self.bus("remove 1")  # unplug them all
+            self.assign_ids(f"assign-ids 1 {at}", ["add 1 XM430-W350", "add 1 XM430-W350", "add 1 XM540-W270"])
+            self.tool("scan_new", f"scan {at}")
+            self.tool("limits", f"set 2 max_position_limit 170deg {at} --yes")
+            self.tool("limits", f"set 2 min_position_limit -170deg {at} --yes")
+            self.tool("limits", f"get 2 max_position_limit {at}")
+            self.tool("mode", f"set-mode 3 ex_position {at} --yes")
+            self.tool("info", f"info 2 {at}", _short_ram)
+            self.tool("backup", f"backup robot.yaml {at}")
+            with open(os.path.join(self.folder, "robot.yaml"), encoding="utf-8") as f:
+                self.show("backup", "head -26 robot.yaml", "".join(f.readlines()[:26]))
+            self.tool("monitor", f"monitor --once {at}")
+            self.handler(8.0)
+        finally:
+            self.sim.communicate("quit\n", timeout=30)
+        return self.blocks
+
+
+def _short_ram(output: str) -> str:
+    """``info``'s output with the RAM items left out (their count said)."""
+    head, _, ram = output.partition("\nRAM\n")
+    lines = ram.splitlines()
+    return f"{head}\nRAM\n... ({len(lines) - 2} RAM items) ...\n{lines[-1]}" if lines else output
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "..", "docs", "img"))
     ap.add_argument("--link", default="/tmp/ttyDXL", help="the virtual bus's device link (shown in the pictures)")
     ap.add_argument("--only", choices=("scan", "monitor"))
+    ap.add_argument("--walkthrough", action="store_true",
+                    help="print the first day's commands and outputs (docs/setup_tool.md) instead")
     args = ap.parse_args()
+    if args.walkthrough:
+        with tempfile.TemporaryDirectory() as folder:
+            for step, block in FirstDay(args.link, folder).run().items():
+                print(f"<!-- {step} -->\n```console\n{block.rstrip()}\n```\n")
+        return 0
     os.makedirs(args.out, exist_ok=True)
     if args.only in (None, "scan"):
         scan_picture(args.out, args.link)
