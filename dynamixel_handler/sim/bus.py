@@ -79,7 +79,7 @@ class VirtualBus(WireSettings):
         self._faults = ReplyFaults(random.Random(seed), self.stats)
         self._server = WireServer(self._port, self._lock, self._instructions, self._faults, self.stats,
                                   baudrate, latency_s, check_baudrate, wire_timing,
-                                  Protocol1Instructions(self._servos, self.stats))
+                                  Protocol1Instructions(self._servos, self.stats, clock))
         pairs = servos.items() if isinstance(servos, Mapping) else (servos or [])
         for servo_id, model in pairs:
             self.add_servo(servo_id, model)

@@ -14,6 +14,10 @@ within 3 % of its rate; Return Delay Time in 2 µs; Status Return Level 0 answer
 0 input voltage, 1 angle limit, 2 overheating, 3 range, 4 checksum, 5 overload, 6 instruction.
 The firmware version is representative (the pages leave it blank). No motion is simulated: the
 present position stays where it powered up.
+
+A Protocol 2.0 servo whose Protocol Type is set to 1 (X series: "1: DYNAMIXEL Protocol 1.0") answers
+these packets too, with its own control table (the 1.0 packet's one-byte address reaches the first
+256 bytes); writing Protocol Type 2 back through Protocol 1.0 returns it to 2.0.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from typing import Callable
 
 from ..protocol import servo as p2
 from .faults import Replies
+from .servo import VirtualServo
 
 HEADER1 = b"\xff\xff"
 BROADCAST_ID1 = 0xFE
@@ -270,22 +275,53 @@ class Protocol1Servo:
         return servo
 
 
+class _SwitchedTo1:
+    """A Protocol 2.0 servo set to Protocol Type 1, seen through the 1.0 servo interface: its
+    control table, any refused access answered with the Range Error bit."""
+
+    def __init__(self, servo: VirtualServo, now: float) -> None:
+        self.servo, self.now = servo, now
+
+    @property
+    def id(self) -> int:
+        return self.servo.id
+
+    @property
+    def return_delay_s(self) -> float:
+        return self.servo.return_delay_s
+
+    @property
+    def status_return_level(self) -> int:
+        return self.servo.status_return_level
+
+    def host_read(self, address: int, length: int) -> tuple[int, bytes]:
+        error, data = self.servo.host_read(address, length, self.now)
+        return (ERR_RANGE1, b"") if error else (0, data)
+
+    def host_write(self, address: int, data: bytes) -> int:
+        return ERR_RANGE1 if self.servo.host_write(address, data, self.now) & 0x7F else 0
+
+    def factory_reset(self) -> None:
+        self.servo.factory_reset(0xFF, self.now)
+
+
 class Protocol1Instructions:
     """What the Protocol 1.0 servos of the bus do with a 1.0 packet: PING, READ, WRITE, RESET
     (factory values) and SYNC WRITE; other instructions get the Instruction Error bit. ``servos``
-    is the bus's list (the 2.0 servos in it never hear a 1.0 packet)."""
+    is the bus's list: its Protocol 2.0 servos hear a 1.0 packet only when set to Protocol Type 1."""
 
-    def __init__(self, servos: list, stats: collections.Counter[str]) -> None:
+    def __init__(self, servos: list, stats: collections.Counter[str], clock: Callable[[], float]) -> None:
         self._servos = servos
         self.stats = stats
+        self.clock = clock
         self.line_bps: int | None = None
 
-    def _hearing(self, packet_id: int) -> list[Protocol1Servo]:
-        alive = [s for s in self._servos if isinstance(s, Protocol1Servo) and not s.silent
-                 and s.hears(self.line_bps)]
+    def _hearing(self, packet_id: int) -> list:
+        alive = [_one_point_o(s, self.line_bps, self.clock) for s in self._servos if not s.silent]
+        hearing = [s for s in alive if s is not None]
         if packet_id == BROADCAST_ID1:
-            return alive
-        return [s for s in alive if s.id == packet_id]
+            return hearing
+        return [s for s in hearing if s.id == packet_id]
 
     def execute(self, packet: p2.Packet) -> Replies:
         self.stats["protocol1_instructions"] += 1
@@ -307,6 +343,16 @@ class Protocol1Instructions:
         for k in range(2, len(prm) - length, 1 + length):
             for servo in self._hearing(prm[k]):
                 servo.host_write(address, prm[k + 1:k + 1 + length])
+
+
+def _one_point_o(servo: Protocol1Servo | VirtualServo, line_bps: int | None,
+                 clock: Callable[[], float]) -> Protocol1Servo | _SwitchedTo1 | None:
+    """The servo as a Protocol 1.0 listener at ``line_bps`` (None: it does not hear the packet)."""
+    if isinstance(servo, Protocol1Servo):
+        return servo if servo.hears(line_bps) else None
+    if servo.speaks_protocol_2 or not (line_bps is None or servo.baudrate == line_bps):
+        return None
+    return _SwitchedTo1(servo, clock())
 
 
 def _answers(packet: p2.Packet, level: int) -> bool:

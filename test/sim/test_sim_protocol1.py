@@ -137,3 +137,20 @@ def test_the_command_takes_ax12a_by_name_and_on_stdin():
     finally:
         _, err = proc.communicate("quit\n", timeout=20)
     assert "ID 7: AX-12A (12) at 1000000 bps [Protocol 1.0]" in err
+
+
+def test_an_x_servo_set_to_protocol_1_answers_1_0_until_set_back(make_bus, sdk1):
+    """Protocol Type (address 13) 1: the XM430 answers Protocol 1.0 with its own control table and
+    no longer 2.0; Protocol Type 2 written through 1.0 brings it back."""
+    bus = make_bus({1: XM430}, baudrate=1_000_000, wire_timing=False)
+    port, ph1, ph2 = sdk1(bus.path)
+    assert ph1.ping(port, 1)[1] == COMM_RX_TIMEOUT
+    assert ph2.write1ByteTxRx(port, 1, 13, 1) == (COMM_SUCCESS, 0)
+    assert ph2.ping(port, 1)[1] == COMM_RX_TIMEOUT
+    assert ph1.ping(port, 1) == (XM430, COMM_SUCCESS, 0)
+    assert ph1.read1ByteTxRx(port, 1, 7)[:2] == (1, COMM_SUCCESS)        # ID at its X address
+    assert ph1.write1ByteTxRx(port, 1, 64, 1) == (COMM_SUCCESS, 0)       # torque on
+    assert ph1.write1ByteTxRx(port, 1, 13, 2) == (COMM_SUCCESS, 0x08)    # EEPROM with torque on: refused
+    ph1.write1ByteTxRx(port, 1, 64, 0)
+    assert ph1.write1ByteTxRx(port, 1, 13, 2) == (COMM_SUCCESS, 0)
+    assert ph2.ping(port, 1)[:2] == (XM430, COMM_SUCCESS)
