@@ -2,7 +2,7 @@
 
 Each picture is the real command's real output: a virtual bus (``dynamixel_handler_sim``, wire
 timing on) stands in for the servos, ``dynamixel_handler_setup`` runs in a pseudo-terminal of
-110 x 40 (so it draws its rich tables and progress bar as on a terminal; ``monitor`` gets a ``q``
+132 x 40 (so it draws its rich tables and progress bar as on a terminal; ``monitor`` gets a ``q``
 after a few refreshes), and the screen it leaves is rebuilt from its bytes (carriage return, line
 feed, cursor up, erase line; colours kept) and recorded with rich's ``Console(record=True)`` as SVG:
 
@@ -39,7 +39,7 @@ from rich.text import Text
 
 from dynamixel_handler.sim import VirtualBus
 
-COLS, ROWS = 110, 40
+COLS, ROWS = 132, 40
 TOOL = "dynamixel_handler_setup"
 _TOKEN = re.compile(rb"\x1b\[[0-9;?]*[A-Za-z]|\r|\n|[^\x1b\r\n]+|\x1b")
 
