@@ -14,6 +14,7 @@ from dynamixel_handler.protocol import FrameReader
 from dynamixel_handler.protocol import servo as p
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler.sim.cli import run_command
+from dynamixel_handler.sim.collision import overlap, status_id_2
 
 XM430, XL330 = 1020, 1200
 PING_1 = p.build_packet(1, p.PING)
@@ -108,3 +109,16 @@ def test_servo_given_twice_on_the_command_line_collides(tmp_path):
     assert "ID 3: XL330-M288 (1200) at 57600 bps [shares its ID: collides]" in lines
     assert any(line.startswith("ID 4: XC430-W150") for line in lines)
     assert not any(line.startswith("ID 3: XC430") for line in lines)  # --servo replaces --ids' ID 3
+
+
+def test_the_line_idles_between_replies_that_do_not_overlap():
+    """The wire timing of two replies at one ID, from the instruction's end: the first after its
+    Return Delay Time, the second after its own plus two byte-times, the line idle between."""
+    a, b = _ping_reply(XM430, 48), _ping_reply(XL330, 52)
+    byte_s = 10 / 1_000_000
+    chunks = overlap([(0.0, a), (500e-6, b)], 1_000_000, status_id_2)
+    assert [reply for _, reply in chunks] == [a, b]
+    assert chunks[0][0] == 0.0
+    assert abs(chunks[1][0] - (500e-6 + 2 * byte_s - len(a) * byte_s)) < 1e-9
+    assert overlap([(250e-6, a), (250e-6, b)], 1_000_000, status_id_2, skew_bytes=0)[0] == \
+        (250e-6, bytes(x & y for x, y in zip(a, b)))  # same start: one packet, every byte ANDed
