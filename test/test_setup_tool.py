@@ -163,7 +163,7 @@ BAUD_RATE_ADDR, MAX_POSITION_ADDR = 8, 48  # X series (ROBOTIS e-Manual, XM430-W
 # ---------------------------------------------------------------------- scan
 def test_scan_finds_five_servos_at_three_rates_two_that_collide_and_an_ax12(sim_of):
     sim = sim_of("1:XM430-W350", "2:XM540-W270", "3:PH54-200-S500-R", "4:H54-200-S500-R", "5:XL330-M288",
-                 "6:XM430-W350", "6:XM430-W350", "7:AX-12A", "8:MX-28")
+                 "6:XM430-W350", "6:XM430-W350", "7:AX-12A", "8:MX-28(1.0)")
     # servos 3 and 5 at 1 Mbps, 4 at 115200 (Baud Rate register 3 / 2), written with the SDK
     for dxl_id, value in ((3, 3), (4, 2), (5, 3)):
         sdk_write1(sim.path, 57600, dxl_id, BAUD_RATE_ADDR, value)

@@ -39,24 +39,28 @@ COMMANDS_HELP = """commands (one per line on stdin):
 
 
 def parse_model(text: str) -> int:
-    """A model number or a model name such as XM430-W350 or AX-12A (case-insensitive)."""
+    """A model number or a model name such as XM430-W350 or AX-12A (case-insensitive).
+
+    A Protocol 2.0 model wins a name both firmwares have: "MX-28" is the MX-28(2.0) (model 30), as
+    are "MX-64" and "MX-106"; "MX-28(1.0)" or 29 is the Protocol 1.0 one. "YM080-230-A099" names
+    YM080-230-A099-RH (the SDK's spelling of the Y names)."""
     text = text.strip()
-    old = protocol1_model(text)
-    if old is not None:
-        return old.number
-    if text.isdigit():
+    if text.isdigit() and protocol1_model(text) is None:
         number = int(text)
         model_by_number(number)
         return number
     for model in known_models():
         if model.name.lower() == text.lower():
             return model.number
-    # MX-64 for MX-64(2.0), whose Protocol 1.0 firmware the bus does not have; "MX-28" is the 1.0
-    # firmware above (model 29), "MX-28(2.0)" or 30 the 2.0 one; YM080-230-A099 for
-    # YM080-230-A099-RH (the SDK's and the issue's spelling of the Y names)
+    old = protocol1_model(text) if text.lower().endswith("(1.0)") or text.isdigit() else None
+    if old is not None:
+        return old.number
     for model in known_models():
         if model.name.lower().replace("(2.0)", "").removesuffix("-rh") == text.lower():
             return model.number
+    old = protocol1_model(text)
+    if old is not None:
+        return old.number
     raise argparse.ArgumentTypeError(f"unknown model {text!r} (see --list-models)")
 
 

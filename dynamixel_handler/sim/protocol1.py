@@ -108,10 +108,11 @@ PROTOCOL1_MODELS: dict[int, Protocol1Model] = {m.number: m for m in (
 
 
 def protocol1_model(text: str | int) -> Protocol1Model | None:
-    """The Protocol 1.0 model of a number or a name (case-insensitive), or None."""
+    """The Protocol 1.0 model of a number or a name (case-insensitive; "MX-28(1.0)" as well as
+    "MX-28"), or None."""
     key = str(text).strip().lower()
     for model in PROTOCOL1_MODELS.values():
-        if key in (str(model.number), model.name.lower()):
+        if key in (str(model.number), model.name.lower(), f"{model.name.lower()}(1.0)"):
             return model
     return None
 

@@ -154,3 +154,11 @@ def test_an_x_servo_set_to_protocol_1_answers_1_0_until_set_back(make_bus, sdk1)
     ph1.write1ByteTxRx(port, 1, 64, 0)
     assert ph1.write1ByteTxRx(port, 1, 13, 2) == (COMM_SUCCESS, 0)
     assert ph2.ping(port, 1)[:2] == (XM430, COMM_SUCCESS)
+
+
+def test_model_names_on_the_command_line_prefer_the_protocol_2_firmware():
+    from dynamixel_handler.sim.cli import parse_model
+    # the names issue and manuals use: MX-28 is the MX-28(2.0) the handler drives
+    assert [parse_model(t) for t in ("MX-28", "mx-28(2.0)", "MX-64", "MX-106", "30")] == [30, 30, 311, 321, 30]
+    # the Protocol 1.0 firmware by its own spelling or number; AX names have no 2.0 twin
+    assert [parse_model(t) for t in ("MX-28(1.0)", "29", "AX-12A", "12")] == [29, 29, 12, 12]
