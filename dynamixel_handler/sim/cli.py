@@ -246,8 +246,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.list_models:
         for model in known_models():
             print(f"{model.number:6d}  {model.name}  ({model.series})")
-        for old in PROTOCOL1_MODELS.values():
-            print(f"{old.number:6d}  {old.name}  (Protocol 1.0: answers only 1.0 packets; not driven by the handler)")
+        for old in PROTOCOL1_MODELS.values():  # by the name --servo takes: MX-28(1.0), as MX-28 is the 2.0 one
+            name = old.name if parse_model(old.name) == old.number else f"{old.name}(1.0)"
+            print(f"{old.number:6d}  {name}  (Protocol 1.0: answers only 1.0 packets; not driven by the handler)")
         return 0
     bus = _bus_from(args, ap)
     stop = threading.Event()
