@@ -37,8 +37,16 @@ def test_stamps_follow_clock_when_use_sim_time_is_true():
             sim_now += 0.002
             rig.publish("/clock", Clock(clock=Time(sec=int(sim_now), nanosec=int(sim_now % 1 * 1e9))))
         assert len(rig.states) > start + 20 and joints and diagnostics, rig.output[-2000:]
-        late = [_seconds(m.stamp) for m in rig.states[start + 10:]]  # well after the first /clock
-        assert all(SIM_START <= t <= sim_now + 0.01 for t in late), (late[:5], sim_now)
+        stamps = [_seconds(m.stamp) for m in rig.states[start:]]
+        # until the node has received its first /clock (discovery of the test's publisher can take a
+        # while on a loaded host) ROS time is 0, as with any node using sim time; from then on a stamp is
+        # the clock's time at publishing less the wall time since the read (docs/architecture.md), so a loop
+        # held back on a loaded host may stamp a little before the /clock value it saw: never wall time
+        first = next(k for k, t in enumerate(stamps) if t >= SIM_START)
+        late = stamps[first:]
+        wrong = [t for t in late if not SIM_START - 0.2 <= t <= sim_now + 0.01]
+        assert len(late) > 10 and not wrong, (wrong[:5], sim_now)
+        assert all(t == 0.0 or SIM_START - 0.2 <= t for t in stamps[:first]), stamps[:first]
         assert SIM_START <= _seconds(joints[-1].header.stamp) <= sim_now + 0.01
         assert SIM_START <= _seconds(diagnostics[-1].header.stamp) <= sim_now + 0.01
     finally:
