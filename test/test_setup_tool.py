@@ -466,3 +466,14 @@ def _read_some(fd: int) -> bytes:
         return os.read(fd, 65536) if readable else b""
     except OSError:
         return b""
+
+
+def test_scan_tells_a_protocol_2_servo_set_to_protocol_type_1_how_to_come_back(sim_of):
+    sim = sim_of("1:XM430-W350")
+    sdk_write1(sim.path, 57600, 1, 13, 1)  # Protocol Type (13) = 1: it answers Protocol 1.0 only now
+    out = tool(sim, "scan", "--ids", "0-3", "--baud", "57600", "--json")
+    assert out.returncode == 0, out.text
+    found = json.loads(out.stdout)["servos"]
+    assert [(f["dxl_id"], f["protocol"], f["model"], f["model_number"]) for f in found] == [(1, 1, "XM430-W350", XM430)]
+    note = found[0]["note"]
+    assert "set to Protocol Type 1" in note and "address 13" in note and "no Protocol 2.0 firmware" not in note

@@ -171,12 +171,24 @@ def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, t
         if got is None:
             continue
         number, firmware = got
-        if number in SWITCH_TO_2:
-            note = (f"Protocol 1.0: not driven by the handler; to switch it to Protocol 2.0 install its 2.0 firmware "
-                    f"(DYNAMIXEL Wizard 2.0, Firmware Recovery, {SWITCH_TO_2[number]}(2.0))")
-        else:
-            note = "Protocol 1.0 only: the handler does not drive it (no Protocol 2.0 firmware exists for it)"
-        result.found.append(Found(dxl_id, bus.baudrate, 1, number, model_name1(number), firmware, note=note))
+        name, note = _protocol1_note(number)
+        result.found.append(Found(dxl_id, bus.baudrate, 1, number, name, firmware, note=note))
+
+
+def _protocol1_note(number: int) -> tuple[str, str]:
+    """The name of a servo that answered Protocol 1.0 and what its owner can do about it."""
+    if number in SWITCH_TO_2:
+        return model_name1(number), (
+            "Protocol 1.0: not driven by the handler; to switch it to Protocol 2.0 install its 2.0 firmware "
+            f"(DYNAMIXEL Wizard 2.0, Firmware Recovery, {SWITCH_TO_2[number]}(2.0))")
+    try:
+        model = model_by_number(number)
+    except KeyError:
+        return model_name1(number), "Protocol 1.0 only: the handler does not drive it (no Protocol 2.0 firmware exists for it)"
+    item = model.items.get("protocol_type")
+    where = f" (address {item.address})" if item is not None else ""
+    return model.name, (f"a Protocol 2.0 model set to Protocol Type 1: write 2 to Protocol Type{where} with a "
+                        "Protocol 1.0 write (DYNAMIXEL Wizard 2.0 does) and the handler drives it")
 
 
 def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int],
