@@ -39,6 +39,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from support.rig import PRO, X540, P, Rig, X
+from support.waits import wait_regs, wait_state
 
 # ---- e-Manual units per LSB ------------------------------------------------------------------
 # X (XM430-W350, XM540-W270): 4096 pulses a turn, 0 deg at 2048; 0.229 rpm; 214.577 rev/min^2;
@@ -85,19 +86,6 @@ def rig(request):
     assert r.close() == 0
 
 
-def regs(rig: Rig, dxl_id: int, *items: str) -> dict[str, int]:
-    servo = rig.sim.servo(dxl_id)
-    return {item: servo.read(item) for item in items}
-
-
-def wait_regs(rig: Rig, dxl_id: int, expected: dict[str, int], timeout: float = 10.0) -> None:
-    """Wait until the servo's registers hold ``expected``; fail showing what they hold."""
-    try:
-        rig.wait(lambda: regs(rig, dxl_id, *expected) == expected, timeout=timeout, what=f"ID {dxl_id} registers")
-    except AssertionError:
-        assert regs(rig, dxl_id, *expected) == expected
-
-
 def near(value, target: float, tol: float) -> bool:
     return value is not None and not math.isnan(value) and abs(value - target) <= tol
 
@@ -105,16 +93,6 @@ def near(value, target: float, tol: float) -> bool:
 def wait_debug(rig: Rig, dxl_id: int, key: str, target: float, tol: float, timeout: float = 15.0) -> None:
     rig.wait(lambda: near(rig.debug_of(dxl_id)[key], target, tol), timeout=timeout,
              what=f"ID {dxl_id} {key} -> {target} (last {rig.debug_of(dxl_id)[key]})")
-
-
-def wait_state(rig: Rig, group: str, field: str, dxl_id: int, target, tol: float = 0.0, timeout: float = 10.0) -> None:
-    def ok() -> bool:
-        value = rig.state_of(group, field, dxl_id)
-        if isinstance(target, (bool, str)):
-            return value == target
-        return near(value, target, tol)
-    rig.wait(ok, timeout=timeout,
-             what=f"ID {dxl_id} {group}.{field} -> {target} (last {rig.state_of(group, field, dxl_id)})")
 
 
 def wait_mode(rig: Rig, dxl_id: int, mode: str) -> None:

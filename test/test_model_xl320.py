@@ -25,6 +25,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from support.rig import Rig
+from support.waits import wait_state
 
 DEG = 300.0 / 1023.0       # deg per position unit
 ZERO = 512                 # the middle of 0..1023
@@ -60,18 +61,6 @@ def wait_raw(rig: Rig, dxl_id: int, expected: dict[tuple[int, int], int]) -> Non
         rig.wait(lambda: now() == expected, what=f"ID {dxl_id} registers {expected}")
     except AssertionError:
         assert now() == expected
-
-
-def wait_state(rig: Rig, group: str, field: str, dxl_id: int, expected: float, tol: float = 1e-6) -> None:
-    def close() -> bool:
-        value = rig.state_of(group, field, dxl_id)
-        if value is None:
-            return False
-        return math.isnan(value) if math.isnan(expected) else abs(value - expected) <= tol
-    try:
-        rig.wait(close, what=f"{group}.{field} of ID {dxl_id} = {expected}")
-    except AssertionError:
-        assert rig.state_of(group, field, dxl_id) == pytest.approx(expected, abs=tol, nan_ok=True)
 
 
 GOAL_POSITION, MOVING_SPEED, CONTROL_MODE = (30, 2), (32, 2), (11, 1)

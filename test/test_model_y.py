@@ -23,6 +23,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from support.rig import Rig
+from support.waits import regs, wait_regs
 
 YM080_A099, YM070_M001 = 4170, 4000
 DEG = 180.0 / 262_144          # one pulse at the output
@@ -43,18 +44,6 @@ def rig():
     r = Rig({1: YM080_A099, 2: YM070_M001}, *PARAMS)
     yield r
     assert r.close() == 0
-
-
-def regs(rig: Rig, dxl_id: int, *items: str) -> dict[str, int]:
-    servo = rig.sim.servo(dxl_id)
-    return {item: servo.read(item) for item in items}
-
-
-def wait_regs(rig: Rig, dxl_id: int, expected: dict[str, int]) -> None:
-    try:
-        rig.wait(lambda: regs(rig, dxl_id, *expected) == expected, what=f"ID {dxl_id} registers")
-    except AssertionError:
-        assert regs(rig, dxl_id, *expected) == expected
 
 
 def all_goal(**fields) -> DxlCommandsAll:

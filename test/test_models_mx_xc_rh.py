@@ -19,6 +19,7 @@ import yaml
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelGoal, DynamixelLimit, DynamixelStatus
 
 from support.rig import Rig
+from support.waits import wait_regs, wait_state
 
 
 @dataclass(frozen=True)
@@ -65,27 +66,6 @@ def rig():
 
 def reg(rig: Rig, dxl_id: int, item: str) -> int:
     return rig.sim.servo(dxl_id).read(item)
-
-
-def wait_regs(rig: Rig, dxl_id: int, expected: dict[str, int]) -> None:
-    def now() -> dict[str, int]:
-        return {item: reg(rig, dxl_id, item) for item in expected}
-    try:
-        rig.wait(lambda: now() == expected, what=f"ID {dxl_id} registers {expected}")
-    except AssertionError:
-        assert now() == expected
-
-
-def wait_state(rig: Rig, group: str, field: str, dxl_id: int, expected: float, tol: float) -> None:
-    def close() -> bool:
-        value = rig.state_of(group, field, dxl_id)
-        if value is None:
-            return False
-        return math.isnan(value) if math.isnan(expected) else abs(value - expected) <= tol
-    try:
-        rig.wait(close, what=f"{group}.{field} of ID {dxl_id} = {expected}")
-    except AssertionError:
-        assert rig.state_of(group, field, dxl_id) == pytest.approx(expected, abs=tol, nan_ok=True)
 
 
 @pytest.mark.parametrize("dxl_id", sorted(SERVOS))

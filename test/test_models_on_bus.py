@@ -17,6 +17,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from support.rig import Rig
+from support.waits import wait_regs
 
 XM335, XW430_T200, H54_RA, L54_S290, L42, XC330_T181 = 1710, 1280, 54025, 38176, 35072, 1210
 
@@ -44,18 +45,6 @@ def rig():
             sim_kwargs={"baudrate": 1_000_000, "wire_timing": False})
     yield r
     assert r.close() == 0
-
-
-def regs(rig: Rig, dxl_id: int, *items: str) -> dict[str, int]:
-    servo = rig.sim.servo(dxl_id)
-    return {item: servo.read(item) for item in items}
-
-
-def wait_regs(rig: Rig, dxl_id: int, expected: dict[str, int]) -> None:
-    try:
-        rig.wait(lambda: regs(rig, dxl_id, *expected) == expected, what=f"ID {dxl_id} registers")
-    except AssertionError:
-        assert regs(rig, dxl_id, *expected) == expected
 
 
 def test_every_model_is_handled_with_its_name(rig):
