@@ -176,3 +176,25 @@ def test_hybrid_area_is_written_at_start_up_only_where_it_differs(rig):
     assert ((1,), 244) not in writes and ((1,), 240) not in writes, writes
     assert ((2,), 244) in writes, writes
     assert rig.sim.servo(2).read("profile_velocity") == pulses(1000.0, DEG_S)
+
+
+ALL_Y = {4000: "YM070-210-M001-RH", 4010: "YM070-210-B001-RH", 4020: "YM070-210-R051-RH",
+         4030: "YM070-210-R099-RH", 4040: "YM070-210-A051-RH", 4050: "YM070-210-A099-RH",
+         4120: "YM080-230-M001-RH", 4130: "YM080-230-B001-RH", 4140: "YM080-230-R051-RH",
+         4150: "YM080-230-R099-RH", 4160: "YM080-230-A051-RH", 4170: "YM080-230-A099-RH"}
+
+
+def test_every_y_model_is_recognised_by_name_and_takes_a_goal_in_degrees():
+    # the twelve model numbers and names of the e-Manual's Y pages, one servo each on one bus
+    servos = {k + 1: number for k, number in enumerate(ALL_Y)}
+    r = Rig(servos, *PARAMS, "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000, "wire_timing": False})
+    try:
+        for dxl_id, number in servos.items():
+            assert f"ID {dxl_id}: {ALL_Y[number]} (model {number}, series Y) handled" in r.output, r.output
+        ids = list(servos)
+        degrees = [5.0 * k - 30.0 for k in range(len(ids))]
+        r.publish("/dynamixel/commands/all", all_goal(id_list=ids, position_deg=degrees))
+        for dxl_id, deg in zip(ids, degrees):
+            wait_regs(r, dxl_id, {"goal_position": pulses(deg, DEG)})
+    finally:
+        assert r.close() == 0
