@@ -4,6 +4,7 @@ dynamixel_sdk directly: scan, assign-ids, set-id / set-baud / set of a limit in 
 factory reset -> restore, --json, bad arguments, the port lock against a running handler."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -13,6 +14,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Iterator
 
 import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler
@@ -100,55 +102,45 @@ def tool(sim: Sim, *args: str, stdin: str = "", timeout: float = 60.0) -> subpro
 
 
 # ---------------------------------------------------------------------- dynamixel_sdk, directly
-def sdk_read(path: str, bps: int, dxl_id: int, address: int, size: int) -> int | None:
+@contextlib.contextmanager
+def sdk_port(path: str, bps: int) -> Iterator[PatientPort]:
+    """dynamixel_sdk's own port on the bus at ``bps``, closed afterwards."""
     port = PatientPort(path)
     assert port.openPort() and port.setBaudRate(bps)
     try:
-        ph = PacketHandler(2.0)
-        data, comm, _err = ph.readTxRx(port, dxl_id, address, size)
-        return int.from_bytes(bytes(data), "little", signed=size == 4) if comm == COMM_SUCCESS else None
+        yield port
     finally:
         port.closePort()
+
+
+def sdk_read(path: str, bps: int, dxl_id: int, address: int, size: int) -> int | None:
+    with sdk_port(path, bps) as port:
+        data, comm, _err = PacketHandler(2.0).readTxRx(port, dxl_id, address, size)
+    return int.from_bytes(bytes(data), "little", signed=size == 4) if comm == COMM_SUCCESS else None
 
 
 def sdk_bytes(path: str, bps: int, dxl_id: int, address: int, size: int) -> bytes | None:
-    port = PatientPort(path)
-    assert port.openPort() and port.setBaudRate(bps)
-    try:
+    with sdk_port(path, bps) as port:
         data, comm, _err = PacketHandler(2.0).readTxRx(port, dxl_id, address, size)
-        return bytes(data) if comm == COMM_SUCCESS else None
-    finally:
-        port.closePort()
+    return bytes(data) if comm == COMM_SUCCESS else None
 
 
 def sdk_write1(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
-    port = PatientPort(path)
-    assert port.openPort() and port.setBaudRate(bps)
-    try:
+    with sdk_port(path, bps) as port:
         comm, err = PacketHandler(2.0).write1ByteTxRx(port, dxl_id, address, value)
-        assert comm == COMM_SUCCESS and err == 0
-    finally:
-        port.closePort()
+    assert comm == COMM_SUCCESS and err == 0
 
 
 def sdk_write4(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
-    port = PatientPort(path)
-    assert port.openPort() and port.setBaudRate(bps)
-    try:
+    with sdk_port(path, bps) as port:
         comm, err = PacketHandler(2.0).write4ByteTxRx(port, dxl_id, address, value & 0xFFFFFFFF)
-        assert comm == COMM_SUCCESS and err == 0
-    finally:
-        port.closePort()
+    assert comm == COMM_SUCCESS and err == 0
 
 
 def sdk_ping(path: str, bps: int, dxl_id: int) -> int | None:
-    port = PatientPort(path)
-    assert port.openPort() and port.setBaudRate(bps)
-    try:
+    with sdk_port(path, bps) as port:
         model, comm, _err = PacketHandler(2.0).ping(port, dxl_id)
-        return model if comm == COMM_SUCCESS else None
-    finally:
-        port.closePort()
+    return model if comm == COMM_SUCCESS else None
 
 
 def one_error_line(out: subprocess.CompletedProcess) -> str:
