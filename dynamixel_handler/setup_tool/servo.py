@@ -11,6 +11,7 @@ from ..control_table import Item, Model, model_by_number
 from ..units import decode, encode
 from .errors import StepFailed
 from .items import find_item, show_value
+from .safety import checked_write
 
 __all__ = ["Servo", "connect", "locate"]
 
@@ -57,34 +58,12 @@ class Servo:
     def torque_on(self) -> bool:
         return self.read("torque_enable") == 1
 
-    def set_checked(self, name: str, raw: int, after: Callable[[], Servo] | None = None) -> bool:
-        """Write ``raw`` to the item if it differs; EEPROM with torque off, torque restored; read back.
-        ``after``: the servo to verify on once written (an ID or baud rate change). True if written."""
-        item = self.item(name)
-        if self.read(item.name) == raw:
-            return False
-        torque = item.eeprom and self.torque_on()
-        if torque:
-            self.write("torque_enable", 0)
-        try:
-            self.write(item.name, raw)
-        except StepFailed as exc:
-            self._restore_torque(torque, self)
-            raise StepFailed(f"{exc}; nothing was changed{' (torque back on)' if torque else ''}") from None
-        try:
-            target = after() if after is not None else self
-            got = target.read(item.name)
-        except StepFailed as exc:
-            raise StepFailed(f"{exc}{' (torque left off)' if torque else ''}") from None
-        target._restore_torque(torque, target)
-        if got != raw:
-            raise StepFailed(f"{target.who}: {item.name} reads {show_value(self.model, item, got)} after writing "
-                             f"{show_value(self.model, item, raw)}")
-        return True
-
-    def _restore_torque(self, was_on: bool, servo: Servo) -> None:
-        if was_on:
-            servo.torque_on_in_place()
+    def set_checked(self, name: str, raw: int, after: Callable[[], Servo] | None = None,
+                    torque_off: bool = False) -> bool:
+        """Write ``raw`` to the item if it differs, as one critical step (:func:`.safety.checked_write`):
+        an EEPROM item on a servo with torque on is refused unless ``torque_off``; read back (on the
+        servo ``after`` returns: an ID or baud rate change). True if written."""
+        return checked_write(self, name, raw, torque_off, after)
 
     def torque_on_in_place(self) -> None:
         """Torque on without a jump, as the handler does: the goal of the servo's mode first set to

@@ -1,0 +1,169 @@
+"""The checks of values before anything is sent: numbers parsed finite, input echoed cut short, each
+item's range from the model's e-Manual facts (not only the register's bytes), min < max for each
+limit pair, and the dangerous values that need the owner's word (``--force``).
+
+Interface (``set``, ``set-mode`` and ``restore`` use the same):
+
+* :func:`finite` / :func:`whole`: a number from the command line, BadArguments (one line) otherwise.
+* :func:`cut`: user input as it is echoed in a message (long input shortened).
+* :func:`needed` -> the items whose present value :func:`check` needs (limit partners, Shutdown,
+  Drive Mode); read them from the servo first.
+* :func:`problems` -> every :class:`Problem` of a set of new values; :func:`check` raises
+  BadArguments for them (those that ``force`` allows excepted) before anything is written.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Mapping
+
+from ..control_table import Item, Model
+from .errors import BadArguments
+from .items import show_value
+
+__all__ = ["Problem", "cut", "finite", "whole", "manual_range", "needed", "problems", "check"]
+
+#: characters of user input a message repeats
+_ECHO = 40
+#: (min item, max item): the servo refuses or misbehaves when min > max
+LIMIT_PAIRS = (("min_position_limit", "max_position_limit"), ("min_voltage_limit", "max_voltage_limit"))
+#: e-Manual ranges common to the Protocol 2.0 models (the Protocol Type 1 of a 2.0 model is refused
+#: apart: see :func:`problems`)
+_RANGES = {
+    "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2), "temperature_limit": (0, 100),
+    "startup_configuration": (0, 3), "secondary_id": (0, 255), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
+}
+#: limits whose factory value is also the most the e-Manual allows (X and P: Current Limit)
+_FACTORY_MAX = ("current_limit",)
+#: a protection lowered beyond its factory value needs --force: (item, +1 raising / -1 lowering is the danger)
+_PROTECTIONS = (("temperature_limit", 1), ("max_voltage_limit", 1), ("min_voltage_limit", -1))
+#: Secondary ID values that switch it off
+_SECONDARY_OFF = 253
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One reason a value is not written: ``forcible`` ones ``--force`` allows."""
+
+    item: str
+    text: str
+    forcible: bool = False
+
+
+def cut(text: str, limit: int = _ECHO) -> str:
+    """``text`` as a message repeats it: at most ``limit`` characters, the rest counted."""
+    text = str(text)
+    flat = text.replace("\n", " ").replace("\r", " ")
+    return flat if len(flat) <= limit else f"{flat[:limit]}... ({len(flat)} characters)"
+
+
+def finite(text: str, what: str) -> float:
+    """``text`` as a finite number; BadArguments naming ``what`` otherwise (``inf``, ``1e400``, ``nan``)."""
+    try:
+        value = float(str(text).strip())
+    except ValueError:
+        raise BadArguments(f"{what}: '{cut(text)}' is not a number") from None
+    if not math.isfinite(value):
+        raise BadArguments(f"{what}: '{cut(text)}' is not a finite number")
+    return value
+
+
+def whole(text: str, what: str, lo: int, hi: int) -> int:
+    """``text`` as a whole number in ``lo..hi``; BadArguments naming ``what`` otherwise."""
+    value = finite(text, what)
+    if value != int(value) or not lo <= value <= hi:
+        raise BadArguments(f"{what}: '{cut(text)}' is not a whole number {lo}..{hi}")
+    return int(value)
+
+
+def manual_range(model: Model, item: Item) -> tuple[int, int]:
+    """The lowest and highest value the model's e-Manual gives ``item`` (the register's bytes where
+    it gives none narrower)."""
+    lo, hi = item.min_raw, item.max_raw
+    if item.name in _RANGES:
+        lo, hi = max(lo, _RANGES[item.name][0]), min(hi, _RANGES[item.name][1])
+    if item.name in ("min_position_limit", "max_position_limit") and model.position_max_pulse:
+        lo, hi = model.position_min_pulse, model.position_max_pulse
+    if item.name == "pwm_limit" and math.isfinite(model.pwm_percent_per_pulse):
+        hi = min(hi, int(round(100.0 / model.pwm_percent_per_pulse)))
+    if item.name in _FACTORY_MAX and model.factory.get(item.name):
+        hi = min(hi, model.factory[item.name])
+    return lo, hi
+
+
+def needed(model: Model, names: Iterable[str]) -> list[str]:
+    """The items whose present value :func:`problems` needs for ``names`` (read them first)."""
+    want: list[str] = []
+    for name in names:
+        for pair in LIMIT_PAIRS:
+            if name in pair:
+                want += [n for n in pair if n != name and model.has(n)]
+        if name in ("shutdown", "drive_mode") and model.has(name):
+            want.append(name)
+    return sorted(set(want))
+
+
+def problems(model: Model, new: Mapping[str, int], now: Mapping[str, int], dxl_id: int,
+             other_ids: Iterable[int] = ()) -> list[Problem]:
+    """Every problem of writing ``new`` (item -> raw) to the servo at ``dxl_id`` whose present
+    values ``now`` holds (at least those :func:`needed` names); ``other_ids``: the other servos'
+    IDs on the bus (a Secondary ID equal to one makes two servos answer as one)."""
+    found: list[Problem] = []
+    for name, raw in new.items():
+        item = model.items.get(name)
+        if item is None:
+            found.append(Problem(name, f"{model.name} has no item {cut(name)}"))
+            continue
+        found += _one(model, item, raw, now, dxl_id, set(other_ids))
+    merged = {**now, **new}
+    for low, high in LIMIT_PAIRS:
+        if (low in new or high in new) and low in merged and high in merged and merged[low] >= merged[high]:
+            found.append(Problem(low if low in new else high,
+                                 f"{low} ({_shown(model, low, merged[low])}) would not be below {high} "
+                                 f"({_shown(model, high, merged[high])})"))
+    return found
+
+
+def _shown(model: Model, name: str, raw: int) -> str:
+    return show_value(model, model.items[name], raw)
+
+
+def _one(model: Model, item: Item, raw: int, now: Mapping[str, int], dxl_id: int, others: set[int]) -> list[Problem]:
+    name = item.name
+    lo, hi = manual_range(model, item)
+    if not lo <= raw <= hi:
+        return [Problem(name, f"{name} = {_shown(model, name, raw)} is outside what the e-Manual gives {model.name}: "
+                              f"{_shown(model, name, lo)} .. {_shown(model, name, hi)}")]
+    if name == "protocol_type" and raw != 2:
+        return [Problem(name, "protocol_type 1 would make it answer Protocol 1.0 only, which this tool cannot yet "
+                              "write back: refused")]
+    factory = model.factory.get(name)
+    for protection, worse in _PROTECTIONS:
+        if name == protection and factory is not None and (raw - factory) * worse > 0:
+            return [Problem(name, f"{name} = {_shown(model, name, raw)} lowers a protection beyond its factory value "
+                                  f"({_shown(model, name, factory)})", forcible=True)]
+    if name == "shutdown":
+        kept = now.get(name, 0) | (factory or 0)
+        if kept & ~raw:
+            return [Problem(name, f"shutdown = {raw} clears protection bits 0x{kept & ~raw:02X} (the servo would no "
+                                  "longer turn its torque off on those errors)", forcible=True)]
+    if name == "drive_mode" and (raw ^ now.get(name, raw)) & 1:
+        return [Problem(name, "drive_mode bit 0 reverses the direction it turns (a joint built for one way moves "
+                              "the other)", forcible=True)]
+    if name == "secondary_id" and raw < _SECONDARY_OFF and raw in others - {dxl_id}:
+        return [Problem(name, f"secondary_id = {raw} is the ID of a servo on the bus: two servos would answer as one",
+                        forcible=True)]
+    return []
+
+
+def check(model: Model, new: Mapping[str, int], now: Mapping[str, int], who: str, force: bool, dxl_id: int,
+          other_ids: Iterable[int] = ()) -> None:
+    """BadArguments (one line: the first problem, and how many there are) when ``new`` has a problem
+    ``force`` does not allow; nothing is sent either way."""
+    found = [p for p in problems(model, new, now, dxl_id, other_ids) if not (force and p.forcible)]
+    if not found:
+        return
+    first = found[0]
+    more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+    advice = "; --force writes it anyway" if first.forcible else ""
+    raise BadArguments(f"{who}: {first.text}: refused, nothing written{advice}{more}")
