@@ -3,6 +3,7 @@ run of one verb (exit code 0 done, 1 a step failed, 2 bad arguments; every error
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import re
 import sys
@@ -10,10 +11,12 @@ from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES
 from . import backup, monitor, verbs_bus, verbs_config
+from .checks import cut
 from .context import Context
 from .errors import StepFailed
 from .output import Output
 from .port import default_device, open_bus
+from .safety import stopped
 
 __all__ = ["build_parser", "main", "parse_ids", "parse_rates"]
 
@@ -30,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
         self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str) -> NoReturn:
-        print(f"error: {message} (see {self.prog} --help)", file=sys.stderr)
+        print(f"error: {cut(message, 300)} (see {self.prog} --help)", file=sys.stderr)
         sys.exit(2)
 
 
@@ -45,7 +48,7 @@ def parse_ids(text: str) -> list[int]:
                 raise ValueError
             ids.update(range(first, last + 1))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a list of IDs 0..252 (e.g. 1-5,8)") from None
+        raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a list of IDs 0..252 (e.g. 1-5,8)") from None
     return sorted(ids)
 
 
@@ -55,7 +58,7 @@ def servo_id(text: str) -> int:
     except ValueError:
         value = -1
     if not 0 <= value <= 252:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a servo ID (0..252)")
+        raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a servo ID (0..252)")
     return value
 
 
@@ -63,10 +66,10 @@ def _positive(kind: type) -> Callable[[str], Any]:
     def parse(text: str) -> Any:
         try:
             value = kind(text)
-        except ValueError:
+        except (ValueError, OverflowError):
             value = 0
-        if not value > 0:
-            raise argparse.ArgumentTypeError(f"'{text}' is not a {'whole ' if kind is int else ''}number above 0")
+        if not (value > 0 and math.isfinite(value)):
+            raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a finite {'whole ' if kind is int else ''}number above 0")
         return value
     return parse
 
@@ -77,17 +80,17 @@ def _count(text: str) -> int:
     except ValueError:
         value = -1
     if value < 0:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number of 0 or more")
+        raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a whole number of 0 or more")
     return value
 
 
 def baud(text: str) -> int:
     try:
         value = int(float(text.lower().replace("m", "e6").replace("k", "e3")))
-    except ValueError:
+    except (ValueError, OverflowError):  # not a number; inf, 1e400
         value = -1
     if value not in DYNAMIXEL_BAUDRATES:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a Dynamixel baud rate "
+        raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a Dynamixel baud rate "
                                          f"({', '.join(map(str, DYNAMIXEL_BAUDRATES))})")
     return value
 
@@ -112,6 +115,14 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                    help="where the servos are (scan and assign-ids: all|LIST, and they look everywhere when not given; "
                         "other verbs look for the servo at every rate when not given)")
     g.add_argument("--yes", "-y", action="store_true", default=default(False), help="no confirmation before EEPROM writes")
+    g.add_argument("--torque-off", action="store_true", default=default(False),
+                   help="allow turning a servo's torque off for an EEPROM write or a reboot (it is turned back on "
+                        "with the goal where the servo is); without it a servo with torque on is refused")
+    g.add_argument("--force", action="store_true", default=default(False),
+                   help="write values that lower a protection (Shutdown bits, a limit beyond its factory value, "
+                        "a reversed direction, a Secondary ID another servo has)")
+    g.add_argument("--raw", action="store_true", default=default(False),
+                   help="set: the value is the register value, not a value in the item's unit")
     g.add_argument("--json", action="store_true", default=default(False), help="one JSON document on stdout")
     g.add_argument("--latency", type=_positive(float), default=default(4.0), metavar="MS",
                    help="adapter latency timer [ms] for reply timeouts (default 4; FTDI adapters are set to it)")
@@ -208,7 +219,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     code = 0
     try:
         bus = open_bus(args.device or default_device(), rate, args.latency, args.retries)
-        args.verb(Context(bus, out, given, args.yes), args)
+        args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw), args)
     except StepFailed as exc:
         out.error(str(exc))
         out.document["error"] = str(exc)
@@ -216,10 +227,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         code = 1
-    except KeyboardInterrupt:
-        out.error("interrupted")
-        out.document["error"] = "interrupted"
-        code = 1
+    except KeyboardInterrupt:  # a signal outside a critical step: nothing was half done
+        stop = stopped()
+        out.error(str(stop))
+        out.document["error"] = str(stop)
+        code = stop.exit_code
     except Exception as exc:  # a defect: still one line (and the exit code of a failed step)
         out.error(f"unexpected {type(exc).__name__}: {exc} (a defect of {PROG}: please report it)")
         out.document["error"] = f"{type(exc).__name__}: {exc}"
@@ -232,5 +244,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         out.finish(f"{PROG} {args.verb_name}")
     except BrokenPipeError:  # `| head`: the reader left; nothing more to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except OSError as exc:  # --svg FILE cannot be written
+        print(f"error: cannot write {cut(str(args.svg))}: {exc.strerror}", file=sys.stderr)
+        code = code or 1
     return code
 

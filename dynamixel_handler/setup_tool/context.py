@@ -22,6 +22,12 @@ class Context:
     #: ``--yes``: no confirmation asked
     yes: bool
     stdin: TextIO = sys.stdin
+    #: ``--torque-off``: a servo's torque may go off for an EEPROM write or a reboot (else refused)
+    torque_off: bool = False
+    #: ``--force``: values that lower a protection are written (else refused)
+    force: bool = False
+    #: ``--raw``: values are register values (else a value of an item with a unit needs its unit)
+    raw: bool = False
 
     def servo(self, dxl_id: int) -> Servo:
         return locate(self.bus, dxl_id, self.baud_given)

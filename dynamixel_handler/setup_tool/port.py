@@ -12,6 +12,7 @@ import os
 from ..bus import BusError, DynamixelBus
 from ..errors import StartupError
 from ..serial_ports import resolve
+from . import safety
 from .errors import StepFailed
 
 __all__ = ["DEFAULT_DEVICE", "open_bus"]
@@ -35,4 +36,5 @@ def open_bus(device: str, baudrate: int, latency_ms: float, retries: int) -> Dyn
         bus.open()
     except BusError as exc:
         raise StepFailed(str(exc)) from None
+    safety.install(bus)  # from here a signal stops the tool, after the critical step in progress
     return bus
