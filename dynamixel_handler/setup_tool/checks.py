@@ -18,13 +18,11 @@ from dataclasses import dataclass
 from typing import Iterable, Mapping
 
 from ..control_table import Item, Model
-from .errors import BadArguments
+from .errors import BadArguments, cut
 from .items import show_value
 
 __all__ = ["Problem", "cut", "finite", "whole", "manual_range", "needed", "problems", "check"]
 
-#: characters of user input a message repeats
-_ECHO = 40
 #: (min item, max item): the servo refuses or misbehaves when min > max
 LIMIT_PAIRS = (("min_position_limit", "max_position_limit"), ("min_voltage_limit", "max_voltage_limit"))
 #: e-Manual ranges common to the Protocol 2.0 models (the Protocol Type 1 of a 2.0 model is refused
@@ -36,7 +34,7 @@ _RANGES = {
 #: limits whose factory value is also the most the e-Manual allows (X and P: Current Limit)
 _FACTORY_MAX = ("current_limit",)
 #: a protection lowered beyond its factory value needs --force: (item, +1 raising / -1 lowering is the danger)
-_PROTECTIONS = (("temperature_limit", 1), ("max_voltage_limit", 1), ("min_voltage_limit", -1))
+_PROTECTIONS = {"temperature_limit": 1, "max_voltage_limit": 1, "min_voltage_limit": -1}
 #: Secondary ID values that switch it off
 _SECONDARY_OFF = 253
 
@@ -48,13 +46,6 @@ class Problem:
     item: str
     text: str
     forcible: bool = False
-
-
-def cut(text: str, limit: int = _ECHO) -> str:
-    """``text`` as a message repeats it: at most ``limit`` characters, the rest counted."""
-    text = str(text)
-    flat = text.replace("\n", " ").replace("\r", " ")
-    return flat if len(flat) <= limit else f"{flat[:limit]}... ({len(flat)} characters)"
 
 
 def finite(text: str, what: str) -> float:
@@ -135,25 +126,29 @@ def _one(model: Model, item: Item, raw: int, now: Mapping[str, int], dxl_id: int
         return [Problem(name, f"{name} = {_shown(model, name, raw)} is outside what the e-Manual gives {model.name}: "
                               f"{_shown(model, name, lo)} .. {_shown(model, name, hi)}")]
     if name == "protocol_type" and raw != 2:
-        return [Problem(name, "protocol_type 1 would make it answer Protocol 1.0 only, which this tool cannot yet "
-                              "write back: refused")]
+        return [Problem(name, "protocol_type 1 makes it answer Protocol 1.0 only, where this tool cannot reach it "
+                              "yet to write 2 back (a one-way door)")]
+    danger = _danger(model, item, raw, now, others - {dxl_id})
+    return [Problem(name, danger, forcible=True)] if danger else []
+
+
+def _danger(model: Model, item: Item, raw: int, now: Mapping[str, int], others: set[int]) -> str:
+    """Why ``raw`` lowers a protection or makes two servos answer as one ("" when it does not)."""
+    name = item.name
     factory = model.factory.get(name)
-    for protection, worse in _PROTECTIONS:
-        if name == protection and factory is not None and (raw - factory) * worse > 0:
-            return [Problem(name, f"{name} = {_shown(model, name, raw)} lowers a protection beyond its factory value "
-                                  f"({_shown(model, name, factory)})", forcible=True)]
-    if name == "shutdown":
-        kept = now.get(name, 0) | (factory or 0)
-        if kept & ~raw:
-            return [Problem(name, f"shutdown = {raw} clears protection bits 0x{kept & ~raw:02X} (the servo would no "
-                                  "longer turn its torque off on those errors)", forcible=True)]
+    worse = _PROTECTIONS.get(name)
+    if worse is not None and factory is not None and (raw - factory) * worse > 0:
+        return (f"{name} = {_shown(model, name, raw)} lowers a protection beyond its factory value "
+                f"({_shown(model, name, factory)})")
+    kept = now.get(name, 0) | (factory or 0)
+    if name == "shutdown" and kept & ~raw:
+        return (f"shutdown = {raw} clears protection bits 0x{kept & ~raw:02X} (the servo would no longer turn its "
+                "torque off on those errors)")
     if name == "drive_mode" and (raw ^ now.get(name, raw)) & 1:
-        return [Problem(name, "drive_mode bit 0 reverses the direction it turns (a joint built for one way moves "
-                              "the other)", forcible=True)]
-    if name == "secondary_id" and raw < _SECONDARY_OFF and raw in others - {dxl_id}:
-        return [Problem(name, f"secondary_id = {raw} is the ID of a servo on the bus: two servos would answer as one",
-                        forcible=True)]
-    return []
+        return "drive_mode bit 0 reverses the direction it turns (a joint built for one way moves the other)"
+    if name == "secondary_id" and raw < _SECONDARY_OFF and raw in others:
+        return f"secondary_id = {raw} is the ID of a servo on the bus: two servos would answer as one"
+    return ""
 
 
 def check(model: Model, new: Mapping[str, int], now: Mapping[str, int], who: str, force: bool, dxl_id: int,

@@ -2,7 +2,16 @@
 carries one line that names the servo and the cause."""
 from __future__ import annotations
 
-__all__ = ["StepFailed", "BadArguments"]
+__all__ = ["StepFailed", "BadArguments", "cut"]
+
+#: characters of user input a message repeats
+_ECHO = 40
+
+
+def cut(text: object, limit: int = _ECHO) -> str:
+    """User input as a message repeats it: one line, at most ``limit`` characters, the rest counted."""
+    flat = str(text).replace("\n", " ").replace("\r", " ")
+    return flat if len(flat) <= limit else f"{flat[:limit]}... ({len(flat)} characters)"
 
 
 class StepFailed(Exception):

@@ -8,7 +8,7 @@ import re
 
 from ..control_table import Item, Model
 from ..units import UNIT_OF_QUANTITY, conversion, quantity_of
-from .errors import BadArguments
+from .errors import BadArguments, cut
 
 __all__ = ["find_item", "item_range", "parse_value", "show_value", "to_unit"]
 
@@ -36,7 +36,7 @@ def find_item(model: Model, name: str) -> Item:
         return model.items[key]
     near = [n for n in model.items if key in n][:6]
     hint = f" (did you mean {', '.join(near)}?)" if near else " (`info ID` lists them)"
-    raise BadArguments(f"{model.name} has no control-table item '{name}'{hint}")
+    raise BadArguments(f"{model.name} has no control-table item '{cut(name)}'{hint}")
 
 
 def unit_of(model: Model, item: Item) -> str:
@@ -75,28 +75,43 @@ def _allowed(model: Model, item: Item) -> dict[int, str] | None:
     return None
 
 
-def parse_value(model: Model, item: Item, text: str, who: str) -> int:
-    """The raw register value for ``text``: a whole number is raw, a number with a unit is
-    converted with the model's scale. BadArguments (one line naming ``who``) when it is not a
-    value of the item or out of the range the model's table allows."""
+def parse_value(model: Model, item: Item, text: str, who: str, raw: bool = False) -> int:
+    """The raw register value for ``text``: a number with a unit converted with the model's scale;
+    a bare whole number is the register value of an item without a unit, or with ``raw`` (``--raw``);
+    for an item with a unit it is refused with both readings. BadArguments (one line naming ``who``)
+    when it is not a value of the item or out of the range the model's table allows."""
     match = _NUMBER.match(text)
     if match is None:
-        raise BadArguments(f"{who}: '{text}' is not a value for {item.name} (a number, with a unit or raw)")
+        raise BadArguments(f"{who}: '{cut(text)}' is not a value for {item.name} (a number, with a unit or raw)")
     number, unit = float(match.group(1)), match.group(2)
+    own = unit_of(model, item)
+    if not math.isfinite(number):
+        raise BadArguments(f"{who}: '{cut(text)}' is not a finite number")
+    if unit and raw:
+        raise BadArguments(f"{who}: --raw takes a register value, not '{cut(text)}'")
     if unit:
-        raw = _converted(model, item, number, unit, who)
+        value = _converted(model, item, number, unit, who)
     elif number != int(number):
-        own = unit_of(model, item)
         raise BadArguments(f"{who}: {item.name} takes a whole raw value or a value with its unit"
-                           f"{f' ({own})' if own else ''}, got '{text}'")
+                           f"{f' ({own})' if own else ''}, got '{cut(text)}'")
+    elif own and not raw:
+        raise BadArguments(f"{who}: {item.name} is in {own}: {_both(model, item, int(number), own)}")
     else:
-        raw = int(number)
-    check_raw(model, item, raw, who, text)
-    return raw
+        value = int(number)
+    check_raw(model, item, value, who, text)
+    return value
+
+
+def _both(model: Model, item: Item, number: int, own: str) -> str:
+    """``90 = 90 deg? write 90deg, or --raw for register value 90 (= -172.1 deg)``."""
+    reading = ""
+    if item.min_raw <= number <= item.max_raw:
+        reading = f" (= {show_value(model, item, number).split(' (raw')[0]})"
+    return f"{number} = {number} {own}? write {number}{own}, or --raw for register value {number}{reading}"
 
 
 def check_raw(model: Model, item: Item, raw: int, who: str, text: str | None = None) -> None:
-    given = f"'{text}' (raw {raw})" if text is not None and text.strip() != str(raw) else str(raw)
+    given = f"'{cut(text)}' (raw {raw})" if text is not None and text.strip() != str(raw) else str(raw)
     allowed = _allowed(model, item)
     if allowed is not None and raw not in allowed:
         raise BadArguments(f"{who}: {item.name} = {given} is not one {model.name} takes "

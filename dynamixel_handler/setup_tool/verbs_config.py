@@ -11,9 +11,11 @@ from typing import Any
 from ..bus import BusError
 from ..control_table import Item
 from ..units import decode
+from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
+from .safety import held
 from .servo import Servo, connect
 
 __all__ = ["info", "get", "set_item", "set_id", "set_baud", "set_mode"]
@@ -87,15 +89,19 @@ def _apply(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
         ctx.out.say(f"{servo.who} {item.name} is already {shown}: nothing written")
         ctx.out.document.update(doc, written=False)
         return
+    torque = guard.torque_gate(ctx, servo, [item])
     if item.eeprom:
-        ctx.confirm(f"{servo.who}: write {item.name} (EEPROM) from {show_value(servo.model, item, before)} to {shown}?")
+        ctx.confirm(f"{servo.who}: write {item.name} (EEPROM) from {show_value(servo.model, item, before)} to {shown}?"
+                    + guard.torque_question(torque))
     if item.name == "torque_enable" and raw == 1:
-        servo.torque_on_in_place()  # as the handler does: the goal where the servo is, no jump
+        with held():  # as the handler does: the goal where the servo is, no jump
+            servo.torque_on_in_place()
         if servo.read(item.name) != 1:
             raise StepFailed(f"{servo.who}: torque_enable reads 0 after torque on")
     else:
-        servo.set_checked(item.name, raw)
-    ctx.out.say(f"{servo.who} {item.name} = {shown} (was {show_value(servo.model, item, before)}), read back")
+        servo.set_checked(item.name, raw, torque_off=ctx.torque_off)
+    ctx.out.say(f"{servo.who} {item.name} = {shown} (was {show_value(servo.model, item, before)}), read back"
+                + guard.torque_done(torque))
     ctx.out.document.update(doc, written=True)
 
 
@@ -105,7 +111,10 @@ def set_item(ctx: Context, args: argparse.Namespace) -> None:
     if item.name in ("id", "baud_rate"):
         raise BadArguments(f"{servo.who}: use set-{'id' if item.name == 'id' else 'baud'} for {item.name} "
                            "(it checks the new address and finds the servo there)")
-    _apply(ctx, servo, item, parse_value(servo.model, item, args.value, servo.who))
+    raw = parse_value(servo.model, item, args.value, servo.who, raw=ctx.raw)
+    guard.check_values(ctx, servo, {item.name: raw})
+    guard.only_one(ctx, servo)
+    _apply(ctx, servo, item, raw)
 
 
 def set_mode(ctx: Context, args: argparse.Namespace) -> None:
@@ -120,7 +129,8 @@ def set_mode(ctx: Context, args: argparse.Namespace) -> None:
             raise BadArguments(f"{servo.who}: {servo.model.name} has no operating mode '{args.mode}' "
                                f"(one of {', '.join(modes)} or a register value)") from None
     item = servo.item("operating_mode")
-    _apply(ctx, servo, item, parse_value(servo.model, item, str(raw), servo.who))
+    guard.only_one(ctx, servo)
+    _apply(ctx, servo, item, parse_value(servo.model, item, str(raw), servo.who, raw=True))
 
 
 def set_id(ctx: Context, args: argparse.Namespace) -> None:
@@ -135,9 +145,12 @@ def set_id(ctx: Context, args: argparse.Namespace) -> None:
     if taken is not None:
         raise StepFailed(f"{servo.who}: ID {new} is already in use at {ctx.bus.baudrate} bps (model {taken}): "
                          "two servos at one ID cannot be told apart; choose another")
-    ctx.confirm(f"{servo.who}: change its ID to {new} (EEPROM)?")
-    servo.set_checked("id", new, after=lambda: connect(ctx.bus, new))
-    ctx.out.say(f"ID {servo.dxl_id} -> {new} ({servo.model.name}): answers at ID {new}, read back")
+    guard.only_one(ctx, servo)
+    torque = guard.torque_gate(ctx, servo, [item])
+    ctx.confirm(f"{servo.who}: change its ID to {new} (EEPROM)?" + guard.torque_question(torque))
+    servo.set_checked("id", new, after=lambda: connect(ctx.bus, new), torque_off=ctx.torque_off)
+    ctx.out.say(f"ID {servo.dxl_id} -> {new} ({servo.model.name}): answers at ID {new}, read back"
+                + guard.torque_done(torque))
     ctx.out.document.update(old=servo.dxl_id, id=new, written=True)
 
 
@@ -157,7 +170,9 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
     if there is not None:
         raise StepFailed(f"{servo.who}: another servo (model {there}) answers at ID {servo.dxl_id} at {args.bps} bps: "
                          "the two would collide there; give one another ID first")
-    ctx.confirm(f"{servo.who}: change its baud rate from {old} to {args.bps} bps (EEPROM)?")
+    guard.only_one(ctx, servo)
+    torque = guard.torque_gate(ctx, servo, [servo.item("baud_rate")])
+    ctx.confirm(f"{servo.who}: change its baud rate from {old} to {args.bps} bps (EEPROM)?" + guard.torque_question(torque))
 
     def found_again() -> Servo:
         try:
@@ -169,6 +184,6 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
         except StepFailed as exc:
             raise StepFailed(f"{exc}: its Baud Rate was written; it is at {args.bps} bps or still at {old}") from None
 
-    servo.set_checked("baud_rate", by_bps[args.bps], after=found_again)
-    ctx.out.say(f"{servo.who}: {old} -> {args.bps} bps, found again at {args.bps} bps")
+    servo.set_checked("baud_rate", by_bps[args.bps], after=found_again, torque_off=ctx.torque_off)
+    ctx.out.say(f"{servo.who}: {old} -> {args.bps} bps, found again at {args.bps} bps" + guard.torque_done(torque))
     ctx.out.document.update(id=servo.dxl_id, baudrate=args.bps, was=old, written=True)
