@@ -167,7 +167,7 @@ def test_scan_finds_five_servos_at_three_rates_two_that_collide_and_an_ax12(sim_
                      (5, 1_000_000, XL330)}, out.text
     collided = [f for f in found if f["collision"]]
     assert [(f["dxl_id"], f["baudrate"]) for f in collided] == [(6, 57600)], out.text
-    assert "two servos answer at this ID" in collided[0]["note"]
+    assert "two or more servos answer at this ID" in collided[0]["note"]
     old = [f for f in found if f["protocol"] == 1]  # Protocol 1.0: AX at 1 Mbps, MX-28 at 57600 bps from the box
     assert [(f["dxl_id"], f["model"], f["model_number"], f["baudrate"]) for f in old] == [
         (7, "AX-12A", AX12, 1_000_000), (8, "MX-28", 29, 57600)]

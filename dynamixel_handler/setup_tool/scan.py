@@ -53,6 +53,8 @@ class ScanResult:
     found: list[Found] = field(default_factory=list)
     #: rates the adapter refused, with why
     skipped: dict[int, str] = field(default_factory=dict)
+    #: the rate a signal stopped the scan at (what was found until then is kept), None: complete
+    interrupted_at: int | None = None
 
     def as_dict(self) -> dict[str, object]:
         return {"servos": [asdict(f) for f in self.found], "skipped_rates": {str(k): v for k, v in self.skipped.items()}}
@@ -159,8 +161,8 @@ def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -
         found = _details(bus, dxl_id, number) if number is not None else Found(dxl_id, bus.baudrate, 2)
         if collision:
             found.collision = True
-            found.note = ("two servos answer at this ID (garbled or doubled replies): connect them one at a time "
-                          "and give each its own ID (assign-ids)")
+            found.note = ("two or more servos answer at this ID (garbled or doubled replies; how many, the wire "
+                          "cannot tell): connect them one at a time with assign-ids, each gets its own ID")
         result.found.append(found)
 
 
@@ -179,23 +181,40 @@ def _protocol1_note(number: int) -> tuple[str, str]:
     """The name of a servo that answered Protocol 1.0 and what its owner can do about it."""
     if number in SWITCH_TO_2:
         return model_name1(number), (
-            "Protocol 1.0: not driven by the handler; to switch it to Protocol 2.0 install its 2.0 firmware "
-            f"(DYNAMIXEL Wizard 2.0, Firmware Recovery, {SWITCH_TO_2[number]}(2.0))")
+            f"Protocol 1.0: not driven by the handler; {_ONLY_FOUND}; to switch it to Protocol 2.0 install its "
+            f"2.0 firmware (DYNAMIXEL Wizard 2.0, Firmware Recovery, {SWITCH_TO_2[number]}(2.0))")
     try:
         model = model_by_number(number)
     except KeyError:
-        return model_name1(number), "Protocol 1.0 only: the handler does not drive it (no Protocol 2.0 firmware exists for it)"
+        return model_name1(number), (f"Protocol 1.0 only: the handler does not drive it (no Protocol 2.0 firmware "
+                                     f"exists for it); {_ONLY_FOUND}")
     item = model.items.get("protocol_type")
     where = f" (address {item.address})" if item is not None else ""
-    return model.name, (f"a Protocol 2.0 model set to Protocol Type 1: write 2 to Protocol Type{where} with a "
-                        "Protocol 1.0 write (DYNAMIXEL Wizard 2.0 does) and the handler drives it")
+    return model.name, (f"a Protocol 2.0 model set to Protocol Type 1; {_ONLY_FOUND}: write 2 to Protocol "
+                        f"Type{where} with a Protocol 1.0 write (DYNAMIXEL Wizard 2.0 does) and the handler and "
+                        "every verb reach it again")
+
+
+#: what the tool can do with a servo that answers Protocol 1.0 only
+_ONLY_FOUND = "this tool finds it (scan) but cannot yet read or write it (info, get, set, backup: no)"
 
 
 def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int],
              tick: Callable[[float, str | None], None]) -> ScanResult:
     """Every servo at ``rates`` x ``ids`` in ``protocols``; the bus is left at the first rate.
-    ``tick(ms, what)``: progress in the units of ``scan_steps``."""
+    ``tick(ms, what)``: progress in the units of ``scan_steps``. A signal (Ctrl-C) stops it with
+    what was found until then (``interrupted_at``: the rate it was at)."""
     result = ScanResult()
+    try:
+        _scan_rates(bus, rates, ids, protocols, tick, result)
+    except KeyboardInterrupt:
+        result.interrupted_at = bus.baudrate
+    result.found.sort(key=lambda f: (f.dxl_id, f.baudrate, f.protocol))
+    return result
+
+
+def _scan_rates(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int],
+                tick: Callable[[float, str | None], None], result: ScanResult) -> None:
     latency = bus.latency_timer_ms
     for bps in rates:
         try:
@@ -206,10 +225,7 @@ def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protoc
             continue
         if 2 in protocols:
             tick(0, f"{bps} bps, Protocol 2.0")
-            before = len(result.found)
-            rate = ScanResult()
-            _scan_protocol2(bus, ids, rate)
-            result.found[before:] = rate.found
+            _scan_protocol2(bus, ids, result)
             tick(_broadcast_ms(bps, ids, latency), None)
         if 1 in protocols:
             tick(0, f"{bps} bps, Protocol 1.0")
@@ -217,5 +233,3 @@ def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protoc
             _scan_protocol1(bus, ids, result, lambda: tick(step, None))
     if rates and rates[0] not in result.skipped:
         bus.set_baudrate(rates[0])
-    result.found.sort(key=lambda f: (f.dxl_id, f.baudrate, f.protocol))
-    return result

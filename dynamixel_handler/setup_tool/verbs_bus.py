@@ -7,6 +7,7 @@ import time
 from ..bus import DynamixelBus
 from .context import Context
 from .errors import BadArguments, StepFailed
+from .safety import stopped
 from .scan import COLUMNS, Found, scan_bus, scan_steps
 from .servo import SEARCH_ORDER, Servo, connect
 
@@ -34,6 +35,12 @@ def scan(ctx: Context, args: argparse.Namespace) -> None:
     ctx.out.table("", COLUMNS, [f.row() for f in result.found], styles)
     for bps, why in result.skipped.items():
         ctx.out.say(f"{bps} bps skipped: {why}")
+    if result.interrupted_at is not None:
+        done = rates[:rates.index(result.interrupted_at)] if result.interrupted_at in rates else []
+        ctx.out.say(f"scan interrupted at {result.interrupted_at} bps after {took:.1f} s: {len(result.found)} servo(s) "
+                    f"found until then (rates looked at in full: {', '.join(map(str, done)) or 'none'})")
+        ctx.out.document.update(result.as_dict(), seconds=round(took, 2), interrupted=True)
+        raise stopped()
     ctx.out.say(f"{len(result.found)} servo(s) found at {len(rates) - len(result.skipped)} baud rate(s), "
                 f"IDs {args.ids[0]}-{args.ids[-1]}, in {took:.1f} s")
     ctx.out.document.update(result.as_dict(), seconds=round(took, 2))
@@ -150,14 +157,21 @@ def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
     return connect(bus, new_id)
 
 
+def _forget(known: set[tuple[int, int]], clash: list[Found]) -> None:
+    """Where a new servo collided with a known one, either may be the one left connected next."""
+    known.difference_update((f.dxl_id, f.baudrate) for f in clash)
+
+
 def _one_round(ctx: Context, known: set[tuple[int, int]], rates: list[int], ids: list[int],
                next_id: int, target: int) -> tuple[Found, Servo] | None:
     seen = _look(ctx, rates, ids)
     clash = [f for f in seen if f.collision and (f.dxl_id, f.baudrate) in known]
     if clash:
         where = ", ".join(f"ID {f.dxl_id} at {f.baudrate} bps" for f in clash)
-        ctx.out.say(f"the new servo answers where another one is ({where}): disconnect it, give the other one its own "
-                    "ID (set-id), connect the new one again and press Enter")
+        _forget(known, clash)
+        ctx.out.say(f"the new servo answers where another one is ({where}): two or more servos answer as one there "
+                    "and no write can tell them apart; disconnect all of them but one and press Enter: each one "
+                    "connected alone then gets its own ID here")
         return None
     found = [f for f in seen if (f.dxl_id, f.baudrate) not in known]
     if not found:
