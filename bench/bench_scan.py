@@ -146,8 +146,8 @@ def _report(args, wire: bool, rates: list[int], tool_s: float, document: dict, s
     print(f"scan: {len(rates)} baud rates ({', '.join(map(str, rates))}), IDs {ids[0]}-{ids[-1]}, "
           f"protocol {args.protocol}")
     servos = document.get("servos", [])
-    tool_found = sorted((s["dxl_id"], s.get("model_number"), s["baudrate"], s["protocol"]) for s in servos)
-    collided = sorted({s["dxl_id"] for s in servos if s.get("collision")})
+    tool_found = sorted((s["id"], s.get("model_number"), s["baudrate"], s["protocol"]) for s in servos)
+    collided = sorted({s["id"] for s in servos if s.get("collision")})
     print(f"tool  dynamixel_handler_setup scan: {tool_s:7.1f} s wall (its own figure {document.get('seconds', 0):.1f} s); "
           f"found {len(tool_found)}: {tool_found}; collisions at IDs {collided}")
     parts = []

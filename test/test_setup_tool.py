@@ -162,18 +162,18 @@ def test_scan_finds_five_servos_at_three_rates_two_that_collide_and_an_ax12(sim_
     out = tool(sim, "scan", "--ids", "0-9", "--baud", "57600,115200,1000000", "--json")
     assert out.returncode == 0, out.text
     found = json.loads(out.stdout)["servos"]
-    clean = {(f["dxl_id"], f["baudrate"], f["model_number"]) for f in found if f["protocol"] == 2 and not f["collision"]}
+    clean = {(f["id"], f["baudrate"], f["model_number"]) for f in found if f["protocol"] == 2 and not f["collision"]}
     assert clean == {(1, 57600, XM430), (2, 57600, XM540), (3, 1_000_000, PH54), (4, 115200, H54),
                      (5, 1_000_000, XL330)}, out.text
     collided = [f for f in found if f["collision"]]
-    assert [(f["dxl_id"], f["baudrate"]) for f in collided] == [(6, 57600)], out.text
+    assert [(f["id"], f["baudrate"]) for f in collided] == [(6, 57600)], out.text
     assert "two or more servos answer at this ID" in collided[0]["note"]
     old = [f for f in found if f["protocol"] == 1]  # Protocol 1.0: AX at 1 Mbps, MX-28 at 57600 bps from the box
-    assert [(f["dxl_id"], f["model"], f["model_number"], f["baudrate"]) for f in old] == [
+    assert [(f["id"], f["model"], f["model_number"], f["baudrate"]) for f in old] == [
         (7, "AX-12A", AX12, 1_000_000), (8, "MX-28", 29, 57600)]
     assert "the handler does not drive it" in old[0]["note"]
     assert "Firmware Recovery, MX-28(2.0)" in old[1]["note"]
-    x = next(f for f in found if f["dxl_id"] == 1)
+    x = next(f for f in found if f["id"] == 1)
     assert (x["model"], x["mode"], x["torque"], x["hardware_error"]) == ("XM430-W350", "position", False, [])
 
 
@@ -418,7 +418,7 @@ def test_servos_at_one_id_answering_one_after_the_other_are_told_apart(sim_of):
     sdk_write1(sim.path, 1_000_000, 8, 7, 6)  # ID 8 -> 6
     out = tool(sim, "scan", "--ids", "0-9", "--baud", "1000000", "--protocol", "2", "--json")
     assert out.returncode == 0, out.text
-    found = {f["dxl_id"]: f for f in json.loads(out.stdout)["servos"]}
+    found = {f["id"]: f for f in json.loads(out.stdout)["servos"]}
     assert sorted(found) == [2, 6] and found[6]["collision"] and not found[2]["collision"], out.text
     assert found[6]["model_number"] == XM430  # each reply alone is valid: the model is known
 
@@ -466,6 +466,6 @@ def test_scan_tells_a_protocol_2_servo_set_to_protocol_type_1_how_to_come_back(s
     out = tool(sim, "scan", "--ids", "0-3", "--baud", "57600", "--json")
     assert out.returncode == 0, out.text
     found = json.loads(out.stdout)["servos"]
-    assert [(f["dxl_id"], f["protocol"], f["model"], f["model_number"]) for f in found] == [(1, 1, "XM430-W350", XM430)]
+    assert [(f["id"], f["protocol"], f["model"], f["model_number"]) for f in found] == [(1, 1, "XM430-W350", XM430)]
     note = found[0]["note"]
     assert "set to Protocol Type 1" in note and "address 13" in note and "no Protocol 2.0 firmware" not in note

@@ -99,7 +99,7 @@ def test_item_names_and_shown_values():
     with pytest.raises(BadArguments, match=r"has no control-table item 'position_limit' \(did you mean max_position_limit"):
         find_item(m, "position_limit")
     assert show_value(m, find_item(m, "max_voltage_limit"), 160) == "16 V (raw 160)"
-    assert show_value(m, find_item(m, "operating_mode"), 3) == "3 (position)"
+    assert show_value(m, find_item(m, "operating_mode"), 3) == "position (3)"
     assert show_value(m, find_item(m, "drive_mode"), 4) == "4"
 
 

@@ -16,6 +16,7 @@ from .context import Context
 from .errors import BadArguments, StepFailed
 from .items import check_raw, show_value, to_unit, unit_of
 from .servo import Servo
+from .values import number, servo_doc
 
 __all__ = ["backup", "restore"]
 
@@ -29,15 +30,6 @@ def _kept(item: Item) -> bool:
     return item.eeprom and item.name not in _IDENTITY and not item.name.startswith("indirect_")
 
 
-def _ids(ctx: Context, given: list[int] | None) -> list[int]:
-    if given:
-        return given
-    ids = sorted(ctx.bus.scan(range(253)))
-    if not ids:
-        raise StepFailed(f"no servo answers at {ctx.bus.baudrate} bps on {ctx.bus.device}")
-    return ids
-
-
 def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
     model = servo.model
     lines = [f"  {servo.dxl_id}:", f"    model: {model.name}", f"    model_number: {model.number}",
@@ -49,7 +41,7 @@ def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
         if _kept(item):
             raw = servo.read(item.name)
             value = to_unit(model, item, raw)
-            note = f"  # {value:.6g} {unit_of(model, item)}" if value is not None else ""
+            note = f"  # {number(value, 6)} {unit_of(model, item)}" if value is not None else ""
             lines.append(f"      {item.name}: {raw}{note}")
     return lines
 
@@ -59,19 +51,22 @@ def backup(ctx: Context, args: argparse.Namespace) -> None:
              "# the physical value in the comment). Edit a value to change it: restore checks the model,",
              "# writes only what differs and reads it back.",
              f"# {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
-             f"baudrate: {ctx.bus.baudrate}", "servos:"]
+             "servos:"]
     saved = []
-    for dxl_id in _ids(ctx, args.ids):
-        servo = ctx.servo(dxl_id)
-        lines += _servo_yaml(servo, ctx.bus.firmware_versions.get(dxl_id))
-        saved.append(dxl_id)
+    found = ctx.servos(args.ids)
+    for placed in found.placed:
+        servo = ctx.at(placed)
+        lines += _servo_yaml(servo, ctx.bus.firmware_versions.get(servo.dxl_id))
+        saved.append(servo.dxl_id)
     try:
         with open(args.file, "w", encoding="utf-8") as handle:
             handle.write("\n".join(lines) + "\n")
     except OSError as exc:
         raise StepFailed(f"cannot write {args.file}: {exc.strerror}") from None
     ctx.out.say(f"{len(saved)} servo(s) saved to {args.file}: IDs {', '.join(map(str, saved))}")
-    ctx.out.document.update(file=args.file, ids=saved)
+    ctx.out.document.update(file=args.file, ids=saved, missing=found.missing,
+                            servos=[servo_doc(p.dxl_id, p.servo.model, p.baudrate) for p in found.placed])
+    ctx.fail_if_missing(found, f"the others were saved to {args.file}")
 
 
 def _load(path: str) -> dict[int, dict[str, Any]]:

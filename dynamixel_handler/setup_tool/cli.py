@@ -9,8 +9,8 @@ import re
 import sys
 from typing import Any, Callable, NoReturn, Sequence
 
-from ..bus import DYNAMIXEL_BAUDRATES
-from . import backup, monitor, verbs_bus, verbs_config
+from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus
+from . import backup, monitor, plot, trace, verbs_bus, verbs_config
 from .checks import cut
 from .context import Context
 from .errors import StepFailed
@@ -50,6 +50,11 @@ def parse_ids(text: str) -> list[int]:
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a list of IDs 0..252 (e.g. 1-5,8)") from None
     return sorted(ids)
+
+
+def ids_or_all(text: str) -> list[int] | None:
+    """``all`` (None: every servo found) or a list of IDs."""
+    return None if text.strip().lower() == "all" else parse_ids(text)
 
 
 def servo_id(text: str) -> int:
@@ -129,6 +134,8 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
     g.add_argument("--retries", type=_count, default=default(2), metavar="N", help="retries of a failed transaction")
     g.add_argument("--svg", default=default(None), metavar="FILE",
                    help="also save the output as it looks in a terminal, as an SVG picture")
+    g.add_argument("--trace", action="store_true", default=default(False),
+                   help="print every instruction and status packet on stderr: time, hex and what it means")
 
 
 def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -168,8 +175,8 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="IDs new servos may have (default 0-252)")
     p.add_argument("--search-baud", type=parse_rates, default=[], metavar="LIST",
                    help="rates new servos may be at (default all)")
-    p = verb("reboot", verbs_bus.reboot, "reboot a servo (or all)")
-    p.add_argument("id")
+    p = verb("reboot", verbs_bus.reboot, "reboot servos: an ID, a list (1,2,5 or 1-4) or all")
+    p.add_argument("id", type=ids_or_all, metavar="IDS|all")
     p = verb("factory-reset", verbs_bus.factory_reset, "reset a servo to its factory values")
     p.add_argument("id", type=servo_id)
     keep = p.add_mutually_exclusive_group(required=True)
@@ -177,15 +184,40 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     keep.add_argument("--all", action="store_true", help="reset everything: the servo comes back as ID 1 at 57600 bps")
     p = verb("backup", backup.backup, "save servos' EEPROM items and model to a YAML file")
     p.add_argument("file")
-    p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found at the bus's rate)")
+    p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found, at any rate unless --baud)")
     p = verb("restore", backup.restore, "write a backup back: model checked, only what differs, verified")
     p.add_argument("file")
     p.add_argument("--dry-run", action="store_true", help="show what would change, write nothing")
     p = verb("monitor", monitor.monitor, "a live table of the servos (q quits)")
-    p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found at the bus's rate)")
+    p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found, at any rate unless --baud)")
     p.add_argument("--rate", type=_positive(float), default=5.0, metavar="HZ", help="refreshes a second (default 5)")
     p.add_argument("--count", type=_positive(int), metavar="N", help="print N refreshes as plain text and stop")
     p.add_argument("--once", action="store_const", const=1, dest="count", help="one refresh (--count 1)")
+    p.add_argument("--log", metavar="FILE.csv", help="also write every refresh to a CSV file (a timestamped row per servo)")
+    p.add_argument("--plot", nargs="+", metavar="FILE.svg [ITEMS]",
+                   help="at the end draw ITEMS (default position,velocity,current; also pwm, temperature, voltage) "
+                        "over time, goal dashed against present, as an SVG")
+    p = verb("plot", _no_bus, "draw a monitor --log CSV as an SVG: items over time, goal dashed against present")
+    p.add_argument("csv", metavar="FILE.csv")
+    p.add_argument("svg_file", metavar="FILE.svg")
+    p.add_argument("items", nargs="?", help="position,velocity,current (default), pwm, temperature, voltage")
+
+
+def _no_bus(ctx: Context, args: argparse.Namespace) -> None:
+    """The verbs that need no bus (``plot``) run in ``main`` before it is opened."""
+
+
+def _open(args: argparse.Namespace, rate: int) -> DynamixelBus:
+    """The bus for the verb (``--trace``: every packet on it printed on stderr)."""
+    bus = open_bus(args.device or default_device(), rate, args.latency, args.retries)
+    if args.trace:
+        trace.install(bus, sys.stderr)
+    return bus
+
+
+def _plot(out: Output, args: argparse.Namespace) -> None:
+    out.document.update(plot.plot(args))
+    out.say(f"plot of {', '.join(out.document['items'])} saved to {args.svg_file}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -218,8 +250,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     bus = None
     code = 0
     try:
-        bus = open_bus(args.device or default_device(), rate, args.latency, args.retries)
-        args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw), args)
+        if args.verb is _no_bus:
+            _plot(out, args)
+        else:
+            bus = _open(args, rate)
+            args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw), args)
     except StepFailed as exc:
         out.error(str(exc))
         out.document["error"] = str(exc)

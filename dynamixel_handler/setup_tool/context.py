@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
-from typing import TextIO
+from dataclasses import dataclass, field
+from typing import Sequence, TextIO
 
 from ..bus import DynamixelBus
 from .errors import StepFailed
+from .find import Found, Placed, Search
 from .output import Output
-from .servo import Servo, locate
+from .servo import Servo
 
 __all__ = ["Context"]
 
@@ -28,9 +29,38 @@ class Context:
     force: bool = False
     #: ``--raw``: values are register values (else a value of an item with a unit needs its unit)
     raw: bool = False
+    #: the one search every verb uses (``--baud`` given: that rate only; else every rate)
+    search: Search = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.search = Search(self.bus, self.baud_given)
 
     def servo(self, dxl_id: int) -> Servo:
-        return locate(self.bus, dxl_id, self.baud_given)
+        """The servo at ``dxl_id`` (at any rate unless ``--baud``), the bus at its rate."""
+        return self.search.one(dxl_id)
+
+    def servos(self, ids: Sequence[int] | None) -> Found:
+        """The servos at ``ids`` (None: every servo on the bus, StepFailed when none answers); each
+        ID that answers nowhere is said in one line and listed in ``missing``."""
+        if ids is None:
+            return self.search.every()
+        found = self.search.find(ids)
+        for dxl_id in found.missing:
+            self.out.error(found.why_missing(dxl_id))
+        return found
+
+    def at(self, placed: Placed) -> Servo:
+        """The bus at ``placed``'s rate; its servo."""
+        if self.bus.baudrate != placed.baudrate:
+            self.bus.set_baudrate(placed.baudrate)
+        return placed.servo
+
+    def fail_if_missing(self, found: Found, done: str) -> None:
+        """StepFailed (exit 1) naming the IDs that answered nowhere, after the others were ``done``."""
+        if found.missing:
+            ids = ", ".join(map(str, found.missing))
+            raise StepFailed(f"{len(found.missing)} of {len(found.missing) + len(found.placed)} servo(s) not found "
+                             f"(ID {ids}); {done}")
 
     def line(self) -> str | None:
         """The next line the user types (None at the end of input)."""

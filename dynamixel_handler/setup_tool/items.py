@@ -9,6 +9,7 @@ import re
 from ..control_table import Item, Model
 from ..units import UNIT_OF_QUANTITY, conversion, quantity_of
 from .errors import BadArguments, cut
+from .values import coded, number
 
 __all__ = ["find_item", "item_range", "parse_value", "show_value", "to_unit"]
 
@@ -136,10 +137,12 @@ def _converted(model: Model, item: Item, number: float, unit: str, who: str) -> 
 
 
 def show_value(model: Model, item: Item, raw: int) -> str:
-    """``"170.0 deg (raw 3982)"``, or the raw value when the item has no unit."""
+    """``"170 deg (raw 3982)"``, a code or bit mask by name (``"position (3)"``,
+    ``"1,000,000 bps (3)"``, ``"overload, overheating (0x24)"``), or the raw value."""
+    text = coded(model, item, raw)
+    if text is not None:
+        return text
     value = to_unit(model, item, raw)
-    if item.name == "operating_mode" and model.mode_name(raw):
-        return f"{raw} ({model.mode_name(raw)})"
     if value is None:
         return str(raw)
-    return f"{value:.4g} {unit_of(model, item)} (raw {raw})"
+    return f"{number(value)} {unit_of(model, item)} (raw {raw})"

@@ -10,71 +10,49 @@ import os
 import select
 import sys
 import time
-from typing import Iterator
+from typing import Any, Iterator
 
 from rich.live import Live
 
 from .context import Context
-from .errors import StepFailed
-from .items import to_unit
+from .errors import BadArguments, StepFailed
+from .find import Placed
 from .output import plain_table, rich_table
-from .scan import _errors
-from .servo import Servo
+from .plot import check_writable, draw, parse_items, series_of
+from .samples import CsvLog, sample
+from .values import number
 
 __all__ = ["monitor"]
 
 COLUMNS = ["ID", "model", "position", "velocity", "current", "temp", "voltage", "mode", "torque", "errors"]
-#: (column, item, format)
-_SHOWN = (("position", "present_position", "{:.1f} deg"), ("velocity", "present_velocity", "{:.1f} deg/s"),
-          ("current", "present_current", "{:.0f} mA"), ("temp", "present_temperature", "{:.0f} degC"),
-          ("voltage", "present_input_voltage", "{:.1f} V"))
+#: (column, sample key, unit)
+_SHOWN = (("position", "position", "deg"), ("velocity", "velocity", "deg/s"), ("current", "current", "mA"),
+          ("temp", "temp", "degC"), ("voltage", "voltage", "V"))
 
 
-def _sample(servo: Servo, mode: str) -> dict[str, object]:
-    """One servo's present values in units (None where the model lacks one), or ``reply: False``."""
-    model = servo.model
-    names = [n for _, n, _ in _SHOWN if model.has(n)] + ["torque_enable", "hardware_error_status"]
-    items = sorted((model.item(n) for n in names if model.has(n)), key=lambda i: i.address)
-    if not items:
-        return {"id": servo.dxl_id, "model": model.name, "mode": mode, "reply": False}
-    got = servo.bus.read_result(servo.dxl_id, items[0].address, items[-1].address + items[-1].size - items[0].address)
-    sample: dict[str, object] = {"id": servo.dxl_id, "model": model.name, "mode": mode, "reply": got.value is not None}
-    if got.value is None:
-        return sample
-    raw = {i.name: int.from_bytes(got.value[i.address - items[0].address:][:i.size], "little", signed=i.signed)
-           for i in items}
-    for column, name, _ in _SHOWN:
-        sample[column] = to_unit(model, model.item(name), raw[name]) if name in raw else None
-    sample["torque"] = raw.get("torque_enable") == 1
-    sample["errors"] = _errors(raw.get("hardware_error_status", 0))
-    return sample
-
-
-def _row(sample: dict[str, object]) -> tuple[list[object], bool]:
+def _row(sample: dict[str, Any]) -> tuple[list[object], bool]:
     """One table row and whether the servo has something wrong (no reply, hardware error)."""
     row: list[object] = [sample["id"], sample["model"]]
     if not sample["reply"]:
         return row + ["no reply", "", "", "", "", sample["mode"], "", ""], True
-    for column, _, fmt in _SHOWN:
-        value = sample[column]
-        row.append(fmt.format(value) if isinstance(value, float) else "-")
+    for _, key, unit in _SHOWN:
+        value = sample.get(key)
+        row.append(f"{number(value, 4 if abs(value) >= 1 else 2)} {unit}" if isinstance(value, float) else "-")
     errors = sample["errors"]
-    assert isinstance(errors, list)
     row += [sample["mode"], "on" if sample["torque"] else "off", ",".join(errors) or "-"]
     return row, bool(errors)
 
 
-def _servos(ctx: Context, ids: list[int] | None) -> list[tuple[Servo, str]]:
-    if not ids:
-        ids = sorted(ctx.bus.scan(range(253)))
-        if not ids:
-            raise StepFailed(f"no servo answers at {ctx.bus.baudrate} bps on {ctx.bus.device}")
+def _servos(ctx: Context, ids: list[int] | None) -> tuple[list[tuple[Placed, str]], list[int]]:
+    """The servos to watch (every one on the bus when no IDs are given) with their mode, and the IDs
+    that answer nowhere (said, and left out)."""
+    found = ctx.servos(ids)
     servos = []
-    for dxl_id in ids:
-        servo = ctx.servo(dxl_id)
+    for placed in found.placed:
+        servo = ctx.at(placed)
         mode = (servo.model.mode_name(servo.read("operating_mode")) or "?") if servo.model.has("operating_mode") else "-"
-        servos.append((servo, mode))
-    return servos
+        servos.append((placed, mode))
+    return servos, found.missing
 
 
 @contextlib.contextmanager
@@ -97,31 +75,80 @@ def _quit_pressed(timeout: float) -> bool:
     return bool(readable) and os.read(sys.stdin.fileno(), 1) in (b"q", b"Q", b"\x1b")
 
 
-def monitor(ctx: Context, args: argparse.Namespace) -> None:
-    servos = _servos(ctx, args.ids)
-    period = 1.0 / max(0.2, min(args.rate, 50.0))
-    snapshots: list[list[dict[str, object]]] = []
+class _Refresh:
+    """One refresh: every servo sampled at its rate, logged (``--log``) and kept (``--plot``, JSON)."""
 
-    def table() -> tuple[list[list[object]], list[str | None]]:
-        samples = [_sample(s, mode) for s, mode in servos]
-        snapshots.append(samples)
-        rows = [_row(sample) for sample in samples]
+    def __init__(self, ctx: Context, servos: list[tuple[Placed, str]], log: CsvLog | None) -> None:
+        self.ctx, self.servos, self.log = ctx, servos, log
+        self.snapshots: list[list[dict[str, Any]]] = []
+        self.timed: list[tuple[float, dict[str, Any]]] = []
+        self.start = time.monotonic()
+
+    def __call__(self) -> tuple[list[list[object]], list[str | None]]:
+        at = time.monotonic()
+        samples = [sample(self.ctx.at(placed), placed.baudrate, mode) for placed, mode in self.servos]
+        self.snapshots.append(samples)
+        self.timed += [(at - self.start, s) for s in samples]
+        if self.log is not None:
+            self.log.write(at, samples)
+        rows = [_row(s) for s in samples]
         return [r for r, _ in rows], ["red" if bad else None for _, bad in rows]
 
+
+def _printed(ctx: Context, table: _Refresh, title: str, count: int, period: float) -> None:
+    """``count`` refreshes printed one after the other (a rich table, plain columns when piped)."""
+    for k in range(count):
+        rows, styles = table()
+        if ctx.out.console is not None:
+            ctx.out.console.print(rich_table(title, COLUMNS, rows, styles))
+        elif not ctx.out.as_json:
+            print(plain_table(COLUMNS, rows), file=ctx.out.stream, flush=True)
+            print("", file=ctx.out.stream, flush=True)
+        if k + 1 < count:
+            time.sleep(period)
+
+
+def _saved(ctx: Context, table: _Refresh, log: str | None, plot: tuple[str, list[str]] | None) -> None:
+    if log is not None:
+        ctx.out.say(f"{len(table.snapshots)} refresh(es) of {len(table.servos)} servo(s) logged to {log}")
+    if plot is not None:
+        draw(series_of(table.timed), plot[1], plot[0], f"monitor: {', '.join(plot[1])}")
+        ctx.out.say(f"plot of {', '.join(plot[1])} saved to {plot[0]}")
+
+
+def _plot_args(args: argparse.Namespace) -> tuple[str, list[str]] | None:
+    if not args.plot:
+        return None
+    if len(args.plot) > 2:
+        raise BadArguments(f"--plot takes FILE.svg and at most one list of items, not {len(args.plot)} words")
+    items = parse_items(args.plot[1] if len(args.plot) > 1 else None)
+    check_writable(args.plot[0], "--plot")
+    return args.plot[0], items
+
+
+def monitor(ctx: Context, args: argparse.Namespace) -> None:
+    plot = _plot_args(args)
+    if args.log:
+        check_writable(args.log, "--log")
+    servos, missing = _servos(ctx, args.ids)
+    period = 1.0 / max(0.2, min(args.rate, 50.0))
+    log = CsvLog(args.log) if args.log else None
+    table = _Refresh(ctx, servos, log)
+    rates = sorted({placed.baudrate for placed, _ in servos})
     live = ctx.out.human and args.count is None and sys.stdin.isatty() and ctx.out.svg is None
-    title = f"{ctx.bus.device} at {ctx.bus.baudrate} bps (q quits)"
-    if not live:
-        for k in range(args.count or 1):
-            rows, styles = table()
-            if ctx.out.console is not None:
-                ctx.out.console.print(rich_table(title, COLUMNS, rows, styles))
-            elif not ctx.out.as_json:
-                print(plain_table(COLUMNS, rows), file=ctx.out.stream, flush=True)
-                print("", file=ctx.out.stream, flush=True)
-            if k + 1 < (args.count or 1):
-                time.sleep(period)
-    else:
-        with _keys(), Live(rich_table(title, COLUMNS, *table()), console=ctx.out.console, auto_refresh=False) as view:
-            while not _quit_pressed(period):
-                view.update(rich_table(title, COLUMNS, *table()), refresh=True)
-    ctx.out.document.update(refreshes=snapshots)
+    title = f"{ctx.bus.device} at {', '.join(map(str, rates))} bps (q quits)"
+    try:
+        if live:
+            with _keys(), Live(rich_table(title, COLUMNS, *table()), console=ctx.out.console, auto_refresh=False) as view:
+                while not _quit_pressed(period):
+                    view.update(rich_table(title, COLUMNS, *table()), refresh=True)
+        else:
+            _printed(ctx, table, title, args.count or 1, period)
+    finally:
+        if log is not None:
+            log.close()
+        ctx.out.document.update(refreshes=table.snapshots, missing=missing)
+    _saved(ctx, table, args.log, plot)
+    if missing:
+        raise StepFailed(f"{len(missing)} of {len(missing) + len(servos)} servo(s) not found (ID "
+                         f"{', '.join(map(str, missing))}); the others were monitored")

@@ -57,7 +57,14 @@ class ScanResult:
     interrupted_at: int | None = None
 
     def as_dict(self) -> dict[str, object]:
-        return {"servos": [asdict(f) for f in self.found], "skipped_rates": {str(k): v for k, v in self.skipped.items()}}
+        return {"servos": [_doc(f) for f in self.found], "skipped_rates": {str(k): v for k, v in self.skipped.items()}}
+
+
+def _doc(found: Found) -> dict[str, object]:
+    """A found servo in the JSON shape of every verb (``id``, ``model``, ``model_number``, ``baudrate``, ...)."""
+    doc = asdict(found)
+    doc["id"] = doc.pop("dxl_id")
+    return {"id": doc.pop("id"), **doc}
 
 
 #: each ID's time slot in a broadcast ping's reply train [ms] (as the bus waits for it)

@@ -6,14 +6,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..bus import BusError, DynamixelBus
+from ..bus import DynamixelBus
 from ..control_table import Item, Model, model_by_number
 from ..units import decode, encode
 from .errors import StepFailed
 from .items import find_item, show_value
 from .safety import checked_write
 
-__all__ = ["Servo", "connect", "locate"]
+__all__ = ["Servo", "connect", "SEARCH_ORDER"]
 
 #: where unboxed servos are, then the other rates (9600 last: slow and rare)
 SEARCH_ORDER = (57600, 1_000_000, 115200, 2_000_000, 3_000_000, 4_000_000, 4_500_000, 6_000_000,
@@ -98,21 +98,3 @@ def connect(bus: DynamixelBus, dxl_id: int) -> Servo:
     except KeyError:
         raise StepFailed(f"ID {dxl_id}: model number {got.value} is not in the control table; "
                          "the tool only sets up models the handler knows") from None
-
-
-def locate(bus: DynamixelBus, dxl_id: int, baud_given: bool) -> Servo:
-    """``connect``, looking at every baud rate (the given one first) when ``--baud`` was not given."""
-    if baud_given or bus.ping_result(dxl_id).value is not None:
-        return connect(bus, dxl_id)
-    start = bus.baudrate
-    for bps in SEARCH_ORDER:
-        if bps == start:
-            continue
-        try:
-            bus.set_baudrate(bps)
-        except BusError:  # the adapter cannot use this rate: the servo cannot be there either
-            continue
-        if bus.ping_result(dxl_id, retries=1).value is not None:
-            return connect(bus, dxl_id)
-    bus.set_baudrate(start)
-    raise StepFailed(f"ID {dxl_id}: no servo answers at any baud rate ({', '.join(map(str, SEARCH_ORDER))} bps)")

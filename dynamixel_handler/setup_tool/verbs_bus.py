@@ -10,6 +10,7 @@ from .errors import BadArguments, StepFailed
 from .safety import stopped
 from .scan import COLUMNS, Found, scan_bus, scan_steps
 from .servo import SEARCH_ORDER, Servo, connect
+from .values import servo_doc
 
 __all__ = ["scan", "assign_ids", "reboot", "factory_reset"]
 
@@ -58,28 +59,25 @@ def _wait_back(bus: DynamixelBus, dxl_id: int) -> int | None:
 
 
 def reboot(ctx: Context, args: argparse.Namespace) -> None:
-    if args.id == "all":
-        ids = sorted(ctx.bus.scan(range(253)))
-        if not ids:
-            raise StepFailed(f"no servo answers at {ctx.bus.baudrate} bps: nothing rebooted")
-    else:
-        try:
-            ids = [int(args.id)]
-        except ValueError:
-            raise BadArguments(f"reboot takes an ID or 'all', not '{args.id}'") from None
-    failed = []
-    for dxl_id in ids:
-        servo = ctx.servo(dxl_id)
-        done = ctx.bus.reboot_result(dxl_id)
-        back = _wait_back(ctx.bus, dxl_id) if done else None
+    """``reboot ID``, ``reboot 1,2,5`` or ``reboot all`` (every servo at every rate unless --baud);
+    each one waited for and reported, a missing one named without failing the others."""
+    found = ctx.servos(args.id)
+    failed, rebooted = [], []
+    for placed in found.placed:
+        servo = ctx.at(placed)
+        done = ctx.bus.reboot_result(servo.dxl_id)
+        back = _wait_back(ctx.bus, servo.dxl_id) if done else None
         if back is None:
             why = done.failure or f"it does not answer within {_BACK_WITHIN_S:.0f} s"
             failed.append(f"{servo.who}: reboot failed: {why}")
         else:
+            rebooted.append(servo_doc(servo.dxl_id, servo.model, placed.baudrate))
             ctx.out.say(f"{servo.who} rebooted and answers again")
-    ctx.out.document.update(rebooted=[i for i in ids], failed=failed)
+    ctx.out.document.update(rebooted=[s["id"] for s in rebooted], servos=rebooted, failed=failed,
+                            missing=found.missing)
     if failed:
         raise StepFailed("; ".join(failed))
+    ctx.fail_if_missing(found, f"{len(rebooted)} rebooted")
 
 
 def _check_free_after_reset(ctx: Context, servo: Servo, level: str) -> None:

@@ -17,6 +17,7 @@ from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
 from .safety import held
 from .servo import Servo, connect
+from .values import number
 
 __all__ = ["info", "get", "set_item", "set_id", "set_baud", "set_mode"]
 
@@ -55,7 +56,7 @@ def info(ctx: Context, args: argparse.Namespace) -> None:
         factory = model.factory.get(item.name)
         differs = factory is not None and factory != raw
         value = to_unit(model, item, raw)
-        rows[item.eeprom].append([item.address, item.name, f"{value:.4g}" if value is not None else "",
+        rows[item.eeprom].append([item.address, item.name, number(value) if value is not None else "",
                                   unit_of(model, item), raw, "" if factory is None else factory,
                                   "*" if differs else ""])
         styles[item.eeprom].append("yellow" if differs else None)

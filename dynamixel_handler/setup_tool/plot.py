@@ -1,0 +1,126 @@
+"""Graphs for tuning without a desktop: items over time, the goal (dashed) against the present value
+(solid) for each servo, one panel per item, saved as an SVG picture. From ``monitor --plot FILE.svg
+[ITEMS]`` at its end, or from a ``monitor --log`` CSV with the ``plot`` verb (no bus needed)."""
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+from typing import Any, Sequence
+
+from .errors import BadArguments, StepFailed
+from .samples import FIELDS, CsvLog
+
+__all__ = ["ITEMS", "parse_items", "check_writable", "draw", "plot", "series_of"]
+
+#: the items a plot may show: name -> (present key, goal key or None, unit)
+ITEMS: dict[str, tuple[str, str | None, str]] = {
+    "position": ("position", "goal_position", "deg"), "velocity": ("velocity", "goal_velocity", "deg/s"),
+    "current": ("current", "goal_current", "mA"), "pwm": ("pwm", "goal_pwm", "%"),
+    "temperature": ("temp", None, "degC"), "voltage": ("voltage", None, "V"),
+}
+DEFAULT_ITEMS = ["position", "velocity", "current"]
+
+#: (time [s], value) per (servo ID, key)
+Series = dict[tuple[int, str], list[tuple[float, float]]]
+
+
+def parse_items(text: str | None) -> list[str]:
+    """``position,current`` -> the items to draw (the default when None); BadArguments otherwise."""
+    if text is None:
+        return list(DEFAULT_ITEMS)
+    names = [n.strip().lower().replace("present_", "").replace("goal_", "") for n in text.split(",") if n.strip()]
+    names = ["temperature" if n in ("temp", "present_temperature") else n for n in names]
+    unknown = [n for n in names if n not in ITEMS]
+    if unknown or not names:
+        shown = unknown[0][:40] if unknown else text[:40]
+        raise BadArguments(f"cannot plot '{shown}': the items are {', '.join(ITEMS)} (comma separated)")
+    return names
+
+
+def check_writable(path: str, option: str) -> None:
+    """One line (exit 1) when ``path`` cannot be written, before the bus is used."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path) or not os.path.isdir(folder) or not os.access(folder, os.W_OK) or \
+            (os.path.exists(path) and not os.access(path, os.W_OK)):
+        why = "it is a folder" if os.path.isdir(path) else \
+            ("no such folder" if not os.path.isdir(folder) else "permission denied")
+        raise StepFailed(f"{option} {path}: cannot write it ({why})")
+
+
+def series_of(samples: Sequence[tuple[float, dict[str, Any]]]) -> Series:
+    """(time, sample) pairs -> the series of every key with a value."""
+    series: Series = {}
+    for at, s in samples:
+        for key, _, _ in FIELDS:
+            value = s.get(key)
+            if isinstance(value, (int, float)):
+                series.setdefault((int(s["id"]), key), []).append((at, float(value)))
+    return series
+
+
+def read_csv(path: str) -> Series:
+    """The series of a ``monitor --log`` file; BadArguments when it is not one."""
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            rows = list(csv.DictReader(handle))
+    except OSError as exc:
+        raise BadArguments(f"cannot read {path}: {exc.strerror}") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise BadArguments(f"{path} is not a monitor --log file: {str(exc)[:80]}") from None
+    if not rows or "time_s" not in rows[0] or "id" not in rows[0]:
+        raise BadArguments(f"{path} is not a monitor --log file (no time_s and id columns)")
+    columns = {key: col for (key, _, _), col in zip(FIELDS, CsvLog.COLUMNS[8:])}
+    samples = []
+    for row in rows:
+        try:
+            at = float(row["time_s"])
+            sample: dict[str, Any] = {"id": int(row["id"])}
+            sample.update({key: float(row[col]) for key, col in columns.items() if row.get(col)})
+        except (TypeError, ValueError):
+            continue
+        samples.append((at, sample))
+    return series_of(samples)
+
+
+def draw(series: Series, items: Sequence[str], path: str, title: str) -> None:
+    """The SVG: one panel per item, each servo a colour, goal dashed, present solid."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot
+
+    ids = sorted({dxl_id for dxl_id, _ in series})
+    if not ids:
+        raise StepFailed(f"nothing to plot in {path}: no servo answered")
+    figure, axes = pyplot.subplots(len(items), 1, figsize=(9, 2.4 * len(items) + 0.6), sharex=True, squeeze=False)
+    colours = pyplot.rcParams["axes.prop_cycle"].by_key()["color"]
+    for axis, name in zip(axes[:, 0], items):
+        present, goal, unit = ITEMS[name]
+        for k, dxl_id in enumerate(ids):
+            colour = colours[k % len(colours)]
+            for key, style, label in ((present, "-", f"ID {dxl_id}"), (goal, "--", f"ID {dxl_id} goal")):
+                points = series.get((dxl_id, key)) if key else None
+                if points:
+                    axis.plot([t for t, _ in points], [v for _, v in points], style, color=colour, label=label)
+        axis.set_ylabel(f"{name} [{unit}]")
+        axis.grid(True, alpha=0.3)
+        axis.legend(loc="upper right", fontsize="small")
+    axes[-1, 0].set_xlabel("time [s]")
+    figure.suptitle(title)
+    figure.tight_layout()
+    try:
+        figure.savefig(path, format="svg")
+    except OSError as exc:
+        raise StepFailed(f"cannot write {path}: {exc.strerror}") from None
+    finally:
+        pyplot.close(figure)
+
+
+def plot(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``plot`` verb: a ``monitor --log`` CSV drawn as an SVG (no bus)."""
+    items = parse_items(args.items)
+    series = read_csv(args.csv)
+    check_writable(args.svg_file, "plot")
+    draw(series, items, args.svg_file, f"{os.path.basename(args.csv)}: {', '.join(items)}")
+    return {"file": args.svg_file, "items": items, "ids": sorted({i for i, _ in series})}
