@@ -39,13 +39,16 @@ def parse_items(text: str | None) -> list[str]:
 
 
 def check_writable(path: str, option: str) -> None:
-    """One line (exit 1) when ``path`` cannot be written, before the bus is used."""
-    folder = os.path.dirname(os.path.abspath(path))
-    if os.path.isdir(path) or not os.path.isdir(folder) or not os.access(folder, os.W_OK) or \
-            (os.path.exists(path) and not os.access(path, os.W_OK)):
-        why = "it is a folder" if os.path.isdir(path) else \
-            ("no such folder" if not os.path.isdir(folder) else "permission denied")
-        raise StepFailed(f"{option} {path}: cannot write it ({why})")
+    """One line (exit 1) when ``path`` cannot be written, before the bus is used (a file that was
+    not there is not left behind)."""
+    existed = os.path.lexists(path)
+    try:
+        with open(path, "a", encoding="utf-8"):
+            pass
+    except OSError as exc:
+        raise StepFailed(f"{option} {path}: cannot write it: {exc.strerror}") from None
+    if not existed:
+        os.unlink(path)
 
 
 def series_of(samples: Sequence[tuple[float, dict[str, Any]]]) -> Series:

@@ -25,16 +25,28 @@ def default_device() -> str:
     return os.environ.get("DXL_DEVICE") or DEFAULT_DEVICE
 
 
+#: the handler's words for its parameter -> the tool's option (the bus layer speaks for the node)
+_OWN_WORDS = (("the device_name parameter", "--device"), ("point device_name at", "point --device at"),
+              ("device_name '", "--device '"), ("device_name", "--device"))
+
+
+def own_words(text: str) -> str:
+    """A message of the bus layer in the tool's words: ``--device``, not the node's ``device_name``."""
+    for theirs, ours in _OWN_WORDS:
+        text = text.replace(theirs, ours)
+    return text
+
+
 def open_bus(device: str, baudrate: int, latency_ms: float, retries: int) -> DynamixelBus:
     """The open bus at ``baudrate``; StepFailed with the reason (busy: who holds it) otherwise."""
     try:
         path, _chosen = resolve(device)
     except StartupError as exc:
-        raise StepFailed(str(exc)) from None
+        raise StepFailed(own_words(str(exc))) from None
     bus = DynamixelBus(path, baudrate, latency_timer_ms=latency_ms, retry_num=retries, retry_interval_ms=2.0)
     try:
         bus.open()
     except BusError as exc:
-        raise StepFailed(str(exc)) from None
+        raise StepFailed(own_words(str(exc))) from None
     safety.install(bus)  # from here a signal stops the tool, after the critical step in progress
     return bus
