@@ -232,12 +232,12 @@ def test_set_id_set_baud_and_a_limit_in_degrees_each_read_back_with_the_sdk(sim_
 def test_an_eeprom_write_turns_torque_off_and_back_on_and_a_value_already_there_is_not_written(sim_of):
     sim = sim_of("1:XM430-W350")
     sdk_write1(sim.path, 57600, 1, 64, 1)  # Torque Enable
-    out = tool(sim, "set", "1", "velocity_limit", "120deg/s", "--yes", "--json")
+    out = tool(sim, "set", "1", "velocity_limit", "120deg/s", "--yes", "--torque-off", "--json")
     assert out.returncode == 0, out.text
     doc = json.loads(out.stdout)
     assert doc["written"] and doc["raw"] == round(120 / (0.229 * 6))  # 0.229 rpm per pulse (e-Manual)
     assert sdk_read(sim.path, 57600, 1, 44, 4) == doc["raw"] and sdk_read(sim.path, 57600, 1, 64, 1) == 1
-    again = tool(sim, "set", "1", "velocity_limit", str(doc["raw"]), "--yes", "--json")
+    again = tool(sim, "set", "1", "velocity_limit", str(doc["raw"]), "--raw", "--yes", "--json")
     assert json.loads(again.stdout)["written"] is False and "nothing written" in again.stderr
 
 
@@ -246,11 +246,11 @@ def test_torque_comes_back_without_a_move_the_user_did_not_ask_for(sim_of):
     sdk_write1(sim.path, 57600, 1, 11, 1)  # velocity mode
     sdk_write1(sim.path, 57600, 1, 64, 1)  # torque on
     sdk_write4(sim.path, 57600, 1, 104, 100)  # Goal Velocity: it turns
-    out = tool(sim, "set", "1", "velocity_limit", "300", "--yes")
+    out = tool(sim, "set", "1", "velocity_limit", "300", "--raw", "--yes", "--torque-off")
     assert out.returncode == 0, out.text
     assert sdk_read(sim.path, 57600, 1, 64, 1) == 1  # torque back on ...
     assert sdk_read(sim.path, 57600, 1, 104, 4) == 0  # ... at rest, not turning on by itself
-    out = tool(sim, "set-mode", "1", "position", "--yes")
+    out = tool(sim, "set-mode", "1", "position", "--yes", "--torque-off")
     assert out.returncode == 0, out.text
     present = sdk_read(sim.path, 57600, 1, 132, 4)
     assert sdk_read(sim.path, 57600, 1, 64, 1) == 1

@@ -74,7 +74,8 @@ def _positive(kind: type) -> Callable[[str], Any]:
         except (ValueError, OverflowError):
             value = 0
         if not (value > 0 and math.isfinite(value)):
-            raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a finite {'whole ' if kind is int else ''}number above 0")
+            raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a {'whole ' if kind is int else ''}number above 0 "
+                                             "(and finite)")
         return value
     return parse
 

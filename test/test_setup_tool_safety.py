@@ -1,0 +1,270 @@
+"""dynamixel_handler_setup on a standing robot, as a process against the virtual bus (a process
+with ``--state``), every result read back with dynamixel_sdk: torque is the owner's to give
+(``--torque-off``), Ctrl-C / SIGTERM after each bus instruction of a torque-off write and of a
+set-baud leave each servo in a state the output names (exit 130), a scan stopped keeps what it found,
+units are required, ranges / limit pairs / dangerous values are checked before anything is sent,
+no one-way door to Protocol 1.0, collisions said as they are, bad input one line (exit 2)."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+import test_setup_tool
+from test_setup_tool import (
+    ENV,
+    ROOT,
+    TOOL,
+    XM430,
+    one_error_line,
+    sdk_ping,
+    sdk_read,
+    sdk_write1,
+    sdk_write4,
+    tool,
+)
+
+sim_of = test_setup_tool.sim_of  # the fixture: the virtual bus as a process
+
+TORQUE, BAUD, ID_ADDR, DRIVE, SECONDARY, PROTOCOL, TEMP_LIMIT, SHUTDOWN = 64, 8, 7, 10, 12, 13, 31, 63
+MAX_POS, MIN_POS, CURRENT_LIMIT, GOAL_POS, PRESENT_POS = 48, 52, 38, 116, 132
+PAUSE = "DXL_SETUP_TEST_PAUSE_AFTER"
+
+
+def hold(sim, dxl_id: int = 1, bps: int = 57600) -> None:
+    """Torque on where the servo is, as an arm holding its weight."""
+    sdk_write4(sim.path, bps, dxl_id, GOAL_POS, sdk_read(sim.path, bps, dxl_id, PRESENT_POS, 4))
+    sdk_write1(sim.path, bps, dxl_id, TORQUE, 1)
+
+
+# ---------------------------------------------------------------------- item 1: torque
+def test_an_eeprom_write_on_a_servo_holding_its_load_is_refused_unless_torque_off_is_given(sim_of):
+    sim = sim_of("1:XM430-W350")
+    hold(sim)
+    for args in (("set", "1", "max_position_limit", "90deg"), ("set-mode", "1", "velocity"), ("set-id", "1", "4"),
+                 ("set-baud", "1", "1M")):
+        out = tool(sim, *args, "--yes")
+        assert out.returncode == 2, (args, out.text)
+        line = one_error_line(out)
+        assert "torque is on" in line and "--torque-off" in line and "nothing written" in line, line
+    assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1  # never dropped
+    assert (sdk_read(sim.path, 57600, 1, MAX_POS, 4), sdk_read(sim.path, 57600, 1, 11, 1)) == (4095, 3)
+    assert sdk_ping(sim.path, 57600, 4) is None and sdk_ping(sim.path, 1_000_000, 1) is None
+
+    out = tool(sim, "set", "1", "max_position_limit", "90deg", "--torque-off", stdin="n\n")  # the prompt says it
+    assert out.returncode == 1 and "Its torque is on: it goes off for the write" in out.stdout, out.text
+    assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 4095
+
+    out = tool(sim, "set", "1", "max_position_limit", "90deg", "--torque-off", "--yes")
+    assert out.returncode == 0, out.text
+    assert "torque was turned off for the write and back on" in out.stdout, out.text
+    assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 3072 and sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1
+    present = sdk_read(sim.path, 57600, 1, PRESENT_POS, 4)
+    assert abs(sdk_read(sim.path, 57600, 1, GOAL_POS, 4) - present) < 20  # goal := where it is
+
+    sdk_write1(sim.path, 57600, 1, TORQUE, 0)  # torque off: nothing to ask
+    out = tool(sim, "set", "1", "max_position_limit", "80deg", "--yes")
+    assert out.returncode == 0 and "torque was turned off" not in out.stdout, out.text
+    assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 0
+
+
+# ---------------------------------------------------------------------- item 2: signals
+class Paused:
+    """The tool as a process that pauses before the bus instruction after the ``after``-th (the
+    test hook); stdout and stderr read in a thread."""
+
+    def __init__(self, sim, after: int, *args: str) -> None:
+        cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
+        self.proc = subprocess.Popen([*cmd, "--device", sim.path, "--latency", "10", *args], stdin=subprocess.DEVNULL,
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT,
+                                     env=dict(ENV, **{PAUSE: str(after)}))
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:
+            self.lines.append(line.rstrip("\n"))
+
+    def paused(self, timeout: float = 60.0) -> bool:
+        """True once the tool paused; False when it ended without reaching that instruction."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if any(f"[{PAUSE}] paused" in line for line in self.lines):
+                return True
+            if self.proc.poll() is not None:
+                self._reader.join(5)
+                return any(f"[{PAUSE}] paused" in line for line in self.lines)
+            time.sleep(0.02)
+        self.proc.kill()
+        raise AssertionError("the tool neither paused nor ended:\n" + "\n".join(self.lines))
+
+    def finish(self) -> tuple[int, str]:
+        code = self.proc.wait(60)
+        self._reader.join(5)
+        return code, "\n".join(self.lines)
+
+
+def _where(sim) -> int:
+    """The rate ID 1 answers at (exactly one of 57600 and 1 Mbps)."""
+    at = [bps for bps in (57600, 1_000_000) if sdk_ping(sim.path, bps, 1) == XM430]
+    assert len(at) == 1, at
+    return at[0]
+
+
+def _back_to_start(sim) -> None:
+    """ID 1 at 57600 bps, max position limit 4095, holding its position (torque on)."""
+    bps = _where(sim)
+    sdk_write1(sim.path, bps, 1, TORQUE, 0)
+    if bps != 57600:
+        sdk_write1(sim.path, bps, 1, BAUD, 1)
+    sdk_write4(sim.path, 57600, 1, MAX_POS, 4095)
+    hold(sim)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("verb", ["set", "set-baud"])
+def test_a_signal_after_each_bus_instruction_leaves_the_servo_in_a_named_state(sim_of, verb, signum):
+    sim = sim_of("1:XM430-W350")
+    args = {"set": ("set", "1", "max_position_limit", "90deg"), "set-baud": ("set-baud", "1", "1M")}[verb]
+    stops = 0
+    for after in range(0, 60):
+        _back_to_start(sim)
+        run = Paused(sim, after, *args, "--torque-off", "--yes", "--baud", "57600")
+        if not run.paused():  # the whole run has fewer instructions: every point was tried
+            code, text = run.finish()
+            assert code == 0, text
+            break
+        run.proc.send_signal(signum)
+        code, text = run.finish()
+        stops += 1
+        name = signal.Signals(signum).name
+        assert code == 130, (after, text)
+        assert "Traceback" not in text and f"interrupted ({name})" in text, (after, text)
+        bps = _where(sim)
+        assert sdk_read(sim.path, bps, 1, TORQUE, 1) == 1, (after, text)  # torque as before: on
+        limit = sdk_read(sim.path, bps, 1, MAX_POS, 4)
+        if verb == "set":
+            assert bps == 57600, (after, text)
+            if limit != 4095:  # written: the output says so
+                assert limit == 3072 and "max_position_limit" in text and "written and read back" in text, (after, text)
+            else:
+                assert "written and read back" not in text, (after, text)
+        else:
+            assert limit == 4095
+            if bps != 57600:  # moved: the output names the rate it is at now
+                assert "at 1000000 bps, torque on" in text and "baud_rate" in text, (after, text)
+            else:
+                assert "written and read back" not in text, (after, text)
+    else:
+        raise AssertionError("the run never ended without a pause")
+    assert stops >= 8, stops  # every instruction of the step was a stopping point
+
+
+def test_an_interrupted_scan_emits_what_it_had_found(sim_of):
+    sim = sim_of("1:XM430-W350", "2:XM540-W270")
+    run = Paused(sim, 25, "scan", "--ids", "0-3", "--json")  # after the first rate (57600), before the end
+    assert run.paused()
+    run.proc.send_signal(signal.SIGINT)
+    code, text = run.finish()
+    assert code == 130, text
+    doc = json.loads(text[text.index("{"):])
+    assert doc["interrupted"] and not doc["ok"], doc
+    assert [(s["id"], s["baudrate"]) for s in doc["servos"]] == [(1, 57600), (2, 57600)], text
+
+
+# ---------------------------------------------------------------------- item 7: units
+def test_a_bare_number_for_an_item_with_a_unit_is_refused_with_both_readings(sim_of):
+    sim = sim_of("1:XM430-W350")
+    out = tool(sim, "set", "1", "max_position_limit", "90", "--yes")
+    assert out.returncode == 2, out.text
+    line = one_error_line(out)
+    assert "90 = 90 deg? write 90deg, or --raw for register value 90" in line and "-172" in line, line
+    assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 4095
+    out = tool(sim, "set", "1", "max_position_limit", "3000", "--raw", "--yes")
+    assert out.returncode == 0, out.text
+    assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 3000
+
+
+def test_ranges_and_limit_pairs_are_checked_before_anything_is_sent(sim_of):
+    sim = sim_of("1:XM430-W350")
+    sdk_write4(sim.path, 57600, 1, MAX_POS, 3072)  # +90 deg
+    cases = {("min_position_limit", "100deg"): "would not be below max_position_limit",
+             ("max_position_limit", "-180deg"): "would not be below max_position_limit",
+             ("temperature_limit", "150degC"): "outside what the e-Manual gives XM430-W350",
+             ("current_limit", "65535", "--raw"): "outside what the e-Manual gives XM430-W350"}
+    for args, text in cases.items():
+        out = tool(sim, "set", "1", *args, "--yes")
+        assert out.returncode == 2 and text in one_error_line(out), (args, out.text)
+    assert [sdk_read(sim.path, 57600, 1, a, n) for a, n in ((MIN_POS, 4), (MAX_POS, 4), (TEMP_LIMIT, 1),
+                                                              (CURRENT_LIMIT, 2))] == [0, 3072, 80, 1193]
+
+
+# ---------------------------------------------------------------------- items 3, 6: dangerous values
+def test_protection_lowering_values_need_force_and_protocol_type_1_is_refused(sim_of):
+    sim = sim_of("1:XM430-W350", "2:XM430-W350")
+    for item, value in (("shutdown", "0"), ("drive_mode", "1"), ("secondary_id", "2"), ("temperature_limit", "90degC")):
+        out = tool(sim, "set", "1", item, value, "--yes", "--baud", "57600")
+        assert out.returncode == 2, (item, out.text)
+        line = one_error_line(out)
+        assert "--force writes it anyway" in line and "nothing written" in line, line
+    assert [sdk_read(sim.path, 57600, 1, a, 1) for a in (SHUTDOWN, DRIVE, SECONDARY, TEMP_LIMIT)] == [52, 0, 255, 80]
+    out = tool(sim, "set", "1", "shutdown", "0", "--yes", "--force", "--baud", "57600")
+    assert out.returncode == 0 and sdk_read(sim.path, 57600, 1, SHUTDOWN, 1) == 0, out.text
+
+    out = tool(sim, "set", "1", "protocol_type", "1", "--yes", "--force")
+    assert out.returncode == 2 and "Protocol 1.0 only" in one_error_line(out), out.text
+    assert sdk_read(sim.path, 57600, 1, PROTOCOL, 1) == 2
+
+
+def test_a_protocol_1_servo_is_listed_with_what_the_tool_can_do_with_it(sim_of):
+    sim = sim_of("1:XM430-W350", "8:MX-28(1.0)")
+    sdk_write1(sim.path, 57600, 1, PROTOCOL, 1)
+    out = tool(sim, "scan", "--ids", "0-9", "--baud", "57600", "--json")
+    assert out.returncode == 0, out.text
+    notes = {s["id"]: s["note"] for s in json.loads(out.stdout)["servos"]}
+    assert all("cannot yet read or write it" in notes[i] for i in (1, 8)), notes
+
+
+# ---------------------------------------------------------------------- item 10: collisions
+def test_three_servos_at_one_id_are_two_or_more(sim_of):
+    sim = sim_of("1:XM430-W350", "1:XM430-W350", "1:XM430-W350")
+    out = tool(sim, "scan", "--ids", "0-2", "--baud", "57600", "--protocol", "2", "--json")
+    assert out.returncode == 0, out.text
+    (found,) = json.loads(out.stdout)["servos"]
+    assert found["collision"] and "two or more servos answer at this ID" in found["note"] and "assign-ids" in found["note"]
+
+
+def test_one_id_at_two_rates_is_refused_naming_both(sim_of):
+    sim = sim_of("1:XM430-W350", "2:XM430-W350")
+    sdk_write1(sim.path, 57600, 2, BAUD, 3)
+    sdk_write1(sim.path, 1_000_000, 2, ID_ADDR, 1)  # ID 1 at 57600 and at 1 Mbps
+    out = tool(sim, "set-id", "1", "3", "--yes")
+    assert out.returncode == 1, out.text
+    line = one_error_line(out)
+    assert "57600" in line and "1000000" in line, line
+    assert sdk_ping(sim.path, 57600, 1) == XM430 and sdk_ping(sim.path, 1_000_000, 1) == XM430
+    assert sdk_ping(sim.path, 57600, 3) is None and sdk_ping(sim.path, 1_000_000, 3) is None
+
+
+# ---------------------------------------------------------------------- item 6: bad input, one line
+def test_bad_numbers_and_long_input_are_one_line_with_exit_code_2(sim_of):
+    sim = sim_of("1:XM430-W350")
+    long_name = "x" * 100_000
+    cases = [("--baud", "inf", "get", "1", "id"), ("--baud", "1e400", "get", "1", "id"), ("set-baud", "1", "inf"),
+             ("--latency", "inf", "get", "1", "id"), ("set", "1", "goal_position", "1e400deg"),
+             ("set", "1", "goal_position", "nan"), ("reboot", "254"), ("reboot", "-1"), ("monitor", "--rate", "inf"),
+             ("set", "1", long_name, "3"), ("get", "1", long_name), (long_name,)]
+    for args in cases:
+        out = tool(sim, *args, "--yes")
+        assert out.returncode == 2, (args[:4], out.text[:500])
+        line = one_error_line(out)
+        assert "unexpected" not in line and "defect" not in line and len(line) < 400, (args[:4], line[:500])
+    out = tool(sim, "scan", "--ids", "1", "--baud", "57600", "--protocol", "2", "--svg", "/nonexistent/dir/scan.svg")
+    assert out.returncode == 1 and "cannot write /nonexistent/dir/scan.svg" in one_error_line(out), out.text
+    assert os.path.exists(sim.path)
