@@ -33,6 +33,7 @@ sim_of = test_setup_tool.sim_of  # the fixture: the virtual bus as a process
 
 TORQUE, BAUD, ID_ADDR, DRIVE, SECONDARY, PROTOCOL, TEMP_LIMIT, SHUTDOWN = 64, 8, 7, 10, 12, 13, 31, 63
 MAX_POS, MIN_POS, CURRENT_LIMIT, GOAL_POS, PRESENT_POS = 48, 52, 38, 116, 132
+RETURN_DELAY, LED = 9, 65
 PAUSE = "DXL_SETUP_TEST_PAUSE_AFTER"
 
 
@@ -71,6 +72,34 @@ def test_an_eeprom_write_on_a_servo_holding_its_load_is_refused_unless_torque_of
     out = tool(sim, "set", "1", "max_position_limit", "80deg", "--yes")
     assert out.returncode == 0 and "torque was turned off" not in out.stdout, out.text
     assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 0
+
+
+def test_reboot_and_factory_reset_of_a_servo_holding_its_load_need_torque_off(sim_of):
+    sim = sim_of("1:XM430-W350", "2:XM430-W350")
+    sdk_write1(sim.path, 57600, 1, RETURN_DELAY, 20)  # set up before: a factory reset would undo it
+    hold(sim)
+    for dxl_id in (1, 2):
+        sdk_write1(sim.path, 57600, dxl_id, LED, 1)  # RAM: back to 0 after a reboot
+
+    out = tool(sim, "reboot", "all", "--baud", "57600", "--yes")
+    assert out.returncode == 2 and "torque is on and a reboot turns it off" in one_error_line(out), out.text
+    out = tool(sim, "reboot", "all", "--baud", "57600", "--torque-off", stdin="n\n")  # asked first
+    assert out.returncode == 1 and "ID 1 hold their load (torque on)" in out.stdout, out.text
+    assert [sdk_read(sim.path, 57600, i, LED, 1) for i in (1, 2)] == [1, 1]  # nothing rebooted
+    assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1
+
+    out = tool(sim, "reboot", "all", "--baud", "57600", "--torque-off", "--yes")
+    assert out.returncode == 0 and "ID 1 (XM430-W350) rebooted and answers again, torque back on" in out.stdout, out.text
+    assert [sdk_read(sim.path, 57600, i, LED, 1) for i in (1, 2)] == [0, 0]
+    assert [sdk_read(sim.path, 57600, i, TORQUE, 1) for i in (1, 2)] == [1, 0]  # each as before
+    assert abs(sdk_read(sim.path, 57600, 1, GOAL_POS, 4) - sdk_read(sim.path, 57600, 1, PRESENT_POS, 4)) < 20
+
+    out = tool(sim, "factory-reset", "1", "--keep", "id,baud", "--yes")
+    assert out.returncode == 2 and "torque is on and a factory reset turns it off" in one_error_line(out), out.text
+    assert sdk_read(sim.path, 57600, 1, RETURN_DELAY, 1) == 20 and sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1
+    out = tool(sim, "factory-reset", "1", "--keep", "id,baud", "--yes", "--torque-off")
+    assert out.returncode == 0 and "torque off (the factory state)" in out.stdout, out.text
+    assert sdk_read(sim.path, 57600, 1, RETURN_DELAY, 1) == 250 and sdk_read(sim.path, 57600, 1, TORQUE, 1) == 0
 
 
 # ---------------------------------------------------------------------- item 2: signals

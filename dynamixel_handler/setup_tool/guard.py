@@ -11,10 +11,10 @@ from ..control_table import Item
 from .checks import check, needed
 from .context import Context
 from .errors import StepFailed
-from .safety import needs_torque_off, refuse_torque
+from .safety import TorqueOn, needs_torque_off, refuse_torque
 from .servo import SEARCH_ORDER, Servo
 
-__all__ = ["check_values", "torque_gate", "torque_question", "torque_done", "only_one"]
+__all__ = ["check_values", "torque_gate", "torque_for", "torque_question", "torque_done", "only_one"]
 
 
 def check_values(ctx: Context, servo: Servo, new: Mapping[str, int]) -> None:
@@ -36,6 +36,17 @@ def torque_gate(ctx: Context, servo: Servo, items: Iterable[Item]) -> bool:
                 raise refuse_torque(servo, item)
             return True
     return False
+
+
+def torque_for(ctx: Context, servo: Servo, action: str) -> bool:
+    """Whether the servo's torque is on for ``action`` (a factory reset), which turns it off;
+    TorqueOn (exit 2, nothing done) when it is and ``--torque-off`` was not given."""
+    if not (servo.model.has("torque_enable") and servo.torque_on()):
+        return False
+    if not ctx.torque_off:
+        raise TorqueOn(f"{servo.who}: torque is on and {action} turns it off, which lets go of the load it holds: "
+                       "refused, nothing done (give --torque-off to allow it)")
+    return True
 
 
 def torque_question(on: bool) -> str:

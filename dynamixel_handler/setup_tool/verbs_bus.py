@@ -5,9 +5,11 @@ import argparse
 import time
 
 from ..bus import DynamixelBus
+from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
-from .safety import stopped
+from .find import Placed
+from .safety import JOURNAL, TorqueOn, held, stopped
 from .scan import COLUMNS, Found, scan_bus, scan_steps
 from .servo import SEARCH_ORDER, Servo, connect
 from .values import servo_doc
@@ -60,24 +62,52 @@ def _wait_back(bus: DynamixelBus, dxl_id: int) -> int | None:
 
 def reboot(ctx: Context, args: argparse.Namespace) -> None:
     """``reboot ID``, ``reboot 1,2,5`` or ``reboot all`` (every servo at every rate unless --baud);
-    each one waited for and reported, a missing one named without failing the others."""
+    each one waited for and reported, a missing one named without failing the others. A reboot drops
+    torque: a servo holding its load is refused unless --torque-off (and asked about without --yes);
+    with it torque comes back on after the reboot, the goal where the servo is."""
     found = ctx.servos(args.id)
+    holding = _holding(ctx, found.placed)
     failed, rebooted = [], []
     for placed in found.placed:
         servo = ctx.at(placed)
-        done = ctx.bus.reboot_result(servo.dxl_id)
-        back = _wait_back(ctx.bus, servo.dxl_id) if done else None
+        torque = placed.dxl_id in holding
+        with held():
+            entry = JOURNAL.touch(servo.dxl_id, servo.model.name, placed.baudrate, "on" if torque else "off")
+            done = ctx.bus.reboot_result(servo.dxl_id)
+            back = _wait_back(ctx.bus, servo.dxl_id) if done else None
+            if back is not None:
+                entry.torque, entry.done = "off (rebooted)" if torque else "off", entry.done + ["rebooted"]
+                if torque:
+                    servo.torque_on_in_place()
+                    entry.torque = "on (as before)"
         if back is None:
             why = done.failure or f"it does not answer within {_BACK_WITHIN_S:.0f} s"
             failed.append(f"{servo.who}: reboot failed: {why}")
         else:
             rebooted.append(servo_doc(servo.dxl_id, servo.model, placed.baudrate))
-            ctx.out.say(f"{servo.who} rebooted and answers again")
+            ctx.out.say(f"{servo.who} rebooted and answers again" + (", torque back on (goal := present position)"
+                                                                        if torque else ""))
     ctx.out.document.update(rebooted=[s["id"] for s in rebooted], servos=rebooted, failed=failed,
                             missing=found.missing)
     if failed:
         raise StepFailed("; ".join(failed))
     ctx.fail_if_missing(found, f"{len(rebooted)} rebooted")
+
+
+def _holding(ctx: Context, placed: list[Placed]) -> set[int]:
+    """The IDs of ``placed`` whose torque is on; refused (TorqueOn, nothing rebooted) unless
+    --torque-off, and asked about without --yes."""
+    holding = {p.dxl_id for p in placed if ctx.at(p).model.has("torque_enable") and ctx.at(p).torque_on()}
+    if not holding:
+        return holding
+    ids = ", ".join(map(str, sorted(holding)))
+    if not ctx.torque_off:
+        raise TorqueOn(f"ID {ids}: torque is on and a reboot turns it off, which lets go of the load it holds: refused, "
+                       "nothing rebooted (give --torque-off to reboot and turn torque back on with the goal where the "
+                       "servo is)")
+    ctx.confirm(f"reboot {len(placed)} servo(s); ID {ids} hold their load (torque on): torque goes off for the reboot "
+                "and comes back on with the goal where each one is?")
+    return holding
 
 
 def _check_free_after_reset(ctx: Context, servo: Servo, level: str) -> None:
@@ -95,24 +125,39 @@ def _check_free_after_reset(ctx: Context, servo: Servo, level: str) -> None:
                          f"servo (model {other}) answers: they would collide; nothing was reset")
 
 
+def _reset(ctx: Context, servo: Servo, level: str, torque: bool, where: tuple[int, int]) -> None:
+    """The factory reset as one critical step: torque off (if on), reset, found again at ``where``."""
+    where_id, where_bps = where
+    with held():
+        entry = JOURNAL.touch(servo.dxl_id, servo.model.name, ctx.bus.baudrate, "on" if torque else "off")
+        if torque:
+            servo.write("torque_enable", 0)
+            entry.torque = "off (it was on)"
+        if not ctx.bus.factory_reset(servo.dxl_id, _RESET_OPTION[level]):
+            raise StepFailed(f"{servo.who}: factory reset refused: {ctx.bus.last_failure or 'no reply'}; nothing was "
+                             f"reset (torque {entry.torque})")
+        entry.done.append(f"factory reset (keeping {level if level != 'all' else 'nothing'}) sent")
+        entry.dxl_id, entry.baudrate = where_id, where_bps
+        ctx.bus.set_baudrate(where_bps)
+        if _wait_back(ctx.bus, where_id) is None:
+            raise StepFailed(f"{servo.who}: reset sent, but no servo answers at ID {where_id}, {where_bps} bps afterwards")
+        entry.done[-1] = entry.done[-1].replace(" sent", " done")
+
+
 def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
     level = "all" if args.all else args.keep
     servo = ctx.servo(args.id)
     keeps = {"all": "nothing: it comes back as ID 1 at 57600 bps", "id": "its ID (baud rate back to 57600)",
              "id,baud": "its ID and baud rate"}[level]
     _check_free_after_reset(ctx, servo, level)
-    ctx.confirm(f"{servo.who}: factory reset of every EEPROM item, keeping {keeps}?")
-    if servo.torque_on():
-        servo.write("torque_enable", 0)
-    if not ctx.bus.factory_reset(servo.dxl_id, _RESET_OPTION[level]):
-        raise StepFailed(f"{servo.who}: factory reset refused: {ctx.bus.last_failure or 'no reply'}; nothing was reset "
-                         "(torque left off)")
+    torque = guard.torque_for(ctx, servo, "a factory reset")
+    ctx.confirm(f"{servo.who}: factory reset of every EEPROM item, keeping {keeps}?"
+                + (" Its torque is on: it goes off and stays off (the factory state)." if torque else ""))
     where_id = servo.dxl_id if level != "all" else _FACTORY_ID
     where_bps = ctx.bus.baudrate if level == "id,baud" else _FACTORY_BPS
-    ctx.bus.set_baudrate(where_bps)
-    if _wait_back(ctx.bus, where_id) is None:
-        raise StepFailed(f"{servo.who}: reset sent, but no servo answers at ID {where_id}, {where_bps} bps afterwards")
-    ctx.out.say(f"{servo.who}: factory reset done; it answers at ID {where_id}, {where_bps} bps")
+    _reset(ctx, servo, level, torque, (where_id, where_bps))
+    ctx.out.say(f"{servo.who}: factory reset done; it answers at ID {where_id}, {where_bps} bps"
+                + (", torque off (the factory state)" if torque else ""))
     ctx.out.document.update(id=where_id, baudrate=where_bps, kept=level)
 
 
@@ -139,7 +184,7 @@ def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
     if new_id != servo.dxl_id:
         if bus.ping_result(new_id, retries=1).value is not None:
             raise StepFailed(f"{servo.who}: ID {new_id} is in use at {new.baudrate} bps; not changed")
-        servo.set_checked("id", new_id, after=lambda: connect(bus, new_id))
+        servo.set_checked("id", new_id, after=lambda: connect(bus, new_id), torque_off=ctx.torque_off)
         servo = connect(bus, new_id)
     if target != new.baudrate:
         by_bps = {bps: value for value, bps in servo.model.baud_rates.items()}
@@ -150,7 +195,7 @@ def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
             bus.set_baudrate(target)
             return connect(bus, new_id)
 
-        servo.set_checked("baud_rate", by_bps[target], after=there)
+        servo.set_checked("baud_rate", by_bps[target], after=there, torque_off=ctx.torque_off)
     bus.set_baudrate(target)
     return connect(bus, new_id)
 
@@ -179,7 +224,8 @@ def _one_round(ctx: Context, known: set[tuple[int, int]], rates: list[int], ids:
         ctx.out.say(f"{len(found)} new servos answer ({', '.join(f'ID {f.dxl_id} at {f.baudrate} bps' for f in found)}): "
                     "connect one at a time; press Enter when only one new servo is connected")
         return None
-    return found[0], _give(ctx, found[0], next_id, target)
+    with held():  # its ID and its rate are one step: a signal waits until it answers at both
+        return found[0], _give(ctx, found[0], next_id, target)
 
 
 class _Assigner:
