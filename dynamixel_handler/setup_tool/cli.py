@@ -10,7 +10,7 @@ import sys
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus
-from . import backup, monitor, plot, trace, verbs_bus, verbs_config
+from . import backup, monitor, plot, restore, trace, verbs_bus, verbs_config
 from .checks import cut
 from .context import Context
 from .errors import StepFailed
@@ -186,7 +186,7 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = verb("backup", backup.backup, "save servos' EEPROM items and model to a YAML file")
     p.add_argument("file")
     p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found, at any rate unless --baud)")
-    p = verb("restore", backup.restore, "write a backup back: model checked, only what differs, verified")
+    p = verb("restore", restore.restore, "write a backup back: model checked, only what differs, verified")
     p.add_argument("file")
     p.add_argument("--dry-run", action="store_true", help="show what would change, write nothing")
     p = verb("monitor", monitor.monitor, "a live table of the servos (q quits)")

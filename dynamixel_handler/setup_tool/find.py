@@ -103,6 +103,16 @@ class Search:
         self._at(result.placed[0].baudrate if result.placed else self.first)
         return result
 
+    def everywhere(self) -> list[tuple[int, int, int]]:
+        """(ID, rate, model number) of every servo answering at every rate looked at, one ID at
+        two rates listed twice (restore looks there for a replacement); the bus at the first rate."""
+        seen = []
+        for bps in self.rates():
+            if self._at(bps):
+                seen += [(dxl_id, bps, number) for dxl_id, number in self.bus.scan(range(253), broadcast=True).items()]
+        self._at(self.first)
+        return seen
+
     def one(self, dxl_id: int) -> Servo:
         """The servo at ``dxl_id``, the bus left at its rate; StepFailed when it answers nowhere."""
         found = self.find([dxl_id])
