@@ -297,3 +297,5 @@ def test_bad_numbers_and_long_input_are_one_line_with_exit_code_2(sim_of):
     out = tool(sim, "scan", "--ids", "1", "--baud", "57600", "--protocol", "2", "--svg", "/nonexistent/dir/scan.svg")
     assert out.returncode == 1 and "cannot write /nonexistent/dir/scan.svg" in one_error_line(out), out.text
     assert os.path.exists(sim.path)
+    out = tool(sim, "--help")
+    assert out.returncode == 0 and "130 interrupted" in " ".join(out.stdout.split()), out.text

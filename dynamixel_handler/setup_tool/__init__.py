@@ -16,7 +16,8 @@ __all__ = ["main"]
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The command line entry point (exit code 0 done, 1 a step failed, 2 bad arguments)."""
+    """The command line entry point (exit code 0 done, 1 a servo or the bus failed, 2 bad arguments,
+    130 interrupted)."""
     from .cli import main as run
 
     return run(argv)

@@ -1,5 +1,6 @@
 """The command line of ``dynamixel_handler_setup``: verbs, the options every verb takes, and the
-run of one verb (exit code 0 done, 1 a step failed, 2 bad arguments; every error one line)."""
+run of one verb (exit code 0 done, 1 a servo or the bus failed, 2 bad arguments, 130 interrupted;
+every error one line)."""
 from __future__ import annotations
 
 import argparse
@@ -223,7 +224,10 @@ def _plot(out: Output, args: argparse.Namespace) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Set up Dynamixel servos from a terminal: find them, give them IDs, "
-                     "baud rates, modes and limits, back them up, watch them. The handler must not run on the bus.")
+                     "baud rates, modes and limits, back them up, watch them. The handler must not run on the bus.",
+                     epilog="exit codes: 0 done, 1 a servo or the bus failed, 2 bad arguments (nothing sent), "
+                     "130 interrupted (Ctrl-C, SIGTERM, SIGHUP: after the step in progress, the state of each servo "
+                     "written to is named)")
     _common(parser, suppress=False)
     sub = parser.add_subparsers(title="verbs", metavar="VERB", required=True, parser_class=_Parser)
     _verbs(sub)
