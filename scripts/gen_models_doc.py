@@ -84,9 +84,13 @@ def lacks(model: Model) -> str:
     return ", ".join(dict.fromkeys(missing)) or "–"
 
 
+#: models without an e-Manual page: where their table comes from instead
+NO_MANUAL_PAGE = {1700: "model file `xc335_t332.model` of ROBOTIS' dynamixel_hardware_interface (no e-Manual page)"}
+
+
 def source(model: Model) -> str:
     sdk = sdk_model_index().get(model.number)
-    return f"SDK file `{sdk}`" if sdk else "e-Manual"
+    return f"SDK file `{sdk}`" if sdk else NO_MANUAL_PAGE.get(model.number, "e-Manual")
 
 
 def rows(models: Iterable[Model]) -> List[str]:
@@ -100,6 +104,27 @@ def rows(models: Iterable[Model]) -> List[str]:
     return out
 
 
+def _rate(bps: int) -> str:
+    return f"{bps / 1e6:g} M" if bps >= 1_000_000 else str(bps)
+
+
+def baud_rows(models: Iterable[Model]) -> List[str]:
+    """One row per family, set of rates and factory rate: which baud rates a model can be set to, and
+    the one it leaves the factory at (the virtual bus unboxes each model at that rate)."""
+    from dynamixel_handler.sim.defaults import factory_defaults
+    groups: dict = {}
+    for m in models:
+        code = factory_defaults(m, 1).get("baud_rate")
+        key = (m.family.title, tuple(sorted(m.baud_rates.values())), m.baud_rates.get(code))
+        groups.setdefault(key, []).append(m.name)
+    out = ["| family | models | baud rates (bps) | factory rate |", "|---|---|---|---|"]
+    for (family, rates, factory), names in groups.items():
+        listed = ", ".join(names) if len(names) <= 8 else f"{', '.join(names[:3])} and {len(names) - 3} more"
+        out.append(f"| {family} | {listed} | {', '.join(_rate(r) for r in rates)} | "
+                   f"{_rate(factory) if factory else '–'} |")
+    return out
+
+
 def render() -> str:
     models = known_models()
     parts = [HEAD]
@@ -110,6 +135,11 @@ def render() -> str:
         if own:
             parts.append(f"## {family.title}\n")
             parts.append("\n".join(rows(own)) + "\n")
+    parts.append("## Baud rates\n")
+    parts.append("What each model can be set to (`dynamixel_handler_setup set-baud`, `baudrate`) and the rate it "
+                 "leaves the factory at. A bus runs at one rate: new servos of a model whose factory rate differs "
+                 "from the bus's are found by `dynamixel_handler_setup scan` or `init/baudrate_auto_set`.\n")
+    parts.append("\n".join(baud_rows(models)) + "\n")
     return "\n".join(parts)
 
 

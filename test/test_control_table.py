@@ -283,7 +283,8 @@ def test_every_model_carries_the_factory_values_of_its_manual_page():
     (1060, "temperature_limit", 72),                                      # x/xl430-w250
     (1190, "position_i_gain", 400), (1190, "shutdown", 53),               # x/xl330-m077
     (1240, "current_limit", 2352),                                        # x/xc330-m288
-    (1710, "baud_rate", 3),                                               # x/xm335-t323
+    (1710, "baud_rate", 3), (1710, "velocity_limit", 280),               # x/xm335-t323
+    (1710, "velocity_i_gain", 1800), (1710, "velocity_p_gain", 50), (1710, "position_p_gain", 2000),
     (1310, "current_limit", 1188),                                        # x/xw540-h260
     (2000, "max_position_limit", 303454),                                 # p/ph42-020-s300-r
     (2010, "acceleration_limit", 4255632),                                # p/ph54-100-s500-r
@@ -293,6 +294,15 @@ def test_every_model_carries_the_factory_values_of_its_manual_page():
 ])
 def test_factory_values_match_the_manual(number, name, value):
     assert model_by_number(number).factory[name] == value
+
+
+def test_the_xc335_table_is_its_model_file():
+    """xc335_t332.model (ROBOTIS' dynamixel_hardware_interface): Startup Configuration 2 bytes at 60,
+    no Backup Ready; the XM335-T323 page has both as the X330 pages (1 byte, 147)."""
+    xc335, xm335 = model_by_number(1700), model_by_number(1710)
+    assert (xc335.item("startup_configuration").address, xc335.item("startup_configuration").size) == (60, 2)
+    assert not xc335.has("backup_ready")
+    assert xm335.item("startup_configuration").size == 1 and xm335.has("backup_ready")
 
 
 def test_no_factory_value_where_the_manual_gives_none():

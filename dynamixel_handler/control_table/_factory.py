@@ -121,8 +121,10 @@ FACTORY: Dict[int, Values] = {
     1220: _x(320, 910, (1200, 40, 0, 0, 900), temperature=70, volts=_X330_12V, pwm_slope=255),  # x/xc330-t288
     1230: _x(545, 2352, (1400, 100, 500, 0, 1200), temperature=70, volts=_X330_5V, pwm_slope=140),  # x/xc330-m181
     1240: _x(350, 2352, (1600, 50, 500, 0, 1100), temperature=70, volts=_X330_5V, pwm_slope=140),   # x/xc330-m288
-    1710: _x(320, 910, (1200, 40, 0, 0, 900), temperature=70, volts=_X330_12V, pwm_slope=255,
-             baud_rate=3, max_position_limit=3072, min_position_limit=1024),  # x/xm335-t323
+    # x/xm335-t323: Velocity Limit 280 and gains 1800/50/0/0/2000 (the page's current table; an
+    # older revision carried the XC330-T288 values 320 and 1200/40/0/0/900)
+    1710: _x(280, 910, (1800, 50, 0, 0, 2000), temperature=70, volts=_X330_12V, pwm_slope=255,
+             baud_rate=3, max_position_limit=3072, min_position_limit=1024),
     # XC335-T332 has no e-Manual page: the values of the XC330-T288 page, whose table it shares
     1700: _x(320, 910, (1200, 40, 0, 0, 900), temperature=70, volts=_X330_12V, pwm_slope=255),
     # ---- P ------------------------------------------------------------------------------------

@@ -101,6 +101,9 @@ def _old_pro(name: str, rpm: float, current_ma: float, half_turn: int,
 # Backup Ready (147) exists from firmware v45 (X330: v46) as well; the SDK X files omit it.
 _X430_540_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1), "backup_ready": (147, 1)}
 _X330_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 1), "backup_ready": (147, 1)}
+# XC335-T332: what its model file (dynamixel_hardware_interface param/dxl_model/xc335_t332.model) lists
+# beyond the XC330 rows: Startup Configuration at 60 as 2 bytes, and no Backup Ready (147)
+_XC335_EXTRA: Dict[str, Tuple[int, int]] = {"startup_configuration": (60, 2)}
 
 _CURRENT_X = 2.69
 _CURRENT_X330 = 1.0
@@ -175,9 +178,9 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     # its table equals the XC330 one (no SDK file of its own), 28 indirect entries at 168/224.
     1710: _x("XM335-T323", "xc330_t288.model", _CURRENT_X330, _X330_EXTRA),
     # XC335-T332: no e-Manual page; its model file (dynamixel_hardware_interface param/dxl_model/
-    # xc335_t332.model) has the XC330 rows (and Startup Configuration at 60) and 28 indirect
-    # entries at 168 / 224 as XM335; current in 1 mA as every 330/335 servo.
-    1700: _x("XC335-T332", "xc330_t288.model", _CURRENT_X330, _X330_EXTRA),
+    # xc335_t332.model) has the XC330 rows, Startup Configuration at 60 (2 bytes), no Backup Ready,
+    # and 28 indirect entries at 168 / 224 as XM335; current in 1 mA as every 330/335 servo.
+    1700: _x("XC335-T332", "xc330_t288.model", _CURRENT_X330, _XC335_EXTRA),
     1270: _x("XW430-T333", "xw430_t333.model", _CURRENT_X, _X430_540_EXTRA),
     # XW430-T200 has a table file but is missing from the SDK's number index.
     1280: _x("XW430-T200", "xw430_t200.model", _CURRENT_X, _X430_540_EXTRA),

@@ -17,6 +17,18 @@ from .recovery import Recovery
 from .servo_io import Log, ServoIO
 from .watchdog import Watchdog
 
+#: what a user can do about a model number the control table does not know
+UNKNOWN_MODEL_HELP = ("this version does not know that model (docs/models.md lists those it does); a newer "
+                      "release may, otherwise report the number with the output of `dynamixel_handler_setup scan`")
+
+
+def _known(number: int) -> bool:
+    try:
+        model_by_number(number)
+    except KeyError:
+        return False
+    return True
+
 
 @dataclass(frozen=True)
 class StartupSettings:
@@ -95,7 +107,7 @@ class Startup:
             try:
                 model = model_by_number(number)
             except KeyError:
-                self.log.warning(f"ID {dxl_id}: unknown model number {number}, not handled")
+                self.log.warning(f"ID {dxl_id}: unknown model number {number}, not handled: {UNKNOWN_MODEL_HELP}")
                 continue
             if model.series not in used and dxl_id not in dummies:
                 self.log.info(f"ID {dxl_id}: {model.name} is series {model.series}, which "
@@ -105,6 +117,9 @@ class Startup:
             kind = "dummy" if dxl_id in dummies else f"model {number}"
             self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}) handled")
         if not len(self.table) and found and not self.settings.debug:
+            if not any(_known(number) for number in found.values()):
+                raise StartupError(f"no servo of a known model among IDs {sorted(found)} (model numbers "
+                                   f"{sorted(set(found.values()))}): {UNKNOWN_MODEL_HELP}")
             raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
                                f"{sorted(found)}: enable their series in init/used_servo_series")
 

@@ -66,3 +66,27 @@ def test_add_and_remove_asked_many_times_in_one_loop_make_at_most_one_change():
     assert h.handled_ids == [1, 2] and bus.of("ping") == [("ping", 2)]
     bus.silent.add(3)
     assert not h.add_id(3)
+
+
+def test_an_unknown_model_is_named_with_what_the_user_can_do(caplog):
+    """Enabling a series cannot help a model number the control table does not know: the lines say
+    where the known models are listed and how to report the number."""
+    class UnknownAtOne(FakeBus):
+        """ID 1 answers with a model number no table knows."""
+
+        def scan(self, ids, broadcast=None):
+            return {i: (9999 if i == 1 else n) for i, n in super().scan(ids, broadcast).items()}
+
+    def handler(servos):
+        return None, Handler(UnknownAtOne(servos), validate({**defaults(), "init/servo_auto_search.max_id": 6}), LOG)
+
+    _, h = handler({1: XM430})
+    with pytest.raises(StartupError, match=r"model numbers \[9999\]\): this version does not know that model") as err:
+        h.start()
+    assert "used_servo_series" not in str(err.value) and "docs/models.md" in str(err.value)
+    _, h = handler({1: XM430, 2: XM430})
+    with caplog.at_level(logging.WARNING, logger="test_startup"):
+        h.start()
+    assert h.handled_ids == [2]
+    assert any("ID 1: unknown model number 9999, not handled: this version does not know" in r.getMessage()
+               and "dynamixel_handler_setup scan" in r.getMessage() for r in caplog.records)
