@@ -7,7 +7,7 @@ PACKAGE = "dynamixel_handler"
 
 setup(
     name=PACKAGE,
-    version="0.1.0",
+    version="1.0.0",
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
@@ -19,7 +19,7 @@ setup(
     zip_safe=True,
     maintainer="dynamixel_handler developers",
     maintainer_email="dev@dynamixel-handler.example.com",
-    description="Drive Dynamixel servos (X, P, Pro) with ROS 2 topics in physical units.",
+    description="Drive Dynamixel servos (every Protocol 2.0 model) with ROS 2 topics in physical units.",
     license="Apache-2.0",
     entry_points={
         "console_scripts": [

@@ -7,12 +7,22 @@
 # examples/position_oscillation.py on the X servos 1 and 2 in the foreground. Everything stops
 # on Ctrl-C or when the duration is over; the node's log is kept in a file (path printed).
 # Other args go to the example (e.g. --amplitude 45 --frequency 1).
+# With DXL_DEVICE=/dev/ttyUSB0 the handler runs on that device instead of a virtual bus, and the
+# caller's ROS_AUTOMATIC_DISCOVERY_RANGE is kept (unset: ROS's default, the subnet); on the virtual
+# bus discovery is kept on this machine (LOCALHOST). Both are said in the output.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 "$ROOT/scripts/setup.sh" >&2
+CALLER_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE-}"
 # shellcheck disable=SC1091
 set +u; source "$ROOT/env.sh"; set -u
+if [ -n "${DXL_DEVICE:-}" ]; then
+  if [ -n "$CALLER_RANGE" ]; then export ROS_AUTOMATIC_DISCOVERY_RANGE="$CALLER_RANGE"; else unset ROS_AUTOMATIC_DISCOVERY_RANGE; fi
+  echo "[example] device $DXL_DEVICE; ROS discovery as your environment says (ROS_AUTOMATIC_DISCOVERY_RANGE=${CALLER_RANGE:-unset: the ROS default, SUBNET})" >&2
+else
+  export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+  echo "[example] ROS discovery kept on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) for the virtual bus" >&2
+fi
 
 LOG_DIR="$(mktemp -d "${TMPDIR:-/tmp}/dxl_example.XXXXXX")"
 SIM_PID=""; NODE_PID=""
@@ -30,16 +40,23 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-FIFO="$LOG_DIR/sim.fifo"; mkfifo "$FIFO"
-# own sessions: a Ctrl-C reaches only the example; cleanup stops the node, then the bus
-setsid dynamixel_handler_sim --quiet > "$FIFO" 2> "$LOG_DIR/sim.log" &
-SIM_PID=$!
-read -r DEVICE < "$FIFO"; rm -f "$FIFO"
-[ -n "$DEVICE" ] || { echo "[example] the virtual bus did not start: see $LOG_DIR/sim.log" >&2; exit 1; }
-echo "[example] virtual Dynamixel bus on $DEVICE; node log: $LOG_DIR/node.log" >&2
+EXTRA=()
+if [ -n "${DXL_DEVICE:-}" ]; then
+  DEVICE="$DXL_DEVICE"
+  echo "[example] node log: $LOG_DIR/node.log" >&2
+else
+  FIFO="$LOG_DIR/sim.fifo"; mkfifo "$FIFO"
+  # own sessions: a Ctrl-C reaches only the example; cleanup stops the node, then the bus
+  setsid dynamixel_handler_sim --quiet > "$FIFO" 2> "$LOG_DIR/sim.log" &
+  SIM_PID=$!
+  read -r DEVICE < "$FIFO"; rm -f "$FIFO"
+  [ -n "$DEVICE" ] || { echo "[example] the virtual bus did not start: see $LOG_DIR/sim.log" >&2; exit 1; }
+  echo "[example] virtual Dynamixel bus on $DEVICE; node log: $LOG_DIR/node.log" >&2
+  EXTRA=(--params-file "$ROOT/config/config_virtual_bus.yaml")
+fi
 
 setsid dynamixel_handler --ros-args --params-file "$ROOT/config/config_dynamixel_handler.yaml" \
-  --params-file "$ROOT/config/config_virtual_bus.yaml" -p "device_name:=$DEVICE" > "$LOG_DIR/node.log" 2>&1 &
+  "${EXTRA[@]}" -p "device_name:=$DEVICE" > "$LOG_DIR/node.log" 2>&1 &
 NODE_PID=$!
 
 set +e

@@ -4,12 +4,22 @@
 # (IDs 1-4, at 1 Mbps) on a pseudo-terminal, then the node on it with config/config_dynamixel_handler.yaml.
 # Ctrl-C stops both. Extra args are passed to the node's --ros-args (e.g. -p loop_rate:=50).
 # With DXL_DEVICE=/dev/ttyUSB0 it skips the virtual bus and runs on that device instead.
+# DDS discovery: on the virtual bus it is kept on this machine (LOCALHOST, said in the output); on a
+# real device the caller's ROS_AUTOMATIC_DISCOVERY_RANGE is kept as it is (unset: ROS's default,
+# the subnet), so the robot's other computers see the node.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/setup.sh" >&2
-export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+CALLER_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE-}"
 # shellcheck disable=SC1091
 set +u; source "$ROOT/env.sh"; set -u
+if [ -n "${DXL_DEVICE:-}" ]; then
+  if [ -n "$CALLER_RANGE" ]; then export ROS_AUTOMATIC_DISCOVERY_RANGE="$CALLER_RANGE"; else unset ROS_AUTOMATIC_DISCOVERY_RANGE; fi
+  echo "[run] device $DXL_DEVICE; ROS discovery as your environment says (ROS_AUTOMATIC_DISCOVERY_RANGE=${CALLER_RANGE:-unset: the ROS default, SUBNET})" >&2
+else
+  export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+  echo "[run] ROS discovery kept on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) for the virtual bus" >&2
+fi
 
 SIM_PID=""
 cleanup() { [ -n "$SIM_PID" ] && kill "$SIM_PID" 2>/dev/null; wait 2>/dev/null || true; }
