@@ -91,6 +91,16 @@ def _count(text: str) -> int:
     return value
 
 
+def _at_most(parse: Callable[[str], Any], most: float, unit: str) -> Callable[[str], Any]:
+    """``parse``, and refused above ``most`` (a value no adapter or bus needs)."""
+    def within(text: str) -> Any:
+        value = parse(text)
+        if value > most:
+            raise argparse.ArgumentTypeError(f"'{cut(text)}' is more than {most:g}{unit}")
+        return value
+    return within
+
+
 def baud(text: str) -> int:
     try:
         value = int(float(text.lower().replace("m", "e6").replace("k", "e3")))
@@ -131,9 +141,11 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
     g.add_argument("--raw", action="store_true", default=default(False),
                    help="set: the value is the register value, not a value in the item's unit")
     g.add_argument("--json", action="store_true", default=default(False), help="one JSON document on stdout")
-    g.add_argument("--latency", type=_positive(float), default=default(4.0), metavar="MS",
+    g.add_argument("--latency", type=_at_most(_positive(float), 255, " ms (an adapter's latency timer: 1..255)"),
+                   default=default(4.0), metavar="MS",
                    help="adapter latency timer [ms] for reply timeouts (default 4; FTDI adapters are set to it)")
-    g.add_argument("--retries", type=_count, default=default(2), metavar="N", help="retries of a failed transaction")
+    g.add_argument("--retries", type=_at_most(_count, 10, ""), default=default(2), metavar="N",
+                   help="retries of a failed transaction (0..10)")
     g.add_argument("--svg", default=default(None), metavar="FILE",
                    help="also save the output as it looks in a terminal, as an SVG picture")
     g.add_argument("--trace", action="store_true", default=default(False),
