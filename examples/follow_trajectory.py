@@ -23,6 +23,7 @@ import signal
 import statistics
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -122,7 +123,7 @@ def main() -> int:
     joints = [j.strip() for j in args.joints.split(",") if j.strip()]
     procs: list[subprocess.Popen] = []
     if args.virtual:
-        log_dir = Path(os.environ.get("TMPDIR", "/tmp"))
+        log_dir = Path(tempfile.mkdtemp(prefix="follow_trajectory_"))  # a directory of this run's own
         procs, device = start_virtual(log_dir)
         print(f"virtual bus on {device}; handler log: {log_dir / 'handler.log'}")
     rclpy.init()
