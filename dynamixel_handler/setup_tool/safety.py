@@ -253,5 +253,9 @@ def _step(servo: S, item: Item, raw: int, torque: bool, entry: Touched, what: st
 
 
 def _torque_back(servo: _Servo, entry: Touched) -> None:
-    servo.torque_on_in_place()
+    try:
+        servo.torque_on_in_place()
+    except StepFailed as exc:
+        entry.torque = "off (it was on: turning it back on failed)"
+        raise StepFailed(f"{exc}; {JOURNAL.state()}") from None
     entry.torque = "on (as before)"
