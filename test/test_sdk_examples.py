@@ -2,7 +2,10 @@
 sync_read_write) against the virtual bus: the same ``dynamixel_sdk`` calls in the same order, with the
 addresses and defaults of their X_SERIES block (two MX-28(2.0) here) and of their XL320 block, and
 what the examples expect to see: the model number from a ping, each goal position reached within
-their moving threshold. Only the device path differs from a run on hardware.
+their moving threshold. Only the device path differs from a run on hardware, and the reply wait
+(``PatientPort``): the virtual bus answers from a thread of the test process, which a loaded host can
+hold back longer than the SDK's 16 ms latency allowance, and dynamixel_sdk 4.1.0's read4ByteTxRx
+then raises IndexError on the cut reply instead of reporting it.
 
 X_SERIES block: 57600 bps, IDs 1 and 2, Torque Enable 64 (1 byte), Goal Position 116 and Present
 Position 132 (4 bytes), goals 0 and 4095. XL320 block: 1 Mbps, Torque Enable 24, Goal Position 30
@@ -18,6 +21,8 @@ from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, GroupSyncWrite, PacketHan
 
 from dynamixel_handler.control_table import known_models
 from dynamixel_handler.sim import VirtualBus
+
+from support.sdk import PatientPort
 
 pytestmark = pytest.mark.sim
 
@@ -54,7 +59,7 @@ def bus_with(block: Block, ids: tuple[int, ...]) -> tuple[VirtualBus, str]:
 
 
 def opened(device: str, block: Block) -> tuple[PortHandler, PacketHandler]:
-    port, packet = PortHandler(device), PacketHandler(2.0)
+    port, packet = PatientPort(device), PacketHandler(2.0)
     assert port.openPort(), "openPort"
     assert port.setBaudRate(block.baudrate), "setBaudRate"
     return port, packet

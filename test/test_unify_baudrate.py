@@ -18,6 +18,9 @@ from dynamixel_handler.tools.baudrate import baud_register_values, search_rates,
 ROOT = Path(__file__).resolve().parent.parent
 X, X540, XL330, P, PRO = 1020, 1120, 1200, 2020, 54024  # XM430-W350, XM540-W270, XL330-M288, PH54, H54 (old PRO)
 ALL_RATES = search_rates(0, 10**8)
+#: the host's adapter latency [ms]: an FTDI's default. The virtual bus answers from a thread of this
+#: process; with a 1 ms latency (an 8.5 ms reply wait) a loaded host can hold that thread back past it
+LATENCY_MS = 16.0
 
 
 def at_rates(sim: VirtualBus, rates: dict[int, int]) -> None:
@@ -29,12 +32,12 @@ def at_rates(sim: VirtualBus, rates: dict[int, int]) -> None:
 
 def answering(path: str, bps: int, ids=range(0, 8)) -> dict[int, int]:
     """What a fresh host sees when it scans at ``bps``."""
-    with DynamixelBus(path, bps, latency_timer_ms=1.0, retry_num=0) as bus:
+    with DynamixelBus(path, bps, latency_timer_ms=LATENCY_MS, retry_num=0) as bus:
         return bus.scan(ids)
 
 
 def unify(sim: VirtualBus, target: int, ids=range(0, 8), rates=ALL_RATES):
-    with DynamixelBus(sim.path, 57600, latency_timer_ms=1.0, retry_num=1) as bus:
+    with DynamixelBus(sim.path, 57600, latency_timer_ms=LATENCY_MS, retry_num=1) as bus:
         report = unify_baudrate(bus, target, ids, rates)
         assert bus.baudrate == target
     return report
@@ -47,7 +50,7 @@ def test_virtual_servo_answers_only_at_its_baud_rate_and_switches_after_the_repl
         assert answering(sim.path, 57600) == {1: X}
         assert answering(sim.path, 10_500_000) == {2: P}
         assert answering(sim.path, 4_500_000) == {}
-        with DynamixelBus(sim.path, 57600, latency_timer_ms=1.0, retry_num=0) as bus:
+        with DynamixelBus(sim.path, 57600, latency_timer_ms=LATENCY_MS, retry_num=0) as bus:
             # the status reply of the Baud Rate write still comes at the old rate
             assert bus.write(1, model_by_number(X).item("baud_rate").address, bytes([3]))
             assert bus.ping(1) is None
