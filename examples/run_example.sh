@@ -13,16 +13,11 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/setup.sh" >&2
-CALLER_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE-}"
+# shellcheck disable=SC1091
+source "$ROOT/scripts/discovery.sh"
 # shellcheck disable=SC1091
 set +u; source "$ROOT/env.sh"; set -u
-if [ -n "${DXL_DEVICE:-}" ]; then
-  if [ -n "$CALLER_RANGE" ]; then export ROS_AUTOMATIC_DISCOVERY_RANGE="$CALLER_RANGE"; else unset ROS_AUTOMATIC_DISCOVERY_RANGE; fi
-  echo "[example] device $DXL_DEVICE; ROS discovery as your environment says (ROS_AUTOMATIC_DISCOVERY_RANGE=${CALLER_RANGE:-unset: the ROS default, SUBNET})" >&2
-else
-  export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-  echo "[example] ROS discovery kept on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) for the virtual bus" >&2
-fi
+discovery_for_device example
 
 LOG_DIR="$(mktemp -d "${TMPDIR:-/tmp}/dxl_example.XXXXXX")"
 SIM_PID=""; NODE_PID=""

@@ -10,16 +10,11 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/setup.sh" >&2
-CALLER_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE-}"
+# shellcheck disable=SC1091
+source "$ROOT/scripts/discovery.sh"
 # shellcheck disable=SC1091
 set +u; source "$ROOT/env.sh"; set -u
-if [ -n "${DXL_DEVICE:-}" ]; then
-  if [ -n "$CALLER_RANGE" ]; then export ROS_AUTOMATIC_DISCOVERY_RANGE="$CALLER_RANGE"; else unset ROS_AUTOMATIC_DISCOVERY_RANGE; fi
-  echo "[run] device $DXL_DEVICE; ROS discovery as your environment says (ROS_AUTOMATIC_DISCOVERY_RANGE=${CALLER_RANGE:-unset: the ROS default, SUBNET})" >&2
-else
-  export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-  echo "[run] ROS discovery kept on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) for the virtual bus" >&2
-fi
+discovery_for_device run
 
 SIM_PID=""
 cleanup() { [ -n "$SIM_PID" ] && kill "$SIM_PID" 2>/dev/null; wait 2>/dev/null || true; }
