@@ -58,7 +58,7 @@ def test_no_rclpy_is_imported_by_the_tool():
 @pytest.mark.parametrize("model, item, text, raw", [
     (XM430, "max_position_limit", "170deg", 2048 + 1934),     # 360/4096 deg per pulse around 2048
     (XM430, "max_position_limit", "1.5rad", 2048 + 978),     # 85.94 deg
-    (XM430, "max_position_limit", "3000", 3000),              # a whole number is the raw value
+    (XM430, "max_position_limit", "3000", 3000),              # a whole number with --raw is the raw value
     (XM430, "current_limit", "300mA", 112),                   # 2.69 mA per pulse
     (XM430, "current_limit", "0.3A", 112),
     (XM430, "max_voltage_limit", "12.0V", 120),               # 0.1 V per pulse
@@ -70,7 +70,7 @@ def test_no_rclpy_is_imported_by_the_tool():
 ])
 def test_values_in_units_become_raw_register_values(model, item, text, raw):
     m = model_by_number(model)
-    got = parse_value(m, find_item(m, item), text, "ID 1")
+    got = parse_value(m, find_item(m, item), text, "ID 1", raw=text.isdigit())
     if model == PH54:
         assert got == pytest.approx(raw, abs=2)
     else:
@@ -86,6 +86,8 @@ def test_values_in_units_become_raw_register_values(model, item, text, raw):
     ("drive_mode", "1deg", "has no physical unit"),
     ("current_limit", "1.5", r"takes a whole raw value or a value with its unit \(mA\)"),
     ("current_limit", "lots", "is not a value for current_limit"),
+    ("max_position_limit", "90", r"90 = 90 deg\? write 90deg, or --raw for register value 90"),  # no unit, no --raw
+    ("max_position_limit", "1e400deg", "is not a finite number"),
 ])
 def test_values_the_model_does_not_take_are_refused_with_one_line(item, text, why):
     m = model_by_number(XM430)

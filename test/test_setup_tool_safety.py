@@ -26,10 +26,15 @@ from test_setup_tool import (
     sdk_read,
     sdk_write1,
     sdk_write4,
-    tool,
 )
+from test_setup_tool import tool as _tool
 
 sim_of = test_setup_tool.sim_of  # the fixture: the virtual bus as a process
+
+
+def tool(sim, *args: str, stdin: str = "") -> subprocess.CompletedProcess:
+    """The tool as a process, with reply timeouts for a loaded host (a 30 ms latency timer)."""
+    return _tool(sim, *args, "--latency", "30", stdin=stdin)
 
 TORQUE, BAUD, ID_ADDR, DRIVE, SECONDARY, PROTOCOL, TEMP_LIMIT, SHUTDOWN = 64, 8, 7, 10, 12, 13, 31, 63
 MAX_POS, MIN_POS, CURRENT_LIMIT, GOAL_POS, PRESENT_POS = 48, 52, 38, 116, 132
@@ -109,7 +114,7 @@ class Paused:
 
     def __init__(self, sim, after: int, *args: str) -> None:
         cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
-        self.proc = subprocess.Popen([*cmd, "--device", sim.path, "--latency", "10", *args], stdin=subprocess.DEVNULL,
+        self.proc = subprocess.Popen([*cmd, "--device", sim.path, "--latency", "30", *args], stdin=subprocess.DEVNULL,
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT,
                                      env=dict(ENV, **{PAUSE: str(after)}))
         self.lines: list[str] = []
