@@ -149,6 +149,7 @@ def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
     keeps = {"all": "nothing: it comes back as ID 1 at 57600 bps", "id": "its ID (baud rate back to 57600)",
              "id,baud": "its ID and baud rate"}[level]
+    guard.only_one(ctx, servo)
     _check_free_after_reset(ctx, servo, level)
     torque = guard.torque_for(ctx, servo, "a factory reset")
     ctx.confirm(f"{servo.who}: factory reset of every EEPROM item, keeping {keeps}?"
