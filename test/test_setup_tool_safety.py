@@ -263,6 +263,10 @@ def test_a_protocol_1_servo_is_listed_with_what_the_tool_can_do_with_it(sim_of):
     assert out.returncode == 0, out.text
     notes = {s["id"]: s["note"] for s in json.loads(out.stdout)["servos"]}
     assert all("cannot yet read or write it" in notes[i] for i in (1, 8)), notes
+    out = tool(sim, "get", "1", "id")  # every other verb: not "no servo", but what it is and why not
+    assert out.returncode == 1, out.text
+    line = one_error_line(out)
+    assert "it answers Protocol 1.0 at 57600 bps (XM430-W350 set to Protocol Type 1)" in line, line
 
 
 # ---------------------------------------------------------------------- item 10: collisions

@@ -8,7 +8,9 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 from ..bus import BusError, DynamixelBus
+from ..control_table import model_by_number
 from .errors import StepFailed
+from .protocol1 import model_name1, ping1
 from .servo import SEARCH_ORDER, Servo, connect
 
 __all__ = ["Placed", "Search", "Found"]
@@ -117,9 +119,24 @@ class Search:
         """The servo at ``dxl_id``, the bus left at its rate; StepFailed when it answers nowhere."""
         found = self.find([dxl_id])
         if not found.placed:
-            raise StepFailed(found.why_missing(dxl_id))
+            raise StepFailed(found.why_missing(dxl_id) + self._protocol1(dxl_id, found.rates))
         self._at(found.placed[0].baudrate)
         return found.placed[0].servo
+
+    def _protocol1(self, dxl_id: int, rates: Sequence[int]) -> str:
+        """What to add when ``dxl_id`` answers Protocol 1.0 at one of ``rates`` ("" when it does not)."""
+        for bps in rates:
+            got = ping1(self.bus, dxl_id) if self._at(bps) else None
+            if got is not None:
+                self._at(self.first)
+                try:
+                    name = model_by_number(got[0]).name + " set to Protocol Type 1"
+                except KeyError:
+                    name = model_name1(got[0])
+                return (f"; it answers Protocol 1.0 at {bps} bps ({name}): this tool cannot read or write it yet "
+                        "(scan says how to bring it to Protocol 2.0)")
+        self._at(self.first)
+        return ""
 
     def every(self) -> Found:
         """Every servo on the bus; StepFailed when none answers."""
