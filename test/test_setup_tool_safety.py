@@ -200,6 +200,30 @@ def test_a_signal_after_each_bus_instruction_leaves_the_servo_in_a_named_state(s
     assert stops >= 8, stops  # every instruction of the step was a stopping point
 
 
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGHUP], ids=["SIGINT", "SIGHUP"])
+def test_a_signal_during_a_reboot_of_a_servo_holding_its_load_leaves_its_torque_on(sim_of, signum):
+    sim = sim_of("1:XM430-W350")
+    stops = 0
+    for after in range(0, 80):
+        _back_to_start(sim)
+        sdk_write1(sim.path, 57600, 1, LED, 1)  # RAM: 0 once rebooted
+        run = Paused(sim, after, "reboot", "1", "--torque-off", "--yes", "--baud", "57600")
+        if not run.paused():
+            code, text = run.finish()
+            assert code == 0, text
+            break
+        run.proc.send_signal(signum)
+        code, text = run.finish()
+        stops += 1
+        assert code == 130 and f"interrupted ({signal.Signals(signum).name})" in text, (after, text)
+        assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1, (after, text)  # torque as before: on
+        rebooted = sdk_read(sim.path, 57600, 1, LED, 1) == 0
+        assert rebooted == ("rebooted" in text), (after, text)  # said exactly when done
+    else:
+        raise AssertionError("the run never ended without a pause")
+    assert stops >= 5, stops
+
+
 def test_an_interrupted_scan_emits_what_it_had_found(sim_of):
     sim = sim_of("1:XM430-W350", "2:XM540-W270")
     run = Paused(sim, 25, "scan", "--ids", "0-3", "--json")  # after the first rate (57600), before the end
