@@ -17,7 +17,7 @@ from .context import Context
 from .errors import StepFailed
 from .output import Output
 from .port import default_device, open_bus
-from .safety import stopped
+from .safety import install, stopped
 
 __all__ = ["build_parser", "main", "parse_ids", "parse_rates"]
 
@@ -259,6 +259,7 @@ def _bus_rate(args: argparse.Namespace) -> tuple[int, bool]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    install()  # SIGTERM and SIGHUP stop the tool as Ctrl-C does, with exit code 130 (verbs without a bus too)
     out = Output(as_json=args.json, svg=args.svg)
     try:
         rate, given = _bus_rate(args)
