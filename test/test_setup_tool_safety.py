@@ -325,7 +325,8 @@ def test_bad_numbers_and_long_input_are_one_line_with_exit_code_2(sim_of):
     cases = [("--baud", "inf", "get", "1", "id"), ("--baud", "1e400", "get", "1", "id"), ("set-baud", "1", "inf"),
              ("--latency", "inf", "get", "1", "id"), ("--latency", "1e9", "get", "1", "id"),
              ("--retries", "99", "get", "1", "id"), ("set", "1", "goal_position", "1e400deg"),
-             ("set", "1", "goal_position", "nan"), ("reboot", "254"), ("reboot", "-1"), ("monitor", "--rate", "inf"),
+             ("set", "1", "goal_position", "nan"), ("set", "1", "goal_position", "1e300deg"),
+             ("set", "1", "torque_enable", "2"), ("reboot", "254"), ("reboot", "-1"), ("monitor", "--rate", "inf"),
              ("set", "1", long_name, "3"), ("get", "1", long_name), (long_name,)]
     for args in cases:
         out = tool(sim, *args, "--yes")

@@ -30,6 +30,7 @@ LIMIT_PAIRS = (("min_position_limit", "max_position_limit"), ("min_voltage_limit
 _RANGES = {
     "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2), "temperature_limit": (0, 100),
     "startup_configuration": (0, 3), "secondary_id": (0, 255), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
+    "torque_enable": (0, 1),
 }
 #: limits whose factory value is also the most the e-Manual allows (X and P: Current Limit)
 _FACTORY_MAX = ("current_limit",)

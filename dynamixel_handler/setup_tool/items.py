@@ -112,7 +112,7 @@ def _both(model: Model, item: Item, number: int, own: str) -> str:
 
 
 def check_raw(model: Model, item: Item, raw: int, who: str, text: str | None = None) -> None:
-    given = f"'{cut(text)}' (raw {raw})" if text is not None and text.strip() != str(raw) else str(raw)
+    given = f"'{cut(text)}' (raw {cut(raw)})" if text is not None and text.strip() != str(raw) else cut(raw)
     allowed = _allowed(model, item)
     if allowed is not None and raw not in allowed:
         raise BadArguments(f"{who}: {item.name} = {given} is not one {model.name} takes "
