@@ -11,7 +11,7 @@ import sys
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus
-from . import backup, monitor, plot, restore, trace, verbs_bus, verbs_config
+from . import backup, monitor, plot, restore, trace, verbs_bus, verbs_config, verbs_many
 from .checks import cut
 from .context import Context
 from .errors import StepFailed
@@ -165,11 +165,14 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = verb("info", verbs_config.info, "every control-table item of a servo, in units and raw")
     p.add_argument("id", type=servo_id)
     p.add_argument("--all", action="store_true", help="also the indirect address and data entries")
-    p = verb("get", verbs_config.get, "read one item")
-    p.add_argument("id", type=servo_id)
+    p = verb("get", verbs_many.one_or_many(verbs_config.get, verbs_many.get_many),
+             "read one item (of several servos: 1,2,5 or 1-4, one sync read)")
+    p.add_argument("id", type=parse_ids, metavar="IDS")
     p.add_argument("item")
-    p = verb("set", verbs_config.set_item, "write one item: a raw value or with a unit (170deg, 1.5rad, 300mA, 12.0V)")
-    p.add_argument("id", type=servo_id)
+    p = verb("set", verbs_many.one_or_many(verbs_config.set_item, verbs_many.set_many),
+             "write one item: a raw value or with a unit (170deg, 1.5rad, 300mA, 12.0V); "
+             "of several servos (1,2,5 or 1-4) in one sync write")
+    p.add_argument("id", type=parse_ids, metavar="IDS")
     p.add_argument("item")
     p.add_argument("value")
     p = verb("set-id", verbs_config.set_id, "give a servo another ID (refused when the new one is in use)")
@@ -178,9 +181,10 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = verb("set-baud", verbs_config.set_baud, "give a servo another baud rate and find it there")
     p.add_argument("id", type=servo_id)
     p.add_argument("bps", type=baud)
-    p = verb("set-mode", verbs_config.set_mode, "operating mode: current, velocity, position, ex_position, "
-             "cur_position, pwm or a register value")
-    p.add_argument("id", type=servo_id)
+    p = verb("set-mode", verbs_many.one_or_many(verbs_config.set_mode, verbs_many.mode_many),
+             "operating mode: current, velocity, position, ex_position, "
+             "cur_position, pwm or a register value (of several servos: 1,2,5, one sync write)")
+    p.add_argument("id", type=parse_ids, metavar="IDS")
     p.add_argument("mode")
     p = verb("assign-ids", verbs_bus.assign_ids, "connect new servos one at a time: each gets the next free ID "
              "and the bus's baud rate")
