@@ -187,3 +187,33 @@ def test_messages_name_the_tools_own_option_for_the_device(bus, tmp_path):
         out = tool(sim, "get", "1", "id", "--device", device)
         assert out.returncode == 1 and "--device" in out.stderr and "device_name" not in out.stderr, out.text
 
+
+
+# ---------------------------------------------------------------------- several servos at once
+def test_set_get_and_set_mode_of_several_servos_in_one_sync_write_and_read(bus):
+    sim = bus("1:XM430-W350", "2:XM540-W270", "5:XL330-M288")
+    sdk_write1(sim.path, 57600, 5, BAUD_RATE_ADDR, 3)  # ID 5 at 1 Mbps
+    out = tool(sim, "set", "1,2,5", "profile_velocity", "30rpm", "--trace")
+    assert out.returncode == 0, out.text
+    writes = [line for line in out.stderr.splitlines() if "sync_write @112 x4 (profile_velocity)" in line]
+    assert [w.split("(profile_velocity) ")[1] for w in writes] == ["1=131, 2=131", "5=131"], out.stderr  # one per rate
+    assert not any(" write ID" in line for line in out.stderr.splitlines()), out.stderr
+    raw = round(30 / 0.229)  # 0.229 rpm per unit (e-Manual, Profile Velocity)
+    assert [sdk_read(sim.path, bps, i, 112, 4) for i, bps in ((1, 57600), (2, 57600), (5, 1_000_000))] == [raw] * 3
+    assert [line.split(" = ")[0] for line in out.stdout.splitlines()] == [
+        "ID 1 (XM430-W350) profile_velocity", "ID 2 (XM540-W270) profile_velocity", "ID 5 (XL330-M288) profile_velocity"]
+
+    out = tool(sim, "get", "1,2,5,9", "profile_velocity", "--json", "--trace")
+    assert out.returncode == 1 and "ID 9: no servo answers" in out.stderr, out.text
+    doc = json.loads(out.stdout)
+    assert [(s["id"], s["raw"], s["baudrate"]) for s in doc["servos"]] == [(1, raw, 57600), (2, raw, 57600), (5, raw, 1_000_000)]
+    assert doc["missing"] == [9] and sum("sync_read @112" in line for line in out.stderr.splitlines()) == 2
+
+    sdk_write1(sim.path, 57600, 2, 64, 1)  # ID 2 holds its load
+    out = tool(sim, "set-mode", "1,2", "velocity", "--yes")
+    assert out.returncode == 2 and "torque is on" in out.stderr, out.text
+    assert [sdk_read(sim.path, 57600, i, 11, 1) for i in (1, 2)] == [3, 3]  # nothing written to either
+    out = tool(sim, "set-mode", "1,2", "velocity", "--yes", "--torque-off")
+    assert out.returncode == 0, out.text
+    assert [sdk_read(sim.path, 57600, i, 11, 1) for i in (1, 2)] == [1, 1]  # Operating Mode 1 = velocity
+    assert sdk_read(sim.path, 57600, 2, 64, 1) == 1 and sdk_read(sim.path, 57600, 1, 64, 1) == 0  # torque as before
