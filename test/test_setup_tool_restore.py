@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 
 import pytest
 from test_setup_tool import BAUD_RATE_ADDR, MAX_POSITION_ADDR, XM540, Sim, sdk_bytes, sdk_ping, sdk_read, sdk_write1, sdk_write4, tool
+from test_setup_tool_safety import Paused
 
 RETURN_DELAY, TEMPERATURE_LIMIT, TORQUE = 9, 31, 64  # X series (ROBOTIS e-Manual)
 EEPROM = (0, 64)  # X series EEPROM area
@@ -134,3 +136,38 @@ def test_files_that_are_not_backups_are_refused_before_anything_is_written(bus, 
     out = tool(sim, "restore", str(fifo), "--yes", timeout=30)
     assert out.returncode == 2 and "is a FIFO, not a backup file" in out.stderr, out.text
     assert sdk_read(sim.path, 57600, 1, RETURN_DELAY, 1) == 0  # nothing of any file was written
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_after_each_bus_instruction_of_a_restore_leaves_each_servo_whole_and_named(bus, tmp_path, signum):
+    sim = bus("1:XM430-W350", "2:XM540-W270")
+    backup = tmp_path / "robot.yaml"
+    assert tool(sim, "backup", str(backup), "--baud", "57600").returncode == 0
+    restored = {i: _eeprom(sim, 57600, i) for i in (1, 2)}
+    name = signal.Signals(signum).name
+    stops = 0
+    for after in range(0, 80):
+        for dxl_id in (1, 2):  # both changed since the backup; ID 1 holds its load
+            sdk_write1(sim.path, 57600, dxl_id, TORQUE, 0)
+            sdk_write1(sim.path, 57600, dxl_id, TEMPERATURE_LIMIT, 70)
+            sdk_write1(sim.path, 57600, dxl_id, RETURN_DELAY, 5)
+        changed = {i: _eeprom(sim, 57600, i) for i in (1, 2)}
+        sdk_write1(sim.path, 57600, 1, TORQUE, 1)
+        run = Paused(sim, after, "restore", str(backup), "--yes", "--torque-off", "--baud", "57600")
+        if not run.paused():
+            code, text = run.finish()
+            assert code == 0 and {i: _eeprom(sim, 57600, i) for i in (1, 2)} == restored, text
+            break
+        run.proc.send_signal(signum)
+        code, text = run.finish()
+        stops += 1
+        assert code == 130 and f"interrupted ({name})" in text and "Traceback" not in text, (after, text)
+        assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1 and sdk_read(sim.path, 57600, 2, TORQUE, 1) == 0, (after, text)
+        for dxl_id, model in ((1, "XM430-W350"), (2, "XM540-W270")):
+            now = _eeprom(sim, 57600, dxl_id)
+            assert now in (restored[dxl_id], changed[dxl_id]), (after, dxl_id, text)  # never half written
+            said = f"ID {dxl_id} ({model}) at 57600 bps" in text and "temperature_limit" in text
+            assert said == (now == restored[dxl_id]), (after, dxl_id, text)  # written exactly when the output says so
+    else:
+        raise AssertionError("the restore never ended without a pause")
+    assert stops >= 10, stops
