@@ -51,12 +51,19 @@ def check_writable(path: str, option: str) -> None:
         os.unlink(path)
 
 
+#: a goal is drawn only where the servo's mode follows it (a velocity-mode servo ignores its goal position)
+_GOAL_MODES = {"goal_position": ("position", "ex_position", "cur_position"), "goal_velocity": ("velocity",),
+               "goal_current": ("current", "cur_position"), "goal_pwm": ("pwm",)}
+
+
 def series_of(samples: Sequence[tuple[float, dict[str, Any]]]) -> Series:
-    """(time, sample) pairs -> the series of every key with a value."""
+    """(time, sample) pairs -> the series of every key with a value (goals where the mode follows them)."""
     series: Series = {}
     for at, s in samples:
         for key, _, _ in FIELDS:
             value = s.get(key)
+            if key in _GOAL_MODES and s.get("mode") not in _GOAL_MODES[key]:
+                continue
             if isinstance(value, (int, float)):
                 series.setdefault((int(s["id"]), key), []).append((at, float(value)))
     return series
@@ -78,7 +85,7 @@ def read_csv(path: str) -> Series:
     for row in rows:
         try:
             at = float(row["time_s"])
-            sample: dict[str, Any] = {"id": int(row["id"])}
+            sample: dict[str, Any] = {"id": int(row["id"]), "mode": row.get("mode")}
             sample.update({key: float(row[col]) for key, col in columns.items() if row.get(col)})
         except (TypeError, ValueError):
             continue
@@ -102,10 +109,11 @@ def draw(series: Series, items: Sequence[str], path: str, title: str) -> None:
         present, goal, unit = ITEMS[name]
         for k, dxl_id in enumerate(ids):
             colour = colours[k % len(colours)]
-            for key, style, label in ((present, "-", f"ID {dxl_id}"), (goal, "--", f"ID {dxl_id} goal")):
+            for key, style, width, label in ((goal, "--", 2.4, f"ID {dxl_id} goal"), (present, "-", 1.2, f"ID {dxl_id}")):
                 points = series.get((dxl_id, key)) if key else None
                 if points:
-                    axis.plot([t for t, _ in points], [v for _, v in points], style, color=colour, label=label)
+                    axis.plot([t for t, _ in points], [v for _, v in points], style, color=colour, label=label,
+                              linewidth=width, alpha=0.55 if key == goal else 1.0)
         axis.set_ylabel(f"{name} [{unit}]")
         axis.grid(True, alpha=0.3)
         axis.legend(loc="upper right", fontsize="small")
