@@ -37,7 +37,7 @@ def tool(sim, *args: str, stdin: str = "") -> subprocess.CompletedProcess:
     return _tool(sim, *args, "--latency", "30", stdin=stdin)
 
 TORQUE, BAUD, ID_ADDR, DRIVE, SECONDARY, PROTOCOL, TEMP_LIMIT, SHUTDOWN = 64, 8, 7, 10, 12, 13, 31, 63
-MAX_POS, MIN_POS, CURRENT_LIMIT, GOAL_POS, PRESENT_POS = 48, 52, 38, 116, 132
+MAX_POS, MIN_POS, CURRENT_LIMIT, GOAL_VEL, GOAL_POS, PRESENT_POS = 48, 52, 38, 104, 116, 132
 RETURN_DELAY, LED = 9, 65
 PAUSE = "DXL_SETUP_TEST_PAUSE_AFTER"
 
@@ -255,12 +255,15 @@ def test_ranges_and_limit_pairs_are_checked_before_anything_is_sent(sim_of):
     cases = {("min_position_limit", "100deg"): "would not be below max_position_limit",
              ("max_position_limit", "-180deg"): "would not be below max_position_limit",
              ("temperature_limit", "150degC"): "outside what the e-Manual gives XM430-W350",
-             ("current_limit", "65535", "--raw"): "outside what the e-Manual gives XM430-W350"}
+             ("current_limit", "65535", "--raw"): "outside what the e-Manual gives XM430-W350",
+             ("goal_position", "100deg"): "outside the position limits", ("goal_velocity", "1000rpm"): "beyond velocity_limit"}
+    goals = [sdk_read(sim.path, 57600, 1, a, 4) for a in (GOAL_POS, GOAL_VEL)]
     for args, text in cases.items():
         out = tool(sim, "set", "1", *args, "--yes")
         assert out.returncode == 2 and text in one_error_line(out), (args, out.text)
     assert [sdk_read(sim.path, 57600, 1, a, n) for a, n in ((MIN_POS, 4), (MAX_POS, 4), (TEMP_LIMIT, 1),
                                                               (CURRENT_LIMIT, 2))] == [0, 3072, 80, 1193]
+    assert [sdk_read(sim.path, 57600, 1, a, 4) for a in (GOAL_POS, GOAL_VEL)] == goals
 
 
 # ---------------------------------------------------------------------- items 3, 6: dangerous values

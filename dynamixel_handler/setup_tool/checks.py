@@ -32,6 +32,10 @@ _RANGES = {
     "startup_configuration": (0, 3), "secondary_id": (0, 255), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
     "torque_enable": (0, 1),
 }
+#: goals and the limit the servo holds each to (a goal beyond it is refused by the servo)
+GOAL_LIMITS = {"goal_velocity": "velocity_limit", "goal_current": "current_limit", "goal_pwm": "pwm_limit"}
+#: what a goal position is checked against (in the modes the position limits apply to)
+_POSITION_LIMITS = ("operating_mode", "min_position_limit", "max_position_limit")
 #: limits whose factory value is also the most the e-Manual allows (X and P: Current Limit)
 _FACTORY_MAX = ("current_limit",)
 #: a protection lowered beyond its factory value needs --force: (item, +1 raising / -1 lowering is the danger)
@@ -92,7 +96,14 @@ def needed(model: Model, names: Iterable[str]) -> list[str]:
                 want += [n for n in pair if n != name and model.has(n)]
         if name in ("shutdown", "drive_mode") and model.has(name):
             want.append(name)
+        want += _goal_partners(model, name)
     return sorted(set(want))
+
+
+def _goal_partners(model: Model, name: str) -> list[str]:
+    if name in GOAL_LIMITS and model.has(GOAL_LIMITS[name]):
+        return [GOAL_LIMITS[name]]
+    return [n for n in _POSITION_LIMITS if model.has(n)] if name == "goal_position" else []
 
 
 def problems(model: Model, new: Mapping[str, int], now: Mapping[str, int], dxl_id: int,
@@ -113,6 +124,23 @@ def problems(model: Model, new: Mapping[str, int], now: Mapping[str, int], dxl_i
             found.append(Problem(low if low in new else high,
                                  f"{low} ({_shown(model, low, merged[low])}) would not be below {high} "
                                  f"({_shown(model, high, merged[high])})"))
+    return found + _goals(model, new, merged)
+
+
+def _goals(model: Model, new: Mapping[str, int], merged: Mapping[str, int]) -> list[Problem]:
+    """Goals beyond the limit the servo holds them to (it would answer a Data Limit Error)."""
+    found = []
+    for goal, limit in GOAL_LIMITS.items():
+        if goal in new and limit in merged and abs(new[goal]) > merged[limit]:
+            found.append(Problem(goal, f"{goal} = {_shown(model, goal, new[goal])} is beyond {limit} "
+                                       f"({_shown(model, limit, merged[limit])})"))
+    if "goal_position" in new and all(n in merged for n in _POSITION_LIMITS) and \
+            model.mode_name(merged["operating_mode"]) in model.position_limited_modes:
+        low, high, target = merged["min_position_limit"], merged["max_position_limit"], new["goal_position"]
+        if not low <= target <= high:
+            found.append(Problem("goal_position", f"goal_position = {_shown(model, 'goal_position', target)} is outside the "
+                                                  f"position limits ({_shown(model, 'min_position_limit', low)} .. "
+                                                  f"{_shown(model, 'max_position_limit', high)})"))
     return found
 
 
