@@ -319,6 +319,10 @@ def test_one_id_at_two_rates_is_refused_naming_both(sim_of):
     out = tool(sim, "factory-reset", "1", "--keep", "id", "--yes")
     assert out.returncode == 1 and "57600 and at 1000000" in one_error_line(out), out.text
     assert sdk_read(sim.path, 57600, 1, RETURN_DELAY, 1) == 20 and sdk_ping(sim.path, 1_000_000, 1) == XM430
+    sdk_write1(sim.path, 57600, 1, LED, 1)
+    out = tool(sim, "reboot", "1", "--yes")
+    assert out.returncode == 1 and "57600 and at 1000000" in one_error_line(out), out.text
+    assert sdk_read(sim.path, 57600, 1, LED, 1) == 1  # not rebooted
 
 
 # ---------------------------------------------------------------------- item 6: bad input, one line

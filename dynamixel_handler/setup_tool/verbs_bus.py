@@ -66,22 +66,15 @@ def reboot(ctx: Context, args: argparse.Namespace) -> None:
     torque: a servo holding its load is refused unless --torque-off (and asked about without --yes);
     with it torque comes back on after the reboot, the goal where the servo is."""
     found = ctx.servos(args.id)
+    for placed in found.placed if args.id is not None else []:  # `all` found each ID at one rate only
+        guard.only_one(ctx, ctx.at(placed))
     holding = _holding(ctx, found.placed)
     failed, rebooted = [], []
     for placed in found.placed:
         servo = ctx.at(placed)
         torque = placed.dxl_id in holding
-        with held():
-            entry = JOURNAL.touch(servo.dxl_id, servo.model.name, placed.baudrate, "on" if torque else "off")
-            done = ctx.bus.reboot_result(servo.dxl_id)
-            back = _wait_back(ctx.bus, servo.dxl_id) if done else None
-            if back is not None:
-                entry.torque, entry.done = "off (rebooted)" if torque else "off", entry.done + ["rebooted"]
-                if torque:
-                    servo.torque_on_in_place()
-                    entry.torque = "on (as before)"
-        if back is None:
-            why = done.failure or f"it does not answer within {_BACK_WITHIN_S:.0f} s"
+        why = _reboot_one(ctx, servo, placed.baudrate, torque)
+        if why:
             failed.append(f"{servo.who}: reboot failed: {why}")
         else:
             rebooted.append(servo_doc(servo.dxl_id, servo.model, placed.baudrate))
@@ -92,6 +85,24 @@ def reboot(ctx: Context, args: argparse.Namespace) -> None:
     if failed:
         raise StepFailed("; ".join(failed))
     ctx.fail_if_missing(found, f"{len(rebooted)} rebooted")
+
+
+def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
+    """Reboot ``servo`` as one critical step, torque back on (goal := present) if it was; why it
+    failed ("" when it answers again)."""
+    with held():
+        entry = JOURNAL.touch(servo.dxl_id, servo.model.name, baudrate, "on" if torque else "off")
+        done = ctx.bus.reboot_result(servo.dxl_id)
+        if not done:
+            return done.failure or "no reply"
+        if _wait_back(ctx.bus, servo.dxl_id) is None:
+            entry.torque = "unknown (it does not answer)"
+            return f"it does not answer within {_BACK_WITHIN_S:.0f} s"
+        entry.torque, entry.done = "off (rebooted)" if torque else "off", entry.done + ["rebooted"]
+        if torque:
+            servo.torque_on_in_place()
+            entry.torque = "on (as before)"
+    return ""
 
 
 def _holding(ctx: Context, placed: list[Placed]) -> set[int]:
