@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
+from .core.request_types import WriteEeprom, WriteItem
 from .groups import due
 from .loop import Handler
 from .servos import ServoTable
@@ -17,6 +18,17 @@ from .settings import ExternalPortSettings
 
 MODES = {"a_in": 0, "d_out": 1, "d_in_pu": 2, "d_in_pd": 3}
 MODE_NAMES = {v: k for k, v in MODES.items()}
+
+
+@dataclass(frozen=True)
+class PortWrite:
+    """external_port/write: modes and data of ports, checked and written in the loop thread."""
+
+    ids: list[int]
+    ports: list[int]
+    modes: list[str] | None
+    data: list[int] | None
+    what: str = "external_port/write"
 UNSET = "unset"
 
 
@@ -31,6 +43,7 @@ class PortReading:
 class ExternalPorts:
     def __init__(self, handler: Handler, settings: ExternalPortSettings) -> None:
         self.h = handler
+        handler.register(PortWrite, self._write)
         self.data_ratio, self.mode_ratio = settings.data_ratio, settings.mode_ratio
         self.verbose_callback, self.verbose_write = settings.verbose_callback, settings.verbose_write
         self.verbose_read, self.verbose_err = settings.verbose_read, settings.verbose_err
@@ -49,7 +62,7 @@ class ExternalPorts:
         given_data = self._same_length("data", data, n)
         if self.verbose_callback:
             self.h.log.info(f"external_port/write: ids={list(ids)} ports={list(ports)} modes={given_modes} data={given_data}")
-        self.h.queue("external_port/write", lambda: self._write(list(ids), list(ports), given_modes, given_data))
+        self.h.submit(PortWrite(list(ids), list(ports), given_modes, given_data))
 
     def _same_length(self, name: str, values: Sequence, n: int) -> list | None:
         if len(values) == 0:
@@ -60,7 +73,8 @@ class ExternalPorts:
         return list(values)
 
     # ------------------------------------------------------------ loop thread
-    def _write(self, ids: list[int], ports: list[int], modes: list | None, data: list | None) -> None:
+    def _write(self, request: PortWrite) -> None:
+        ids, ports, modes, data = request.ids, request.ports, request.modes, request.data
         table = self.h.table
         for k, (dxl_id, port) in enumerate(zip(ids, ports)):
             where = f"external_port/write: ID {dxl_id} port {port}"
@@ -94,7 +108,7 @@ class ExternalPorts:
         if mode not in MODES:
             self.h.log.warning(f"{where}: unknown mode '{mode}' (known: {', '.join([*MODES, UNSET])}): ignored")
             return False
-        written = self.h.write_eeprom(dxl_id, f"external_port_mode_{port}", MODES[mode])
+        written = self.h.ask(WriteEeprom(dxl_id, f"external_port_mode_{port}", MODES[mode]))
         if not written:
             self.h.log.warning(f"{where}: writing mode {mode} failed: {written.failure}")
             return False
@@ -111,7 +125,7 @@ class ExternalPorts:
         elif value not in (0, 1):
             self.h.log.warning(f"{where}: digital output data must be 0 or 1, got {value}: ignored")
         else:
-            self.h.write_item(dxl_id, f"external_port_data_{port}", int(value))
+            self.h.ask(WriteItem(dxl_id, f"external_port_data_{port}", int(value)))
             if self.verbose_write:
                 self.h.log.info(f"{where}: data -> {value}")
 

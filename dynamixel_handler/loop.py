@@ -32,19 +32,38 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Callable, Mapping, Protocol
+from typing import Any, Callable, Protocol, TypeVar
 
-from .bus import PreparedWrite, Result, ServoBus
+from .bus import PreparedWrite, ServoBus
 from .config import Config
 from .control_table import OPERATING_MODES, Model
 from .core.api import ServoAccess
 from .core.deferred import EEPROM_WRITE_INTERVAL_S, Deferred
 from .core.group_io import GroupIO
+from .core.intake import Intake
 from .core.log_limits import LogLimits
 from .core.pacing import Pacing
 from .core.read_plan import ReadPlan, ReadSettings, every
 from .core.recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S, Recovery
-from .core.requests import Requests, Warn
+from .core.request_types import (
+    AddServo,
+    Answer,
+    CancelDeferred,
+    ChangeMode,
+    ClearError,
+    DeferModeChange,
+    Reboot,
+    RemoveServo,
+    SetGoals,
+    SetUserWatchdog,
+    TorqueOff,
+    TorqueOn,
+    WantHandled,
+    WriteEeprom,
+    WriteItem,
+    answer,
+)
+from .core.requests import Requests
 from .core.servo_io import Log, ServoIO
 from .core.shutdown import Shutdown
 from .core.startup import Startup, StartupSettings
@@ -88,10 +107,34 @@ class _Logs(Protocol):
     log: Log
 
 
+R = TypeVar("R")
+
+
+def _core_routes(h: Handler) -> dict[type, Callable[[Any], Answer | None]]:
+    """The table from each core request type to the part that does it."""
+    return {
+        SetGoals: h.requests.put_goals,
+        ChangeMode: h.requests.change_mode,
+        DeferModeChange: h.requests.defer_mode_change,
+        CancelDeferred: h.requests.cancel_deferred,
+        ClearError: h.requests.clear_error,
+        TorqueOn: lambda r: answer(h.io.torque_on(r.dxl_id)),
+        TorqueOff: lambda r: answer(h.io.torque_off(r.dxl_id)),
+        WriteItem: lambda r: answer(h.io.write_item(r.dxl_id, r.item, r.pulses)),
+        WriteEeprom: lambda r: answer(h.work.write_eeprom(r.dxl_id, r.item, r.pulses)),
+        Reboot: lambda r: answer(h.recovery.reboot(r.dxl_id)),
+        AddServo: lambda r: answer(h.startup.add_id(r.dxl_id), f"ID {r.dxl_id} not added"),
+        RemoveServo: lambda r: h.remove_id(r.dxl_id),
+        WantHandled: lambda r: h.startup.want_handled(r.dxl_id, r.handled),
+        SetUserWatchdog: lambda r: h.watchdog.set_user(r.dxl_id, r.pulses),
+    }
+
+
 class Handler:
     """Owns the servos of one bus: ``start()``, then ``step()`` (or its phases) every loop, then
-    ``shutdown()``. Commands reach it as operations queued for the loop thread (``queue``) and as
-    pending writes (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
+    ``shutdown()``. Commands reach it as request values (``core.request_types``): queued for the
+    loop thread (``submit``) or done at once in it (``ask``), each handed by the ``Intake``'s table
+    to the part that does it; goals end as pending writes (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
     by handing each call to the part that does it. ``tripped_once`` False: every goal command looks
     for tripped bus watchdogs servo by servo (for tests and comparisons). ``settings``: the typed
     settings, or the validated parameters (``config.validate``) they are taken from."""
@@ -117,17 +160,21 @@ class Handler:
         self.writes = WriteBatch(bus, self.table, self.pending, log, s.split_write)
         self.watchdog = Watchdog(self.table, log, self.io, self.group, s.watchdog, tripped_once)
         self.work = Deferred(self.table, log, self.io)
+        self.intake = Intake(log)
         self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s.loop, self._set_up, self.remove_id)
         self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s.startup,
                                stopping)
         self.requests = Requests(self.table, self.pending, log, self.io, self.watchdog, self.pacing, self.work,
                                  self.recovery, s.loop)
         self.steps = Step(bus, self.table, log, self.reads, self.writes, self.pacing, self.watchdog, self.recovery,
-                          self.work, self.startup, self.remove_id, s.step)
+                          self.work, self.intake, self.startup, self.remove_id, s.step)
         self.ending = Shutdown(bus, self.table, log, self.io, self.group, s.term)
         self._parts: tuple[_Logs, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
-                                        self.recovery, self.startup, self.requests, self.steps, self.ending)
+                                        self.intake, self.recovery, self.startup, self.requests, self.steps,
+                                        self.ending)
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
+        for kind, route in _core_routes(self).items():
+            self.intake.register(kind, route)
 
     def _stopping(self) -> bool:
         return self.interrupted()
@@ -268,39 +315,21 @@ class Handler:
     def value(self, dxl_id: int, item: str) -> int | None:
         return self.io.value(dxl_id, item)
 
-    # ---------------------------------------------------------------- ServoAccess: requests (loop thread)
-    def queue(self, what: str, op: Callable[[], None]) -> None:
-        self.work.queue(what, op)
+    # ---------------------------------------------------------------- ServoAccess: requests
+    def submit(self, request: object, what: str = "") -> None:
+        self.intake.submit(request, what)
+
+    def ask(self, request: object) -> Answer:
+        return self.intake.ask(request)
+
+    def register(self, kind: type[R], handler: Callable[[R], Answer | None]) -> None:
+        self.intake.register(kind, handler)
 
     def drop_ops(self) -> int:
-        return self.work.drop_ops()
-
-    def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
-        self.requests.put_goals(writes)
+        return self.intake.drop()
 
     def read_item(self, dxl_id: int, item: str) -> int | None:
         return self.io.read_item(dxl_id, item)
-
-    def write_item(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
-        return self.io.write_item(dxl_id, item, pulses)
-
-    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
-        return self.work.write_eeprom(dxl_id, item, pulses)
-
-    def torque_on(self, dxl_id: int) -> Result[bool]:
-        return self.io.torque_on(dxl_id)
-
-    def torque_off(self, dxl_id: int) -> Result[bool]:
-        return self.io.torque_off(dxl_id)
-
-    def reboot(self, dxl_id: int) -> Result[bool]:
-        return self.recovery.reboot(dxl_id)
-
-    def add_id(self, dxl_id: int) -> bool:
-        return self.startup.add_id(dxl_id)
-
-    def want_handled(self, dxl_id: int, handled: bool) -> None:
-        self.startup.want_handled(dxl_id, handled)
 
     def remove_id(self, dxl_id: int) -> None:
         """Stop handling the servo: every part forgets it."""
@@ -311,21 +340,6 @@ class Handler:
             self.watchdog.forget(dxl_id)
             self.recovery.forget(dxl_id)
             self._limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")
-
-    def set_user_watchdog(self, dxl_id: int, pulses: int) -> None:
-        self.watchdog.set_user(dxl_id, pulses)
-
-    def change_mode(self, dxl_id: int, mode: str, what: str, warn: Warn) -> str:
-        return self.requests.change_mode(dxl_id, mode, what, warn)
-
-    def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
-        self.requests.defer_mode_change(dxl_id, what, op)
-
-    def cancel_deferred(self, dxl_id: int) -> None:
-        self.requests.cancel_deferred(dxl_id)
-
-    def clear_error(self, dxl_id: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
-        return self.requests.clear_error(dxl_id, keep_rotation, what, warn)
 
 
 def _as_servo_access(handler: Handler) -> ServoAccess:

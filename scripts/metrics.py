@@ -18,6 +18,14 @@ Sizes: modules over 400 lines, classes over 250 lines and functions of cyclomati
   ``if TYPE_CHECKING:``, ``try``). ``from P import n`` is an edge to ``P.n`` when that is a module,
   else to ``P``; parent packages imported only implicitly are no edge. None allowed.
 
+- forwards in the fronts: methods and properties of a front class (``FRONTS``) whose body, past a
+  docstring, is one statement handing the call on: ``[return] self.<part>.<name>(<its own
+  arguments>)`` or ``return self.<part>.<name>``. At most the number ``FRONTS`` gives each;
+- parameter-name lookups: a string constant naming a parameter of ``config.SCHEMA`` (a literal
+  name, or one starting with the fixed part of a name built by an f-string) used as a subscript
+  or as the first argument of a ``get``/``get_parameter`` call, outside ``PARAM_EXEMPT``. At most
+  ``PARAM_LOOKUPS``.
+
 Prints one line per offender and a summary of every figure; ``--check`` exits 1 when a size
 offender remains, ``--check --structure`` also when a structure rule is broken.
 
@@ -38,6 +46,13 @@ MODULE_LINES, CLASS_LINES, FUNCTION_CC = 400, 250, 12
 LINEAGE_CLASSES, LINEAGE_LINES, FAMILY_COMPARISONS = 3, 400, 2
 FAMILY_NAMES = frozenset({"X", "P", "PRO", "Pro"})
 FAMILY_EXEMPT = "control_table"
+#: front classes (module relative to the package, class) -> the most one-line forwards allowed
+FRONTS = {("loop", "Handler"): 31, ("bus.core", "DynamixelBus"): 22}
+#: the modules that may look parameters up by name (and the set-up tool, a command line without
+#: node parameters, whose dictionaries share some key names), and how many lookups the others may
+#: still make (none, once every part is given typed settings)
+PARAM_EXEMPT = ("config", "ros.params", "setup_tool")
+PARAM_LOOKUPS = 15
 
 
 def _offenders(path: Path) -> tuple[list[str], int, int, int]:
@@ -264,13 +279,105 @@ def structure(root: Path) -> tuple[list[str], dict[str, int]]:
             family += 1
     rings = circles(import_graph(modules))
     found += [f"import circle: {' <-> '.join(r)}" for r in rings]
+    package = root.name
+    fronts = forwards(modules, package)
+    over = 0
+    for (module, cls), most in FRONTS.items():
+        count = fronts.get(f"{module}.{cls}", 0)
+        if count > most:
+            found.append(f"{module}.{cls}: {count} one-line forwards (at most {most})")
+            over += 1
+    names, starts = param_names(modules.get(f"{package}.config"))
+    lookups = 0
+    for mod in modules.values():
+        inner = mod.name.split(".", 1)[-1]
+        if any(inner == e or inner.startswith(e + ".") for e in PARAM_EXEMPT):
+            continue
+        for line in param_lookups(mod.tree, names, starts):
+            found.append(f"{mod.path}:{line}: parameter looked up by name")
+            lookups += 1
     return found, {"lineages": bad_lineages, "longest_lineage": worst_n, "largest_lineage_lines": worst_lines,
-                   "family_comparisons": family, "import_circles": len(rings)}
+                   "family_comparisons": family, "import_circles": len(rings), "forwards_over": over,
+                   "forwards": sum(fronts.values()), "param_lookups": lookups,
+                   **{f"forwards {k}": v for k, v in fronts.items()}}
 
 
 def structure_broken(figures: dict[str, int]) -> bool:
     return bool(figures["lineages"] or figures["family_comparisons"] > FAMILY_COMPARISONS
-                or figures["import_circles"])
+                or figures["import_circles"] or figures["forwards_over"]
+                or figures["param_lookups"] > PARAM_LOOKUPS)
+
+
+def _self_chain(node: ast.expr) -> bool:
+    """``self.<part>.<name>``: an attribute of an attribute of ``self``."""
+    return (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute)
+            and isinstance(node.value.value, ast.Name) and node.value.value.id == "self")
+
+
+def is_forward(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    """One statement that hands the call on to a part, with the method's own arguments unchanged."""
+    body = fn.body
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+            and isinstance(body[0].value.value, str):
+        body = body[1:]
+    if len(body) != 1 or not isinstance(body[0], (ast.Return, ast.Expr)) or body[0].value is None:
+        return False
+    value = body[0].value
+    if isinstance(value, ast.Attribute):
+        return isinstance(body[0], ast.Return) and _self_chain(value)
+    if not isinstance(value, ast.Call) or not _self_chain(value.func):
+        return False
+    own = {a.arg for a in fn.args.args[1:] + fn.args.kwonlyargs}
+    passed = list(value.args) + [k.value for k in value.keywords]
+    return all(isinstance(a, ast.Name) and a.id in own for a in passed)
+
+
+def forwards(modules: dict[str, Module], package: str) -> dict[str, int]:
+    """Front class -> its one-line forwards."""
+    out: dict[str, int] = {}
+    for (module, cls), _ in FRONTS.items():
+        mod = modules.get(f"{package}.{module}")
+        if mod is None:
+            continue
+        for node in mod.tree.body:
+            if isinstance(node, ast.ClassDef) and node.name == cls:
+                out[f"{module}.{cls}"] = sum(1 for f in node.body if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef))
+                                             and is_forward(f))
+    return out
+
+
+def param_names(config: Module | None) -> tuple[set[str], tuple[str, ...]]:
+    """The parameter names of ``SCHEMA`` written out in config.py, and the fixed starts of those
+    built by f-strings."""
+    names: set[str] = set()
+    starts: list[str] = []
+    for node in ast.walk(config.tree) if config is not None else ():
+        if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "_p" and node.args):
+            continue
+        first = node.args[0]
+        if isinstance(first, ast.Constant) and isinstance(first.value, str):
+            names.add(first.value)
+        elif isinstance(first, ast.JoinedStr) and first.values and isinstance(first.values[0], ast.Constant):
+            starts.append(str(first.values[0].value))
+    return names, tuple(s for s in starts if s)
+
+
+def param_lookups(tree: ast.AST, names: set[str], starts: tuple[str, ...]) -> list[int]:
+    """Lines where a parameter is looked up by name: ``x["name"]``, ``x.get("name")``."""
+    def named(node: ast.expr) -> bool:
+        if isinstance(node, ast.JoinedStr) and node.values and isinstance(node.values[0], ast.Constant):
+            node = node.values[0]
+            return isinstance(node.value, str) and bool(node.value) and str(node.value).startswith(starts)
+        return isinstance(node, ast.Constant) and isinstance(node.value, str) and (
+            node.value in names or (bool(starts) and node.value.startswith(starts)))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Subscript) and named(node.slice):
+            found.append(node.lineno)
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and \
+                node.func.attr in ("get", "get_parameter") and node.args and named(node.args[0]):
+            found.append(node.lineno)
+    return found
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -300,6 +407,9 @@ def main(argv: list[str] | None = None) -> int:
               f"(longest {fig['longest_lineage']} classes, largest {fig['largest_lineage_lines']} lines); "
               f"family-name comparisons outside {FAMILY_EXEMPT}/: {fig['family_comparisons']} "
               f"(at most {FAMILY_COMPARISONS}); import circles: {fig['import_circles']}")
+        fronts = ", ".join(f"{k[len('forwards '):]} {v}" for k, v in fig.items() if k.startswith("forwards "))
+        print(f"{root}: one-line forwards in the fronts: {fronts or 'none'}; parameter-name lookups outside "
+              f"{', '.join(PARAM_EXEMPT)}: {fig['param_lookups']} (at most {PARAM_LOOKUPS})")
         broken = broken or structure_broken(fig)
     return 1 if args.check and (any(totals) or (args.structure and broken)) else 0
 

@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 from dynamixel_handler import units
 from dynamixel_handler.commands import Commander, CommandPaths, goal_bounds
 from dynamixel_handler.control_table import model_by_number
+from dynamixel_handler.core.request_types import SetGoals
 from dynamixel_handler.servos import ServoTable
 from dynamixel_handler.sim import VirtualBus
 
@@ -98,12 +99,13 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
         handler.log.setLevel(logging.INFO)
         commander = Commander(handler, CommandPaths(targets=fast, small=small))
         writes: list = []
-        put_goals = handler.put_goals
+        ask = handler.ask
 
-        def record(goals) -> None:  # what the command side hands to the core, in order
-            writes.append([(item, list(values.items())) for item, values in goals.items()])
-            put_goals(goals)
-        handler.put_goals = record
+        def record(request):  # the goals the command side hands to the core, in order
+            if isinstance(request, SetGoals):
+                writes.append([(item, list(values.items())) for item, values in request.writes.items()])
+            return ask(request)
+        handler.ask = record
         answers: list[bool] = []
         fast_goals = commander.fast.goals
 
@@ -213,12 +215,12 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
             lines = capture_log(handler, f"bundles_{skip}", lambda r: f"{r.levelname} {r.getMessage()}")
             handler.log.setLevel(logging.INFO)
             queued: list[str] = []
-            queue = handler.queue
+            submit = handler.submit
 
-            def record(what, op) -> None:
-                queued.append(what)
-                queue(what, op)
-            handler.queue = record
+            def record(request, what="") -> None:
+                queued.append(request.what)
+                submit(request, what)
+            handler.submit = record
             intake = CommandIntake(node, raw=True, detached=True)
             command_topics.CommandTopics(intake, Commander(handler, CommandPaths(skip_empty=skip)), ("X",),
                                          command_line=False)

@@ -123,3 +123,55 @@ def test_check_fails_on_structure_only_with_the_flag(tmp_path, capsys):
     assert metrics.main(["--check", str(root)]) == 0
     assert metrics.main(["--check", "--structure", str(root)]) == 1
     assert "import circles: 1" in capsys.readouterr().out
+
+
+def test_one_line_forwards_of_a_front_are_counted_and_more_than_allowed_fail(tmp_path, monkeypatch):
+    root = _package(tmp_path, {"loop.py": """\
+        class Handler:
+            def step(self):
+                return self.steps.step()
+            def put(self, dxl_id, value):
+                \"\"\"A docstring does not make it more than a forward.\"\"\"
+                self.part.put(dxl_id, value)
+            @property
+            def count(self):
+                return self.steps.count
+            def changed(self, dxl_id):
+                return self.part.put(dxl_id + 1)
+            def two(self, dxl_id):
+                self.part.put(dxl_id)
+                return self.part.get(dxl_id)
+            def own(self):
+                return self.value
+        class Other:
+            def step(self):
+                return self.steps.step()
+        """})
+    monkeypatch.setattr(metrics, "FRONTS", {("loop", "Handler"): 3})
+    found, fig = metrics.structure(root)
+    assert fig["forwards loop.Handler"] == 3 and not metrics.structure_broken(fig)  # step, put, count
+    monkeypatch.setattr(metrics, "FRONTS", {("loop", "Handler"): 2})
+    found, fig = metrics.structure(root)
+    assert found == ["loop.Handler: 3 one-line forwards (at most 2)"] and metrics.structure_broken(fig)
+
+
+def test_parameter_names_looked_up_outside_config_are_counted(tmp_path, monkeypatch):
+    root = _package(tmp_path, {
+        "config.py": """\
+            SCHEMA = (_p("baudrate", 1), _p("dyn_comm/retry_num", 2), *(_p(f"pub_ratio/{g}", 3) for g in "ab"))
+            x = values["baudrate"]
+            """,
+        "node.py": """\
+            a = config["baudrate"]
+            b = values.get("dyn_comm/retry_num")
+            c = node.get_parameter(f"pub_ratio/{group}")
+            d = config["unrelated"]
+            e = settings.baudrate
+            """,
+    })
+    monkeypatch.setattr(metrics, "PARAM_LOOKUPS", 3)
+    found, fig = metrics.structure(root)
+    assert fig["param_lookups"] == 3 and not metrics.structure_broken(fig)  # config.py's own is exempt
+    assert [line.rsplit(":", 2)[1] for line in found] == ["1", "2", "3"]
+    monkeypatch.setattr(metrics, "PARAM_LOOKUPS", 2)
+    assert metrics.structure_broken(metrics.structure(root)[1])

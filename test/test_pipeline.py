@@ -16,6 +16,7 @@ import pytest
 
 from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.core.request_types import RemoveServo, WriteItem
 from dynamixel_handler.loop import Handler
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DxlCommandsX
@@ -85,7 +86,7 @@ def test_host_values_set_after_a_read_went_out_are_not_overwritten_by_it(timed_b
     report = handler.begin_step()
     handler.send_step(report)                  # reads the goal group: goal position 2048 everywhere
     assert bus.inflight_eta is not None        # the last read is still on the wire
-    assert handler.write_item(1, "goal_position", 3000)
+    assert handler.ask(WriteItem(1, "goal_position", 3000))
     handler.finish_step(report)
     assert handler.table.value("goal_position", 1) == 3000  # newer than the read: kept
     assert handler.table.value("goal_position", 2) == 2048  # from the read
@@ -103,7 +104,7 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
     handler = Handler(bus, config)
     handler.start()
 
-    def overlapped(before: dict, after: dict | None = None, op=None) -> list[dict[int, int]]:
+    def overlapped(before: dict, after: dict | None = None, request=None) -> list[dict[int, int]]:
         """One loop as the node runs it flat out; the goal positions that reached the wire."""
         report = handler.begin_step()
         handler.send_step(report)               # a read left on the wire
@@ -114,8 +115,8 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
         assert handler.writes_ready and bus.inflight_eta is not None
         for item, values in (after or {}).items():
             handler.pending.put(item, values)   # came later
-        if op is not None:
-            handler.queue("op", op)
+        if request is not None:
+            handler.submit(request)
         handler.prepare(following)
         sim.clear_log()
         handler.send_writes(following)
@@ -126,7 +127,7 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
 
     # a servo removed after the packet was built is left out of it
     assert overlapped({"goal_position": {1: 1001, 2: 1002, 3: 1003, 4: 1004}},
-                      op=lambda: handler.remove_id(4)) == [{1: 1001, 2: 1002, 3: 1003}]
+                      request=RemoveServo(4)) == [{1: 1001, 2: 1002, 3: 1003}]
     assert sim.servo(4).read("goal_position") != 1004
     # a later value of the same item wins, other items go in their own write
     assert overlapped({"goal_position": {1: 2001, 2: 2002, 3: 2003}, "goal_current": {2: 50}},

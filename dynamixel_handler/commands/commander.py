@@ -2,10 +2,11 @@
 
 The ROS layer hands each command over as ``(id_list, {field: values})`` with arrays of the wrong
 length already dropped (``take_fields``). Everything else happens here, *in the loop thread*
-(``Commander`` queues a closure on the core), so validation sees a consistent servo table and
-no callback ever touches the bus: unknown or wrong-series IDs, NaN/inf, unknown mode strings and
-out-of-range values are refused or clamped with a warning that names the ID and the field. What
-passes goes down as one request of the core's narrow interface (``core.api.ServoAccess``).
+(``Commander`` queues the command as a value, ``command_types``, for the handler it registered), so
+validation sees a consistent servo table and no callback ever touches the bus: unknown or
+wrong-series IDs, NaN/inf, unknown mode strings and out-of-range values are refused or clamped with a
+warning that names the ID and the field. What passes goes down as one request value
+(``core.request_types``) through the core's narrow interface (``core.api.ServoAccess.ask``).
 
 Goals and control topics are here; status, gains, limits and shortcuts in ``servo_settings``, the
 extra fields in ``extra``. The rules themselves (known IDs, finite values, bounds, clamping) are in
@@ -16,13 +17,14 @@ once, of the family, in the mode; every value a finite number) is applied by
 from __future__ import annotations
 
 import math
-from functools import partial
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from .. import units
 from ..control_table import POSITION_MODES, ServoFamily, family_named
 from ..core.api import ServoAccess
+from ..core.request_types import Answer, CancelDeferred, ChangeMode, DeferModeChange, Outcome, SetGoals
 from ..logs import Throttle, cut, some_ids
+from .command_types import Control, Extra, Gain, Goal, Limit, Shortcut, Status
 from .extra import apply_extra
 from .fast_path import FastGoals
 from .goal_bounds import TableBounds
@@ -78,39 +80,54 @@ class Commander(SettingsCommands):
         self.throttle = Throttle(self.log.warning)
         self.rules = Rules(handler, self.warn, TableBounds(paths.bounds))
         self.fast = FastGoals(handler, self.rules, paths, self.put_writes)
+        for kind, route in self.routes().items():
+            handler.register(kind, route)
+
+    def routes(self) -> dict[type, Callable[[Any], None]]:
+        """Which of the command side's request types this part takes, and how (loop thread)."""
+        return {
+            Control: lambda r: self._control(r.family, r.control, r.ids, r.fields),
+            Goal: lambda r: self._goal(r.ids, r.fields, r.what),
+            Gain: lambda r: self._gain(r.ids, r.fields, r.what),
+            Limit: lambda r: self._limit(r.ids, r.fields, r.what),
+            Status: lambda r: self._status(r.ids, r.fields, r.what),
+            Extra: lambda r: apply_extra(self, r.ids, r.fields, r.what),
+            Shortcut: lambda r: self._shortcut(r.action, r.ids),
+        }
 
     # ============================================================== entry points (any thread)
     def control(self, series: str | ServoFamily, control: str, ids: Sequence[int], fields: Fields) -> None:
         """A control topic's command for servos of ``series`` (a family or its name: "X", "P", "PRO")."""
         family = family_named(series)
-        self._queue(f"{family.suffix} {control}", lambda: self._control(family, control, list(ids), fields))
+        self.submit(Control(family, control, list(ids), fields, f"{family.suffix} {control}"))
 
     def goal(self, ids: Sequence[int], fields: Fields, what: str = "goal") -> None:
-        self._queue(what, lambda: self._goal(list(ids), fields, what))
+        self.submit(Goal(list(ids), fields, what))
 
     def gain(self, ids: Sequence[int], fields: Fields, what: str = "gain") -> None:
-        self._queue(what, lambda: self._gain(list(ids), fields, what))
+        self.submit(Gain(list(ids), fields, what))
 
     def limit(self, ids: Sequence[int], fields: Fields, what: str = "limit") -> None:
-        self._queue(what, lambda: self._limit(list(ids), fields, what))
+        self.submit(Limit(list(ids), fields, what))
 
     def status(self, ids: Sequence[int], fields: Fields, what: str = "status") -> None:
-        self._queue(what, lambda: self._status(list(ids), fields, what))
+        self.submit(Status(list(ids), fields, what))
 
     def extra(self, ids: Sequence[int], fields: Fields, what: str = "extra") -> None:
-        self._queue(what, lambda: apply_extra(self, list(ids), fields, what))
+        self.submit(Extra(list(ids), fields, what))
 
     def shortcut(self, command: str, ids: Sequence[int]) -> None:
         action = SHORTCUTS.get(command.strip())
         if action is None:
             self.warn(f"shortcut: unknown command '{cut(command)}' (known: {', '.join(SHORTCUTS)})")
             return
-        self._queue(f"shortcut {command}", lambda: self._shortcut(action, list(ids)))
+        self.submit(Shortcut(action, list(ids), f"shortcut {command}"))
 
-    def _queue(self, what: str, op: Callable[[], None]) -> None:
+    def submit(self, request: Control | Goal | Gain | Limit | Status | Extra | Shortcut) -> None:
+        """A command for the loop thread (any thread), as a value."""
         if self.verbose:
-            self.log.info(f"command accepted: {what}")
-        self.h.queue(what, op)
+            self.log.info(f"command accepted: {request.what}")
+        self.h.submit(request)
 
     # ============================================================== checks (loop thread)
     def warn(self, msg: str) -> None:
@@ -168,7 +185,7 @@ class Commander(SettingsCommands):
 
     def put_writes(self, what: str, writes: dict[str, dict[int, int]]) -> None:
         if writes:
-            self.h.put_goals(writes)
+            self.h.ask(SetGoals(writes))
             if "goal" in self.h.settings.logs.writes:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 
@@ -247,16 +264,16 @@ class Commander(SettingsCommands):
         ready = []
         for k, dxl_id in targets:
             if self.h.mode(dxl_id) == mode:
-                self.h.cancel_deferred(dxl_id)  # a later request wins over a waiting mode change
+                self.h.ask(CancelDeferred(dxl_id))  # a later request wins over a waiting mode change
                 ready.append((k, dxl_id))
                 continue
-            outcome = self.change_mode(dxl_id, mode, what)
-            if outcome == "done":
+            changed = self.change_mode(dxl_id, mode, what)
+            if changed.outcome is Outcome.DONE:
                 ready.append((k, dxl_id))
-            elif outcome == "later":
+            elif changed.later is not None:
                 one = {f: [v[k]] for f, v in fields.items()}
-                self.h.defer_mode_change(dxl_id, f"{what}: ID {dxl_id} (deferred)",
-                                         partial(self._control, family, control, [dxl_id], one))
+                self.h.ask(DeferModeChange(dxl_id, changed.later, Control(family, control, [dxl_id], one, what),
+                                           f"{what}: ID {dxl_id} (deferred)"))
         return ready
 
     def _goal(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -266,14 +283,20 @@ class Commander(SettingsCommands):
         if targets:
             self._goal_writes(what, targets, fields, lambda f, _i: GOAL_FIELDS.get(f))
 
-    def change_mode(self, dxl_id: int, mode: str, what: str) -> str:
-        """The servo to ``mode`` if its model has it: "done", "refused" (no such mode), "failed"
-        (the bus) or "later" (too soon after the last change: the caller defers the request)."""
+    def change_mode(self, dxl_id: int, mode: str, what: str) -> Answer:
+        """The servo to ``mode`` if its model has it: DONE, REFUSED (no such mode), FAILED (the
+        bus) or LATER (too soon after the last change: the caller defers the request). A refusal
+        or failure is warned about here."""
         model = self.h.model(dxl_id)
         if mode not in model.modes:
-            self.warn(f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored")
-            return "refused"
+            return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored"))
         if mode in CURRENT_MODES and not model.has("current_limit"):
-            self.warn(f"{what}: ID {dxl_id} ({model.name}) has no current sensor, so no '{mode}' mode: ignored")
-            return "refused"
-        return self.h.change_mode(dxl_id, mode, what, self.warn)
+            return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no current sensor, "
+                                      f"so no '{mode}' mode: ignored"))
+        return self.warned(self.h.ask(ChangeMode(dxl_id, mode, what)))
+
+    def warned(self, answer: Answer) -> Answer:
+        """A request's answer, its failure (if any) warned about once."""
+        if answer.failure:
+            self.warn(answer.failure)
+        return answer

@@ -29,6 +29,7 @@ import numpy as np
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
 from ..joints import JointMap
+from .command_types import HoldJoints, JointCommand
 from .commander import Commander
 from .goal_bounds import goal_position_limits
 
@@ -47,6 +48,8 @@ class JointGoals:
         self.commander = commander
         self.h = commander.h
         self.mapping = mapping
+        self.h.register(JointCommand, self._apply)
+        self.h.register(HoldJoints, self._hold)
 
     def check(self, what: str, names: Sequence[str], position: Sequence[float], velocity: Sequence[float],
               effort: Sequence[float]) -> str | None:
@@ -80,12 +83,13 @@ class JointGoals:
             self.commander.warn(problem)
             return False
         names, position, velocity, effort = list(names), list(position), list(velocity), list(effort)
-        self.h.queue(what, lambda: self._apply(what, names, position, velocity, effort))
+        self.h.submit(JointCommand(names, position, velocity, effort, what))
         return True
 
-    def _apply(self, what: str, names: list[str], position: list[float], velocity: list[float],
-               effort: list[float]) -> None:
+    def _apply(self, request: JointCommand) -> None:
         """Loop thread: joint units -> servo units, grouped by series and control, to the Commander."""
+        what, names, position, velocity, effort = (request.what, request.names, request.position, request.velocity,
+                                                   request.effort)
         table = self.h.table
         m = self.mapping
         batches: _Batches = {}
@@ -140,16 +144,15 @@ class JointGoals:
 
     def hold(self, what: str, names: Sequence[str]) -> None:
         """Stop the joints where they are: goal position := present position (loop thread next step)."""
-        ids = [self.mapping.id_of(n) for n in names]
+        self.h.submit(HoldJoints([self.mapping.id_of(n) for n in names], what))
 
-        def op() -> None:
-            table = self.h.table
-            present = table.units("present_position")
-            keep = [(i, float(present[table.index[i]])) for i in ids
-                    if i in table and math.isfinite(present[table.index[i]])]
-            if keep:
-                self.commander.goal([i for i, _ in keep], {"position_deg": [p for _, p in keep]}, what=what)
-        self.h.queue(what, op)
+    def _hold(self, request: HoldJoints) -> None:
+        table = self.h.table
+        present = table.units("present_position")
+        keep = [(i, float(present[table.index[i]])) for i in request.ids
+                if i in table and math.isfinite(present[table.index[i]])]
+        if keep:
+            self.commander.goal([i for i, _ in keep], {"position_deg": [p for _, p in keep]}, what=request.what)
 
     def present(self, names: Sequence[str]) -> tuple[list[float], list[float]]:
         """Joint positions [rad] and velocities [rad/s] as last read (NaN: not handled or not read).

@@ -27,8 +27,10 @@ from collections import deque
 from typing import Callable, Sequence
 
 from ..core.api import ServoAccess
+from ..core.request_types import TorqueOff, TorqueOn
 from ..joints import JointMap
 from ..logs import some_ids
+from .command_types import MoveWritten, StartMove, TorqueStep
 from .commander import Commander
 from .move_checks import (
     CANCELED,
@@ -103,9 +105,9 @@ class TorqueJob(Job):
     def advance(self, book: Book, now: float) -> None:
         if not self.queued:
             self.queued = True
-            book.h.queue(self.what, lambda: self._write(book))
+            book.h.submit(TorqueStep(self, self.what))
 
-    def _write(self, book: Book) -> None:
+    def write(self, book: Book) -> None:
         """Loop thread: the next servos, within half a period (at least one)."""
         self.queued = False
         if not self.claimed and not self._begin(book):
@@ -114,7 +116,7 @@ class TorqueJob(Job):
         end = time.perf_counter() + 0.5 * book.period_s
         while self.todo and not self.finished:
             dxl_id = self.todo.popleft()
-            written = h.torque_on(dxl_id) if self.enable else h.torque_off(dxl_id)
+            written = h.ask(TorqueOn(dxl_id) if self.enable else TorqueOff(dxl_id))
             if not written:
                 self.failed.append(dxl_id)
                 self.why = written.failure
@@ -203,6 +205,18 @@ class Book(MoveIO):
         self.lock = threading.Lock()
         self._last_feedback = 0.0
         self._ended = False  # a job ended since the executor was last woken
+        handler.register(TorqueStep, self._torque_step)
+        handler.register(StartMove, self._start_move)
+        handler.register(MoveWritten, self._move_written)
+
+    def _torque_step(self, request: TorqueStep) -> None:
+        request.job.write(self)
+
+    def _start_move(self, request: StartMove) -> None:
+        self.start(request.job)
+
+    def _move_written(self, request: MoveWritten) -> None:
+        self._written(request.job)
 
     @property
     def period_s(self) -> float:
@@ -287,7 +301,7 @@ class Book(MoveIO):
             keep.append(job)
         for job in sorted(keep, key=lambda j: j.seq)[:MAX_STARTS]:
             job.state = "writing"
-            self.h.queue("move", lambda job=job: self.start(job))  # type: ignore[misc]
+            self.h.submit(StartMove(job))
 
     def start(self, job: MoveJob) -> None:
         """Queued operation: refuse servos that cannot move, write the goals, preempt other moves."""
@@ -301,7 +315,7 @@ class Book(MoveIO):
             return
         self._preempt(job)
         # the goals as written (or about to be, this step): after the Commander's operations above
-        self.h.queue("move (goals written)", lambda: self._written(job))
+        self.h.submit(MoveWritten(job))
 
     def _superseded(self, job: MoveJob) -> bool:
         """A later move on a shared servo is already written: ``job`` ends PREEMPTED unwritten."""

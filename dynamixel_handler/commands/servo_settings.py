@@ -3,12 +3,27 @@
 A part of ``Commander`` (it supplies ``h``, ``warn``, ``known_ids`` and ``finite``)."""
 from __future__ import annotations
 
-from functools import partial
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 from .. import units
 from ..control_table import OPERATING_MODES, ServoFamily
+from ..core.request_types import (
+    AddServo,
+    Answer,
+    CancelDeferred,
+    ClearError,
+    DeferModeChange,
+    Reboot,
+    RemoveServo,
+    SetGoals,
+    TorqueOff,
+    TorqueOn,
+    WantHandled,
+    WriteEeprom,
+    WriteItem,
+)
 from ..logs import cut
+from .command_types import Status
 from .tables import BROADCAST_ID, GAIN_FIELDS, LIMIT_FIELDS
 
 if TYPE_CHECKING:
@@ -29,7 +44,8 @@ class SettingsCommands:
         def known_ids(self, ids: Iterable[int], what: str, family: ServoFamily | None = None,
                       allow_all: bool = False) -> list[tuple[int, int]]: ...
         def finite(self, what: str, field: str, dxl_id: int, value: float) -> bool: ...
-        def change_mode(self, dxl_id: int, mode: str, what: str) -> str: ...
+        def change_mode(self, dxl_id: int, mode: str, what: str) -> Answer: ...
+        def warned(self, answer: Answer) -> Answer: ...
 
     # ============================================================== status
     def _status(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -40,40 +56,40 @@ class SettingsCommands:
             return  # nothing else to do: an ID just removed is no "unknown ID"
         for k, dxl_id in self.known_ids(ids, what):
             if "error" in fields:
-                self.h.clear_error(dxl_id, bool(fields["error"][k]), what, self.warn)
+                self.warned(self.h.ask(ClearError(dxl_id, bool(fields["error"][k]), what)))
             if "mode" in fields:
                 self._status_mode(dxl_id, str(fields["mode"][k]).strip(), what)
             if "torque" in fields:
                 if fields["torque"][k]:
                     self.torque_on(dxl_id)
                 else:
-                    self.h.torque_off(dxl_id)
+                    self.h.ask(TorqueOff(dxl_id))
 
     def _membership(self, ids: list[int], ping: Sequence[Any], now: bool) -> None:
         """Add (ping true) or remove (false) IDs: ``now``, or as one change per loop for each ID
         (``ServoAccess.want_handled``: the last request of the loop wins)."""
         for k, dxl_id in enumerate(ids):
             if not now:
-                self.h.want_handled(dxl_id, bool(ping[k]))
+                self.h.ask(WantHandled(dxl_id, bool(ping[k])))
             elif not ping[k]:
-                self.h.remove_id(dxl_id)
+                self.h.ask(RemoveServo(dxl_id))
             elif not self.h.handles(dxl_id):
-                self.h.add_id(dxl_id)
+                self.h.ask(AddServo(dxl_id))
 
     def _status_mode(self, dxl_id: int, mode: str, what: str) -> None:
         if mode not in OPERATING_MODES:
             self.warn(f"{what}: ID {dxl_id} unknown mode '{cut(mode)}' (known: {', '.join(OPERATING_MODES)})")
         elif self.h.mode(dxl_id) == mode:
-            self.h.cancel_deferred(dxl_id)
-        elif self.change_mode(dxl_id, mode, what) == "later":
-            self.h.defer_mode_change(dxl_id, f"{what}: ID {dxl_id} (deferred)",
-                                     partial(self._status, [dxl_id], {"mode": [mode]}, what))
+            self.h.ask(CancelDeferred(dxl_id))
+        elif (changed := self.change_mode(dxl_id, mode, what)).later is not None:
+            self.h.ask(DeferModeChange(dxl_id, changed.later, Status([dxl_id], {"mode": [mode]}, what),
+                                       f"{what}: ID {dxl_id} (deferred)"))
 
     def torque_on(self, dxl_id: int) -> None:
         """Torque on as asked by a command: safely if it is off; a servo whose torque is already on
         keeps its goals (the safe torque on would make them the present state and stop it)."""
         if self.h.read_item(dxl_id, "torque_enable") != 1:
-            self.h.torque_on(dxl_id)
+            self.h.ask(TorqueOn(dxl_id))
 
     # ============================================================== gains and limits
     def _gain(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -93,13 +109,13 @@ class SettingsCommands:
                     value = top
                 writes.setdefault(item, {})[dxl_id] = value
         if writes:
-            self.h.put_goals(writes)
+            self.h.ask(SetGoals(writes))
 
     def _limit(self, ids: list[int], fields: Fields, what: str) -> None:
         for k, dxl_id in self.known_ids(ids, what):
             values = self._limit_values(dxl_id, k, fields, what)
             for item, pulses in values.items():
-                written = self.h.write_eeprom(dxl_id, item, pulses)
+                written = self.h.ask(WriteEeprom(dxl_id, item, pulses))
                 if not written:
                     self.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
             if values and "limit" in self.h.settings.logs.writes:
@@ -132,11 +148,11 @@ class SettingsCommands:
         what = f"shortcut {action}"
         if action == "add_id":  # one change per loop for each ID: the last request of the loop wins
             for dxl_id in ids:
-                self.h.want_handled(dxl_id, True)
+                self.h.ask(WantHandled(dxl_id, True))
             return
         if action == "remove_id":
             for dxl_id in (self.h.handled_ids if not ids or ids == [BROADCAST_ID] else ids):
-                self.h.want_handled(dxl_id, False)
+                self.h.ask(WantHandled(dxl_id, False))
             return
         act = self._shortcut_actions(what)[action]
         for _, dxl_id in self.known_ids(ids, what, allow_all=True):
@@ -145,11 +161,11 @@ class SettingsCommands:
     def _shortcut_actions(self, what: str) -> dict[str, Callable[[int], object]]:
         h = self.h
         return {
-            "clear_error": lambda i: h.clear_error(i, True, what, self.warn),
+            "clear_error": lambda i: self.warned(h.ask(ClearError(i, True, what))),
             "torque_on": self.torque_on,
-            "torque_off": h.torque_off,
-            "disable": h.torque_off,
-            "enable": lambda i: h.write_item(i, "torque_enable", 1),
-            "reboot": lambda i: h.reboot(i) and h.read_item(i, "torque_enable"),  # at most once a second per servo
-            "reset_offset": lambda i: h.write_eeprom(i, "homing_offset", 0),
+            "torque_off": lambda i: h.ask(TorqueOff(i)),
+            "disable": lambda i: h.ask(TorqueOff(i)),
+            "enable": lambda i: h.ask(WriteItem(i, "torque_enable", 1)),
+            "reboot": lambda i: h.ask(Reboot(i)) and h.read_item(i, "torque_enable"),  # at most once a second per servo
+            "reset_offset": lambda i: h.ask(WriteEeprom(i, "homing_offset", 0)),
         }

@@ -1,11 +1,8 @@
-"""Work that waits: EEPROM writes spared, per-servo operations due later, operations queued by callbacks."""
+"""Work that waits: EEPROM writes spared, per-servo requests due later (mode changes asked for too soon)."""
 from __future__ import annotations
 
-import collections
 import logging
-import threading
 import time
-from typing import Callable
 
 from ..bus import Result
 from ..servos import ServoTable
@@ -18,18 +15,17 @@ EEPROM_WRITE_INTERVAL_S = 1.0
 
 
 class Deferred:
-    """EEPROM coalescing, deferred per-servo operations (mode changes asked for too soon), the operation queue."""
+    """EEPROM coalescing and deferred per-servo requests (mode changes asked for too soon); the
+    requests queued by callbacks are the ``Intake``'s."""
 
     def __init__(self, table: ServoTable, log: Log, io: ServoIO) -> None:
         self.table = table
         self.log = log
         self.io = io
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
-        self._ops: collections.deque[tuple[str, Callable[[], None]]] = collections.deque()
-        self._ops_lock = threading.Lock()
-        # ID -> (monotonic time when due, what, operation): per-servo work that must wait (a mode
+        # ID -> (monotonic time when due, what, request): per-servo work that must wait (a mode
         # change asked for too soon after the last one); a later request for the servo replaces it
-        self.deferred: dict[int, tuple[float, str, Callable[[], None]]] = {}
+        self.deferred: dict[int, tuple[float, str, object]] = {}
         self._eeprom_written: dict[tuple[int, str], float] = {}  # (ID, item) -> time of the last write
         self._eeprom_deferred: dict[tuple[int, str], int] = {}  # (ID, item) -> value to write when due
 
@@ -102,17 +98,27 @@ class Deferred:
             self.io.torque_on(dxl_id)
         return Result(False, failure) if failure else _WRITTEN
 
-    def run_deferred(self) -> None:
-        """EEPROM values and per-servo operations that had to wait, once their time has come."""
+    def defer(self, dxl_id: int, when: float, what: str, request: object) -> None:
+        """``request`` for the servo again at ``when`` (monotonic); it replaces one waiting."""
+        self.deferred[dxl_id] = (when, what, request)
+
+    def cancel(self, dxl_id: int) -> None:
+        self.deferred.pop(dxl_id, None)
+
+    def run_deferred(self) -> list[tuple[str, object]]:
+        """EEPROM values that had to wait are written once their time has come; the per-servo
+        requests whose time has come are given back (what, request), to be run in order."""
         now = time.monotonic()
         if self._eeprom_deferred:
             self._write_due_eeprom(now)
-        for dxl_id, (when, what, op) in list(self.deferred.items()):
+        due = []
+        for dxl_id, (when, what, request) in list(self.deferred.items()):
             if when > now:
                 continue
             del self.deferred[dxl_id]
             if dxl_id in self.table:
-                self.run_op(what, op)
+                due.append((what, request))
+        return due
 
     def _write_due_eeprom(self, now: float) -> None:
         due_ids = {i for (i, item) in self._eeprom_deferred
@@ -124,32 +130,6 @@ class Deferred:
             else:
                 for item in values:
                     self._eeprom_deferred.pop((dxl_id, item), None)
-
-    def run_op(self, what: str, op: Callable[[], None]) -> None:
-        try:
-            op()
-        except Exception as exc:  # an operation must never stop the loop
-            self.log.error(f"{what} failed: {type(exc).__name__}: {exc}")
-
-    def queue(self, what: str, op: Callable[[], None]) -> None:
-        """Run ``op`` in the loop thread at the start of the next step (callbacks never touch the bus)."""
-        with self._ops_lock:
-            self._ops.append((what, op))
-
-    def drop_ops(self) -> int:
-        """Forget the queued operations (the loop does not run); how many there were."""
-        with self._ops_lock:
-            count = len(self._ops)
-            self._ops.clear()
-        return count
-
-    def run_ops(self) -> None:
-        while True:
-            with self._ops_lock:
-                if not self._ops:
-                    break
-                what, op = self._ops.popleft()
-            self.run_op(what, op)
 
 
 _WRITTEN: Result[bool] = Result(True)

@@ -1,11 +1,11 @@
 """Checked requests from commands, applied in the loop thread: goals, a mode change, an error
-clear, a watchdog time. The command side (``dynamixel_handler.commands``) checks a message and
-calls one of these; each goes one way down to the bus."""
+clear. The command side (``dynamixel_handler.commands``) checks a message and asks for one of
+these as a value (``request_types``); the ``Intake`` hands it here; each goes one way down to the
+bus and answers with an ``Answer``."""
 from __future__ import annotations
 
 import logging
 import time
-from typing import Callable, Mapping
 
 from .. import error_state
 from ..servos import PendingWrites, ServoTable
@@ -14,10 +14,10 @@ from .deferred import Deferred
 from .log_limits import LogLimits
 from .pacing import Pacing
 from .recovery import Recovery
+from .request_types import DONE, Answer, CancelDeferred, ChangeMode, ClearError, DeferModeChange, Later, Outcome, SetGoals, answer, later
 from .servo_io import Log, ServoIO
 from .watchdog import Watchdog
 
-Warn = Callable[[str], None]
 #: RAM items the firmware resets on a mode change (written back after it)
 MODE_RESET_ITEMS = ("goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration")
 #: a mode's own goal: left out when the mode changes (it would mean something else in the new one)
@@ -25,7 +25,7 @@ OWN_GOAL = {"pwm": "goal_pwm", "current": "goal_current", "velocity": "goal_velo
 
 
 class Requests:
-    """What commands may ask of the core, one method per request. Of the settings:
+    """What commands may ask of the core, one method per request type. Of the settings:
     ``mode_change_interval_s`` and ``clear_error_interval_s``."""
 
     def __init__(self, table: ServoTable, pending: PendingWrites, log: Log, io: ServoIO, watchdog: Watchdog,
@@ -42,13 +42,12 @@ class Requests:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         self._last_mode_change: dict[int, float] = {}  # ID -> time.monotonic() of its last mode change
         self._last_clear: dict[int, float] = {}  # ID -> time.monotonic() of its last error clear
-        #: why the last ``change_mode`` answered "later" (``defer_mode_change`` acts on it)
-        self._mode_later: str | None = None
 
     # ---------------------------------------------------------------- goals
-    def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
+    def put_goals(self, request: SetGoals) -> None:
         """Goal values {item: {ID: pulses}} written with the next sync writes; a tripped bus
         watchdog of those servos is cleared first (a tripped servo refuses goals)."""
+        writes = request.writes
         if self.watchdog.any_tripped():
             self.watchdog.clear_tripped(sorted({i for values in writes.values() for i in values}))
         self.pending.put_many(writes.items())
@@ -62,37 +61,39 @@ class Requests:
         interval = float(self.settings.mode_change_interval_s)
         return max(0.0, last + interval - time.monotonic())
 
-    def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
-        """Run ``op`` for this servo once mode_change_interval_sec allows, or at the next loop when
-        this loop's operations have used their bus time (``Pacing.ops_wait``); a later request
-        replaces it. While the node stops it is dropped (the servo keeps its mode)."""
-        why, self._mode_later = self._mode_later, None
-        if why == "stopping":
+    def defer_mode_change(self, request: DeferModeChange) -> None:
+        """Run ``request.then`` for this servo once mode_change_interval_sec allows, or at the next
+        loop when this loop's operations have used their bus time (``Pacing.ops_wait``); a later
+        request replaces it. While the node stops it is dropped (the servo keeps its mode)."""
+        dxl_id, what = request.dxl_id, request.what
+        if request.why is Later.STOPPING:
             self.pacing.dropped_mode_changes.add(dxl_id)
             return
-        if why == "bus time":
+        if request.why is Later.BUS_TIME:
             self.log.debug(f"{what}: waits for the next loop (this loop's mode changes used their bus time)")
-            self.work.deferred[dxl_id] = (time.monotonic(), what, op)
+            self.work.defer(dxl_id, time.monotonic(), what, request.then)
             return
         left = self.mode_change_wait(dxl_id)
         if dxl_id not in self.work.deferred:
             self.limited(logging.INFO, f"{what}: the last mode change was less than mode_change_interval_sec="
                          f"{self.settings.mode_change_interval_s:g}s ago: applied in {left:.2f}s", f"defer {dxl_id}")
-        self.work.deferred[dxl_id] = (time.monotonic() + left, what, op)
+        self.work.defer(dxl_id, time.monotonic() + left, what, request.then)
 
-    def cancel_deferred(self, dxl_id: int) -> None:
+    def cancel_deferred(self, request: CancelDeferred) -> None:
         """A later request for the servo wins over a mode change waiting for it."""
-        self.work.deferred.pop(dxl_id, None)
+        self.work.cancel(request.dxl_id)
 
-    def change_mode(self, dxl_id: int, mode: str, what: str, warn: Warn) -> str:
+    def change_mode(self, request: ChangeMode) -> Answer:
         """Torque off -> operating mode -> goals and profiles written back -> torque back as it
         was (safely: goal := present state) -> bus watchdog as the new mode needs. The caller has
-        checked that the servo has ``mode``. "done", "failed" (the bus), or "later": the last
-        change was less than mode_change_interval_sec ago, or this loop's mode changes used their
-        bus time, or the node is stopping (the caller defers the request: ``defer_mode_change``)."""
-        self._mode_later = "interval" if self.mode_change_wait(dxl_id) > 0 else self.pacing.ops_wait()
-        if self._mode_later is not None:
-            return "later"
+        checked that the servo has ``mode``. DONE, FAILED (the bus; ``failure`` is the warning),
+        or LATER: the last change was less than mode_change_interval_sec ago, or this loop's mode
+        changes used their bus time, or the node is stopping (``later`` says which; the caller
+        defers the request: ``DeferModeChange``)."""
+        dxl_id, mode, what = request.dxl_id, request.mode, request.what
+        wait = later("interval" if self.mode_change_wait(dxl_id) > 0 else self.pacing.ops_wait())
+        if wait is not None:
+            return wait
         self._last_mode_change[dxl_id] = time.monotonic()
         model = self.table.model(dxl_id)
         own = OWN_GOAL.get(self.io.mode(dxl_id) or "")
@@ -105,35 +106,36 @@ class Requests:
         if torque:
             self.io.torque_on(dxl_id)
         self.watchdog.arm_after_ops(dxl_id)
-        if written:
-            self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
-        else:
-            warn(f"{what}: ID {dxl_id} mode change to '{mode}' failed: {written.failure}")
-        return "done" if written else "failed"
+        if not written:
+            return Answer(Outcome.FAILED, f"{what}: ID {dxl_id} mode change to '{mode}' failed: {written.failure}")
+        self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
+        return DONE
 
     # ---------------------------------------------------------------- error clear
-    def clear_error(self, dxl_id: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
+    def clear_error(self, request: ClearError) -> Answer:
         """Reboot to clear a hardware error (a servo without one is not rebooted); with
         ``keep_rotation`` the multi-turn position survives through the homing offset. Torque comes
         back on if it was on, or if the error's shutdown switched it off (then the error, not the
-        user, turned it off). At most once per clear_error_interval_sec per servo. A servo with an
-        error code (Y) is cleared by its error clear instruction instead, not rebooted."""
+        user, turned it off). At most once per clear_error_interval_sec per servo (else REFUSED). A
+        servo with an error code (Y) is cleared by its error clear instruction instead, not
+        rebooted. ``failure``: the warning for the user."""
+        dxl_id, what = request.dxl_id, request.what
         model = self.table.model(dxl_id)
         error = self.io.read_item(dxl_id, error_state.error_item(model))
         if error is None:
-            warn(f"{what}: ID {dxl_id} did not answer the hardware error read: not rebooted")
-            return False
+            return answer(False, f"{what}: ID {dxl_id} did not answer the hardware error read: not rebooted")
         if not error_state.is_error(model, error):
             self.log.debug(f"{what}: ID {dxl_id} has no hardware error: nothing to clear (not rebooted)")
-            return True
-        if not self._clear_allowed(dxl_id, what, warn):
-            return False
+            return DONE
+        refused = self._clear_refused(dxl_id, what)
+        if refused is not None:
+            return refused
         codes = model.family.error_codes
         if codes is not None and codes.clear_params is not None:
-            return self._clear_code(dxl_id, error, codes.clear_params, what, warn)
-        return self._clear_by_reboot(dxl_id, error, keep_rotation, what, warn)
+            return self._clear_code(dxl_id, error, codes.clear_params, what)
+        return self._clear_by_reboot(dxl_id, error, request.keep_rotation, what)
 
-    def _clear_by_reboot(self, dxl_id: int, error: int, keep_rotation: bool, what: str, warn: Warn) -> bool:
+    def _clear_by_reboot(self, dxl_id: int, error: int, keep_rotation: bool, what: str) -> Answer:
         torque_was = self.io.value(dxl_id, "torque_enable")
         shutdown = self.io.value(dxl_id, "shutdown")
         torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
@@ -141,8 +143,7 @@ class Requests:
         offset = self.io.read_item(dxl_id, "homing_offset")
         rebooted = self.recovery.reboot(dxl_id)
         if not rebooted:
-            warn(f"{what}: ID {dxl_id} reboot failed: {rebooted.failure}")
-            return False
+            return answer(False, f"{what}: ID {dxl_id} reboot failed: {rebooted.failure}")
         self.io.read_item(dxl_id, "torque_enable")
         self.io.read_item(dxl_id, "hardware_error_status")
         if keep_rotation and before is not None and offset is not None:
@@ -150,9 +151,9 @@ class Requests:
         if torque:
             self.io.torque_on(dxl_id)
         self.log.info(f"ID {dxl_id}: hardware error cleared ({'turns kept' if keep_rotation else 'turns reset'})")
-        return True
+        return DONE
 
-    def _clear_code(self, dxl_id: int, error: int, params: bytes, what: str, warn: Warn) -> bool:
+    def _clear_code(self, dxl_id: int, error: int, params: bytes, what: str) -> Answer:
         """An error code cleared by the servo's error clear; torque back on if it was on or the
         error switched it off (as after a reboot that clears hardware error bits)."""
         model = self.table.model(dxl_id)
@@ -162,22 +163,20 @@ class Requests:
         name = error_state.describe(model, error)
         cleared = self.recovery.clear_error(dxl_id, params)
         if not cleared:
-            warn(f"{what}: ID {dxl_id} {name} not cleared: {cleared.failure}")
-            return False
+            return answer(False, f"{what}: ID {dxl_id} {name} not cleared: {cleared.failure}")
         if torque:
             self.io.torque_on(dxl_id)
         self.log.info(f"ID {dxl_id}: {name} cleared (error clear instruction, no reboot)")
-        return True
+        return DONE
 
-    def _clear_allowed(self, dxl_id: int, what: str, warn: Warn) -> bool:
+    def _clear_refused(self, dxl_id: int, what: str) -> Answer | None:
         now, interval = time.monotonic(), self.settings.clear_error_interval_s
         last = self._last_clear.get(dxl_id)
         if last is not None and now - last < interval:
-            warn(f"{what}: ID {dxl_id} error clear refused: the last one was {now - last:.2f}s ago "
-                 f"(clear_error_interval_sec={interval:g})")
-            return False
+            return Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} error clear refused: the last one was "
+                          f"{now - last:.2f}s ago (clear_error_interval_sec={interval:g})")
         self._last_clear[dxl_id] = now
-        return True
+        return None
 
     def _keep_turns(self, dxl_id: int, before: int, offset: int) -> None:
         """After a reboot the position restarts within one turn: the turns it had go into the

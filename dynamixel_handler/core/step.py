@@ -13,6 +13,7 @@ from ..groups import GROUP_ITEMS, PRESENT
 from ..servos import ServoTable
 from ..settings import LogSettings
 from .deferred import Deferred
+from .intake import Intake
 from .pacing import Pacing
 from .read_plan import ReadPlan
 from .recovery import Recovery
@@ -36,8 +37,8 @@ class Step:
     ``remove`` stops handling a servo (the add_id / remove_id requests of a loop)."""
 
     def __init__(self, bus: ServoBus, table: ServoTable, log: Log, reads: ReadPlan, writes: WriteBatch,
-                 pacing: Pacing, watchdog: Watchdog, recovery: Recovery, work: Deferred, startup: Startup,
-                 remove: Callable[[int], None], settings: StepSettings) -> None:
+                 pacing: Pacing, watchdog: Watchdog, recovery: Recovery, work: Deferred, intake: Intake,
+                 startup: Startup, remove: Callable[[int], None], settings: StepSettings) -> None:
         self.bus = bus
         self.table = table
         self.log = log
@@ -47,6 +48,7 @@ class Step:
         self.watchdog = watchdog
         self.recovery = recovery
         self.work = work
+        self.intake = intake
         self.startup = startup
         self._remove = remove
         self.settings = settings
@@ -74,16 +76,20 @@ class Step:
         return report
 
     def prepare(self, report: StepReport) -> None:
-        """Reopen a vanished device, arm watchdogs, run the queued operations (commands). Called
+        """Reopen a vanished device, arm watchdogs, run the queued requests (commands). Called
         by ``begin_step``, and again before ``send_step`` for commands that came meanwhile."""
         if self.recovery.device_gone:
             self.recovery.reconnect(report)
         self.watchdog.arm_waiting()
         if self.work.waiting:
-            self.work.run_deferred()
-        self.work.run_ops()
-        if self.startup.membership:  # add_id / remove_id asked for by these operations: once each
-            self.work.run_op("add_id / remove_id", lambda: self.startup.apply_membership(self._remove))
+            for what, request in self.work.run_deferred():
+                self.intake.run(request, what)
+        self.intake.run_queued()
+        if self.startup.membership:  # add_id / remove_id asked for by these requests: once each
+            self.intake.guarded("add_id / remove_id", self._apply_membership)
+
+    def _apply_membership(self) -> None:
+        self.startup.apply_membership(self._remove)
 
     def apply_now(self) -> None:
         """Between loops: run the queued operations and write what they left pending at once."""

@@ -40,6 +40,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from ..commands import Commander, take_fields
+from ..commands.command_types import GROUPS
 from ..control_table import PRO, P, ServoFamily, X, family_named
 from ..logs import cut
 from .intake import CommandIntake
@@ -139,7 +140,7 @@ class CommandTopics:
     def _group(self, group: str, msg, what: str) -> None:
         ids, fields = self._fields(what, msg)
         if ids and fields:
-            getattr(self.commander, group)(ids, fields, what)
+            self.commander.submit(GROUPS[group](list(ids), fields, what))
 
     def _bundle(self, series: ServoFamily | None, msg) -> None:
         prefix = "commands/" + (series.suffix if series is not None else "all")

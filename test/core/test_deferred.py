@@ -1,5 +1,5 @@
-"""Deferred: EEPROM writes spared and coalesced, the operation queue (in order, one failure never
-stops the rest), per-servo work due later."""
+"""Deferred: EEPROM writes spared and coalesced, per-servo requests due later (the queue of
+requests is the Intake's: test_intake.py)."""
 from __future__ import annotations
 
 import logging
@@ -7,6 +7,7 @@ import logging
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core import deferred as deferred_module
 from dynamixel_handler.core.deferred import EEPROM_WRITE_INTERVAL_S, Deferred
+from dynamixel_handler.core.request_types import ChangeMode
 from dynamixel_handler.core.servo_io import ServoIO
 
 from support.fake_bus import XM430, FakeBus, table_of
@@ -61,32 +62,14 @@ def test_an_eeprom_write_switches_torque_off_and_back_on_without_a_jump(monkeypa
                                                   ("goal_velocity", (1, 0)), ("torque_enable", (1, 1))]
 
 
-def test_queued_operations_run_in_order_and_one_that_raises_is_logged_and_the_rest_still_run(monkeypatch):
-    _, _, part, _, lines = work(monkeypatch)
-    done: list[str] = []
-    part.queue("first", lambda: done.append("first"))
-    part.queue("broken", lambda: 1 / 0)
-    part.queue("third", lambda: done.append("third"))
-    part.run_ops()
-    assert done == ["first", "third"]
-    assert lines == ["broken failed: ZeroDivisionError: division by zero"]
-    part.queue("dropped", lambda: done.append("dropped"))
-    assert part.drop_ops() == 1
-    part.run_ops()
-    assert done == ["first", "third"]
-
-
 def test_work_due_later_runs_when_due_and_only_for_a_servo_still_handled(monkeypatch):
     _, table, part, clock, _ = work(monkeypatch)
-    done: list[int] = []
-    part.deferred[1] = (clock.t + 0.5, "mode change", lambda: done.append(1))
-    part.deferred[2] = (clock.t, "mode change", lambda: done.append(2))
+    part.defer(1, clock.t + 0.5, "mode change", ChangeMode(1, "velocity"))
+    part.defer(2, clock.t, "mode change", ChangeMode(2, "velocity"))
     table.remove(2)
-    part.run_deferred()
-    assert done == [] and list(part.deferred) == [1]
+    assert part.run_deferred() == [] and list(part.deferred) == [1]
     clock.t += 0.5
-    part.run_deferred()
-    assert done == [1] and not part.waiting
-    part.deferred[1] = (clock.t, "mode change", lambda: done.append(1))
+    assert part.run_deferred() == [("mode change", ChangeMode(1, "velocity"))] and not part.waiting
+    part.defer(1, clock.t, "mode change", ChangeMode(1, "pwm"))
     part.forget(1)
     assert not part.waiting

@@ -6,6 +6,7 @@ import logging
 
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core.request_types import CancelDeferred, ChangeMode, ClearError, DeferModeChange, Later, Outcome, SetGoals
 from dynamixel_handler.loop import Handler
 
 from support.fake_bus import XM430, FakeBus
@@ -29,14 +30,13 @@ def test_a_mode_change_goes_torque_off_mode_ram_back_torque_on_and_arms_the_watc
     bus, h = started(mode_change_interval_sec=0.0)
     bus.set(1, "profile_velocity", 55)
     h.table.set_value("profile_velocity", 1, 55)
-    warnings: list[str] = []
-    assert h.change_mode(1, "velocity", "test", warnings.append) == "done"
+    assert h.ask(ChangeMode(1, "velocity", "test")).outcome is Outcome.DONE
     assert [w[1] for w in bus.item_writes()] == [
         "torque_enable", "operating_mode",                      # torque off (an EEPROM item), the mode
         "goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration",  # RAM back
         "goal_velocity", "torque_enable"]                       # torque back on safely: goal := 0 first
     assert ("write", "profile_velocity", (1, 55)) in bus.item_writes()
-    assert h.watchdog.to_arm == {1} and not warnings
+    assert h.watchdog.to_arm == {1}
     bus.calls.clear()
     h.step()
     assert ("sync_write", "bus_watchdog", {1: h.watchdog.watchdog_for(1)}) in bus.item_writes()
@@ -44,18 +44,19 @@ def test_a_mode_change_goes_torque_off_mode_ram_back_torque_on_and_arms_the_watc
 
 def test_a_mode_change_too_soon_waits_and_the_latest_request_is_made_when_its_time_comes():
     bus, h = started(mode_change_interval_sec=60.0)
-    assert h.change_mode(1, "velocity", "first", print) == "done"
-    assert h.change_mode(1, "pwm", "second", print) == "later"
-    h.defer_mode_change(1, "second", lambda: None)
+    assert h.ask(ChangeMode(1, "velocity", "first")).outcome is Outcome.DONE
+    later = h.ask(ChangeMode(1, "pwm", "second"))
+    assert later.outcome is Outcome.LATER and later.later is Later.INTERVAL
+    h.ask(DeferModeChange(1, later.later, ChangeMode(1, "pwm", "second"), "second"))
     assert 1 in h.work.deferred and h.requests.mode_change_wait(1) > 59
-    h.cancel_deferred(1)
+    h.ask(CancelDeferred(1))
     assert 1 not in h.work.deferred
 
 
 def test_goals_to_a_servo_whose_watchdog_tripped_clear_it_before_they_are_written():
     bus, h = started()
     h.table.set_value("bus_watchdog", 2, -1)
-    h.put_goals({"goal_position": {2: 100}})
+    h.ask(SetGoals({"goal_position": {2: 100}}))
     assert h.watchdog_trips == 1
     h.send_writes(h.begin_step())
     items = [(w[1], w[2]) for w in bus.item_writes()]
@@ -64,12 +65,12 @@ def test_goals_to_a_servo_whose_watchdog_tripped_clear_it_before_they_are_writte
 
 def test_an_error_clear_reboots_only_a_servo_with_an_error_and_brings_its_torque_back():
     bus, h = started(clear_error_interval_sec=0.0)
-    warnings: list[str] = []
-    assert h.clear_error(1, False, "test", warnings.append) and not bus.of("reboot")  # no error: nothing
+    assert h.ask(ClearError(1, False, "test")) and not bus.of("reboot")  # no error: nothing
     bus.set(1, "hardware_error_status", 0x20)
     bus.set(1, "shutdown", 0x20)
-    assert h.clear_error(1, False, "test", warnings.append)
+    assert h.ask(ClearError(1, False, "test"))
     assert bus.of("reboot") == [("reboot", 1)] and bus.item_writes()[-1] == ("write", "torque_enable", (1, 1))
     bus.silent.add(2)
-    assert not h.clear_error(2, False, "test", warnings.append)
-    assert warnings == ["test: ID 2 did not answer the hardware error read: not rebooted"]
+    failed = h.ask(ClearError(2, False, "test"))
+    assert failed.outcome is Outcome.FAILED
+    assert failed.failure == "test: ID 2 did not answer the hardware error read: not rebooted"

@@ -7,6 +7,7 @@ import logging
 import pytest
 
 from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.core.request_types import AddServo, WantHandled
 from dynamixel_handler.errors import Interrupted, StartupError
 from dynamixel_handler.loop import Handler
 
@@ -58,14 +59,14 @@ def test_add_and_remove_asked_many_times_in_one_loop_make_at_most_one_change():
     h.start()
     assert h.handled_ids == [1]
     for _ in range(5):
-        h.queue("add", lambda: h.want_handled(2, True))
-        h.queue("remove", lambda: h.want_handled(2, False))
-    h.queue("add", lambda: h.want_handled(2, True))
+        h.submit(WantHandled(2, True))
+        h.submit(WantHandled(2, False))
+    h.submit(WantHandled(2, True))
     bus.calls.clear()
     h.step()
     assert h.handled_ids == [1, 2] and bus.of("ping") == [("ping", 2)]
     bus.silent.add(3)
-    assert not h.add_id(3)
+    assert not h.ask(AddServo(3))
 
 
 def test_an_unknown_model_is_named_with_what_the_user_can_do(caplog):

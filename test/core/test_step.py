@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 
 from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.core.request_types import WriteItem
 from dynamixel_handler.loop import RECHECK_LOOPS, Handler
 
 from support.fake_bus import XM430, FakeBus
@@ -27,7 +28,7 @@ def started(**params) -> tuple[FakeBus, Handler]:
 
 def test_a_loop_runs_the_operations_then_writes_then_reads_what_is_due():
     bus, h = started()
-    h.queue("led", lambda: h.write_item(2, "led", 1))
+    h.submit(WriteItem(2, "led", 1))
     h.pending.put("goal_position", {1: 1000, 3: 3000})
     report = h.step()
     assert [c[0] for c in bus.calls] == ["write", "sync_write", "sync_read"]

@@ -2,10 +2,13 @@
 of given models, requests run at once and recorded, no bus. Values the table lacks read as None."""
 from __future__ import annotations
 
+import dataclasses
 import logging
+import re
 from typing import Any, Callable, Mapping
 
 from dynamixel_handler.control_table import OPERATING_MODES, model_by_number
+from dynamixel_handler.core.request_types import DONE, Answer, ChangeMode, SetGoals
 from dynamixel_handler.servos import PendingWrites, ServoTable
 from dynamixel_handler.settings import Settings
 
@@ -28,7 +31,8 @@ class FakeAccess:
                 self.table.set_value(item, dxl_id, pulses)
         self.goals: list[dict[str, dict[int, int]]] = []  # put_goals, in order
         self.pending = PendingWrites()  # what put_goals left for the next write
-        self.calls: list[tuple[Any, ...]] = []  # every other request, in order
+        self.calls: list[tuple[Any, ...]] = []  # every other request, in order: (snake_case type, fields but what)
+        self.routes: dict[type, Callable[[Any], Any]] = {}  # the command side's request types
 
     # ------------------------------------------------------------ what is known
     @property
@@ -49,34 +53,32 @@ class FakeAccess:
         return self.table.value(item, dxl_id)
 
     # ------------------------------------------------------------ requests
-    def queue(self, what: str, op: Callable[[], None]) -> None:
-        op()
+    def register(self, kind: type, handler: Callable[[Any], Any]) -> None:
+        self.routes[kind] = handler
 
-    def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
-        self.goals.append({item: dict(values) for item, values in writes.items()})
-        for item, values in writes.items():
-            self.pending.put(item, values)
+    def submit(self, request: Any, what: str = "") -> None:
+        """A queued request: run at once by the handler registered for it (or asked of the core)."""
+        if type(request) in self.routes:
+            self.routes[type(request)](request)
+        else:
+            self.ask(request)
 
-    def change_mode(self, dxl_id: int, mode: str, what: str, warn: Callable[[str], None]) -> str:
-        self.calls.append(("change_mode", dxl_id, mode))
-        self.table.set_value("operating_mode", dxl_id, OPERATING_MODES[mode])
-        return "done"
-
-    def cancel_deferred(self, dxl_id: int) -> None:
-        self.calls.append(("cancel_deferred", dxl_id))
-
-    def defer_mode_change(self, dxl_id: int, what: str, op: Callable[[], None]) -> None:
-        self.calls.append(("defer_mode_change", dxl_id))
+    def ask(self, request: Any) -> Answer:
+        """A core request: goals kept, a mode set; every request but goals recorded."""
+        if isinstance(request, SetGoals):
+            self.goals.append({item: dict(values) for item, values in request.writes.items()})
+            for item, values in request.writes.items():
+                self.pending.put(item, values)
+            return DONE
+        name = re.sub(r"(?<!^)(?=[A-Z])", "_", type(request).__name__).lower()
+        self.calls.append((name, *[getattr(request, f.name) for f in dataclasses.fields(request)
+                                   if f.name not in ("what", "why", "then")]))
+        if isinstance(request, ChangeMode):
+            self.table.set_value("operating_mode", request.dxl_id, OPERATING_MODES[request.mode])
+        return DONE
 
     def read_item(self, dxl_id: int, item: str) -> int | None:
         return self.table.value(item, dxl_id)
-
-    def __getattr__(self, name: str) -> Callable[..., Any]:
-        """Any other request: recorded, answered True."""
-        def request(*args: Any) -> bool:
-            self.calls.append((name, *args))
-            return True
-        return request
 
 
 def warnings_of(access: FakeAccess) -> list[str]:
