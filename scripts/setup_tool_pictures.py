@@ -9,11 +9,14 @@ feed, cursor up, erase line; colours kept) and recorded with rich's ``Console(re
 * ``docs/img/setup_scan.svg``: a full scan (every baud rate, IDs 0-252, Protocol 2.0 and 1.0) of
   five servos at three baud rates, two of them sharing ID 4, and an AX-12A (Protocol 1.0);
 * ``docs/img/setup_monitor.svg``: ``monitor`` of three servos at 1 Mbps, one turning in velocity
-  mode and one with an overheating error.
+  mode and one with an overheating error;
+* ``docs/img/setup_plot.svg``: ``monitor --log`` of two of them for 3 s drawn by the ``plot`` verb
+  (matplotlib), goal against present.
 
 ``--walkthrough`` runs the page's first day instead (three unboxed servos at ID 1: scan, assign-ids
 plugging them in one at a time through the bus's ``add`` command, limits, a mode, info, backup,
-monitor, then the handler for a few seconds) and prints each step's commands with their real
+monitor, a servo replaced and restored, several servos at once, ``--trace``, ``--log``/``--plot``,
+then the handler for a few seconds) and prints each step's commands with their real
 output as the page's console blocks, to paste when the tool's output changes (about 4 minutes).
 
 Usage: ``python scripts/setup_tool_pictures.py [--out docs/img] [--link /tmp/ttyDXL] [--walkthrough]``
@@ -142,6 +145,26 @@ def scan_picture(out: str, link: str) -> None:
     save_svg(f"{TOOL} scan --device {device}", raw, os.path.join(out, "setup_scan.svg"), f"{TOOL} scan")
 
 
+def plot_picture(out: str, link: str) -> None:
+    """``monitor --log --plot``: ID 2 turning in velocity mode, ID 1 holding its goal position."""
+    servos = [(1, 1020, 1_000_000), (2, 1020, 1_000_000), (3, 1120, 1_000_000)]
+    with tempfile.TemporaryDirectory() as folder:
+        proc, device = _bus(servos, folder, link)
+        try:
+            common = ("--device", device, "--baud", "1000000", "--yes")
+            for step in (("set-mode", "2", "velocity"), ("set", "2", "torque_enable", "1"),
+                         ("set", "2", "goal_velocity", "20rpm"), ("set", "1", "torque_enable", "1"),
+                         ("set", "1", "goal_position", "45deg")):
+                subprocess.run(_tool(*step, *common), check=True, capture_output=True, timeout=60)
+            subprocess.run(_tool("monitor", "1,2", "--count", "30", "--rate", "10", "--log",
+                                 os.path.join(folder, "robot.csv"), "--device", device, "--baud", "1000000"),
+                           check=True, capture_output=True, timeout=120)
+            subprocess.run(_tool("plot", os.path.join(folder, "robot.csv"), os.path.join(out, "setup_plot.svg"),
+                                 "position,velocity,current"), check=True, capture_output=True, timeout=120)
+        finally:
+            proc.communicate("quit\n", timeout=30)
+
+
 def monitor_picture(out: str, link: str) -> None:
     servos = [(1, 1020, 1_000_000), (2, 1020, 1_000_000), (3, 1120, 1_000_000)]
     with tempfile.TemporaryDirectory() as folder:
@@ -222,6 +245,14 @@ class FirstDay:
         self.show("handler", f"dynamixel_handler --ros-args --params-file config/config_dynamixel_handler.yaml "
                   f"{' '.join(args)}", output)
 
+    def replacement(self, device: str) -> None:
+        """ID 3 replaced by a new XM540-W270 from the box (ID 1, 57600 bps): restore finds it."""
+        self.bus("remove 3")
+        self.bus("add 1 XM540-W270")
+        self.tool("replace", f"scan {device} --protocol 2 --ids 0-9")
+        self.tool("replace", f"restore robot.yaml {device} --dry-run")
+        self.tool("replace", f"restore robot.yaml {device} --yes")
+
     def run(self) -> dict[str, str]:
         device = f"--device {self.link}"
         at = f"{device} --baud 1000000"
@@ -239,6 +270,14 @@ class FirstDay:
             with open(os.path.join(self.folder, "robot.yaml"), encoding="utf-8") as f:
                 self.show("backup", "head -26 robot.yaml", "".join(f.readlines()[:26]))
             self.tool("monitor", f"monitor --once {at}")
+            self.replacement(device)
+            self.tool("several", f"set 1,2,3 profile_velocity 30rpm {at}")
+            self.tool("several", f"get 1-3 profile_velocity {at}")
+            self.tool("trace", f"get 2 present_position {at} --trace")
+            self.tool("log", f"monitor 1,2 --count 20 --rate 10 --log robot.csv --plot robot.svg position,velocity "
+                      f"{at} --json", lambda out: out.rsplit("\n}", 1)[-1].strip())
+            with open(os.path.join(self.folder, "robot.csv"), encoding="utf-8") as f:
+                self.show("log", "head -3 robot.csv", "".join(f.readlines()[:3]))
             self.handler(8.0)
         finally:
             self.sim.communicate("quit\n", timeout=30)
@@ -256,7 +295,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "..", "docs", "img"))
     ap.add_argument("--link", default="/tmp/ttyDXL", help="the virtual bus's device link (shown in the pictures)")
-    ap.add_argument("--only", choices=("scan", "monitor"))
+    ap.add_argument("--only", choices=("scan", "monitor", "plot"))
     ap.add_argument("--walkthrough", action="store_true",
                     help="print the first day's commands and outputs (docs/setup_tool.md) instead")
     args = ap.parse_args()
@@ -270,6 +309,8 @@ def main() -> int:
         scan_picture(args.out, args.link)
     if args.only in (None, "monitor"):
         monitor_picture(args.out, args.link)
+    if args.only in (None, "plot"):
+        plot_picture(args.out, args.link)
     print(f"pictures written to {os.path.normpath(args.out)}")
     return 0
 

@@ -121,7 +121,9 @@ def _run(ctx: Context, plans: list[Plan]) -> tuple[list[dict[str, Any]], list[st
 
 def _show(ctx: Context, plans: list[Plan], args: argparse.Namespace) -> list[str]:
     """The table of every write (the dry run's answer); returns what will not be done."""
-    ctx.out.table(f"restore from {args.file}", ["ID", "item", "now", "from the file"], _rows(plans))
+    rows = _rows(plans)
+    if rows:
+        ctx.out.table(f"restore from {args.file}", ["ID", "item", "now", "from the file"], rows)
     ctx.out.document.update(file=args.file, dry_run=bool(args.dry_run), servos=[plan_doc(p) for p in plans],
                             changes=[{"id": p.entry.dxl_id, "item": i, "now": n, "file": f}
                                      for p in plans for i, n, f in p.writes()])
@@ -147,8 +149,9 @@ def restore(ctx: Context, args: argparse.Namespace) -> None:
         return
     if writes:
         ctx.confirm(_question(plans, writes))
-    else:
+    elif not skipped:
         ctx.out.say(f"every servo already matches {args.file}: nothing written")
+        return
     report, failures = _run(ctx, plans)
     ctx.out.document.update(servos=report)
     written = sum(len(r["written"]) for r in report)
