@@ -8,7 +8,8 @@ and a 100,000-entry X bundle; 100 messages/s naming 253 unknown IDs; 100 refused
 second; a 100 kB shortcut string at 10 Hz; 1,000 + 1,000 command messages a second; 20 servos at
 9600 bps at loop_rate 100; SIGINT during a 1000-retry scan and in the loop. The doors added later
 have their cases in bench/abuse_<door>.py (services, trajectory, core, timing: see DOORS), run here
-with --cases NAME or all by default. Per case it prints the
+with --cases NAME or all by default; the crowd (1,000 clients at each door, abuse_crowd.py) only with
+--cases crowd. Per case it prints the
 loop rate and the longest gap between two loops (from the simulator's log of the node's reads),
 log lines a second, bus watchdog trips, and the node's RSS, threads and file descriptors before
 and after. The results go to docs/reliability.md by hand. Not part of the test suite.
@@ -41,7 +42,10 @@ DOORS = {
     "trajectory": "follow_joint_trajectory: huge goals, a vanishing device; joint_commands at 1 kHz, huge messages",
     "core": "log floods, reboot/add/remove floods, a short bus watchdog, a vanished and returning adapter",
     "timing": "SIGTERM in a mode-change burst, a slow bus after a mode burst",
+    "crowd": "1,000 clients (4 processes x 250) at one instant at each door, deep and default queues",
 }
+#: doors run only when named in --cases (the crowd takes several minutes)
+OPT_IN = ("crowd",)
 
 
 # ---------------------------------------------------------------------------- publisher processes
@@ -229,7 +233,7 @@ def door_main(doc: str | None, run, publish, seconds: float) -> int:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=10.0, help="length of each load case [s]")
-    ap.add_argument("--cases", default="commands,slow,scan," + ",".join(DOORS),
+    ap.add_argument("--cases", default="commands,slow,scan," + ",".join(d for d in DOORS if d not in OPT_IN),
                     help="which parts: commands (all command cases), load (the command load alone), slow, scan, "
                          "and the later doors: " + ", ".join(f"{k} ({v})" for k, v in DOORS.items()))
     ap.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)

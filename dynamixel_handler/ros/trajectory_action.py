@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import threading
 import time
 from typing import Any
 
@@ -37,8 +38,11 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from ..commands import trajectory as tr
+from ..commands.moves import MAX_JOBS
+from ..logs import Throttle
 from .convert import stamp_of
 from .joint_commands import BAD_JOINTS, TrajectoryRefused, duration_s
+from .services import QOS
 
 #: feedback messages per second while a goal runs (at most one per read of the positions)
 FEEDBACK_HZ = 20.0
@@ -59,12 +63,38 @@ class TrajectoryAction:
         self.commands = commands
         self.follower = commands.follower
         self.log = node.get_logger()
+        self.warn = Throttle(self.log.warning)
+        self._lock = threading.Lock()
+        self.waiting = 0  # goals accepted and not yet ended
+        # the goal, result and cancel services keep as many requests as the other doors (rclpy's
+        # default is 10: a crowd of clients lost most of its goals unanswered)
         self.server = ActionServer(node, FollowJointTrajectory, "~/follow_joint_trajectory",
-                                   execute_callback=self._execute, goal_callback=lambda _g: GoalResponse.ACCEPT,
+                                   execute_callback=self._execute, goal_callback=self._accept,
                                    cancel_callback=lambda _g: CancelResponse.ACCEPT,
-                                   callback_group=ReentrantCallbackGroup())
+                                   callback_group=ReentrantCallbackGroup(), goal_service_qos_profile=QOS,
+                                   result_service_qos_profile=QOS, cancel_service_qos_profile=QOS)
+
+    def _accept(self, _goal) -> GoalResponse:
+        """A goal is taken while fewer than MAX_JOBS wait (as the services' requests); beyond, it
+        is rejected at once with a line, so a crowd's callers hear at once instead of timing out."""
+        with self._lock:
+            if self.waiting >= MAX_JOBS:
+                full = self.waiting
+            else:
+                self.waiting += 1
+                return GoalResponse.ACCEPT
+        self.warn(f"follow_joint_trajectory: {full} goals are waiting already: goal rejected (try again later)",
+                  "trajectory queue full")
+        return GoalResponse.REJECT
 
     def _execute(self, goal_handle) -> FollowJointTrajectory.Result:
+        try:
+            return self._follow(goal_handle)
+        finally:
+            with self._lock:
+                self.waiting -= 1
+
+    def _follow(self, goal_handle) -> FollowJointTrajectory.Result:
         g = goal_handle.request
         result = FollowJointTrajectory.Result()
         job, refused = self._job(g)
