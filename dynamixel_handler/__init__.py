@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from .bus import BusError, DynamixelBus
     from .commands import Commander, CommandPaths
     from .config import Config, ConfigError, validate
-    from .loop import Handler, StepReport
+    from .core.handler import Handler, StepReport
     from .runner import Hooks, Runner
     from .settings import (
         BusSettings,
@@ -42,7 +42,7 @@ __version__ = "0.1.0"
 
 #: name -> the module (relative to the package) it is imported from when first used
 _LAZY = {
-    "Handler": "loop", "StepReport": "loop", "Runner": "runner", "Hooks": "runner", "Commander": "commands",
+    "Handler": "core.handler", "StepReport": "core.handler", "Runner": "runner", "Hooks": "runner", "Commander": "commands",
     "CommandPaths": "commands",
     "DynamixelBus": "bus", "BusError": "bus", "VirtualBus": "sim",
     "Config": "config", "ConfigError": "config", "validate": "config",

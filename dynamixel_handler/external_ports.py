@@ -10,9 +10,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
+from .core.handler import Handler
 from .core.request_types import WriteEeprom, WriteItem
 from .groups import due
-from .loop import Handler
 from .servos import ServoTable
 from .settings import ExternalPortSettings
 

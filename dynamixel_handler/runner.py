@@ -28,8 +28,8 @@ from dataclasses import dataclass
 from typing import Callable, Protocol
 
 from .bus.api import StatsWire
+from .core.handler import StepReport
 from .external_ports import ExternalPorts, PortReading
-from .loop import StepReport
 from .loop_stats import LoopStats, StatsCore
 from .timing import set_timer_slack
 

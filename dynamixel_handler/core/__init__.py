@@ -1,1 +1,1 @@
-"""The handler's rooms, one job each; ``dynamixel_handler.loop.Handler`` composes them."""
+"""The handler's rooms, one job each; ``handler.Handler`` composes them."""

@@ -12,8 +12,8 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
+from ..core.handler import StepReport
 from ..health import BusSample, Health, bus_health, servo_health, silent_count
-from ..loop import StepReport
 from .lean import lean_publisher
 
 

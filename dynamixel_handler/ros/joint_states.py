@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from sensor_msgs.msg import JointState
 
+from ..core.handler import StepReport
 from ..joints import JointMap, joint_map, read_joints, unhandled
-from ..loop import StepReport
 from .convert import f64, stamp_of
 from .lean import lean_publisher
 

@@ -24,8 +24,8 @@ from lifecycle_msgs.srv import ChangeState
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from ..bus import BusError
+from ..core.handler import StartupError
 from ..core.request_types import TorqueOff, TorqueOn
-from ..loop import StartupError
 from . import fastpath
 from .node import DynamixelHandlerNode, run
 

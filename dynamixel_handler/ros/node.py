@@ -24,10 +24,10 @@ from dynamixel_handler_msgs.msg import DxlExternalPort
 from .. import serial_ports
 from ..bus import BusError, DynamixelBus
 from ..commands import Commander
+from ..core.handler import Handler, StepReport
 from ..dummy import BusWithDummies, make_dummies
 from ..errors import StartupError
 from ..external_ports import ExternalPorts, PortReading
-from ..loop import Handler, StepReport
 from ..runner import Hooks, Runner, log_exception
 from ..tools.baudrate import search_rates, unify_baudrate
 from . import diagnostics, fastpath, joint_commands, joint_states, services

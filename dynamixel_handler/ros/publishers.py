@@ -20,7 +20,7 @@ from dynamixel_handler_msgs.msg import (
     DynamixelStatus,
 )
 
-from ..loop import StepReport
+from ..core.handler import StepReport
 from . import convert
 from .cdr import _put_array, _put_message, _put_strings
 from .lean import Patcher, TreePublisher, _patch_scalar

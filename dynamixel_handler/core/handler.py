@@ -1,0 +1,356 @@
+"""The handler's life on the bus: start-up, one loop step, shutdown. ROS-free.
+
+``Handler`` is a front over parts with one job each (``dynamixel_handler/core``), each an object
+with its own state that is given what it needs (the bus, the servo table, the pending writes, its
+slice of the parameters, the log) and the other parts it calls:
+
+    servo_io     ServoIO: one servo at a time: read/write an item, its mode, torque on without a jump
+    group_io     GroupIO: one item of many servos in one sync write or read per layout
+    pacing       Pacing: while bus watchdogs are armed, reads cut and mode changes spread over loops;
+                 a stop drops the rest
+    read_plan    ReadPlan: pub ratios -> the items due -> sync reads per control-table layout; replies
+                 gathered and stored
+    write_batch  WriteBatch: pending values -> one sync write per item, built ahead and sent in one go
+    deferred     Deferred: EEPROM writes spared and coalesced, mode changes asked for too soon, the
+                 operation queue
+    watchdog     Watchdog: the bus watchdog time from the loop period; arming, clearing, trips
+    recovery     Recovery: reboot, a vanished device reopened, silent servos marked and removed
+    startup      Startup: scan, expected count, the set-up every servo gets (also add_id)
+    requests     Requests: what commands may ask, checked: goals, a mode change, an error clear
+    step         Step: one loop step in four phases (prepare, send, complete, finish), read logs
+    shutdown     Shutdown: the servos left as term/* say
+    state        StepReport: what one loop step did
+    log_limits   LogLimits, PingLog: lines that can repeat, at most one a second per cause and servo
+
+``Handler.step()`` runs queued operations (torque, mode, reboot...), writes pending values in
+grouped sync writes, reads what the ratios ask for this loop, and returns a ``StepReport`` that
+says which groups were read. The ROS layer turns the table into messages. The parts read typed
+settings (``dynamixel_handler.settings``), handed out in one place (``_settings`` below): each
+part gets its slice, again whenever ``settings`` is replaced.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Any, Callable, Protocol, TypeVar
+
+from ..bus import PreparedWrite, ServoBus
+from ..config import Config
+from ..control_table import OPERATING_MODES, Model
+from ..errors import Interrupted, StartupError
+from ..servos import PendingWrites, ServoTable
+from ..settings import LoopSettings, Settings, TermSettings
+from .api import ServoAccess
+from .deferred import EEPROM_WRITE_INTERVAL_S, Deferred
+from .group_io import GroupIO
+from .intake import Intake
+from .log_limits import LogLimits
+from .pacing import Pacing
+from .read_plan import ReadPlan, ReadSettings, every
+from .recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S, Recovery
+from .request_types import (
+    AddServo,
+    Answer,
+    CancelDeferred,
+    ChangeMode,
+    ClearError,
+    DeferModeChange,
+    Reboot,
+    RemoveServo,
+    SetGoals,
+    SetUserWatchdog,
+    TorqueOff,
+    TorqueOn,
+    WantHandled,
+    WriteEeprom,
+    WriteItem,
+    answer,
+)
+from .requests import Requests
+from .servo_io import Log, ServoIO
+from .shutdown import Shutdown
+from .startup import Startup, StartupSettings
+from .state import RECHECK_LOOPS, StepReport, recheck_loops
+from .step import Step, StepSettings
+from .watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED, Watchdog, WatchdogSettings
+from .write_batch import WriteBatch
+
+
+@dataclass(frozen=True)
+class _PartSettings:
+    """What each part reads of the settings."""
+
+    reads: ReadSettings
+    watchdog: WatchdogSettings
+    loop: LoopSettings          # Recovery and Requests: the intervals, the removal count
+    startup: StartupSettings
+    step: StepSettings
+    term: TermSettings          # Shutdown
+    split_write: bool           # WriteBatch
+
+
+def _settings(s: Settings) -> _PartSettings:
+    """Each part's slice of the typed settings (the one place that hands them out)."""
+    return _PartSettings(
+        reads=ReadSettings(s.ratios, s.method.fast_read, s.method.split_read),
+        watchdog=WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
+                                  s.term.servo_auto_stop),
+        loop=s.loop,
+        startup=StartupSettings(s.scan, s.start, s.loop.debug),
+        step=StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
+        term=s.term,
+        split_write=s.method.split_write,
+    )
+
+
+class _Logs(Protocol):
+    log: Log
+
+
+R = TypeVar("R")
+
+
+def _core_routes(h: Handler) -> dict[type, Callable[[Any], Answer | None]]:
+    """The table from each core request type to the part that does it."""
+    return {
+        SetGoals: h.requests.put_goals,
+        ChangeMode: h.requests.change_mode,
+        DeferModeChange: h.requests.defer_mode_change,
+        CancelDeferred: h.requests.cancel_deferred,
+        ClearError: h.requests.clear_error,
+        TorqueOn: lambda r: answer(h.io.torque_on(r.dxl_id)),
+        TorqueOff: lambda r: answer(h.io.torque_off(r.dxl_id)),
+        WriteItem: lambda r: answer(h.io.write_item(r.dxl_id, r.item, r.pulses)),
+        WriteEeprom: lambda r: answer(h.work.write_eeprom(r.dxl_id, r.item, r.pulses)),
+        Reboot: lambda r: answer(h.recovery.reboot(r.dxl_id)),
+        AddServo: lambda r: answer(h.startup.add_id(r.dxl_id), f"ID {r.dxl_id} not added"),
+        RemoveServo: lambda r: h.remove_id(r.dxl_id),
+        WantHandled: lambda r: h.startup.want_handled(r.dxl_id, r.handled),
+        SetUserWatchdog: lambda r: h.watchdog.set_user(r.dxl_id, r.pulses),
+    }
+
+
+class Handler:
+    """Owns the servos of one bus: ``start()``, then ``step()`` (or its phases) every loop, then
+    ``shutdown()``. Commands reach it as request values (``core.request_types``): queued for the
+    loop thread (``submit``) or done at once in it (``ask``), each handed by the ``Intake``'s table
+    to the part that does it; goals end as pending writes (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
+    by handing each call to the part that does it. ``tripped_once`` False: every goal command looks
+    for tripped bus watchdogs servo by servo (for tests and comparisons). ``settings``: the typed
+    settings, or the validated parameters (``config.validate``) they are taken from."""
+
+    def __init__(self, bus: ServoBus, settings: Settings | Config, logger: Log | None = None, *,
+                 tripped_once: bool = True) -> None:
+        self.bus = bus
+        self.table = ServoTable()
+        self.pending = PendingWrites()
+        self._log: Log = logger or logging.getLogger("dynamixel_handler")
+        self._settings = settings.settings if isinstance(settings, Config) else settings
+        s = _settings(self._settings)
+        log = self._log
+        #: why operations are not taken now (a lifecycle node that is not active); None: they are
+        self.refuse_ops: str | None = None
+        #: true once the node is asked to exit: start-up (scan, set-up) stops between two steps
+        self.interrupted: Callable[[], bool] = lambda: False
+        stopping = self._stopping
+        self.io = ServoIO(bus, self.table, log)
+        self.group = GroupIO(bus, self.table, log)
+        self.pacing = Pacing(bus, self.table, stopping)
+        self.reads = ReadPlan(bus, self.table, log, self.pacing, s.reads)
+        self.writes = WriteBatch(bus, self.table, self.pending, log, s.split_write)
+        self.watchdog = Watchdog(self.table, log, self.io, self.group, s.watchdog, tripped_once)
+        self.work = Deferred(self.table, log, self.io)
+        self.intake = Intake(log)
+        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s.loop, self._set_up, self.remove_id)
+        self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s.startup,
+                               stopping)
+        self.requests = Requests(self.table, self.pending, log, self.io, self.watchdog, self.pacing, self.work,
+                                 self.recovery, s.loop)
+        self.steps = Step(bus, self.table, log, self.reads, self.writes, self.pacing, self.watchdog, self.recovery,
+                          self.work, self.intake, self.startup, self.remove_id, s.step)
+        self.ending = Shutdown(bus, self.table, log, self.io, self.group, s.term)
+        self._parts: tuple[_Logs, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
+                                        self.intake, self.recovery, self.startup, self.requests, self.steps,
+                                        self.ending)
+        self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
+        for kind, route in _core_routes(self).items():
+            self.intake.register(kind, route)
+
+    def _stopping(self) -> bool:
+        return self.interrupted()
+
+    def _set_up(self, dxl_id: int) -> None:
+        self.startup.setup_servo(dxl_id)
+
+    # ---------------------------------------------------------------- what every part shares
+    @property
+    def settings(self) -> Settings:
+        return self._settings
+
+    @settings.setter
+    def settings(self, settings: Settings) -> None:
+        """New settings (replaced as a whole): each part gets its new slice."""
+        self._settings = settings
+        s = _settings(settings)
+        self.reads.settings, self.watchdog.settings, self.startup.settings = s.reads, s.watchdog, s.startup
+        self.recovery.settings = self.requests.settings = s.loop
+        self.steps.settings, self.ending.settings = s.step, s.term
+        self.writes.split_write = s.split_write
+
+    @property
+    def log(self) -> Log:
+        return self._log
+
+    @log.setter
+    def log(self, log: Log) -> None:
+        self._log = log
+        for part in self._parts:
+            part.log = log
+
+    # ---------------------------------------------------------------- life on the bus
+    def start(self) -> None:
+        """Scan, keep the servos of the used series, and set each up as the parameters say."""
+        self.recovery.had_device = self.bus.is_open
+        self.startup.start()
+
+    def shutdown(self) -> None:
+        """Leave the servos as term/* say (``core.shutdown``)."""
+        dropped = self.pacing.dropped_mode_changes | set(self.work.deferred)
+        self.ending.shutdown(dropped, set(self.watchdog.user))
+
+    def step(self) -> StepReport:
+        return self.steps.step()
+
+    def begin_step(self) -> StepReport:
+        return self.steps.begin_step()
+
+    def prepare(self, report: StepReport) -> None:
+        self.steps.prepare(report)
+
+    def apply_now(self) -> None:
+        self.steps.apply_now()
+
+    def encode_writes(self) -> None:
+        self.writes.encode_writes()
+
+    def send_step(self, report: StepReport) -> None:
+        self.steps.send_step(report)
+
+    def send_writes(self, report: StepReport) -> None:
+        self.writes.send()
+
+    def send_reads(self, report: StepReport) -> None:
+        self.steps.send_reads(report)
+
+    def await_replies(self, report: StepReport) -> None:
+        self.steps.await_replies(report)
+
+    def complete_step(self, report: StepReport) -> None:
+        self.steps.complete_step(report)
+
+    def finish_step(self, report: StepReport) -> None:
+        self.steps.finish_step(report)
+
+    @property
+    def writes_ready(self) -> list[PreparedWrite]:
+        return self.writes.writes_ready
+
+    @property
+    def reply_eta(self) -> float | None:
+        return self.bus.inflight_eta
+
+    @property
+    def loop_count(self) -> int:
+        return self.steps.loop_count
+
+    @property
+    def recheck_loops(self) -> int:
+        return self.steps.settings.recheck_loops
+
+    def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
+        return self.reads.due_items(loop)
+
+    # ---------------------------------------------------------------- figures
+    @property
+    def loop_period_s(self) -> float:
+        return self.watchdog.loop_period_s
+
+    def note_loop_period(self, seconds: float) -> None:
+        self.watchdog.note_loop_period(seconds)
+
+    def estimate_loop_s(self) -> float:
+        """The loop period before one is measured: the wire time of a loop's reads."""
+        return self.reads.wire_s_per_loop()
+
+    @property
+    def device_lost(self) -> bool:
+        return self.recovery.device_lost
+
+    @property
+    def device_lost_since(self) -> float | None:
+        return self.recovery.device_lost_since
+
+    @property
+    def reconnects(self) -> int:
+        return self.recovery.reconnects
+
+    @property
+    def watchdog_trips(self) -> int:
+        return self.watchdog.trips
+
+    # ---------------------------------------------------------------- ServoAccess: what is known
+    @property
+    def handled_ids(self) -> list[int]:
+        return list(self.table.ids)
+
+    def handles(self, dxl_id: int) -> bool:
+        return dxl_id in self.table
+
+    def model(self, dxl_id: int) -> Model:
+        return self.table.model(dxl_id)
+
+    def mode(self, dxl_id: int) -> str | None:
+        return self.io.mode(dxl_id)
+
+    def value(self, dxl_id: int, item: str) -> int | None:
+        return self.io.value(dxl_id, item)
+
+    # ---------------------------------------------------------------- ServoAccess: requests
+    def submit(self, request: object, what: str = "") -> None:
+        self.intake.submit(request, what)
+
+    def ask(self, request: object) -> Answer:
+        return self.intake.ask(request)
+
+    def register(self, kind: type[R], handler: Callable[[R], Answer | None]) -> None:
+        self.intake.register(kind, handler)
+
+    def drop_ops(self) -> int:
+        return self.intake.drop()
+
+    def read_item(self, dxl_id: int, item: str) -> int | None:
+        return self.io.read_item(dxl_id, item)
+
+    def remove_id(self, dxl_id: int) -> None:
+        """Stop handling the servo: every part forgets it."""
+        if dxl_id in self.table:
+            self.table.remove(dxl_id)
+            self.pending.drop_ids([dxl_id])
+            self.work.forget(dxl_id)
+            self.watchdog.forget(dxl_id)
+            self.recovery.forget(dxl_id)
+            self._limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")
+
+
+def _as_servo_access(handler: Handler) -> ServoAccess:
+    """The type checker holds ``Handler`` to ``ServoAccess`` here."""
+    return handler
+
+
+def mode_value(name: str, model: Model | None = None) -> int:
+    """The Operating Mode register value of a mode (on ``model``: its own values, e.g. XL-320)."""
+    return (model.mode_values if model is not None else OPERATING_MODES)[name]
+
+
+__all__ = ["EEPROM_WRITE_INTERVAL_S", "Handler", "Interrupted", "RECHECK_LOOPS", "RECONNECT_INTERVAL_S", "REBOOT_WAIT_S",
+           "StartupError", "StepReport", "WATCHDOG_MAX_MS", "WATCHDOG_MODES", "WATCHDOG_TRIPPED", "mode_value"]
