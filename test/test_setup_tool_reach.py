@@ -10,9 +10,16 @@ import json
 import time
 
 import pytest
-from test_setup_tool import BAUD_RATE_ADDR, XL330, XM430, XM540, Sim, sdk_ping, sdk_read, sdk_write1, sdk_write4, tool
+from test_setup_tool import BAUD_RATE_ADDR, XL330, XM430, XM540, Sim, sdk_ping, sdk_read, sdk_write1, sdk_write4
+from test_setup_tool import tool as _tool
 
 LED, HW_ERROR, GOAL_POSITION, PRESENT_POSITION = 65, 70, 116, 132  # X series (ROBOTIS e-Manual)
+
+
+
+def tool(sim: Sim, *args: str, stdin: str = "", timeout: float = 60.0):
+    """The tool as a process, with reply timeouts and retries for a loaded host (a 30 ms latency timer, 5 retries)."""
+    return _tool(sim, *args, "--latency", "30", "--retries", "5", stdin=stdin, timeout=timeout)
 
 
 @pytest.fixture
@@ -127,6 +134,14 @@ def test_every_verb_names_a_servo_by_id_in_one_json_shape(bus, tmp_path):
             assert sorted(s["id"] for s in servos) == [1, 2], (args, out.stdout)
             assert all({"id", "model", "model_number", "baudrate"} <= set(s) for s in servos), (args, out.stdout)
     assert sdk_ping(sim.path, 57600, 1) == XM430 and sdk_ping(sim.path, 57600, 2) == XM540
+    for args in (("info", "1"), ("get", "1", "id"), ("set", "1", "led", "1"), ("set-mode", "1", "velocity"),
+                 ("set-id", "1", "4"), ("set-baud", "4", "1M"), ("factory-reset", "4", "--keep", "id,baud")):
+        out = tool(sim, *args, "--json", "--yes")
+        assert out.returncode == 0, (args, out.text)
+        doc = json.loads(out.stdout)
+        assert "dxl_id" not in _keys(doc) and doc["model"] == "XM430-W350" and doc["model_number"] == XM430, (args, doc)
+        assert doc["id"] in (1, 4) and doc["baudrate"] in (57600, 1_000_000), (args, doc)
+    assert sdk_ping(sim.path, 1_000_000, 4) == XM430
 
 
 # ---------------------------------------------------------------------- --trace

@@ -9,11 +9,18 @@ import os
 import signal
 
 import pytest
-from test_setup_tool import BAUD_RATE_ADDR, MAX_POSITION_ADDR, XM540, Sim, sdk_bytes, sdk_ping, sdk_read, sdk_write1, sdk_write4, tool
+from test_setup_tool import BAUD_RATE_ADDR, MAX_POSITION_ADDR, XM540, Sim, sdk_bytes, sdk_ping, sdk_read, sdk_write1, sdk_write4
+from test_setup_tool import tool as _tool
 from test_setup_tool_safety import Paused
 
 RETURN_DELAY, TEMPERATURE_LIMIT, TORQUE = 9, 31, 64  # X series (ROBOTIS e-Manual)
 EEPROM = (0, 64)  # X series EEPROM area
+
+
+
+def tool(sim: Sim, *args: str, stdin: str = "", timeout: float = 60.0):
+    """The tool as a process, with reply timeouts and retries for a loaded host (a 30 ms latency timer, 5 retries)."""
+    return _tool(sim, *args, "--latency", "30", "--retries", "5", stdin=stdin, timeout=timeout)
 
 
 @pytest.fixture

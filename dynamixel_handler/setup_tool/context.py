@@ -10,6 +10,7 @@ from .errors import StepFailed
 from .find import Found, Placed, Search
 from .output import Output
 from .servo import Servo
+from .values import servo_doc
 
 __all__ = ["Context"]
 
@@ -36,8 +37,12 @@ class Context:
         self.search = Search(self.bus, self.baud_given)
 
     def servo(self, dxl_id: int) -> Servo:
-        """The servo at ``dxl_id`` (at any rate unless ``--baud``), the bus at its rate."""
-        return self.search.one(dxl_id)
+        """The servo at ``dxl_id`` (at any rate unless ``--baud``), the bus at its rate. The JSON
+        document starts with it in the shape of a servo in every verb (``id``, ``model``,
+        ``model_number``, ``baudrate``; a verb that moves it updates ``id`` or ``baudrate``)."""
+        servo = self.search.one(dxl_id)
+        self.out.document.update(servo_doc(servo.dxl_id, servo.model, self.bus.baudrate))
+        return servo
 
     def servos(self, ids: Sequence[int] | None) -> Found:
         """The servos at ``ids`` (None: every servo on the bus, StepFailed when none answers); each

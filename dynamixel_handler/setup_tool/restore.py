@@ -27,7 +27,7 @@ def _rows(plans: list[Plan]) -> list[list[object]]:
         if plan.problem:
             rows.append([plan.entry.dxl_id, "-", "", f"not restored: {plan.problem}"])
             continue
-        for item, now, new in plan.writes():
+        for item, now, new in plan.shown():
             rows.append([plan.entry.dxl_id, item, now, new])
         for why in plan.refused:
             rows.append([plan.entry.dxl_id, why.split(" ", 1)[0], "", f"not written: {why.split(': ', 1)[-1]}"])

@@ -48,18 +48,23 @@ class Plan:
     def target_bps(self) -> int:
         return self.entry.baudrate or self.baudrate
 
-    def writes(self) -> list[tuple[str, str, str]]:
-        """(item, now, new) of every write in the order they are made: ID, rate, then the items."""
+    def writes(self) -> list[tuple[str, int, int]]:
+        """(item, now, from the file), raw, of every write in the order they are made: ID, rate, items."""
         model = self.entry.model
         rows = []
         if self.servo is not None and self.servo.dxl_id != self.entry.dxl_id:
-            rows.append(("id", str(self.servo.dxl_id), str(self.entry.dxl_id)))
+            rows.append(("id", self.servo.dxl_id, self.entry.dxl_id))
         if self.move_baud is not None:
-            item = model.item("baud_rate")
             now = {bps: raw for raw, bps in model.baud_rates.items()}.get(self.baudrate, -1)
-            rows.append(("baud_rate", show_value(model, item, now), show_value(model, item, self.move_baud)))
-        rows += [(item.name, show_value(model, item, now), show_value(model, item, raw)) for item, now, raw in self.changes]
+            rows.append(("baud_rate", now, self.move_baud))
+        rows += [(item.name, now, raw) for item, now, raw in self.changes]
         return rows
+
+    def shown(self) -> list[tuple[str, str, str]]:
+        """``writes`` as a person reads them (units, codes by name)."""
+        model = self.entry.model
+        return [(name, show_value(model, model.item(name), now), show_value(model, model.item(name), new))
+                for name, now, new in self.writes()]
 
 
 def _present(servo: Servo) -> dict[str, int]:
@@ -209,5 +214,6 @@ def plan_doc(plan: Plan) -> dict[str, Any]:
     return servo_doc(plan.entry.dxl_id, plan.entry.model, after,
                      found_at={"id": plan.servo.dxl_id, "baudrate": plan.baudrate} if plan.servo else None,
                      replacement=plan.replacement, problem=plan.problem or None,
-                     writes=[{"item": i, "now": n, "file": f} for i, n, f in plan.writes()],
+                     writes=[{"item": i, "now": n, "file": f, "now_text": nt, "file_text": ft}
+                             for (i, n, f), (_, nt, ft) in zip(plan.writes(), plan.shown())],
                      not_written=list(plan.refused))

@@ -275,8 +275,8 @@ class _Assigner:
         was, servo = got
         self.known.add((next_id, self.target))
         self.taken.add(next_id)
-        self.assigned.append({"id": next_id, "model": servo.model.name, "was_id": was.dxl_id,
-                              "was_baudrate": was.baudrate})
+        self.assigned.append(servo_doc(next_id, servo.model, self.target, was_id=was.dxl_id,
+                                       was_baudrate=was.baudrate))
         ctx.out.say(f"{servo.model.name}: ID {was.dxl_id} at {was.baudrate} bps -> ID {next_id} at {self.target} bps, "
                     "verified")
 
