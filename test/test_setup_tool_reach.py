@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import time
 
 import pytest
@@ -183,14 +184,16 @@ def test_monitor_logs_csv_rows_and_plots_goal_against_present(bus, tmp_path):
     svg = picture.read_text()
     assert "<svg" in svg and "position" in svg and "current" in svg, svg[:300]
 
-    again = tmp_path / "p.svg"
+    again, fifo = tmp_path / "p.svg", tmp_path / "fifo"
+    os.mkfifo(fifo)  # opened, it would wait for the other end: refused instead
     out = tool(sim, "plot", str(log), str(again), "velocity")
     assert out.returncode == 0 and again.read_text().lstrip().startswith("<?xml"), out.text
     for args in (("plot", str(log), str(tmp_path / "no" / "such" / "dir.svg")),
                  ("monitor", "--once", "--log", str(tmp_path / "no" / "x.csv")),
                  ("monitor", "--once", "--plot", str(tmp_path / "no" / "x.svg")),
                  ("plot", str(tmp_path / "missing.csv"), str(again)),
-                 ("plot", str(log), str(again), "torque_of_the_moon")):
+                 ("plot", str(log), str(again), "torque_of_the_moon"), ("plot", str(fifo), str(again)),
+                 ("monitor", "--once", "--log", str(fifo)), ("backup", str(fifo))):
         out = tool(sim, *args)
         lines = [line for line in out.stderr.splitlines() if line.strip()]
         assert out.returncode in (1, 2) and len(lines) == 1 and lines[0].startswith("error: "), (args, out.text)

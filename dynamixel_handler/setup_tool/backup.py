@@ -9,7 +9,8 @@ import datetime
 from .context import Context
 from .errors import StepFailed
 from .items import to_unit, unit_of
-from .restore_file import kept
+from .plot import check_writable
+from .restore_file import present
 from .servo import Servo
 from .values import number, servo_doc
 
@@ -23,16 +24,16 @@ def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
     if firmware is not None:
         lines.append(f"    firmware: {firmware}")
     lines.append("    eeprom:")
-    for item in sorted(model.items.values(), key=lambda i: i.address):
-        if kept(item):
-            raw = servo.read(item.name)
-            value = to_unit(model, item, raw)
-            note = f"  # {number(value, 6)} {unit_of(model, item)}" if value is not None else ""
-            lines.append(f"      {item.name}: {raw}{note}")
+    for name, raw in present(servo).items():
+        item = model.item(name)
+        value = to_unit(model, item, raw)
+        note = f"  # {number(value, 6)} {unit_of(model, item)}" if value is not None else ""
+        lines.append(f"      {item.name}: {raw}{note}")
     return lines
 
 
 def backup(ctx: Context, args: argparse.Namespace) -> None:
+    check_writable(args.file, "backup")  # before the search: a path that cannot be written is said at once
     lines = ["# dynamixel_handler_setup backup: each servo by its ID, with its model, baud rate and EEPROM items",
              "# (raw register values; the physical value in the comment). Edit a value to change it: restore",
              "# checks every value first, writes only what differs and reads it back; a servo not found at its",

@@ -72,7 +72,7 @@ class Search:
             return self.bus.scan(ids, broadcast=True)
         answered = {}
         for dxl_id in ids:
-            model = self.bus.ping_result(dxl_id, retries=1).value
+            model = self.bus.ping_result(dxl_id).value  # retried as --retries says
             if model is not None:
                 answered[dxl_id] = model
         return answered

@@ -6,9 +6,10 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import stat
 from typing import Any, Sequence
 
-from .errors import BadArguments, StepFailed
+from .errors import BadArguments, StepFailed, cut
 from .samples import FIELDS, CsvLog
 
 __all__ = ["ITEMS", "parse_items", "check_writable", "draw", "plot", "series_of"]
@@ -42,11 +43,13 @@ def check_writable(path: str, option: str) -> None:
     """One line (exit 1) when ``path`` cannot be written, before the bus is used (a file that was
     not there is not left behind)."""
     existed = os.path.lexists(path)
+    if existed and os.path.exists(path) and not stat.S_ISREG(os.stat(path).st_mode):
+        raise StepFailed(f"{option} {cut(path)}: not a regular file (a FIFO, a device or a folder): refused")
     try:
         with open(path, "a", encoding="utf-8"):
             pass
     except OSError as exc:
-        raise StepFailed(f"{option} {path}: cannot write it: {exc.strerror}") from None
+        raise StepFailed(f"{option} {cut(path)}: cannot write it: {exc.strerror}") from None
     if not existed:
         os.unlink(path)
 
@@ -72,14 +75,16 @@ def series_of(samples: Sequence[tuple[float, dict[str, Any]]]) -> Series:
 def read_csv(path: str) -> Series:
     """The series of a ``monitor --log`` file; BadArguments when it is not one."""
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would wait for a writer
+            raise BadArguments(f"{cut(path)} is not a regular file (a FIFO, a device or a folder): refused")
         with open(path, newline="", encoding="utf-8") as handle:
             rows = list(csv.DictReader(handle))
     except OSError as exc:
-        raise BadArguments(f"cannot read {path}: {exc.strerror}") from None
+        raise BadArguments(f"cannot read {cut(path)}: {exc.strerror}") from None
     except (UnicodeDecodeError, csv.Error) as exc:
-        raise BadArguments(f"{path} is not a monitor --log file: {str(exc)[:80]}") from None
+        raise BadArguments(f"{cut(path)} is not a monitor --log file: {str(exc)[:80]}") from None
     if not rows or "time_s" not in rows[0] or "id" not in rows[0]:
-        raise BadArguments(f"{path} is not a monitor --log file (no time_s and id columns)")
+        raise BadArguments(f"{cut(path)} is not a monitor --log file (no time_s and id columns)")
     columns = {key: col for (key, _, _), col in zip(FIELDS, CsvLog.COLUMNS[8:])}
     samples = []
     for row in rows:
@@ -102,7 +107,7 @@ def draw(series: Series, items: Sequence[str], path: str, title: str) -> None:
 
     ids = sorted({dxl_id for dxl_id, _ in series})
     if not ids:
-        raise StepFailed(f"nothing to plot in {path}: no servo answered")
+        raise StepFailed(f"nothing to plot in {cut(path)}: no servo answered")
     figure, axes = pyplot.subplots(len(items), 1, figsize=(9, 2.4 * len(items) + 0.6), sharex=True, squeeze=False)
     colours = pyplot.rcParams["axes.prop_cycle"].by_key()["color"]
     for axis, name in zip(axes[:, 0], items):
@@ -123,7 +128,7 @@ def draw(series: Series, items: Sequence[str], path: str, title: str) -> None:
     try:
         figure.savefig(path, format="svg")
     except OSError as exc:
-        raise StepFailed(f"cannot write {path}: {exc.strerror}") from None
+        raise StepFailed(f"cannot write {cut(path)}: {exc.strerror}") from None
     finally:
         pyplot.close(figure)
 

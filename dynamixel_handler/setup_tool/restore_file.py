@@ -17,8 +17,9 @@ from ..control_table import Item, Model, model_by_number
 from .checks import problems
 from .errors import BadArguments, cut
 from .items import check_raw
+from .servo import Servo
 
-__all__ = ["Entry", "load", "kept", "IDENTITY", "MAX_BYTES"]
+__all__ = ["Entry", "load", "kept", "present", "IDENTITY", "MAX_BYTES"]
 
 #: the largest backup read (253 servos of the largest control table take about a tenth of it)
 MAX_BYTES = 4 << 20
@@ -33,6 +34,14 @@ IDENTITY = ("model_number", "model_information", "firmware_version")
 def kept(item: Item) -> bool:
     """The items a backup holds: EEPROM, not the identity, not the indirect addresses."""
     return item.eeprom and item.name not in IDENTITY and not item.name.startswith("indirect_")
+
+
+def present(servo: Servo) -> dict[str, int]:
+    """Every item a backup holds, the servo's present raw values in address order, in one read."""
+    items = sorted((i for i in servo.model.items.values() if kept(i)), key=lambda i: i.address)
+    data = servo.read_block(items[0], items[-1])
+    first = items[0].address
+    return {i.name: int.from_bytes(data[i.address - first:][:i.size], "little", signed=i.signed) for i in items}
 
 
 @dataclass

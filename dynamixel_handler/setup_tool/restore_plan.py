@@ -14,7 +14,7 @@ from .checks import problems
 from .context import Context
 from .errors import BadArguments
 from .items import show_value
-from .restore_file import Entry, kept
+from .restore_file import Entry, present
 from .safety import refuse_torque
 from .servo import Servo, connect
 from .values import servo_doc
@@ -67,14 +67,6 @@ class Plan:
                 for name, now, new in self.writes()]
 
 
-def _present(servo: Servo) -> dict[str, int]:
-    """Every backed-up item's present raw value, in one read."""
-    items = sorted((i for i in servo.model.items.values() if kept(i)), key=lambda i: i.address)
-    data = servo.read_block(items[0], items[-1])
-    first = items[0].address
-    return {i.name: int.from_bytes(data[i.address - first:][:i.size], "little", signed=i.signed) for i in items}
-
-
 def _at(ctx: Context, bps: int) -> bool:
     try:
         ctx.bus.set_baudrate(bps)
@@ -93,7 +85,7 @@ def _in_place(ctx: Context, plans: dict[int, Plan], path: str) -> None:
 
     for plan in plans.values():
         bps = ctx.search.first if ctx.baud_given else (plan.entry.baudrate or ctx.search.first)
-        if _at(ctx, bps) and ctx.bus.ping_result(plan.entry.dxl_id, retries=1).value is not None:
+        if _at(ctx, bps) and ctx.bus.ping_result(plan.entry.dxl_id).value is not None:
             place(plan, connect(ctx.bus, plan.entry.dxl_id), bps)
     rest = [i for i, plan in plans.items() if plan.servo is None]
     if rest:
@@ -149,7 +141,7 @@ def _changes(ctx: Context, plan: Plan, seen: Iterable[tuple[int, int, int]]) -> 
     """Fill ``plan``'s writes from the servo's present values; returns them."""
     assert plan.servo is not None
     _at(ctx, plan.baudrate)
-    now = _present(plan.servo)
+    now = present(plan.servo)
     plan.torque = plan.servo.model.has("torque_enable") and plan.servo.torque_on()
     for name, raw in plan.entry.values.items():
         item = plan.entry.model.item(name)
@@ -168,7 +160,7 @@ def _baud_move(ctx: Context, plan: Plan, raw: int, seen: Iterable[tuple[int, int
     target = plan.target_bps
     other = any(i == plan.entry.dxl_id and b == target for i, b, _ in seen)
     if not other and not plan.replacement:
-        other = _at(ctx, target) and ctx.bus.ping_result(plan.entry.dxl_id, retries=1).value is not None
+        other = _at(ctx, target) and ctx.bus.ping_result(plan.entry.dxl_id).value is not None
         _at(ctx, plan.baudrate)
     if other:
         plan.refused.append(f"baud_rate {target} bps: another servo answers at ID {plan.entry.dxl_id} at {target} bps "
