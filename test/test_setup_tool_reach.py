@@ -114,6 +114,10 @@ def test_codes_bits_and_numbers_are_read_by_name(bus):
     assert shown[("1", "hardware_error_status")].endswith("hardware_error_status = overload, overheating (0x24)")
     assert shown[("2", "baud_rate")].endswith("baud_rate = 1,000,000 bps (3)")
     assert shown[("1", "operating_mode")].endswith("operating_mode = position (3)")
+    table = {line.split()[1]: line for line in tool(sim, "info", "1").stdout.splitlines() if line[:1].isdigit()}
+    assert sdk_read(sim.path, 57600, 1, 63, 1) == 0x34  # Shutdown: overload, electrical shock, overheating
+    assert "overload, electrical_shock, overheating" in table["shutdown"] and "57,600 bps" in table["baud_rate"]
+    assert table["operating_mode"].split()[2] == "position" and "overload, overheating" in table["hardware_error_status"]
     raw = sdk_read(sim.path, 1_000_000, 2, 38, 2)  # P series Current Limit (38): 1 mA per unit
     limit = shown[("2", "current_limit")]
     assert "e+" not in limit and limit.endswith(f"current_limit = {raw:,} mA (raw {raw})"), limit

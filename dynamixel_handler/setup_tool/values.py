@@ -9,7 +9,7 @@ from typing import Any
 
 from ..control_table import Item, Model
 
-__all__ = ["number", "coded", "servo_doc"]
+__all__ = ["number", "coded", "named", "servo_doc"]
 
 #: Hardware Error Status and Shutdown bits (ROBOTIS e-Manual), the highest first
 _ERROR_BITS = ((5, "overload"), (4, "electrical_shock"), (3, "motor_encoder"), (2, "overheating"),
@@ -54,6 +54,13 @@ def coded(model: Model, item: Item, raw: int) -> str | None:
     if item.name in _BIT_ITEMS:
         return bits(raw)
     return None
+
+
+def named(model: Model, item: Item, raw: int) -> str:
+    """A code or bit mask's name without its register value (``1,000,000 bps``, ``position``,
+    ``overload, overheating``); "" for other items."""
+    text = coded(model, item, raw)
+    return text.rsplit(" (", 1)[0] if text is not None else ""
 
 
 def servo_doc(dxl_id: int, model: Model | None, baudrate: int, **more: Any) -> dict[str, Any]:

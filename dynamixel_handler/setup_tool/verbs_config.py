@@ -17,7 +17,7 @@ from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
 from .safety import held
 from .servo import Servo, connect
-from .values import number
+from .values import named, number
 
 __all__ = ["info", "get", "set_item", "set_id", "set_baud", "set_mode"]
 
@@ -56,11 +56,12 @@ def info(ctx: Context, args: argparse.Namespace) -> None:
         factory = model.factory.get(item.name)
         differs = factory is not None and factory != raw
         value = to_unit(model, item, raw)
-        rows[item.eeprom].append([item.address, item.name, number(value) if value is not None else "",
+        rows[item.eeprom].append([item.address, item.name, number(value) if value is not None else named(model, item, raw),
                                   unit_of(model, item), raw, "" if factory is None else factory,
                                   "*" if differs else ""])
         styles[item.eeprom].append("yellow" if differs else None)
-        doc[item.name] = {"raw": raw, "value": value, "unit": unit_of(model, item), "eeprom": item.eeprom,
+        doc[item.name] = {"raw": raw, "value": value, "unit": unit_of(model, item), "text": show_value(model, item, raw),
+                          "eeprom": item.eeprom,
                           "address": item.address, "factory": factory, "differs_from_factory": differs}
     head = f"ID {servo.dxl_id}: {model.name} (model {model.number}) at {ctx.bus.baudrate} bps"
     ctx.out.say(head)
@@ -78,7 +79,7 @@ def get(ctx: Context, args: argparse.Namespace) -> None:
     raw = servo.read(item.name)
     ctx.out.say(f"{servo.who} {item.name} = {show_value(servo.model, item, raw)}")
     ctx.out.document.update(id=servo.dxl_id, item=item.name, raw=raw, value=to_unit(servo.model, item, raw),
-                            unit=unit_of(servo.model, item))
+                            unit=unit_of(servo.model, item), text=show_value(servo.model, item, raw))
 
 
 def _apply(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
