@@ -6,6 +6,7 @@ units are required, ranges / limit pairs / dangerous values are checked before a
 no one-way door to Protocol 1.0, collisions said as they are, bad input one line (exit 2)."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -13,28 +14,82 @@ import subprocess
 import sys
 import threading
 import time
+from typing import Iterator
 
 import pytest
 import test_setup_tool
-from test_setup_tool import (
-    ENV,
-    ROOT,
-    TOOL,
-    XM430,
-    one_error_line,
-    sdk_ping,
-    sdk_read,
-    sdk_write1,
-    sdk_write4,
-)
-from test_setup_tool import tool as _tool
+from dynamixel_sdk import COMM_SUCCESS, PacketHandler
+from test_setup_tool import ENV, ROOT, TOOL, XM430, one_error_line
+
+from support.sdk import PatientPort
 
 sim_of = test_setup_tool.sim_of  # the fixture: the virtual bus as a process
 
 
 def tool(sim, *args: str, stdin: str = "") -> subprocess.CompletedProcess:
-    """The tool as a process, with reply timeouts for a loaded host (a 30 ms latency timer)."""
-    return _tool(sim, *args, "--latency", "30", stdin=stdin)
+    """The tool as a process, with reply timeouts for a loaded host (a 100 ms latency timer)."""
+    return test_setup_tool.tool(sim, *args, "--latency", "100", stdin=stdin)
+
+
+@contextlib.contextmanager
+def _port(path: str, bps: int) -> Iterator[PatientPort]:
+    """dynamixel_sdk's port at ``bps``, its input dropped after a short settle: on a loaded host a
+    reply to an earlier request (the tool's, or an SDK request that timed out) may still arrive, and
+    must not be taken for this request's."""
+    port = PatientPort(path)
+    assert port.openPort() and port.setBaudRate(bps)
+    try:
+        time.sleep(0.05)
+        port.ser.reset_input_buffer()
+        yield port
+    finally:
+        port.closePort()
+
+
+def _tries(request):
+    """``request(port_packet)`` up to three times until dynamixel_sdk reports success; its result
+    (None when it never succeeded)."""
+    for _ in range(3):
+        ok, got = request(PacketHandler(2.0))
+        if ok:
+            return got
+    return None
+
+
+def sdk_read(path: str, bps: int, dxl_id: int, address: int, size: int) -> int | None:
+    def request(packets):
+        with _port(path, bps) as port:
+            data, comm, _err = packets.readTxRx(port, dxl_id, address, size)
+        return comm == COMM_SUCCESS, int.from_bytes(bytes(data), "little", signed=size == 4)
+    return _tries(request)
+
+
+def sdk_ping(path: str, bps: int, dxl_id: int) -> int | None:
+    def request(packets):
+        with _port(path, bps) as port:
+            model, comm, _err = packets.ping(port, dxl_id)
+        return comm == COMM_SUCCESS, model
+    return _tries(request)
+
+
+def _write(path: str, bps: int, dxl_id: int, address: int, value: int, size: int) -> None:
+    def request(packets):
+        with _port(path, bps) as port:
+            if size == 1:
+                comm, err = packets.write1ByteTxRx(port, dxl_id, address, value)
+            else:
+                comm, err = packets.write4ByteTxRx(port, dxl_id, address, value & 0xFFFFFFFF)
+        return comm == COMM_SUCCESS and err == 0, True
+    assert _tries(request), (dxl_id, address, value)
+
+
+def sdk_write1(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
+    _write(path, bps, dxl_id, address, value, 1)
+
+
+def sdk_write4(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
+    _write(path, bps, dxl_id, address, value, 4)
+
 
 TORQUE, BAUD, ID_ADDR, DRIVE, SECONDARY, PROTOCOL, TEMP_LIMIT, SHUTDOWN = 64, 8, 7, 10, 12, 13, 31, 63
 MAX_POS, MIN_POS, CURRENT_LIMIT, GOAL_VEL, GOAL_POS, PRESENT_POS = 48, 52, 38, 104, 116, 132
@@ -114,7 +169,7 @@ class Paused:
 
     def __init__(self, sim, after: int, *args: str) -> None:
         cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
-        self.proc = subprocess.Popen([*cmd, "--device", sim.path, "--latency", "30", *args], stdin=subprocess.DEVNULL,
+        self.proc = subprocess.Popen([*cmd, "--device", sim.path, "--latency", "100", *args], stdin=subprocess.DEVNULL,
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT,
                                      env=dict(ENV, **{PAUSE: str(after)}))
         self.lines: list[str] = []

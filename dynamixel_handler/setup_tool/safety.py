@@ -166,12 +166,22 @@ def _pause_hook(bus: Any, after: int) -> None:
     port.write = write
 
 
+def _swap(handlers: dict[int, Any]) -> dict[int, Any]:
+    """Install ``handlers`` with the signals blocked meanwhile (one that comes goes to the new
+    handler, never half way); the handlers they replace."""
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+    try:
+        return {signum: signal.signal(signum, handler) for signum, handler in handlers.items()}
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 @contextmanager
 def held() -> Iterator[None]:
     """A critical step: SIGINT/SIGTERM/SIGHUP noted, not acted on, until it ends; then
     :class:`Interrupted` (exit 130) naming the touched servos' states. Nests (the outermost acts)."""
     if _Signals.depth == 0:
-        before = {s: signal.signal(s, _hold) for s in SIGNALS}
+        before = _swap({s: _hold for s in SIGNALS})
     _Signals.depth += 1
     try:
         yield
@@ -183,8 +193,7 @@ def held() -> Iterator[None]:
     finally:
         _Signals.depth -= 1
         if _Signals.depth == 0:
-            for signum, handler in before.items():
-                signal.signal(signum, handler)
+            _swap(before)
     if _Signals.depth == 0 and _Signals.pending is not None:
         came, _Signals.pending = _Signals.pending, None
         raise Interrupted(f"interrupted ({_name(came)}) during a step that was then finished; {JOURNAL.state()}")
