@@ -279,6 +279,26 @@ def test_a_signal_during_a_reboot_of_a_servo_holding_its_load_leaves_its_torque_
     assert stops >= 5, stops
 
 
+def test_json_of_an_interrupted_set_baud_names_the_servo_where_it_is(sim_of):
+    sim = sim_of("1:XM430-W350")
+    hold(sim)
+    for after in range(4, 30):  # the first stop inside the step (the Baud Rate written) ends it there
+        run = Paused(sim, after, "set-baud", "1", "1M", "--torque-off", "--yes", "--baud", "57600", "--json")
+        assert run.paused(), "\n".join(run.lines)
+        run.proc.send_signal(signal.SIGTERM)
+        code, text = run.finish()
+        assert code == 130, text
+        doc = json.loads(text[text.index("{"):])
+        if "touched" in doc:
+            break
+    else:
+        raise AssertionError("no stop inside the step")
+    assert doc["touched"] == [{"id": 1, "model": "XM430-W350", "baudrate": 1_000_000, "torque": "on (as before)",
+                               "done": [doc["touched"][0]["done"][0]]}], doc
+    assert "baud_rate" in doc["touched"][0]["done"][0] and "written and read back" in doc["touched"][0]["done"][0]
+    assert sdk_ping(sim.path, 1_000_000, 1) == XM430 and sdk_read(sim.path, 1_000_000, 1, TORQUE, 1) == 1
+
+
 def test_an_interrupted_scan_emits_what_it_had_found(sim_of):
     sim = sim_of("1:XM430-W350", "2:XM540-W270")
     run = Paused(sim, 25, "scan", "--ids", "0-3", "--json")  # after the first rate (57600), before the end

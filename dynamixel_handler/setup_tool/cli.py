@@ -17,7 +17,7 @@ from .context import Context
 from .errors import StepFailed
 from .output import Output
 from .port import default_device, open_bus
-from .safety import install, stopped
+from .safety import JOURNAL, install, stopped
 
 __all__ = ["build_parser", "main", "parse_ids", "parse_rates"]
 
@@ -297,6 +297,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if bus is not None:
             bus.close()
     out.document["ok"] = code == 0
+    if code and JOURNAL.servos:  # what a failed or interrupted run left each servo it wrote to as
+        out.document["touched"] = JOURNAL.as_list()
     try:
         out.finish(f"{PROG} {args.verb_name}")
     except BrokenPipeError:  # `| head`: the reader left; nothing more to say

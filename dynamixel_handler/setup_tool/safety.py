@@ -97,6 +97,11 @@ class Journal:
         self.servos.append(entry)
         return entry
 
+    def as_list(self) -> list[dict[str, object]]:
+        """The touched servos for JSON: ``id``, ``model``, ``baudrate``, ``torque``, ``done``."""
+        return [{"id": t.dxl_id, "model": t.model, "baudrate": t.baudrate, "torque": t.torque, "done": list(t.done)}
+                for t in self.servos]
+
     def state(self) -> str:
         if not self.servos:
             return "nothing was written"
