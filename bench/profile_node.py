@@ -43,7 +43,7 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
     ("message building (convert.py)", ("ros/convert.py",)),
     ("units (pulse <-> physical)", ("units.py", "ServoTable.units", "ServoTable.pulses", "ServoTable.known")),
     ("decode + store (ReadPlan.store)", ("store (dynamixel_handler/core/read_plan.py",)),
-    ("commands (callbacks, validation, queue)", ("commands/", "command_topics.py", "run_ops (")),
+    ("commands (callbacks, validation, queue)", ("commands/", "command_topics.py", "run_queued (", "core/intake.py")),
     ("pending writes -> sync write", ("_encode_pending", "PendingWrites")),
     ("read planning, ping bookkeeping", ("plan (dynamixel_handler/core/read_plan.py", "update_ping", "due_items", "send_step",
                                          "complete_step")),

@@ -159,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     ids = list(range(1, a.n + 1))
 
     t = PartTimer()
-    t.patch(handler.work, "run_ops", "commands: queued op (validate, units -> pulses, pending)")
+    t.patch(handler.intake, "run_queued", "commands: queued requests (validate, units -> pulses, pending)")
     t.patch(handler.writes, "_encode_pending", "goal write: encode")
     t.patch(handler.bus, "sync_write_result", "goal write: sync write (packet, write syscall)")
     t.patch(handler.bus, "prepare_sync_write", "goal write: sync write packet")

@@ -55,9 +55,8 @@ class Log(Protocol):
     def fatal(self, msg: str, /) -> object: ...
 
 
-class LoopCore(StatsCore, Protocol):
-    """What the runner needs of the ``Handler``: what the statistics need, its step in phases and
-    a few figures."""
+class Phases(Protocol):
+    """The loop step in phases (``core.step.Step``): what the runner drives directly."""
 
     @property
     def loop_count(self) -> int: ...
@@ -72,6 +71,14 @@ class LoopCore(StatsCore, Protocol):
     def complete_step(self, report: StepReport) -> None: ...
     def finish_step(self, report: StepReport) -> None: ...
     def apply_now(self) -> None: ...
+
+
+class LoopCore(StatsCore, Protocol):
+    """What the runner needs of the ``Handler``: what the statistics need, and its step in phases
+    (``steps``), which the runner drives itself."""
+
+    @property
+    def steps(self) -> Phases: ...
 
 
 def log_exception(log: Log, what: str, exc: BaseException, fatal: bool = False) -> None:
@@ -128,6 +135,7 @@ class Runner:
     def __init__(self, handler: LoopCore, wire: StatsWire, loop_rate: float, verbose_ratio: int = 0,
                  log: Log | None = None, hooks: Hooks | None = None, external: ExternalPorts | None = None) -> None:
         self.h = handler
+        self.s: Phases = handler.steps
         self.wire = wire
         self.loop_rate = float(loop_rate)
         self.period = 1.0 / self.loop_rate
@@ -191,7 +199,7 @@ class Runner:
             self._failures += 1
             self._prev = None
             self._next_t += self.period
-            log_exception(self.log, f"loop {self.h.loop_count}", exc)
+            log_exception(self.log, f"loop {self.s.loop_count}", exc)
             if self._failures >= MAX_LOOP_FAILURES:
                 self.log.fatal(f"the loop failed {self._failures} times in a row: shutting down safely")
                 self.failed = True
@@ -199,7 +207,7 @@ class Runner:
                 self.hooks.gave_up()
 
     def _step(self) -> None:
-        h, prev = self.h, self._prev
+        h, prev = self.s, self._prev
         self.hooks.before_step()
         t0 = time.monotonic()
         self.hooks.take_commands()
@@ -234,15 +242,15 @@ class Runner:
     def _write_arrived_during(self, report: StepReport) -> None:
         """Commands that came while this loop's read was on the wire go out as soon as its replies
         are in, before the loop's bookkeeping; the first command after them still goes out at once."""
-        if self.hooks.wait_commands is None or self.h.reply_eta is None:
+        if self.hooks.wait_commands is None or self.s.reply_eta is None:
             return
-        self.h.await_replies(report)
+        self.s.await_replies(report)
         if self.hooks.take_commands():
-            self.h.apply_now()
+            self.s.apply_now()
 
     def _end(self, report: StepReport) -> None:
         """Store and log what a loop read, then hand it to the owner."""
-        self.h.finish_step(report)
+        self.s.finish_step(report)
         self.hooks.states_ready(report)
 
     # ------------------------------------------------------------------ pacing
@@ -258,7 +266,7 @@ class Runner:
                 self._next_t = max(self._next_t, now - self.period)
             return
         self._next_t = now
-        eta = self.h.reply_eta
+        eta = self.s.reply_eta
         if eta is not None:  # take the next commands as late as the replies allow
             wake = eta - min(MAX_EARLY_S, 1.5 * self._begin_s + EARLY_MARGIN_S)
             if wake > now:
@@ -273,7 +281,7 @@ class Runner:
                 break
             if wait(min(remaining, STOP_CHECK_S)) and self.hooks.take_commands():
                 try:
-                    self.h.apply_now()
+                    self.s.apply_now()
                 except Exception as exc:  # as in the loop: logged, never fatal
                     log_exception(self.log, "applying a command between loops", exc)
                 break
@@ -287,7 +295,7 @@ class Runner:
         if prev is None:
             return
         try:
-            self.h.complete_step(prev)
+            self.s.complete_step(prev)
         except Exception as exc:
             self.log.warning(f"last read: {type(exc).__name__}: {exc}")
 

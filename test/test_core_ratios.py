@@ -221,5 +221,5 @@ def test_the_items_due_worked_out_once_per_pattern_equal_the_ratios_every_loop(r
         for loop in (0, *loops, 0):
             want = due_items_plain(cfg.settings.ratios, loop)
             assert handler.reads.due(loop) == want
-            items, present, groups = handler.due_items(loop)
+            items, present, groups = handler.reads.due_items(loop)
             assert (tuple(items), present, groups) == want[:3]

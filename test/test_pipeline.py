@@ -83,11 +83,11 @@ def test_host_values_set_after_a_read_went_out_are_not_overwritten_by_it(timed_b
                        "pub_ratio/goal": 1, "pub_ratio/status": 1})
     handler = Handler(bus, config)
     handler.start()
-    report = handler.begin_step()
-    handler.send_step(report)                  # reads the goal group: goal position 2048 everywhere
+    report = handler.steps.begin_step()
+    handler.steps.send_step(report)                  # reads the goal group: goal position 2048 everywhere
     assert bus.inflight_eta is not None        # the last read is still on the wire
     assert handler.ask(WriteItem(1, "goal_position", 3000))
-    handler.finish_step(report)
+    handler.steps.finish_step(report)
     assert handler.table.value("goal_position", 1) == 3000  # newer than the read: kept
     assert handler.table.value("goal_position", 2) == 2048  # from the read
     assert sim.servo(1).read("goal_position") == 3000
@@ -106,22 +106,22 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
 
     def overlapped(before: dict, after: dict | None = None, request=None) -> list[dict[int, int]]:
         """One loop as the node runs it flat out; the goal positions that reached the wire."""
-        report = handler.begin_step()
-        handler.send_step(report)               # a read left on the wire
-        following = handler.begin_step()
+        report = handler.steps.begin_step()
+        handler.steps.send_step(report)               # a read left on the wire
+        following = handler.steps.begin_step()
         for item, values in before.items():
             handler.pending.put(item, values)
-        handler.encode_writes()                 # built while the read is on the wire
-        assert handler.writes_ready and bus.inflight_eta is not None
+        handler.steps.encode_writes()                 # built while the read is on the wire
+        assert handler.writes.writes_ready and bus.inflight_eta is not None
         for item, values in (after or {}).items():
             handler.pending.put(item, values)   # came later
         if request is not None:
             handler.submit(request)
-        handler.prepare(following)
+        handler.steps.prepare(following)
         sim.clear_log()
-        handler.send_writes(following)
-        handler.send_writes(following)          # sent once only
-        handler.finish_step(report)
+        handler.steps.send_writes(following)
+        handler.steps.send_writes(following)          # sent once only
+        handler.steps.finish_step(report)
         bus.read(1, OPERATING_MODE, 1)          # answered only after the servos took the writes
         return [w for _, w in goals_written(sim.log)]
 
@@ -138,17 +138,17 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
     assert sim.servo(2).read("goal_current") == 50
 
     # a loop that fails after taking the goals (its report dropped) loses none of them
-    report = handler.begin_step()
-    handler.send_step(report)
+    report = handler.steps.begin_step()
+    handler.steps.send_step(report)
     handler.pending.put("goal_position", {2: 3002})
-    handler.encode_writes()
-    assert handler.writes_ready and not handler.pending
-    handler.finish_step(report)                 # the loop is given up here; the next one:
+    handler.steps.encode_writes()
+    assert handler.writes.writes_ready and not handler.pending
+    handler.steps.finish_step(report)                 # the loop is given up here; the next one:
     sim.clear_log()
     handler.step()
     bus.read(1, OPERATING_MODE, 1)
     assert [w for _, w in goals_written(sim.log)] == [{2: 3002}]
-    assert sim.servo(2).read("goal_position") == 3002 and not handler.writes_ready
+    assert sim.servo(2).read("goal_position") == 3002 and not handler.writes.writes_ready
 
 
 # ============================================================================ the node, flat out

@@ -34,7 +34,7 @@ import logging
 from dataclasses import dataclass
 from typing import Any, Callable, Protocol, TypeVar
 
-from ..bus import PreparedWrite, ServoBus
+from ..bus import ServoBus
 from ..config import Config
 from ..control_table import OPERATING_MODES, Model
 from ..errors import Interrupted, StartupError
@@ -221,44 +221,6 @@ class Handler:
     def step(self) -> StepReport:
         return self.steps.step()
 
-    def begin_step(self) -> StepReport:
-        return self.steps.begin_step()
-
-    def prepare(self, report: StepReport) -> None:
-        self.steps.prepare(report)
-
-    def apply_now(self) -> None:
-        self.steps.apply_now()
-
-    def encode_writes(self) -> None:
-        self.writes.encode_writes()
-
-    def send_step(self, report: StepReport) -> None:
-        self.steps.send_step(report)
-
-    def send_writes(self, report: StepReport) -> None:
-        self.writes.send()
-
-    def send_reads(self, report: StepReport) -> None:
-        self.steps.send_reads(report)
-
-    def await_replies(self, report: StepReport) -> None:
-        self.steps.await_replies(report)
-
-    def complete_step(self, report: StepReport) -> None:
-        self.steps.complete_step(report)
-
-    def finish_step(self, report: StepReport) -> None:
-        self.steps.finish_step(report)
-
-    @property
-    def writes_ready(self) -> list[PreparedWrite]:
-        return self.writes.writes_ready
-
-    @property
-    def reply_eta(self) -> float | None:
-        return self.bus.inflight_eta
-
     @property
     def loop_count(self) -> int:
         return self.steps.loop_count
@@ -266,9 +228,6 @@ class Handler:
     @property
     def recheck_loops(self) -> int:
         return self.steps.settings.recheck_loops
-
-    def due_items(self, loop: int) -> tuple[list[str], set[str], set[str]]:
-        return self.reads.due_items(loop)
 
     # ---------------------------------------------------------------- figures
     @property

@@ -65,7 +65,7 @@ class Recovery:
         if rebooted:
             deadline = time.monotonic() + REBOOT_WAIT_S
             time.sleep(0.02)
-            while self.bus.ping(dxl_id, retries=0) is None:
+            while self.bus.ping_result(dxl_id, retries=0).value is None:
                 if time.monotonic() > deadline:
                     self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
                     break
@@ -139,7 +139,7 @@ class Recovery:
         stays handled with ping false and is pinged again as any silent servo."""
         answered, silent = [], []
         for dxl_id in ids:
-            if self.bus.ping(dxl_id, retries=1) is None:
+            if self.bus.ping_result(dxl_id, retries=1).value is None:
                 silent.append(dxl_id)
                 continue
             pos = self.table.index[dxl_id]

@@ -24,7 +24,7 @@ class ServoIO:
         if not model.has(item):
             return None
         spec = model.item(item)
-        data = self.bus.read(dxl_id, spec.address, spec.size)
+        data = self.bus.read_result(dxl_id, spec.address, spec.size).value
         if data is None:
             return None
         value = int(units.decode(spec, data)[0])

@@ -206,7 +206,7 @@ class Startup:
 
     def add_id(self, dxl_id: int) -> bool:
         """Ping ``dxl_id`` and handle it if it answers with a model of a used series."""
-        number = self.bus.ping(dxl_id)
+        number = self.bus.ping_result(dxl_id).value
         if number is None:
             self.limited(logging.WARNING, f"ID {dxl_id}: no answer to ping, not added", f"not added {dxl_id}")
             return False

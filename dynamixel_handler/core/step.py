@@ -105,6 +105,11 @@ class Step:
         """The first half of ``send_step``: what is pending goes on the wire."""
         self.writes.send()
 
+    def encode_writes(self) -> None:
+        """The goal packets of what is pending built ahead (sent by ``send_writes``): while the
+        last loop's read is still on the wire."""
+        self.writes.encode_writes()
+
     def await_replies(self, report: StepReport) -> None:
         """Wait until the replies of ``report``'s reads are in (``complete_step`` does the rest)."""
         for _, pending, _ in report.reads:
@@ -161,7 +166,7 @@ class Step:
                 mark(answered, data)
         for dxl_id in report.recheck:
             mark(addressed, [dxl_id])
-            if dxl_id in index and self.bus.ping(dxl_id, retries=0) is not None:
+            if dxl_id in index and self.bus.ping_result(dxl_id, retries=0).value is not None:
                 mark(answered, [dxl_id])
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
         self.recovery.update_ping(addressed, answered)

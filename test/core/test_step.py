@@ -52,10 +52,10 @@ def test_a_silent_servo_is_not_read_but_pinged_every_recheck_loops_loops():
 def test_the_phases_one_by_one_store_the_replies_only_when_finished():
     bus, h = started()
     bus.set(1, "present_position", 777)
-    report = h.begin_step()
-    h.send_step(report)
+    report = h.steps.begin_step()
+    h.steps.send_step(report)
     assert report.phase == 2 and h.table.value("present_position", 1) != 777
-    h.complete_step(report)
+    h.steps.complete_step(report)
     assert report.silent == [] and h.table.value("present_position", 1) != 777
-    h.finish_step(report)
+    h.steps.finish_step(report)
     assert report.phase == 4 and h.table.value("present_position", 1) == 777
