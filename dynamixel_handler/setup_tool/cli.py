@@ -296,6 +296,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if bus is not None:
             bus.close()
+    return _finish(out, args, code)
+
+
+def _finish(out: Output, args: argparse.Namespace, code: int) -> int:
+    """The JSON document (and --svg picture) written; the exit code (1 when they cannot be)."""
     out.document["ok"] = code == 0
     if code and JOURNAL.servos:  # what a failed or interrupted run left each servo it wrote to as
         out.document["touched"] = JOURNAL.as_list()
