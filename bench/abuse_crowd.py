@@ -187,8 +187,11 @@ def crowd(node: abuse.Node, sim, door: str, depth: int, count: int = CLIENTS) ->
         p.stdin.write(f"{start_at}\n")  # type: ignore[union-attr]
         p.stdin.flush()  # type: ignore[union-attr]
     outs = [json.loads(p.stdout.readline() or "{}") for p in procs]  # type: ignore[union-attr]
-    for p in procs:
-        p.wait(30)
+    for p in procs:  # 250 action clients take a while to shut down
+        try:
+            p.wait(120)
+        except subprocess.TimeoutExpired:
+            p.kill()
     t1 = time.monotonic()
     _, gap = abuse.loop_figures(sim, t0 + 1.0, t1)
     sent = sum(o.get("sent", 0) for o in outs)
