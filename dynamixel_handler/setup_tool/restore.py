@@ -25,7 +25,7 @@ def _rows(plans: list[Plan]) -> list[list[object]]:
     rows: list[list[object]] = []
     for plan in plans:
         if plan.problem:
-            rows.append([plan.entry.dxl_id, "-", "", f"not restored: {plan.problem}"])
+            rows.append([plan.entry.dxl_id, "-", "", plan.problem])
             continue
         for item, now, new in plan.shown():
             rows.append([plan.entry.dxl_id, item, now, new])
