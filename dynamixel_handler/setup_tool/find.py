@@ -11,7 +11,7 @@ from ..bus import BusError, DynamixelBus
 from ..control_table import model_by_number
 from .errors import StepFailed
 from .protocol1 import model_name1, ping1
-from .servo import SEARCH_ORDER, Servo, connect
+from .servo import SEARCH_ORDER, Servo
 
 __all__ = ["Placed", "Search", "Found"]
 
@@ -46,6 +46,15 @@ class Found:
         return f"ID {dxl_id}: no servo answers at {where}"
 
 
+def _servo(bus: DynamixelBus, dxl_id: int, number: int) -> Servo:
+    """The servo whose ping gave model ``number``; StepFailed when the control table lacks it."""
+    try:
+        return Servo(bus, dxl_id, model_by_number(number))
+    except KeyError:
+        raise StepFailed(f"ID {dxl_id}: model number {number} is not in the control table; "
+                         "the tool only sets up models the handler knows") from None
+
+
 class Search:
     """Finding servos on ``bus``: at its rate only when ``baud_given``, else at every rate."""
 
@@ -77,19 +86,19 @@ class Search:
                 answered[dxl_id] = model
         return answered
 
-    def _where(self, wanted: list[int], every: bool, rates: list[int]) -> dict[int, int]:
-        """ID -> the rate it answers at; every rate is looked at when ``every`` (else only until
-        each wanted ID answered)."""
-        where: dict[int, int] = {}
+    def _where(self, wanted: list[int], every: bool, rates: list[int]) -> dict[int, tuple[int, int]]:
+        """ID -> (the rate it answers at, its model number); every rate is looked at when ``every``
+        (else only until each wanted ID answered)."""
+        where: dict[int, tuple[int, int]] = {}
         for bps in rates:
             rest = wanted if every else [i for i in wanted if i not in where]
             if not rest or not self._at(bps):
                 continue
-            for dxl_id in self._answering(rest):
+            for dxl_id, number in self._answering(rest).items():
                 if dxl_id in where:
-                    raise StepFailed(f"ID {dxl_id} answers at {where[dxl_id]} and at {bps} bps: two servos share "
+                    raise StepFailed(f"ID {dxl_id} answers at {where[dxl_id][0]} and at {bps} bps: two servos share "
                                      "it; give --baud to choose one, or give one of them another ID")
-                where[dxl_id] = bps
+                where[dxl_id] = (bps, number)
         return where
 
     def find(self, ids: Sequence[int] | None) -> Found:
@@ -98,9 +107,8 @@ class Search:
         wanted = list(range(253)) if ids is None else sorted(set(ids))
         result = Found(rates=self.rates())
         where = self._where(wanted, ids is None, result.rates)
-        for dxl_id in sorted(where):
-            self._at(where[dxl_id])
-            result.placed.append(Placed(connect(self.bus, dxl_id), where[dxl_id]))
+        for dxl_id, (bps, number) in sorted(where.items()):
+            result.placed.append(Placed(_servo(self.bus, dxl_id, number), bps))
         result.missing = [i for i in wanted if i not in where] if ids is not None else []
         self._at(result.placed[0].baudrate if result.placed else self.first)
         return result
