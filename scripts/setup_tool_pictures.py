@@ -209,8 +209,11 @@ class FirstDay:
         self.sim.stdin.flush()
         time.sleep(0.3)
 
-    def tool(self, step: str, args: str, cut=None) -> None:
-        done = subprocess.run([TOOL, *args.split()], capture_output=True, text=True, timeout=600, cwd=self.folder)
+    def tool(self, step: str, args: str, cut=None, answer: str | None = None) -> None:
+        """``args`` run in the walk-through's folder; ``answer``: what is typed at its question."""
+        more = {"input": answer} if answer is not None else {}
+        done = subprocess.run([TOOL, *args.split()], capture_output=True, text=True, timeout=600, cwd=self.folder,
+                              **more)
         output = (done.stdout + done.stderr).rstrip() + ("" if done.returncode == 0 else f"\n[exit {done.returncode}]")
         self.show(step, f"{TOOL} {args}", cut(output) if cut else output)
 
@@ -249,8 +252,9 @@ class FirstDay:
         """ID 3 replaced by a new XM540-W270 from the box (ID 1, 57600 bps): restore finds it."""
         self.bus("remove 3")
         self.bus("add 1 XM540-W270")
-        self.tool("replace", f"scan {device} --protocol 2 --ids 0-9")
+        self.tool("replace_scan", f"scan {device} --protocol 2 --ids 0-9")
         self.tool("replace", f"restore robot.yaml {device} --dry-run")
+        self.tool("replace", f"restore robot.yaml {device}", _question, answer="n\n")
         self.tool("replace", f"restore robot.yaml {device} --yes")
 
     def run(self) -> dict[str, str]:
@@ -282,6 +286,11 @@ class FirstDay:
         finally:
             self.sim.communicate("quit\n", timeout=30)
         return self.blocks
+
+
+def _question(output: str) -> str:
+    """Only the question a command asked (its table before it left out)."""
+    return "...\n" + "\n".join(line for line in output.splitlines() if line.endswith("[y/N]"))
 
 
 def _short_ram(output: str) -> str:
