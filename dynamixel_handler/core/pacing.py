@@ -55,6 +55,10 @@ class Pacing:
         """IDs whose mode change was asked for but dropped because the node is stopping."""
         return self._dropped
 
+    def drop_mode_change(self, dxl_id: int) -> None:
+        """A mode change asked for while the node stops: not made (the shutdown leaves the servo so)."""
+        self._dropped.add(dxl_id)
+
     def shortest_armed_s(self) -> float | None:
         """The shortest bus watchdog time armed in any servo [s] (as last written or read); None: none is."""
         values, known = self.table.arrays("bus_watchdog")

@@ -170,7 +170,7 @@ class Recovery:
                 ping_log.change(table.ids[pos], True)
                 # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew
                 # before the next commands are written
-                self.watchdog.to_arm.add(table.ids[pos])
+                self.watchdog.request_arm(table.ids[pos])
         ping_log.flush()
         # each read or ping of the servo that got no answer counts (a silent servo is only pinged every
         # recheck_loops loops): the removal comes after no_response_id_auto_remove_count

@@ -67,7 +67,7 @@ class Requests:
         request replaces it. While the node stops it is dropped (the servo keeps its mode)."""
         dxl_id, what = request.dxl_id, request.what
         if request.why is Later.STOPPING:
-            self.pacing.dropped_mode_changes.add(dxl_id)
+            self.pacing.drop_mode_change(dxl_id)
             return
         if request.why is Later.BUS_TIME:
             self.log.debug(f"{what}: waits for the next loop (this loop's mode changes used their bus time)")

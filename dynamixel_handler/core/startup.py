@@ -184,7 +184,7 @@ class Startup:
                 if not written:  # e.g. above a P servo's velocity limit
                     self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
                                      f"({item} {pulses} refused: {written.failure})")
-        self.watchdog.to_arm.add(dxl_id)
+        self.watchdog.request_arm(dxl_id)
 
     def want_handled(self, dxl_id: int, handled: bool) -> None:
         """add_id (True) or remove_id (False) from a command, applied once the queued operations of

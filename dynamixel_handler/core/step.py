@@ -183,7 +183,7 @@ class Step:
         if len(self.table):
             self._log_reads(report, report.silent)
         if "extra_dynamic" in report.groups:
-            self.watchdog.check_due = True  # at the next step, after this loop's states are out
+            self.watchdog.check_later()  # at the next step, after this loop's states are out
 
     def _log_reads(self, report: StepReport, silent: list[int]) -> None:
         """verbose/read_<group>.{raw,err} and verbose/read_hardware_error, max_log_width IDs a line."""

@@ -129,6 +129,15 @@ class Watchdog:
         if pulses:
             self.io.write_item(dxl_id, "bus_watchdog", pulses)
 
+    def request_arm(self, dxl_id: int) -> None:
+        """Arm the servo's bus watchdog at the start of the next step (its set-up done, or back
+        after a silence in which it may have tripped)."""
+        self.to_arm.add(dxl_id)
+
+    def check_later(self) -> None:
+        """Bus watchdogs were read: the tripped ones are cleared at the next step."""
+        self.check_due = True
+
     def arm_after_ops(self, dxl_id: int) -> None:
         """After a mode change: a mode that needs no watchdog gets it off at once; one that needs
         it is armed at the start of the next step, once the operations running now are done

@@ -56,3 +56,5 @@ def test_mode_changes_after_the_reads_stop_at_their_share_of_the_watchdog_and_a_
     assert part.ops_wait() is None
     stopping[0] = True
     assert part.ops_wait() == "stopping"
+    part.drop_mode_change(1)  # the request that answered "stopping": not made, the shutdown knows
+    assert part.dropped_mode_changes == {1}

@@ -83,3 +83,14 @@ def test_goals_look_for_trips_once_per_new_watchdog_values_unless_told_to_look_e
     _, table, every_time = watchdog({1: XM430}, {1: "velocity"}, tripped_once=False)
     table.set_value("bus_watchdog", 1, 25)
     assert every_time.any_tripped()
+
+
+def test_other_parts_ask_for_an_arming_and_a_check_and_get_them_at_the_next_step():
+    bus, table, dog = watchdog({1: XM430, 2: XM430}, {1: "velocity", 2: "velocity"})
+    table.set_value("bus_watchdog", 1, 0)
+    dog.request_arm(1)  # asked for (a servo set up, or back after a silence): nothing written yet
+    dog.check_later()
+    assert bus.item_writes() == []
+    dog.arm_waiting()
+    assert ("sync_write", "bus_watchdog", {1: 25}) in bus.item_writes()
+    assert not dog.to_arm and not dog.check_due
