@@ -30,6 +30,13 @@ PRESENT_FIELDS = {"pwm": "pwm_percent", "current": "current_ma", "velocity": "ve
 WARM_UP = 10  # /dynamixel/states messages skipped: loop 0 (where every group is due) is not counted
 
 
+def near(reads: int, expected: int) -> bool:
+    """``reads`` is ``expected``, or one off: on a loaded host a loop whose present-position read got
+    no reply in time is re-read or recovered (a ping), so the loop count taken from the position reads
+    can be one off the loops that ran; a wrong ratio is many reads off."""
+    return abs(reads - expected) <= 1
+
+
 def due_loops(loops: int, *ratios: int) -> int:
     """Loops among 0..loops-1 where any of ``ratios`` is due (0 = loop 0 only)."""
     return sum(1 for k in range(loops) if any((k % r == 0) if r > 0 else k == 0 for r in ratios))
@@ -83,19 +90,19 @@ def test_node_exits_0(outdated_on):
 def test_each_present_item_is_read_on_the_wire_every_ratio_loops(outdated_on, key):
     loops = outdated_on["log_reads"][PRESENT_ADDRESS["position"]]
     assert loops > 100
-    assert outdated_on["log_reads"][PRESENT_ADDRESS[key]] == due_loops(loops, PRESENT_RATIOS[key])
+    assert near(outdated_on["log_reads"][PRESENT_ADDRESS[key]], due_loops(loops, PRESENT_RATIOS[key]))
 
 
 @pytest.mark.parametrize("group", list(GROUP_ADDRESS))
 def test_each_group_is_read_on_the_wire_every_ratio_loops(outdated_on, group):
     loops = outdated_on["log_reads"][PRESENT_ADDRESS["position"]]
-    assert outdated_on["log_reads"][GROUP_ADDRESS[group]] == due_loops(loops, GROUP_RATIOS[group])
+    assert near(outdated_on["log_reads"][GROUP_ADDRESS[group]], due_loops(loops, GROUP_RATIOS[group]))
 
 
 def test_hardware_error_is_read_once_in_loops_where_status_or_error_is_due(outdated_on):
     loops = outdated_on["log_reads"][PRESENT_ADDRESS["position"]]
     want = due_loops(loops, GROUP_RATIOS["status"], GROUP_RATIOS["error"])
-    assert outdated_on["log_reads"][HARDWARE_ERROR_STATUS] == want
+    assert near(outdated_on["log_reads"][HARDWARE_ERROR_STATUS], want)
 
 
 def test_a_zero_ratio_means_one_read_at_start_only(outdated_on):
