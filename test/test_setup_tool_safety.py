@@ -398,6 +398,15 @@ def test_one_id_at_two_rates_is_refused_naming_both(sim_of):
     out = tool(sim, "reboot", "1", "--yes")
     assert out.returncode == 1 and "57600 and at 1000000" in one_error_line(out), out.text
     assert sdk_read(sim.path, 57600, 1, LED, 1) == 1  # not rebooted
+    # several IDs in one sync write / read: the same refusal, nothing written
+    out = tool(sim, "set", "1,5", "led", "0", "--yes")
+    assert out.returncode == 1 and "57600 and at 1000000" in out.text, out.text
+    assert sdk_read(sim.path, 57600, 1, LED, 1) == 1
+    out = tool(sim, "get", "1,5", "led")
+    assert out.returncode == 1 and "57600 and at 1000000" in out.text, out.text
+    for verb in (("get", "1", "led"), ("info", "1")):  # reading one of them would mislead as much
+        out = tool(sim, *verb)
+        assert out.returncode == 1 and "57600 and at 1000000" in one_error_line(out), out.text
 
 
 # ---------------------------------------------------------------------- item 6: bad input, one line

@@ -45,6 +45,7 @@ def _read_all(servo: Servo, items: list[Item]) -> dict[str, int]:
 
 def info(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
+    guard.only_one(ctx, servo)
     model = servo.model
     items = [i for i in model.items.values() if args.all or not i.name.startswith(_BULKY)]
     values = _read_all(servo, items)
@@ -75,6 +76,7 @@ def info(ctx: Context, args: argparse.Namespace) -> None:
 
 def get(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
+    guard.only_one(ctx, servo)  # which of two servos at one ID would be read cannot be told
     item = servo.item(args.item)
     raw = servo.read(item.name)
     ctx.out.say(f"{servo.who} {item.name} = {show_value(servo.model, item, raw)}")

@@ -58,8 +58,17 @@ def _read(ctx: Context, placed: list[Placed], item_of: Callable[[Placed], Item])
     return values
 
 
+def _one_each(ctx: Context, placed: list[Placed]) -> None:
+    """Without --baud: StepFailed naming both rates when an ID of the list answers at two (two servos
+    have it, and which one is meant cannot be told); nothing is read or written then."""
+    for p in placed:
+        ctx.bus.set_baudrate(p.baudrate)
+        guard.only_one(ctx, p.servo)
+
+
 def get_many(ctx: Context, args: argparse.Namespace) -> None:
     found = ctx.servos(args.id)
+    _one_each(ctx, found.placed)
     items = {p.dxl_id: p.servo.item(args.item) for p in found.placed}
     values = _read(ctx, found.placed, lambda p: items[p.dxl_id])
     docs, silent = [], []
@@ -173,6 +182,7 @@ def _report(ctx: Context, wants: list[Want], result: dict[str, Any]) -> list[str
 
 def _set(ctx: Context, args: argparse.Namespace, name: str, value_of: Callable[[Placed, Item], int]) -> None:
     found = ctx.servos(args.id)
+    _one_each(ctx, found.placed)
     wants = _wants(ctx, found.placed, value_of, name)
     wrong = _report(ctx, wants, _change(ctx, found.placed, wants))
     ctx.out.document.update(missing=found.missing)
