@@ -2,6 +2,8 @@
 failed transaction reports."""
 from __future__ import annotations
 
+import time
+
 import pytest
 from conftest import instruction, status
 
@@ -68,6 +70,9 @@ def test_a_group_read_nobody_answers_is_sent_again_and_says_so(line):
     read = transport.start_group_read(packet, [(1, 2)], False, "sync read @132x2")
     assert read.result() == {}
     assert read.failure == "sync read @132x2: no servo answered"
+    deadline = time.monotonic() + 5.0  # the peer's thread may not have taken the second one in yet
+    while len(peer.received) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
     assert peer.received == [packet, packet]
 
 
