@@ -46,7 +46,13 @@ model's table has not: those fields read back as "not supported" (NaN, 0, "" or 
 them are refused with one line. Addresses come from the control-table files shipped in the
 `dynamixel-sdk` wheel where it has one ("SDK file"), else from our own table written after the
 ROBOTIS e-Manual ("e-Manual"); unit scales, operating modes and factory values always from the
-model's e-Manual page (`dynamixel_handler/control_table/`). See [units.md](units.md) for the families'
+model's e-Manual page (`dynamixel_handler/control_table/`). So are the value ranges
+(`dynamixel_handler/control_table/_ranges.py`: the Range column of the model's control table, or its
+item sections) that `dynamixel_handler_setup` checks a value against before it writes it and the
+virtual bus answers with a Data Range Error: the limits (velocity, acceleration, voltage, current,
+PWM, temperature), Homing Offset, Moving Threshold, the gains, the profiles, IDs and the like; an
+item the pages give no range keeps its register's byte range (`Model.byte_range_items` names them,
+the module's docstring says where the pages disagree). See [units.md](units.md) for the families'
 units and [compatibility.md](compatibility.md) for what the handler does where a rule cannot apply.
 """
 

@@ -4,7 +4,8 @@ EEPROM flags and unit scales, by canonical snake_case item name.
 Addresses and sizes of X, P and PRO "-R(A)" models come from the control-table files shipped in
 the ``dynamixel-sdk`` wheel; the old PRO "-R" table, unit scales and the items those files omit
 are ours (``_facts.py``), taken from the ROBOTIS e-Manual, and so are the factory values of each model
-(``_factory.py``). Nothing here talks to hardware.
+(``_factory.py``) and the values each of its registers may take (``_ranges.py``,
+``Model.value_range``). Nothing here talks to hardware.
 
 An item keeps its canonical name even where a series calls it differently: old PRO "Goal Torque"
 is ``goal_current``, "Torque Limit" is ``current_limit`` and "Goal Acceleration" is
@@ -46,11 +47,13 @@ from ._family import (
     family_named,
     family_titled,
 )
+from ._ranges import LISTED as RANGED_ITEMS
+from ._ranges import ranges_of
 from ._sdk_files import load_sdk_table
 
 __all__ = ["FAMILIES", "KEPT_POSITION_MODES", "MAX_ROTATION", "OPERATING_MODES", "POSITION_LIMITED_MODES",
-           "POSITION_MODES", "PRO", "P", "SERIES", "X", "Item", "Model", "ServoFamily", "family_named", "family_titled",
-           "known_models", "model_by_number"]
+           "POSITION_MODES", "PRO", "P", "RANGED_ITEMS", "SERIES", "X", "Item", "Model", "ServoFamily", "family_named",
+           "family_titled", "known_models", "model_by_number"]
 
 SERIES: Tuple[str, ...] = tuple(f.name for f in FAMILIES)
 
@@ -159,6 +162,11 @@ class Model:
     #: factory (initial) values the e-Manual gives for this model, by item name (limits, gains,
     #: thresholds, shutdown mask...); items it leaves blank are absent
     factory: Mapping[str, int] = field(default_factory=dict, repr=False)
+    #: the values the e-Manual allows each item, raw (lowest, highest): its page's ranges (``_ranges``)
+    #: and, for an item of ``RANGED_ITEMS`` the manual gives none, the register's byte range
+    ranges: Mapping[str, Tuple[int, int]] = field(default_factory=dict, repr=False)
+    #: the items of ``ranges`` that keep the register's byte range (the e-Manual gives them none)
+    byte_range_items: FrozenSet[str] = frozenset()
     #: operating mode name -> the value of its Operating Mode register (the XL-320's Control
     #: Mode has its own values); a mode a model lacks is absent
     mode_values: Mapping[str, int] = field(default_factory=lambda: OPERATING_MODES, repr=False)
@@ -217,12 +225,36 @@ class Model:
         """True if this model's control table has the item."""
         return name in self.items
 
+    def value_range(self, name: str) -> Tuple[int, int]:
+        """The lowest and highest raw value the e-Manual allows item ``name`` on this model (the
+        register's bytes where it gives none); KeyError naming the model if it has no such item."""
+        item = self.item(name)
+        return self.ranges.get(name, (item.min_raw, item.max_raw))
+
     def item(self, name: str) -> Item:
         """The item by canonical name; KeyError naming the model if it has no such item."""
         try:
             return self.items[name]
         except KeyError:
             raise KeyError(f"{self.name} (model {self.number}) has no control-table item {name!r}") from None
+
+
+def _ranges(number: int, items: Mapping[str, Item]) -> Dict[str, Any]:
+    """``ranges`` and ``byte_range_items`` of a model: its e-Manual ranges (within its registers'
+    bytes), an item's own range where it has one (XL-320), else the byte range of a listed item."""
+    manual = ranges_of(number)
+    ranges: Dict[str, Tuple[int, int]] = {}
+    kept = set()
+    for name, item in items.items():
+        if name in manual:
+            lo, hi = manual[name]
+            ranges[name] = (max(lo, item.min_raw), min(hi, item.max_raw))
+        elif item.value_range is not None:
+            ranges[name] = item.value_range
+        elif name in RANGED_ITEMS:
+            ranges[name] = (item.min_raw, item.max_raw)
+            kept.add(name)
+    return {"ranges": MappingProxyType(ranges), "byte_range_items": frozenset(kept)}
 
 
 def _raw_items(facts: ModelFacts) -> Tuple[Dict[str, Tuple[int, int]], Dict[str, float]]:
@@ -287,7 +319,7 @@ def _build(number: int, facts: ModelFacts) -> Model:
         indirect_targets=targets,
         table_size=TABLE_SIZE[indirect_key],
         factory=MappingProxyType({k: v for k, v in FACTORY.get(number, {}).items() if k in items}),
-        **_own_modes(facts, modes),
+        **_ranges(number, items), **_own_modes(facts, modes),
     )
 
 
@@ -318,7 +350,7 @@ def _build_y(number: int) -> Model:
         indirect=_y.INDIRECT, indirect_targets=_y.INDIRECT_TARGETS, table_size=_y.TABLE_SIZE,
         factory=MappingProxyType({k: v for k, v in _y.FACTORY[number].items() if k in items}),
         mode_values=MappingProxyType({m: v for m, v in OPERATING_MODES.items() if v in _y.OPERATING_MODES}),
-        item_scales=MappingProxyType(dict(_y.ITEM_SCALES)), hybrid_items=_y.HYBRID,
+        item_scales=MappingProxyType(dict(_y.ITEM_SCALES)), hybrid_items=_y.HYBRID, **_ranges(number, items),
     )
 
 
@@ -335,6 +367,7 @@ def _build_xl320() -> Model:
         baud_rates=MappingProxyType(dict(_xl320.BAUD_RATES)), operating_modes=tuple(sorted(_xl320.MODE_VALUES.values())),
         table_size=_xl320.TABLE_SIZE, factory=MappingProxyType(dict(_xl320.FACTORY)),
         mode_values=MappingProxyType(dict(_xl320.MODE_VALUES)), ram_copies=MappingProxyType(dict(_xl320.RAM_COPIES)),
+        **_ranges(_xl320.NUMBER, items),
     )
 
 

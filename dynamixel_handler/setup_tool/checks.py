@@ -25,19 +25,10 @@ __all__ = ["Problem", "cut", "finite", "whole", "manual_range", "needed", "probl
 
 #: (min item, max item): the servo refuses or misbehaves when min > max
 LIMIT_PAIRS = (("min_position_limit", "max_position_limit"), ("min_voltage_limit", "max_voltage_limit"))
-#: e-Manual ranges common to the Protocol 2.0 models (the Protocol Type 1 of a 2.0 model is refused
-#: apart: see :func:`problems`)
-_RANGES = {
-    "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2), "temperature_limit": (0, 100),
-    "startup_configuration": (0, 3), "secondary_id": (0, 255), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
-    "torque_enable": (0, 1),
-}
 #: goals and the limit the servo holds each to (a goal beyond it is refused by the servo)
 GOAL_LIMITS = {"goal_velocity": "velocity_limit", "goal_current": "current_limit", "goal_pwm": "pwm_limit"}
 #: what a goal position is checked against (in the modes the position limits apply to)
 _POSITION_LIMITS = ("operating_mode", "min_position_limit", "max_position_limit")
-#: limits whose factory value is also the most the e-Manual allows (X and P: Current Limit)
-_FACTORY_MAX = ("current_limit",)
 #: a protection lowered beyond its factory value needs --force: (item, +1 raising / -1 lowering is the danger)
 _PROTECTIONS = {"temperature_limit": 1, "max_voltage_limit": 1, "min_voltage_limit": -1}
 #: Secondary ID values that switch it off
@@ -73,18 +64,11 @@ def whole(text: str, what: str, lo: int, hi: int) -> int:
 
 
 def manual_range(model: Model, item: Item) -> tuple[int, int]:
-    """The lowest and highest value the model's e-Manual gives ``item`` (the register's bytes where
-    it gives none narrower)."""
-    lo, hi = item.min_raw, item.max_raw
-    if item.name in _RANGES:
-        lo, hi = max(lo, _RANGES[item.name][0]), min(hi, _RANGES[item.name][1])
+    """The lowest and highest value the model's e-Manual gives ``item`` (``Model.value_range``: the
+    register's bytes where it gives none narrower); the position limits: the model's position range."""
     if item.name in ("min_position_limit", "max_position_limit") and model.position_max_pulse:
-        lo, hi = model.position_min_pulse, model.position_max_pulse
-    if item.name == "pwm_limit" and math.isfinite(model.pwm_percent_per_pulse):
-        hi = min(hi, int(round(100.0 / model.pwm_percent_per_pulse)))
-    if item.name in _FACTORY_MAX and model.factory.get(item.name):
-        hi = min(hi, model.factory[item.name])
-    return lo, hi
+        return model.position_min_pulse, model.position_max_pulse
+    return model.value_range(item.name)
 
 
 def needed(model: Model, names: Iterable[str]) -> list[str]:

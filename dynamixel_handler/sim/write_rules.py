@@ -1,8 +1,8 @@
 """The firmware's checks of one written value: the error a servo answers, or none.
 
-A value outside an item's range (an unknown operating mode, baud rate or Status Return Level, a
-gain above its maximum) is a Data Range Error; a goal beyond its limit a Data Limit Error; goals
-after a bus watchdog error a Data Range Error; Torque Enable while a shutdown error is latched a
+A value outside an item's range (the model's e-Manual range, ``Model.ranges``: a gain, a limit or a
+Status Return Level beyond it; an unknown operating mode or baud rate) is a Data Range Error; a goal
+beyond its limit a Data Limit Error; goals after a bus watchdog error a Data Range Error; Torque Enable while a shutdown error is latched a
 Result Fail. ``changes`` are the other items of the same write: a limit written together with a
 goal counts for it.
 """
@@ -21,23 +21,7 @@ from .registers import Registers
 
 EXTENDED_MODES = (4, 5)
 X_EXTENDED_GOAL_LIMIT = 1_048_575
-X_HOMING_MAX = 1_044_479
-X_GAIN_MAX = 16383
-X_GAINS = ("velocity_i_gain", "velocity_p_gain", "position_d_gain", "position_i_gain", "position_p_gain",
-           "feedforward_2nd_gain", "feedforward_1st_gain")
 _GOAL_LIMITS = {"goal_pwm": "pwm_limit", "goal_current": "current_limit", "goal_velocity": "velocity_limit"}
-_COMMON_RANGES = {
-    "id": (0, 252), "return_delay_time": (0, 254), "status_return_level": (0, 2),
-    "torque_enable": (0, 1), "protocol_type": (1, 2), "bus_watchdog": (0, 127),
-    "temperature_limit": (0, 100), "startup_configuration": (0, 3), "led": (0, 1),
-    "external_port_mode_1": (0, 3), "external_port_mode_2": (0, 3),
-    "external_port_mode_3": (0, 3), "external_port_mode_4": (0, 3),
-}
-_X_RANGES = {
-    **{name: (0, X_GAIN_MAX) for name in X_GAINS},
-    "homing_offset": (-X_HOMING_MAX, X_HOMING_MAX), "moving_threshold": (0, 1023),
-    "profile_acceleration": (0, 32767), "profile_velocity": (0, 32767),
-}
 
 Changes = Sequence[tuple[Item, int]]
 
@@ -76,17 +60,12 @@ def check_value(servo: Registers, name: str, value: int, changes: Changes, latch
 
 
 def _range(servo: Registers, name: str) -> tuple[int, int] | None:
+    """The values the model's e-Manual allows the item (``Model.ranges``; the position limits: the
+    model's position range); None: any its bytes hold."""
     model = servo.model
-    item = model.items.get(name)
-    if item is not None and item.value_range is not None:  # the register's own range (XL-320)
-        return item.value_range
     if name in ("max_position_limit", "min_position_limit"):
         return model.position_min_pulse, model.position_max_pulse
-    if name == "pwm_limit":  # full scale: X 885, P 2009, Y 1000
-        return 0, int(round(100.0 / model.pwm_percent_per_pulse))
-    if servo.x and name in _X_RANGES:  # X e-Manual ranges
-        return _X_RANGES[name]
-    return _COMMON_RANGES.get(name)
+    return model.ranges.get(name)
 
 
 def _range_error(servo: Registers, name: str, value: int) -> int:
