@@ -18,9 +18,12 @@ def test_statistics_line_levels_and_device_gone(tmp_path):
     link = str(tmp_path / "ttyDXL")
     rig = Rig({1: X, 2: X, 3: X}, "verbose_ratio:=20", "dyn_comm/retry_num:=0", sim_kwargs={"link": link})
     try:
-        rig.wait(lambda: _lines(rig), what="a statistics line")
-        first = _lines(rig)[0]
-        assert first.group(1) == "INFO" and first.group(2) == "100" and first.group(3) == "100", first.group(0)
+        # every servo answering: a line at 100 % is INFO (on a busy host a late reply can make a
+        # window 99 %, a WARN: wait for a full one rather than take the first)
+        rig.wait(lambda: any(m.group(2) == "100" and m.group(3) == "100" for m in _lines(rig)),
+                 what="a statistics line at 100 %", timeout=30)
+        assert all(m.group(1) == "INFO" for m in _lines(rig) if m.group(2) == "100" and m.group(3) == "100"), \
+            [m.group(0) for m in _lines(rig)]
 
         # two servos of three silent: every read misses them (full 0 %) -> ERROR
         rig.sim.set_silent(2, True)
@@ -54,7 +57,8 @@ def test_the_statistics_line_comes_every_10_s_even_with_verbose_ratio_0():
 
 def test_a_slow_bus_warns_once_with_the_rate_it_reaches_and_its_watchdog_follows_the_loop():
     ids = {i: X for i in range(1, 21)}
-    rig = Rig(ids, "baudrate:=9600", "loop_rate:=100", "default/bus_watchdog:=100.0",
+    # a 16 ms adapter (the factory setting): a reply a busy host delays is not taken for silence
+    rig = Rig(ids, "baudrate:=9600", "loop_rate:=100", "default/bus_watchdog:=100.0", "latency_timer:=16",
               "pub_ratio/present.current:=1", "pub_ratio/present.velocity:=1",
               sim_kwargs={"wire_timing": True, "baudrate": 9600})
     try:

@@ -41,10 +41,12 @@ def goals_written(entries, address: int = GOAL_POSITION) -> list[tuple[float, di
 # ============================================================================ the bus
 @pytest.fixture
 def timed_bus():
-    """Four X servos on a virtual bus with wire timing (1 Mbps), and our bus opened on it."""
+    """Four X servos on a virtual bus with wire timing (1 Mbps), and our bus opened on it: a 16 ms
+    adapter and three retries, so a reply a busy host delays is still the reply these tests wait for
+    (they judge the order of transactions, not the host's speed)."""
     sim = VirtualBus({i: XM430 for i in range(1, 5)}, baudrate=1_000_000)
     path = sim.start()
-    bus = DynamixelBus(path, 1_000_000, latency_timer_ms=1.0, retry_num=1)
+    bus = DynamixelBus(path, 1_000_000, latency_timer_ms=16.0, retry_num=3)
     bus.open()
     yield sim, bus
     bus.close()

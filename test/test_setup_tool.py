@@ -391,7 +391,7 @@ def test_bad_arguments_exit_2_with_one_line(sim_of):
 def test_refused_while_a_handler_holds_the_port_and_a_second_handler_fails_at_start(sim_of):
     sim = sim_of("1:XM430-W350")
     params = ("latency_timer:=1", f"device_name:={sim.path}", "baudrate:=57600", "init/servo_auto_search.max_id:=2",
-              "init/expected_servo_num:=1")
+              "init/expected_servo_num:=1", "init/servo_auto_search.retry_times:=5")  # a busy host: scan again
     node = NodeProcess(node_command(*params))
     try:
         node.wait_for("loop running", timeout=60)

@@ -20,14 +20,17 @@ def handler_on_virtual_bus(servos: Mapping[int, int], config: Mapping[str, Any] 
     ``(sim, handler)``. ``baudrate`` None: the servos' factory 57600 bps. ``patient``: a reply
     timeout and retries that a busy host cannot exhaust, for tests comparing two runs reply for
     reply (a lost reply would part them). ``tripped_once`` False: goals look for tripped bus
-    watchdogs servo by servo (``Handler``)."""
+    watchdogs servo by servo (``Handler``). The start-up scan expects every servo of ``servos`` and
+    retries until it saw them all: a busy host can delay a reply past a 1 ms adapter's timeout."""
     sim = VirtualBus(servos, baudrate=baudrate)
     bus = DynamixelBus(sim.start(), baudrate or 57600, latency_timer_ms=16.0 if patient else 1.0,
                        retry_num=3 if patient else retry_num)
     bus.open()
     try:
         handler = Handler(bus, validate({**defaults(), "device_name": sim.path,
-                                         "init/servo_auto_search.max_id": max(servos), **(config or {})}),
+                                         "init/servo_auto_search.max_id": max(servos),
+                                         "init/expected_servo_num": len(servos),
+                                         "init/servo_auto_search.retry_times": 5, **(config or {})}),
                           tripped_once=tripped_once)
         handler.start()
         yield sim, handler
