@@ -8,7 +8,7 @@ at most once every ``STATS_MIN_S`` (a fast loop: it then covers more loops), and
 While the device is gone it says so, and since when, instead of a success rate.
 
 Every ``RATE_WINDOW_S`` the loop period is measured: the bus watchdog time follows what two
-windows in a row show (``Handler.note_loop_period``), and a loop that cannot hold ``loop_rate`` is
+windows in a row show (``Watchdog.note_loop_period``), and a loop that cannot hold ``loop_rate`` is
 reported once, with the rate it does reach and the bus time a loop takes.
 
 Both lines go to ``emit(kind, level, text)``: kind ``"statistics"`` or ``"rate"``, level one of
@@ -37,17 +37,38 @@ RATE_TOLERANCE = 0.9
 Emit = Callable[[str, int, str], None]
 
 
-class StatsCore(Protocol):
-    """What the statistics need of the ``Handler``."""
+class DeviceState(Protocol):
+    """Whether the device is gone, and since when (``Recovery``)."""
 
-    @property
-    def table(self) -> Sized: ...
     @property
     def device_lost(self) -> bool: ...
     @property
     def device_lost_since(self) -> float | None: ...
+
+
+class PeriodSink(Protocol):
+    """Who keeps the measured loop period (``Watchdog``: the bus watchdog time follows it)."""
+
     def note_loop_period(self, seconds: float) -> None: ...
-    def estimate_loop_s(self) -> float: ...
+
+
+class WireEstimate(Protocol):
+    """The wire time of a loop's reads (``Reads``)."""
+
+    def wire_s_per_loop(self) -> float: ...
+
+
+class StatsCore(Protocol):
+    """What the statistics need of the ``Handler``: its table and three of its parts."""
+
+    @property
+    def table(self) -> Sized: ...
+    @property
+    def recovery(self) -> DeviceState: ...
+    @property
+    def watchdog(self) -> PeriodSink: ...
+    @property
+    def reads(self) -> WireEstimate: ...
 
 
 class Finished(Protocol):
@@ -93,18 +114,18 @@ class LoopStats:
         elapsed, loops = now - self._rate_start, self._rate_loops
         read_s = self._rate_read / max(1, self._rate_reads)
         self._rate_start, self._rate_loops, self._rate_read, self._rate_reads = now, 0, 0.0, 0
-        if self.h.device_lost:
+        if self.h.recovery.device_lost:
             return
         measured, last = elapsed / loops, self._last_period
         self._last_period = measured
         if last is None:  # the first window holds the start (watchdogs armed, first commands)
             return
         period = min(measured, last)  # what two windows in a row show
-        self.h.note_loop_period(period)
+        self.h.watchdog.note_loop_period(period)
         rate = 1.0 / period
         if rate < RATE_TOLERANCE * self.loop_rate and not self.slow_warned:
             self.slow_warned = True
-            wire_s = self.h.estimate_loop_s()
+            wire_s = self.h.reads.wire_s_per_loop()
             self.emit("rate", logging.WARNING,
                       f"loop_rate {self.loop_rate:g} Hz cannot be held: {rate:.1f} loops/s ({1000 * period:.1f} ms a "
                       f"loop; the reads of {len(self.h.table)} servo(s) at {self.wire.baudrate} bps take "
@@ -115,8 +136,8 @@ class LoopStats:
         loops = max(1, self._loops)
         head = (f"time={1000 * (now - self._start) / loops:2.2f}ms/loop"
                 f"({1000 * self._read / max(1, self._reads):2.2f}ms/read), ")
-        since = self.h.device_lost_since
-        if self.h.device_lost and since is not None:
+        since = self.h.recovery.device_lost_since
+        if self.h.recovery.device_lost and since is not None:
             self.emit("statistics", logging.ERROR,
                       head + f"device {self.wire.device} gone since "
                       f"{time.strftime('%H:%M:%S', time.localtime(since))} ({time.time() - since:.0f} s ago): "

@@ -204,7 +204,7 @@ def test_at_a_low_loop_rate_a_servo_that_missed_a_read_is_pinged_again_within_a_
         config = {"loop_rate": loop_rate, "pub_ratio/present.position": 1}
         # patient: on a loaded host the answering servo's reply must not be taken for silence
         with handler_on_virtual_bus({1: XM430, 2: XM430}, config, patient=True) as (sim, handler):
-            while handler.loop_count % RECHECK_LOOPS != 1:  # just after a ping round at every rate
+            while handler.figures().loop_count % RECHECK_LOOPS != 1:  # just after a ping round at every rate
                 handler.step()
             sim.servo(1).silent = True
             handler.step()                  # the read that finds it silent

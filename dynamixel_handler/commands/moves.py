@@ -226,7 +226,8 @@ class Book(MoveIO):
     def grace_s(self) -> float:
         """How long a move waits for servos that missed the last read (a loaded host, a noisy bus)
         before it is refused: SILENT_S, plus the loops until a silent servo is pinged again."""
-        return SILENT_S + self.h.recheck_loops * max(self.period_s, self.h.loop_period_s)
+        figures = self.h.figures()
+        return SILENT_S + figures.recheck_loops * max(self.period_s, figures.loop_period_s)
 
     # ------------------------------------------------------------------ any thread
     def add(self, job: Job) -> None:

@@ -7,6 +7,7 @@ test holds them together)."""
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from typing import Any, Callable, Protocol, TypeVar, runtime_checkable
 
 from ..control_table import Model
@@ -17,6 +18,21 @@ from .request_types import Answer
 R = TypeVar("R")
 
 Warn = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class LoopFigures:
+    """What the loop has counted so far, taken at once from the parts that count it."""
+
+    loop_count: int
+    #: the loop's measured period (0 before the first loops)
+    loop_period_s: float
+    #: loops until a silent servo is pinged again
+    recheck_loops: int
+    device_lost: bool
+    device_lost_since: float | None
+    reconnects: int
+    watchdog_trips: int
 
 
 @runtime_checkable
@@ -33,10 +49,7 @@ class ServoAccess(Protocol):
     def handled_ids(self) -> list[int]: ...
     @property
     def pending(self) -> PendingWrites: ...   # read-only here: goals waiting for the next write
-    @property
-    def loop_period_s(self) -> float: ...   # the loop's measured period (0 before the first loops)
-    @property
-    def recheck_loops(self) -> int: ...   # loops until a silent servo is pinged again
+    def figures(self) -> LoopFigures: ...   # loop count, measured period, recheck loops, device, trips
     def handles(self, dxl_id: int) -> bool: ...
     def model(self, dxl_id: int) -> Model: ...
     def mode(self, dxl_id: int) -> str | None: ...

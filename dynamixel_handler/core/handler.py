@@ -40,7 +40,7 @@ from ..control_table import OPERATING_MODES, Model
 from ..errors import Interrupted, StartupError
 from ..servos import PendingWrites, ServoTable
 from ..settings import LoopSettings, Settings, TermSettings
-from .api import ServoAccess
+from .api import LoopFigures, ServoAccess
 from .deferred import EEPROM_WRITE_INTERVAL_S, Deferred
 from .group_io import GroupIO
 from .intake import Intake
@@ -221,41 +221,13 @@ class Handler:
     def step(self) -> StepReport:
         return self.steps.step()
 
-    @property
-    def loop_count(self) -> int:
-        return self.steps.loop_count
-
-    @property
-    def recheck_loops(self) -> int:
-        return self.steps.settings.recheck_loops
-
-    # ---------------------------------------------------------------- figures
-    @property
-    def loop_period_s(self) -> float:
-        return self.watchdog.loop_period_s
-
-    def note_loop_period(self, seconds: float) -> None:
-        self.watchdog.note_loop_period(seconds)
-
-    def estimate_loop_s(self) -> float:
-        """The loop period before one is measured: the wire time of a loop's reads."""
-        return self.reads.wire_s_per_loop()
-
-    @property
-    def device_lost(self) -> bool:
-        return self.recovery.device_lost
-
-    @property
-    def device_lost_since(self) -> float | None:
-        return self.recovery.device_lost_since
-
-    @property
-    def reconnects(self) -> int:
-        return self.recovery.reconnects
-
-    @property
-    def watchdog_trips(self) -> int:
-        return self.watchdog.trips
+    def figures(self) -> LoopFigures:
+        """The loop's counts, device and watchdog figures, as one value."""
+        recovery = self.recovery
+        return LoopFigures(loop_count=self.steps.loop_count, loop_period_s=self.watchdog.loop_period_s,
+                           recheck_loops=self.steps.settings.recheck_loops, device_lost=recovery.device_lost,
+                           device_lost_since=recovery.device_lost_since, reconnects=recovery.reconnects,
+                           watchdog_trips=self.watchdog.trips)
 
     # ---------------------------------------------------------------- ServoAccess: what is known
     @property

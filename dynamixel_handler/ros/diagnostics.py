@@ -28,12 +28,12 @@ class DiagnosticsPublisher:
         self._since: float | None = None
 
     def _mark(self) -> None:
-        h = self.node.handler
+        f = self.node.handler.figures()
         self._since = time.monotonic()
-        self._loops = h.loop_count
+        self._loops = f.loop_count
         self._stats = self.node.wire.stats.copy()
-        self._reconnects = h.reconnects
-        self._trips = h.watchdog_trips
+        self._reconnects = f.reconnects
+        self._trips = f.watchdog_trips
 
     def __call__(self, report: StepReport) -> None:
         if self._since is None:
@@ -42,14 +42,14 @@ class DiagnosticsPublisher:
         now = time.monotonic()
         if now - self._since < self.period_s:
             return
-        h, table = self.node.handler, self.node.handler.table
+        f, table = self.node.handler.figures(), self.node.handler.table
         delta = self.node.wire.stats.delta(self._stats)
         sample = BusSample(
-            device=self.node.wire.device, elapsed_s=now - self._since, loops=h.loop_count - self._loops,
+            device=self.node.wire.device, elapsed_s=now - self._since, loops=f.loop_count - self._loops,
             target_rate_hz=float(self.node.settings.loop.rate_hz), transactions=delta.transactions,
-            success_rate=delta.success_rate, device_lost=h.device_lost, reconnects_total=h.reconnects,
-            reconnects_new=h.reconnects - self._reconnects, watchdog_trips_total=h.watchdog_trips,
-            watchdog_trips_new=h.watchdog_trips - self._trips, servos=len(table), servos_silent=silent_count(table))
+            success_rate=delta.success_rate, device_lost=f.device_lost, reconnects_total=f.reconnects,
+            reconnects_new=f.reconnects - self._reconnects, watchdog_trips_total=f.watchdog_trips,
+            watchdog_trips_new=f.watchdog_trips - self._trips, servos=len(table), servos_silent=silent_count(table))
         statuses = [bus_health(sample, self.prefix)] + [servo_health(table, i, self.prefix) for i in table.ids]
         msg = DiagnosticArray()
         msg.header.stamp = self.node.get_clock().now().to_msg()

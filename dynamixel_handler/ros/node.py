@@ -182,7 +182,7 @@ class DynamixelHandlerNode(Node):
 
     def start_loop(self) -> None:
         # until the first loops are measured, the bus watchdog time follows the wire time of a loop
-        self.handler.note_loop_period(self.handler.estimate_loop_s())
+        self.handler.watchdog.note_loop_period(self.handler.reads.wire_s_per_loop())
         if self.outbox is None:
             self.outbox = Outbox(self.get_logger())
         hooks = Hooks(before_step=self._before_step, take_commands=self.intake.poll, wait_commands=self.intake.wait,

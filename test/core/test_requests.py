@@ -57,7 +57,7 @@ def test_goals_to_a_servo_whose_watchdog_tripped_clear_it_before_they_are_writte
     bus, h = started()
     h.table.set_value("bus_watchdog", 2, -1)
     h.ask(SetGoals({"goal_position": {2: 100}}))
-    assert h.watchdog_trips == 1
+    assert h.figures().watchdog_trips == 1
     h.steps.send_writes(h.steps.begin_step())
     items = [(w[1], w[2]) for w in bus.item_writes()]
     assert items[0] == ("bus_watchdog", (2, 0)) and items[-1] == ("goal_position", {2: 100})

@@ -33,7 +33,7 @@ def test_a_loop_runs_the_operations_then_writes_then_reads_what_is_due():
     report = h.step()
     assert [c[0] for c in bus.calls] == ["write", "sync_write", "sync_read"]
     assert bus.calls[-1] == ("sync_read", 132, 4, (1, 2, 3), False)
-    assert report.loop == 1 and report.present == {"position"} and h.loop_count == 2
+    assert report.loop == 1 and report.present == {"position"} and h.figures().loop_count == 2
 
 
 def test_a_silent_servo_is_not_read_but_pinged_every_recheck_loops_loops():

@@ -8,7 +8,9 @@ import re
 from typing import Any, Callable, Mapping
 
 from dynamixel_handler.control_table import OPERATING_MODES, model_by_number
+from dynamixel_handler.core.api import LoopFigures
 from dynamixel_handler.core.request_types import DONE, Answer, ChangeMode, SetGoals
+from dynamixel_handler.core.state import recheck_loops
 from dynamixel_handler.servos import PendingWrites, ServoTable
 from dynamixel_handler.settings import Settings
 
@@ -35,6 +37,11 @@ class FakeAccess:
         self.routes: dict[type, Callable[[Any], Any]] = {}  # the command side's request types
 
     # ------------------------------------------------------------ what is known
+    def figures(self) -> LoopFigures:
+        """A loop that has not run yet: no period measured, the default recheck interval."""
+        return LoopFigures(loop_count=0, loop_period_s=0.0, recheck_loops=recheck_loops(self.settings.loop.rate_hz),
+                           device_lost=False, device_lost_since=None, reconnects=0, watchdog_trips=0)
+
     @property
     def handled_ids(self) -> list[int]:
         return list(self.table.ids)
