@@ -94,7 +94,8 @@ def test_one_missing_servo_is_reported_and_the_others_restored_at_their_rates(bu
     sdk_write1(sim.path, 57600, 2, BAUD_RATE_ADDR, 3)  # ID 2 moved to 1 Mbps since the backup
 
     out = tool(sim, "restore", str(backup), "--dry-run", "--json")
-    assert out.returncode == 0, out.text
+    assert out.returncode == 1, out.text  # as the real run will: ID 4 cannot be restored
+    assert "the real run would be incomplete" in out.stderr and "ID 4 (XM540-W270) answers at no rate" in out.stderr
     planned = {c["id"]: [] for c in json.loads(out.stdout)["changes"]}
     for c in json.loads(out.stdout)["changes"]:
         planned[c["id"]].append(c["item"])

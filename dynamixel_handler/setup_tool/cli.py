@@ -205,7 +205,8 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found, at any rate unless --baud)")
     p = verb("restore", restore.restore, "write a backup back: model checked, only what differs, verified")
     p.add_argument("file")
-    p.add_argument("--dry-run", action="store_true", help="show what would change, write nothing")
+    p.add_argument("--dry-run", action="store_true",
+                   help="show what would change, write nothing; exit 1 when a servo could not be restored")
     p = verb("monitor", monitor.monitor, "a live table of the servos (q quits)")
     p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found, at any rate unless --baud)")
     p.add_argument("--rate", type=_positive(float), default=5.0, metavar="HZ", help="refreshes a second (default 5)")

@@ -143,9 +143,11 @@ def restore(ctx: Context, args: argparse.Namespace) -> None:
     plans = plan_all(ctx, load(args.file), args.file)
     skipped = _show(ctx, plans, args)
     writes = sum(len(p.writes()) for p in plans)
-    if args.dry_run:
-        ctx.out.say(f"dry run: {writes} item(s) would be written, nothing written" +
-                    (f"; {len(skipped)} would not be (above)" if skipped else ""))
+    if args.dry_run:  # the exit code the real run would give: 1 when it would be incomplete
+        if skipped:
+            raise StepFailed(f"dry run: {writes} item(s) would be written, nothing written; the real run would be "
+                             f"incomplete: {'; '.join(dict.fromkeys(skipped))}")
+        ctx.out.say(f"dry run: {writes} item(s) would be written, nothing written")
         return
     if writes:
         ctx.confirm(_question(plans, writes))
