@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
+from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -30,6 +30,8 @@ class ServoTable:
         self.ping = np.zeros(0, dtype=bool)
         self.no_response = np.zeros(0, dtype=np.int64)
         self.version = 0  # bumps whenever the set of servos changes
+        # told each ID removed from now on (``watch_removals``), in the order they were registered
+        self._removal_watchers: list[Callable[[int], None]] = []
         self._units: dict[str, np.ndarray] = {}  # item -> units of the values now held
         # values the host set itself (written, or read one by one): a sequence number per
         # (item, ID), so a group read sent before them never overwrites them (``newer_than``)
@@ -67,7 +69,14 @@ class ServoTable:
         self.no_response = np.insert(self.no_response, pos, 0)
         self._reindex()
 
+    def watch_removals(self, forget: Callable[[int], None]) -> None:
+        """``forget(id)`` runs once for each servo removed from now on, after the table let it go:
+        a part that keeps something per servo drops it there (a removal is an event the parts
+        observe, whoever removed the servo)."""
+        self._removal_watchers.append(forget)
+
     def remove(self, dxl_id: int) -> None:
+        """Stop holding the servo (nothing when it is not held); every watcher is told."""
         pos = self.index.get(dxl_id)
         if pos is None:
             return
@@ -80,6 +89,8 @@ class ServoTable:
         self.no_response = np.delete(self.no_response, pos)
         self._set_at = {key: seq for key, seq in self._set_at.items() if key[1] != dxl_id}
         self._reindex()
+        for forget in self._removal_watchers:
+            forget(dxl_id)
 
     def positions(self, ids: tuple[int, ...]) -> np.ndarray:
         """The positions of those of ``ids`` handled now, in their order (read-only; kept until the
@@ -214,6 +225,10 @@ class PendingWrites:
         with self._lock:
             taken, self._items = self._items, {}
         return taken
+
+    def forget(self, dxl_id: int) -> None:
+        """Drop what waits for a servo no longer handled."""
+        self.drop_ids((dxl_id,))
 
     def drop_ids(self, ids: Sequence[int]) -> None:
         with self._lock:

@@ -124,7 +124,7 @@ def _core_routes(h: Handler) -> dict[type, Callable[[Any], Answer | None]]:
         WriteEeprom: lambda r: answer(h.work.write_eeprom(r.dxl_id, r.item, r.pulses)),
         Reboot: lambda r: answer(h.recovery.reboot(r.dxl_id)),
         AddServo: lambda r: answer(h.startup.add_id(r.dxl_id), f"ID {r.dxl_id} not added"),
-        RemoveServo: lambda r: h.remove_id(r.dxl_id),
+        RemoveServo: lambda r: h.table.remove(r.dxl_id),
         WantHandled: lambda r: h.startup.want_handled(r.dxl_id, r.handled),
         SetUserWatchdog: lambda r: h.watchdog.set_user(r.dxl_id, r.pulses),
     }
@@ -161,18 +161,23 @@ class Handler:
         self.watchdog = Watchdog(self.table, log, self.io, self.group, s.watchdog, tripped_once)
         self.work = Deferred(self.table, log, self.io)
         self.intake = Intake(log)
-        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s.loop, self._set_up, self.remove_id)
+        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s.loop, self._set_up)
         self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s.startup,
                                stopping)
         self.requests = Requests(self.table, self.pending, log, self.io, self.watchdog, self.pacing, self.work,
                                  self.recovery, s.loop)
         self.steps = Step(bus, self.table, log, self.reads, self.writes, self.pacing, self.watchdog, self.recovery,
-                          self.work, self.intake, self.startup, self.remove_id, s.step)
+                          self.work, self.intake, self.startup, s.step)
         self.ending = Shutdown(bus, self.table, log, self.io, self.group, s.term)
         self._parts: tuple[_Logs, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
                                         self.intake, self.recovery, self.startup, self.requests, self.steps,
                                         self.ending)
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
+        # a servo removed (a remove_id request, silent too long, the lifecycle's cleanup): each part
+        # that keeps something per servo forgets it, then one line says so
+        for forget in (self.pending.forget, self.work.forget, self.watchdog.forget, self.recovery.forget,
+                       self._say_removed):
+            self.table.watch_removals(forget)
         for kind, route in _core_routes(self).items():
             self.intake.register(kind, route)
 
@@ -262,15 +267,8 @@ class Handler:
     def read_item(self, dxl_id: int, item: str) -> int | None:
         return self.io.read_item(dxl_id, item)
 
-    def remove_id(self, dxl_id: int) -> None:
-        """Stop handling the servo: every part forgets it."""
-        if dxl_id in self.table:
-            self.table.remove(dxl_id)
-            self.pending.drop_ids([dxl_id])
-            self.work.forget(dxl_id)
-            self.watchdog.forget(dxl_id)
-            self.recovery.forget(dxl_id)
-            self._limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")
+    def _say_removed(self, dxl_id: int) -> None:
+        self._limited(logging.INFO, f"ID {dxl_id}: removed from the handled servos", f"removed {dxl_id}")
 
 
 def _as_servo_access(handler: Handler) -> ServoAccess:

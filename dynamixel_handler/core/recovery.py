@@ -25,12 +25,13 @@ RECONNECT_INTERVAL_S = 1.0
 
 class Recovery:
     """Reboot, reconnect, ping state and the removal of servos that stopped answering. ``set_up``
-    sets a servo up as at start-up (after a reconnect); ``remove`` stops handling one. Of the
-    settings: ``clear_error_interval_s`` (also between two reboots of a servo) and
+    sets a servo up as at start-up (after a reconnect). A servo silent too long is removed from the
+    table (the other parts observe that: ``ServoTable.watch_removals``). Of the settings:
+    ``clear_error_interval_s`` (also between two reboots of a servo) and
     ``no_response_auto_remove``."""
 
     def __init__(self, bus: ServoBus, table: ServoTable, log: Log, io: ServoIO, watchdog: Watchdog,
-                 settings: LoopSettings, set_up: Callable[[int], None], remove: Callable[[int], None]) -> None:
+                 settings: LoopSettings, set_up: Callable[[int], None]) -> None:
         self.bus = bus
         self.table = table
         self.log = log
@@ -38,7 +39,6 @@ class Recovery:
         self.watchdog = watchdog
         self.settings = settings
         self._set_up = set_up
-        self._remove = remove
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         #: the ping false / answers again lines, at most one a second per servo
         self.ping_log = PingLog(lambda level, msg: self.log.log(level, msg))
@@ -186,7 +186,7 @@ class Recovery:
                 dxl_id = table.ids[pos]
                 self.log.warning(f"ID {dxl_id}: no response {limit} times in a row: removed "
                                  "(add it again with the shortcut add_id)")
-                self._remove(dxl_id)
+                table.remove(dxl_id)
 
     @property
     def device_gone(self) -> bool:

@@ -195,12 +195,13 @@ class Startup:
         self.membership.pop(dxl_id, None)
         self.membership[dxl_id] = handled
 
-    def apply_membership(self, remove: Callable[[int], None]) -> None:
-        """The add_id / remove_id requests of this loop (``remove`` stops handling a servo)."""
+    def apply_membership(self) -> None:
+        """The add_id / remove_id requests of this loop (a removal: the table lets the servo go,
+        the parts that watch it forget it)."""
         wanted, self.membership = self.membership or {}, None
         for dxl_id, handled in wanted.items():
             if not handled:
-                remove(dxl_id)
+                self.table.remove(dxl_id)
             elif dxl_id not in self.table:
                 self.add_id(dxl_id)
 

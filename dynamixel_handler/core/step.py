@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Callable, Iterable, Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -33,12 +33,11 @@ class StepSettings:
 
 
 class Step:
-    """The loop step and its phases, over the parts that do the work; the read logs.
-    ``remove`` stops handling a servo (the add_id / remove_id requests of a loop)."""
+    """The loop step and its phases, over the parts that do the work; the read logs."""
 
     def __init__(self, bus: ServoBus, table: ServoTable, log: Log, reads: ReadPlan, writes: WriteBatch,
                  pacing: Pacing, watchdog: Watchdog, recovery: Recovery, work: Deferred, intake: Intake,
-                 startup: Startup, remove: Callable[[int], None], settings: StepSettings) -> None:
+                 startup: Startup, settings: StepSettings) -> None:
         self.bus = bus
         self.table = table
         self.log = log
@@ -50,7 +49,6 @@ class Step:
         self.work = work
         self.intake = intake
         self.startup = startup
-        self._remove = remove
         self.settings = settings
         self.loop_count = 0
         self._reported_errors: dict[int, tuple[int, str | None]] = {}
@@ -89,7 +87,7 @@ class Step:
             self.intake.guarded("add_id / remove_id", self._apply_membership)
 
     def _apply_membership(self) -> None:
-        self.startup.apply_membership(self._remove)
+        self.startup.apply_membership()
 
     def apply_now(self) -> None:
         """Between loops: run the queued operations and write what they left pending at once."""

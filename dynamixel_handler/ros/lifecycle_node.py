@@ -181,7 +181,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     def _forget_and_close(self) -> None:
         self._stop_loop()
         for i in list(self.handler.table.ids):
-            self.handler.remove_id(i)
+            self.handler.table.remove(i)
         self.handler.pending.take()
         self.wire.close()
 

@@ -28,14 +28,10 @@ def recovery(servos, remove_after: int = 3, interval_s: float = 1.0):
     dog = Watchdog(table, log, io, GroupIO(bus, table, log), WatchdogSettings(100.0, 1, 500.0, True))
     removed: list[int] = []
     set_up: list[int] = []
-
-    def remove(dxl_id: int) -> None:
-        removed.append(dxl_id)
-        table.remove(dxl_id)
-
+    table.watch_removals(removed.append)  # a removal is an event the table tells its watchers
     part = Recovery(bus, table, log, io, dog,
                     LoopSettings(no_response_auto_remove=remove_after, clear_error_interval_s=interval_s),
-                    set_up.append, remove)
+                    set_up.append)
     return bus, table, part, lines, removed, set_up
 
 

@@ -74,3 +74,31 @@ def test_an_error_clear_reboots_only_a_servo_with_an_error_and_brings_its_torque
     failed = h.ask(ClearError(2, False, "test"))
     assert failed.outcome is Outcome.FAILED
     assert failed.failure == "test: ID 2 did not answer the hardware error read: not rebooted"
+
+
+def test_a_servo_removed_by_any_door_is_forgotten_by_every_part_with_one_line():
+    """A removal is an event of the table the parts observe: a remove_id request and a servo
+    removed for its silence leave nothing of it waiting anywhere."""
+    from dynamixel_handler.core.request_types import RemoveServo, SetUserWatchdog
+
+    lines: list[str] = []
+    bus, h = started(no_response_id_auto_remove_count=2)
+    h.log = logging.getLogger("test_requests_removed")
+    h.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
+    h.log.setLevel(logging.INFO)
+    for dxl_id in (1, 2):
+        h.pending.put("goal_position", {dxl_id: 3000})
+        h.ask(SetUserWatchdog(dxl_id, 5))
+    assert h.watchdog.user == {1: 5, 2: 5}
+
+    h.ask(RemoveServo(2))                      # a command's remove_id
+    assert 2 not in h.table and 2 not in h.pending.peek("goal_position") and 2 not in h.watchdog.user
+    assert lines.count("ID 2: removed from the handled servos") == 1
+
+    bus.silent.add(1)                          # silent past no_response_id_auto_remove_count
+    for _ in range(40):
+        h.step()
+        if 1 not in h.table:
+            break
+    assert 1 not in h.table and not h.pending.peek("goal_position") and not h.watchdog.user
+    assert lines.count("ID 1: removed from the handled servos") == 1
