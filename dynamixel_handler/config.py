@@ -13,7 +13,7 @@ from typing import Any, Callable, Mapping
 
 from .control_table import FAMILIES
 from .errors import ConfigError
-from .joints import joint_map
+from .joints import JointMap, joint_map
 from .settings import (
     GROUP_RATIOS,
     LOGGED_READS,
@@ -25,6 +25,7 @@ from .settings import (
     LoopSettings,
     Method,
     ReadRatios,
+    RosSettings,
     ScanSettings,
     Settings,
     StartValues,
@@ -224,22 +225,6 @@ class Config:
     def __getitem__(self, name: str) -> Any:
         return self.values[name]
 
-    @property
-    def used_series(self) -> tuple[str, ...]:
-        return _used_series(self.values)
-
-    @property
-    def dummy_ids(self) -> list[int]:
-        return _dummy_ids(self.values)
-
-    @property
-    def dummy_series(self) -> list[str]:
-        """The series of each of ``dummy_ids`` (X, P or PRO)."""
-        return _dummy_series(self.values)
-
-    def present_ratio(self, item: str) -> int:
-        return int(self.values[f"pub_ratio/present.{item}"])
-
 
 def _used_series(v: Mapping[str, Any]) -> tuple[str, ...]:
     return tuple(f.name for f in FAMILIES if v[f"init/used_servo_series.{f.title}"])
@@ -281,7 +266,8 @@ def settings_of(values: Mapping[str, Any]) -> Settings:
                           used_series=_used_series(v), baudrate_auto_set=v["init/baudrate_auto_set"],
                           hardware_error_auto_clean=v["init/hardware_error_auto_clean"],
                           torque_auto_enable=v["init/torque_auto_enable"], dummy_ids=tuple(_dummy_ids(v)),
-                          dummy_series=tuple(_dummy_series(v))),
+                          dummy_series=tuple(_dummy_series(v)),
+                          ignored_dummy_ids=tuple(i for i in v["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252)),
         start=StartValues(profile_acc=v["default/profile_acc"], profile_vel=v["default/profile_vel"],
                           return_delay_time=v["default/return_delay_time"], bus_watchdog_ms=v["default/bus_watchdog"]),
         term=TermSettings(torque_auto_disable=v["term/torque_auto_disable"], servo_auto_stop=v["term/servo_auto_stop"]),
@@ -306,7 +292,15 @@ def settings_of(values: Mapping[str, Any]) -> Settings:
         trajectory=TrajectorySettings(path_tolerance_deg=float(v["trajectory.path_tolerance_deg"]),
                                       goal_tolerance_deg=float(v["trajectory.goal_tolerance_deg"]),
                                       goal_time_s=float(v["trajectory.goal_time_sec"])),
+        ros=RosSettings(command_line=not v["no_use_command_line"], diagnostics_period_s=float(v["diagnostics.period_sec"]),
+                        joint_state_use=v["joint_state.use"], joints=_joints(v)),
     )
+
+
+def _joints(v: Mapping[str, Any]) -> JointMap | None:
+    """The joint_state.* mapping (ConfigError naming the parameter at fault)."""
+    return joint_map(v["joint_state.use"], v["joint_state.names"], v["joint_state.ids"], v["joint_state.directions"],
+                     v["joint_state.offsets_deg"])
 
 
 def validate(values: Mapping[str, Any]) -> Config:
@@ -318,7 +312,7 @@ def validate(values: Mapping[str, Any]) -> Config:
     _check_loop(v)
     _check_start_values(v)
     _check_logs_and_options(v)
-    joint_map(v)  # raises ConfigError naming the joint_state parameter at fault
+    _joints(v)  # raises ConfigError naming the joint_state parameter at fault
     return Config(v)
 
 

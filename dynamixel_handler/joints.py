@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 
@@ -63,11 +63,11 @@ class JointReading:
     effort_a: np.ndarray
 
 
-def joint_map(values: Mapping[str, Any]) -> JointMap | None:
-    """The mapping the ``joint_state.*`` values describe, None when none is given; ConfigError
+def joint_map(use: bool, names: Sequence[str], ids: Sequence[int], directions: Sequence[int],
+              offsets_deg: Sequence[float]) -> JointMap | None:
+    """The mapping the ``joint_state.*`` parameters describe, None when none is given; ConfigError
     with one line naming the parameter at fault when the values do not make a mapping."""
-    names, ids = list(values["joint_state.names"]), list(values["joint_state.ids"])
-    use = bool(values["joint_state.use"])
+    names, ids = list(names), list(ids)
     if names == [""] and ids == [-1]:
         if use:
             raise ConfigError("parameter 'joint_state.use' is true but 'joint_state.names'/'joint_state.ids' map no "
@@ -79,9 +79,8 @@ def joint_map(values: Mapping[str, Any]) -> JointMap | None:
                           "must have the same length")
     _check_names(names)
     _check_ids(ids)
-    directions, offsets = _directions(values, n), _offsets_deg(values, n)
-    return JointMap(tuple(names), tuple(int(i) for i in ids), tuple(int(d) for d in directions),
-                    tuple(float(o) for o in offsets))
+    return JointMap(tuple(names), tuple(int(i) for i in ids), tuple(int(d) for d in _directions(directions, n)),
+                    tuple(float(o) for o in _offsets_deg(offsets_deg, n)))
 
 
 def _check_names(names: list[str]) -> None:
@@ -104,22 +103,22 @@ def _check_ids(ids: list[int]) -> None:
         raise ConfigError(f"parameter 'joint_state.ids' repeats {dup_ids}: one joint per servo")
 
 
-def _directions(values: Mapping[str, Any], n: int) -> list:
-    directions = _per_joint(values, "joint_state.directions", n)
+def _directions(given: Sequence[int], n: int) -> list:
+    directions = _per_joint(given, "joint_state.directions", n)
     if any(d not in (1, -1) for d in directions):
         raise ConfigError(f"parameter 'joint_state.directions' = {directions}: each must be 1 or -1")
     return directions
 
 
-def _offsets_deg(values: Mapping[str, Any], n: int) -> list:
-    offsets = _per_joint(values, "joint_state.offsets_deg", n)
+def _offsets_deg(given: Sequence[float], n: int) -> list:
+    offsets = _per_joint(given, "joint_state.offsets_deg", n)
     if not all(math.isfinite(o) for o in offsets):
         raise ConfigError(f"parameter 'joint_state.offsets_deg' = {offsets}: each must be a finite angle")
     return offsets
 
 
-def _per_joint(values: Mapping[str, Any], name: str, n: int) -> list:
-    given = list(values[name])
+def _per_joint(values: Sequence[Any], name: str, n: int) -> list:
+    given = list(values)
     if len(given) == 1:
         return given * n
     if len(given) != n:

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Mapping
 
+from .joints import JointMap
+
 #: present item keys (``pub_ratio/present.<key>``) -> default ratio
 PRESENT_RATIOS: Mapping[str, int] = {
     "pwm": 2, "current": 2, "velocity": 2, "position": 2,
@@ -55,6 +57,7 @@ class ScanSettings:
     torque_auto_enable: bool = True
     dummy_ids: tuple[int, ...] = ()
     dummy_series: tuple[str, ...] = ()  #: the series of each of ``dummy_ids``
+    ignored_dummy_ids: tuple[int, ...] = ()  #: of init/dummy_servo_list, those outside 0..252
 
 
 @dataclass(frozen=True)
@@ -148,6 +151,16 @@ class TrajectorySettings:
 
 
 @dataclass(frozen=True)
+class RosSettings:
+    """What only the ROS layer reads: its optional topics and the joint mapping."""
+
+    command_line: bool = True          #: the /dynamixel/state/*, /dynamixel/command/* topics
+    diagnostics_period_s: float = 1.0  #: /diagnostics every this many seconds (0: off)
+    joint_state_use: bool = False      #: joint_states and joint_commands for the mapped servos
+    joints: JointMap | None = None     #: the joint_state.* mapping (never None with joint_state_use)
+
+
+@dataclass(frozen=True)
 class Settings:
     """Everything the ROS-free handler, runner and commander read."""
 
@@ -161,6 +174,7 @@ class Settings:
     logs: LogSettings = LogSettings()
     external_port: ExternalPortSettings = ExternalPortSettings()
     trajectory: TrajectorySettings = TrajectorySettings()
+    ros: RosSettings = RosSettings()
 
     def but(self, **changes: object) -> Settings:
         """A copy with fields of the parts changed, each named ``part__field``::

@@ -50,9 +50,9 @@ FAMILY_EXEMPT = "control_table"
 FRONTS = {("core.handler", "Handler"): 10, ("bus.core", "DynamixelBus"): 22}
 #: the modules that may look parameters up by name (and the set-up tool, a command line without
 #: node parameters, whose dictionaries share some key names), and how many lookups the others may
-#: still make (none, once every part is given typed settings)
+#: make: none, every other part is given typed settings (``Settings``, the tool's ``UnifySettings``)
 PARAM_EXEMPT = ("config", "ros.params", "setup_tool")
-PARAM_LOOKUPS = 15
+PARAM_LOOKUPS = 0
 
 
 def _offenders(path: Path) -> tuple[list[str], int, int, int]:

@@ -116,8 +116,8 @@ def test_no_servo_anywhere_is_a_failure_with_the_searched_rates():
 
 
 def test_tool_parameters_are_checked_with_one_clear_sentence():
-    assert validate_tool_params({})["target_baudrate"] == 1_000_000
-    assert validate_tool_params({"latency_timer": 4.0})["latency_timer"] == 4
+    assert validate_tool_params({}).target_baudrate == 1_000_000
+    assert validate_tool_params({"latency_timer": 4.0}).latency_timer == 4
     bad = {"target_baudrate": 12345, "max_id": 300, "latency_timer": 0, "min_id": "one",
            "min_search_baudrate": 5_000_000}
     for name, value in bad.items():

@@ -65,5 +65,5 @@ def _to_msg(health: Health) -> DiagnosticStatus:
 
 
 def attach(node) -> DiagnosticsPublisher | None:
-    period = float(node.config["diagnostics.period_sec"])
+    period = node.settings.ros.diagnostics_period_s
     return DiagnosticsPublisher(node, period) if period > 0 else None

@@ -22,7 +22,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..commands.joint_goals import JointGoals
 from ..commands.trajectory import MAX_POINTS, PREEMPTED, Follower, Job, Points, Tolerances, TrajectoryError, make_points
-from ..joints import JointMap, joint_map
+from ..joints import JointMap
 from .cdr import Codec, self_check
 from .cdr_counts import sequence_counts
 
@@ -223,9 +223,8 @@ def missing_package(name: str = "control_msgs") -> str | None:
 
 def attach(node) -> Follower | None:
     """The follower hook when ``joint_state.use`` is on (the mapping is checked at parameter load)."""
-    if not node.config["joint_state.use"]:
-        return None
-    mapping = joint_map(node.config.values)  # never None with joint_state.use (ConfigError instead)
+    ros = node.settings.ros
+    mapping = ros.joints if ros.joint_state_use else None  # never None with joint_state.use (ConfigError instead)
     if mapping is None:
         return None
     node.joint_commands = JointCommands(node, mapping)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from sensor_msgs.msg import JointState
 
 from ..core.handler import StepReport
-from ..joints import JointMap, joint_map, read_joints, unhandled
+from ..joints import JointMap, read_joints, unhandled
 from .convert import f64, stamp_of
 from .lean import lean_publisher
 
@@ -45,7 +45,6 @@ class JointStatePublisher:
 
 def attach(node) -> JointStatePublisher | None:
     """The hook when ``joint_state.use`` is true (the mapping is validated at parameter load)."""
-    if not node.config["joint_state.use"]:
-        return None
-    mapping = joint_map(node.config.values)  # never None with joint_state.use (ConfigError instead)
+    ros = node.settings.ros
+    mapping = ros.joints if ros.joint_state_use else None  # never None with joint_state.use (ConfigError instead)
     return JointStatePublisher(node, mapping) if mapping is not None else None

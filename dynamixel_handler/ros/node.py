@@ -87,9 +87,8 @@ class DynamixelHandlerNode(Node):
             log.info(chosen)
         self.wire = DynamixelBus(device, cfg.bus.baudrate, max(1.0, float(cfg.bus.latency_ms)), cfg.bus.retries,
                                  cfg.bus.retry_interval_ms, verbose=cfg.bus.verbose, logger=self.adapter)
-        bad = [i for i in self.config["init/dummy_servo_list"] if i != -1 and not 0 <= i <= 252]
-        if bad:
-            log.warning(f"init/dummy_servo_list: IDs {bad} are outside 0..252: ignored")
+        if cfg.scan.ignored_dummy_ids:
+            log.warning(f"init/dummy_servo_list: IDs {list(cfg.scan.ignored_dummy_ids)} are outside 0..252: ignored")
         self.bus = BusWithDummies(self.wire, make_dummies(list(cfg.scan.dummy_ids), list(cfg.scan.dummy_series)))
         self.handler = Handler(self.bus, self.config, cast(logging.Logger, self.adapter))  # logging.Logger-like
         self.runner: Runner | None = None  # the loop, while it runs
@@ -138,7 +137,7 @@ class DynamixelHandlerNode(Node):
     def _create_publishers(self) -> None:
         # which of rclpy's public API the node goes beyond (fastpath.py); one INFO line says so
         self.fast = fastpath.choose(self, (*STATE_TYPES, *COMMAND_TYPES), self.get_logger())
-        self.state_pubs = StatePublishers(self, self.fast.raw_publish, not self.config["no_use_command_line"],
+        self.state_pubs = StatePublishers(self, self.fast.raw_publish, self.settings.ros.command_line,
                                           self.settings.ratios.outdated_present)
 
     def _create_subscriptions(self) -> None:
@@ -146,7 +145,7 @@ class DynamixelHandlerNode(Node):
         # command topics are taken by the loop thread at the start of each step (intake.py)
         self.intake = CommandIntake(self, self.fast.raw_intake, self.fast.detached_intake)
         self.command_topics = CommandTopics(self.intake, self.commander, self.settings.scan.used_series,
-                                            command_line=not self.config["no_use_command_line"])
+                                            command_line=self.settings.ros.command_line)
         self.external_ports: ExternalPorts | None = None
         if self.settings.external_port.use:
             self.external_ports = ExternalPorts(self.handler, self.settings.external_port)

@@ -223,7 +223,8 @@ def _same(value: Any, got: Any) -> bool:
 def describe(config: Config, width: int = 120) -> list[str]:
     """Lines for the start-up log: the essentials, then every parameter that differs from its default."""
     essentials = ("device_name", "baudrate", "latency_timer", "loop_rate")
-    lines = [", ".join(f"{n}={config[n]}" for n in essentials) + f", series={'/'.join(config.used_series)}"]
+    series = "/".join(config.settings.scan.used_series)
+    lines = [", ".join(f"{n}={config[n]}" for n in essentials) + f", series={series}"]
     others = [p for p in SCHEMA if p.name not in essentials]
     changed = [p for p in others if config[p.name] != p.default]
     lines.append(f"{len(others) - len(changed)} other parameters at their defaults, {len(changed)} set:"

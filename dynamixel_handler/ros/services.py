@@ -43,7 +43,6 @@ from ..commands.moves import (
     TorqueJob,
     new_move,
 )
-from ..joints import joint_map
 from ..logs import Throttle
 
 #: requests (and answers) each service keeps queued: a burst of calls is not dropped for want of room
@@ -77,7 +76,7 @@ class MotionServices:
         self.warn = Throttle(self.log.warning)
         group = ReentrantCallbackGroup()
         self._guard = node.create_guard_condition(lambda: None, callback_group=group)
-        self.book = Book(node.handler, node.commander, joint_map(node.config.values), wake=self._wake)
+        self.book = Book(node.handler, node.commander, node.settings.ros.joints, wake=self._wake)
         node.step_hooks.append(self.book.on_step)
         self._timer = node.create_timer(EXPIRE_CHECK_S, self._tick, callback_group=group)
         self._timer.cancel()  # runs only while jobs wait

@@ -237,21 +237,35 @@ TOOL_PARAMS: Mapping[str, tuple[type, Any, str]] = {
 }
 
 
-def validate_tool_params(values: Mapping[str, Any]) -> dict[str, Any]:
+@dataclass(frozen=True)
+class UnifySettings:
+    """The dynamixel_unify_baudrate tool's parameters, typed (fields named as ``TOOL_PARAMS``)."""
+
+    device_name: str
+    target_baudrate: int
+    latency_timer: int
+    min_id: int
+    max_id: int
+    min_search_baudrate: int
+    max_search_baudrate: int
+
+
+def validate_tool_params(values: Mapping[str, Any]) -> UnifySettings:
     """Complete ``values`` with defaults and check them; ValueError with one clear sentence if bad."""
-    out = {name: _typed(name, typ, values.get(name, default)) for name, (typ, default, _) in TOOL_PARAMS.items()}
+    out = UnifySettings(**{name: _typed(name, typ, values.get(name, default))
+                           for name, (typ, default, _) in TOOL_PARAMS.items()})
     rates = ", ".join(map(str, DYNAMIXEL_BAUDRATES))
-    if not out["device_name"].strip():
+    if not out.device_name.strip():
         raise ValueError("parameter 'device_name' is empty: set it to the adapter, e.g. /dev/ttyUSB0")
-    if out["target_baudrate"] not in DYNAMIXEL_BAUDRATES:
-        raise ValueError(f"parameter 'target_baudrate' = {out['target_baudrate']} is not a Dynamixel "
+    if out.target_baudrate not in DYNAMIXEL_BAUDRATES:
+        raise ValueError(f"parameter 'target_baudrate' = {out.target_baudrate} is not a Dynamixel "
                          f"baud rate; use one of {rates}")
-    if not 1 <= out["latency_timer"] <= 255:
-        raise ValueError(f"parameter 'latency_timer' = {out['latency_timer']} must be 1..255 ms")
+    if not 1 <= out.latency_timer <= 255:
+        raise ValueError(f"parameter 'latency_timer' = {out.latency_timer} must be 1..255 ms")
     _check_ids(out)
-    if not search_rates(out["min_search_baudrate"], out["max_search_baudrate"]):
+    if not search_rates(out.min_search_baudrate, out.max_search_baudrate):
         raise ValueError(f"no Dynamixel baud rate lies within min_search_baudrate..max_search_baudrate = "
-                         f"{out['min_search_baudrate']}..{out['max_search_baudrate']}; rates are {rates}")
+                         f"{out.min_search_baudrate}..{out.max_search_baudrate}; rates are {rates}")
     return out
 
 
@@ -265,9 +279,9 @@ def _typed(name: str, typ: type, value: Any) -> Any:
     return value
 
 
-def _check_ids(out: Mapping[str, Any]) -> None:
-    for name in ("min_id", "max_id"):
-        if not 0 <= out[name] <= 252:
-            raise ValueError(f"parameter '{name}' = {out[name]} must be a servo ID, 0..252")
-    if out["max_id"] < out["min_id"]:
-        raise ValueError(f"parameter 'max_id' = {out['max_id']} is below 'min_id' = {out['min_id']}")
+def _check_ids(out: UnifySettings) -> None:
+    for name, value in (("min_id", out.min_id), ("max_id", out.max_id)):
+        if not 0 <= value <= 252:
+            raise ValueError(f"parameter '{name}' = {value} must be a servo ID, 0..252")
+    if out.max_id < out.min_id:
+        raise ValueError(f"parameter 'max_id' = {out.max_id} is below 'min_id' = {out.min_id}")

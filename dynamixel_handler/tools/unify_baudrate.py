@@ -62,23 +62,23 @@ class UnifyBaudrateNode(Node):
         for name, (typ, _, description) in TOOL_PARAMS.items():
             if self.has_parameter(name):
                 self.undeclare_parameter(name)
-            self.declare_parameter(name, self.params[name], ParameterDescriptor(
+            self.declare_parameter(name, getattr(self.params, name), ParameterDescriptor(
                 name=name, type=_ROS_TYPES[typ], description=description, read_only=True), ignore_override=True)
 
     def run(self) -> int:
         p = self.params
-        rates = search_rates(p["min_search_baudrate"], p["max_search_baudrate"])
-        ids = range(p["min_id"], p["max_id"] + 1)
-        self.log.info(f"unifying the baud rate of IDs {p['min_id']}..{p['max_id']} on {p['device_name']} "
-                      f"to {p['target_baudrate']} bps; searching {', '.join(map(str, rates))} bps")
-        bus = DynamixelBus(p["device_name"], p["target_baudrate"], float(p["latency_timer"]), logger=self.log)
+        rates = search_rates(p.min_search_baudrate, p.max_search_baudrate)
+        ids = range(p.min_id, p.max_id + 1)
+        self.log.info(f"unifying the baud rate of IDs {p.min_id}..{p.max_id} on {p.device_name} "
+                      f"to {p.target_baudrate} bps; searching {', '.join(map(str, rates))} bps")
+        bus = DynamixelBus(p.device_name, p.target_baudrate, float(p.latency_timer), logger=self.log)
         try:
             bus.open()
         except BusError as err:
             self.log.error(str(err))
             return EXIT_FAILED
         try:
-            report = unify_baudrate(bus, p["target_baudrate"], ids, rates, self.log)
+            report = unify_baudrate(bus, p.target_baudrate, ids, rates, self.log)
         finally:
             bus.close()
         lines = report.summary()
