@@ -1,9 +1,10 @@
 """``commands.extra``: the DynamixelExtra fields as writes, bit fields changed bit by bit."""
 from dynamixel_handler.commands import Commander
+from dynamixel_handler.commands.extra import PWM_SLOPE_RANGE, apply_extra
 
 from support.servo_access import FakeAccess, warnings_of
 
-XM430, PH54 = 1020, 2020
+XM430, PH54, XC330_T181 = 1020, 2020, 1210
 
 
 def _commander(**kwargs):
@@ -50,3 +51,19 @@ def test_a_value_beyond_what_the_register_can_hold_is_refused_not_written_at_its
     assert not access.calls
     c.extra([1], {"return_delay_time_us": [100.0]})
     assert access.calls == [("write_eeprom", 1, "return_delay_time", 50)]
+
+
+def test_the_pwm_slope_of_an_x330_is_written_within_its_register_range_and_refused_beyond():
+    """``apply_extra`` on its own, with a Commander for its checks: the X330's PWM slope register."""
+    access = FakeAccess({1: XC330_T181, 2: XM430})
+    lines = warnings_of(access)
+    checks = Commander(access)
+    low, high = PWM_SLOPE_RANGE
+    apply_extra(checks, [1, 2], {"pwm_slope_percent": [float(high), 10.0]}, "x/extra")
+    assert access.calls == [("write_eeprom", 1, "pwm_slope", high)]
+    assert lines == ["x/extra: ID 2 (XM430-W350) has no pwm_slope (X330 only): ignored"]
+    apply_extra(checks, [1], {"pwm_slope_percent": [float(high + 1)]}, "x/extra")
+    apply_extra(checks, [1], {"pwm_slope_percent": [float(low - 1)]}, "x/extra")
+    assert lines[-2:] == [f"x/extra: ID 1 'pwm_slope_percent' = {high + 1} is out of range {low}..{high}: refused",
+                          f"x/extra: ID 1 'pwm_slope_percent' = {low - 1} is out of range {low}..{high}: refused"]
+    assert len(access.calls) == 1

@@ -4,6 +4,9 @@ import math
 import numpy as np
 
 from dynamixel_handler.commands import Commander, CommandPaths
+from dynamixel_handler.commands.fast_path import FastGoals
+from dynamixel_handler.commands.goal_bounds import TableBounds
+from dynamixel_handler.commands.rules import Rules
 from dynamixel_handler.control_table import PRO, X
 
 from support.servo_access import FakeAccess
@@ -67,3 +70,17 @@ def test_many_servos_are_converted_through_numpy_with_the_same_pulses():
         c = Commander(access, CommandPaths(small=small))
         assert c.fast.goals("goal", ids, {"position_deg": values})
     assert access.goals[0] == access.goals[1]
+
+
+def test_built_on_its_own_it_hands_the_goals_it_takes_to_its_writer_and_leaves_the_rest_untouched():
+    """``FastGoals`` with the real rules of the command side and a recorder for the writes it hands on."""
+    access = FakeAccess({1: XM430, 2: XM430, 3: H54}, values=VALUES)
+    lines: list[str] = []
+    handed: list[tuple[str, dict]] = []
+    fast = FastGoals(access, Rules(access, lines.append, TableBounds()), CommandPaths(),
+                     lambda what, writes: handed.append((what, writes)))
+    assert fast.goals("goal", [1, 2], {"position_deg": [0.0, 400.0]})
+    assert handed == [("goal", {"goal_position": {1: 2048, 2: 4095}})]
+    assert lines == ["ID 2 (XM430-W350) 'position_deg' = 400 is beyond the servo's limit: clamped to 179.912"]
+    assert not fast.goals("goal", [1, 9], {"position_deg": [0.0, 0.0]})  # an unknown ID: the per-servo path
+    assert len(handed) == 1 and access.goals == [] and access.calls == []

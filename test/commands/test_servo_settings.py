@@ -2,6 +2,7 @@
 import math
 
 from dynamixel_handler.commands import Commander
+from dynamixel_handler.commands.servo_settings import SIGNED_LIMITS, SettingsCommands
 
 from support.servo_access import FakeAccess, warnings_of
 
@@ -65,3 +66,15 @@ def test_shortcuts_act_on_the_named_or_every_servo():
     assert lines[-1].startswith("shortcut: unknown command 'launch' (known: clear_error, CE, torque_on")
     c.shortcut("remove_id", [3])
     assert access.calls[-1] == ("want_handled", 3, False)
+
+
+def test_only_the_position_limits_may_be_negative_and_a_gain_for_an_unknown_id_is_not_written():
+    c, access, lines = _commander(values={"min_position_limit": {1: 0}, "max_position_limit": {1: 4095}})
+    assert isinstance(c, SettingsCommands)
+    c.limit([1], {"min_position_limit_deg": [-90.0], "max_position_limit_deg": [90.0], "pwm_limit_percent": [-5.0]})
+    written = {call[2]: call[3] for call in access.calls if call[0] == "write_eeprom"}
+    assert set(written) == set(SIGNED_LIMITS)  # -90 deg: 1024 pulses, written; a negative PWM limit is not
+    assert written == {"min_position_limit": 1024, "max_position_limit": 3072}
+    assert lines == ["limit: ID 1 'pwm_limit_percent' = -5 refused (negative)"]
+    c.gain([9], {"position_p_gain_pulse": [800]})
+    assert access.goals == [] and lines[-1] == "gain: ID 9 is not handled: ignored"

@@ -1,0 +1,98 @@
+"""``commands.joint_goals.JointGoals``: joint commands by name in SI units. What a joint is given
+picks its servo's mode; the angle follows the joint's direction and offset; a command that cannot
+be taken is refused whole with one line; joints held where they are; positions and bounds read back
+in the joint's frame."""
+import math
+
+import pytest
+
+from dynamixel_handler import units
+from dynamixel_handler.commands import Commander
+from dynamixel_handler.commands.joint_goals import RAD, JointGoals
+from dynamixel_handler.joints import JointMap
+
+from support.servo_access import FakeAccess, warnings_of
+
+XM430 = 1020
+#: shoulder: ID 1 as is; elbow: ID 2 turned round and 90 deg off; wrist: ID 5, not handled
+MAPPING = JointMap(("shoulder", "elbow", "wrist"), (1, 2, 5), (1, -1, 1), (0.0, 90.0, 0.0))
+VALUES = {"min_position_limit": {1: 1024, 2: 1024}, "max_position_limit": {1: 3072, 2: 3072},
+          "velocity_limit": {1: 200, 2: 200}, "current_limit": {1: 1193, 2: 1193}}
+
+
+def _goals(modes=None):
+    access = FakeAccess({1: XM430, 2: XM430}, modes=modes, values=VALUES)
+    lines = warnings_of(access)
+    return JointGoals(Commander(access), MAPPING), access, lines
+
+
+def _pulses(access, item, value):
+    return int(units.unit_to_pulse([access.model(1)], item, [value])[0])
+
+
+@pytest.mark.parametrize("args, line", [
+    (([], [0.0]), "j: no joint names: refused"),
+    ((["shoulder"], [0.0, 1.0]), "j: 2 position values for 1 joint names: refused"),
+    ((["shoulder"], []), "j: no position, velocity or effort given: nothing to do"),
+    ((["knee"], [0.0]), "j: unknown joint names 'knee' (known: shoulder, elbow, wrist): refused"),
+    ((["elbow", "elbow"], [0.0, 0.0]), "j: a joint is named twice in ['elbow', 'elbow']: refused"),
+])
+def test_a_command_that_cannot_be_taken_is_refused_whole_with_one_line(args, line):
+    goals, access, lines = _goals()
+    assert not goals.command("j", *args)
+    assert lines == [line] and access.goals == [] and access.calls == []
+
+
+def test_a_position_is_a_position_goal_in_the_servos_frame_its_mode_switched_where_needed():
+    goals, access, lines = _goals(modes={2: "velocity"})
+    assert goals.command("j", ["shoulder", "elbow"], position=[0.5, 0.5])
+    assert ("change_mode", 2, "position") in access.calls
+    deg = 0.5 * RAD
+    assert access.goals == [{"goal_position": {1: _pulses(access, "goal_position", deg),
+                                               2: _pulses(access, "goal_position", -deg + 90.0)}}]
+    assert lines == []
+
+
+def test_a_position_with_an_effort_is_current_based_position_control_and_a_velocity_alone_velocity_control():
+    goals, access, _ = _goals()
+    goals.command("j", ["shoulder"], position=[0.0], effort=[-0.5])
+    assert ("change_mode", 1, "cur_position") in access.calls
+    assert access.goals[-1] == {"goal_position": {1: 2048}, "goal_current": {1: _pulses(access, "goal_current", 500.0)}}
+    goals.command("j", ["elbow"], velocity=[1.0])  # turned round: the servo turns the other way
+    assert ("change_mode", 2, "velocity") in access.calls
+    assert access.goals[-1] == {"goal_velocity": {2: _pulses(access, "goal_velocity", -RAD)}}
+
+
+def test_a_servo_in_extended_position_mode_keeps_its_mode_for_a_position():
+    goals, access, _ = _goals(modes={1: "ex_position"})
+    goals.command("j", ["shoulder"], position=[4 * math.pi])  # two turns
+    assert not any(call[0] == "change_mode" for call in access.calls)
+    assert access.goals == [{"goal_position": {1: _pulses(access, "goal_position", 720.0)}}]
+
+
+def test_a_joint_whose_servo_is_not_handled_is_named_and_the_others_are_written():
+    goals, access, lines = _goals()
+    goals.command("j", ["shoulder", "wrist"], position=[0.0, 0.0])
+    assert access.goals == [{"goal_position": {1: 2048}}]
+    assert lines == ["j: joints ['wrist'] map to servos that are not handled: ignored"]
+
+
+def test_joints_are_held_where_they_are_and_read_back_in_their_own_frame():
+    goals, access, _ = _goals()
+    access.table.set_value("present_position", 1, 2048 + 512)   # 45 deg
+    access.table.set_value("present_position", 2, 2048 + 1024)  # 90 deg: the elbow's zero
+    access.table.set_value("present_velocity", 2, 10)
+    goals.hold("stop", ["shoulder", "elbow"])
+    assert access.goals == [{"goal_position": {1: 2048 + 512, 2: 2048 + 1024}}]
+    position, velocity = goals.present(["shoulder", "elbow", "wrist"])
+    assert position[:2] == pytest.approx([math.pi / 4, 0.0]) and math.isnan(position[2])
+    assert velocity[1] == pytest.approx(-10 * access.model(2).velocity_deg_s_per_pulse / RAD)
+
+
+def test_position_bounds_are_the_servos_limits_in_the_joints_frame():
+    goals, access, _ = _goals()
+    lo, hi = goals.position_bounds(["shoulder", "elbow", "wrist"])
+    half = 0.5 * access.model(1).position_deg_per_pulse
+    assert lo[0] == pytest.approx((-90.0 - half) / RAD) and hi[0] == pytest.approx((90.0 + half) / RAD)
+    assert lo[1] == pytest.approx((0.0 - half) / RAD) and hi[1] == pytest.approx((180.0 + half) / RAD)
+    assert lo[2] == -math.inf and hi[2] == math.inf
