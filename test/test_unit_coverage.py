@@ -1,0 +1,205 @@
+"""Every part of the core and of the command side has a unit test of its own: some test file in
+test/core or test/commands imports its module and builds no ``Handler`` and no ROS node (imports
+neither the Handler nor rclpy, itself or through the ``support`` modules it uses). The modules are
+listed from the file system, so a new one needs such a test from the start; ``core/handler.py`` (the
+front) and the packages' ``__init__.py`` are exempt.
+
+The unit tests build the core's parts as the Handler does (``support.parts``): the same settings
+slices and the same wiring between the parts, compared here with a Handler's own."""
+from __future__ import annotations
+
+import ast
+import importlib
+import logging
+from dataclasses import fields
+from pathlib import Path
+from types import ModuleType
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = ROOT / "dynamixel_handler"
+TESTS = Path(__file__).resolve().parent
+#: the package folders whose modules need a unit test, and the test folders that give them one
+UNIT_DIRS = {"core": TESTS / "core", "commands": TESTS / "commands"}
+EXEMPT = {"dynamixel_handler.core.handler"}
+#: importing one of these (or ``Handler`` from the package) means a test builds the Handler or a node
+FRONTS = ("dynamixel_handler.core.handler", "dynamixel_handler.loop", "rclpy")
+
+
+def modules_needing_a_test() -> list[str]:
+    out = []
+    for folder in UNIT_DIRS:
+        for path in sorted((PACKAGE / folder).glob("*.py")):
+            name = f"dynamixel_handler.{folder}.{path.stem}"
+            if path.name != "__init__.py" and name not in EXEMPT:
+                out.append(name)
+    return out
+
+
+def _is_module(name: str) -> bool:
+    parts = name.split(".")
+    if parts[0] != "dynamixel_handler":
+        return False
+    base = ROOT.joinpath(*parts)
+    return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
+
+
+def _defined_in(package: str, name: str) -> str:
+    """The module a name imported from ``package`` comes from (``from dynamixel_handler.commands
+    import Commander``: ``commands.commander``); the package itself when that cannot be told."""
+    if _is_module(f"{package}.{name}"):
+        return f"{package}.{name}"
+    try:
+        value = getattr(importlib.import_module(package), name)
+    except (ImportError, AttributeError):
+        return package
+    if isinstance(value, ModuleType):
+        return value.__name__
+    owner = getattr(value, "__module__", None)
+    return owner if isinstance(owner, str) and owner.startswith(package) else package
+
+
+def imports_of(path: Path) -> tuple[set[str], set[str]]:
+    """(package modules, ``support`` modules) that the file at ``path`` imports, anywhere in it."""
+    found: set[str] = set()
+    support: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            if node.module == "support":
+                support.update(f"support.{alias.name}" for alias in node.names)
+                continue
+            if node.module.startswith("dynamixel_handler"):
+                names = [_defined_in(node.module, alias.name) for alias in node.names]
+                if node.module == "dynamixel_handler" and any(a.name == "Handler" for a in node.names):
+                    names.append("dynamixel_handler.loop")
+                names.append(node.module)
+            else:
+                names = [node.module]
+        else:
+            continue
+        for name in names:
+            (support if name.split(".")[0] == "support" else found).add(name)
+    return found, support
+
+
+def _builds_the_front(imported: set[str]) -> bool:
+    return any(name == front or name.startswith(front + ".") for name in imported for front in FRONTS)
+
+
+def front_free(path: Path, seen: set[Path] | None = None) -> bool:
+    """The test file imports neither the Handler nor rclpy, nor does a ``support`` module it uses."""
+    seen = set() if seen is None else seen
+    if path in seen:
+        return True
+    seen.add(path)
+    found, support = imports_of(path)
+    if _builds_the_front(found):
+        return False
+    for name in support:
+        helper = TESTS.joinpath(*name.split(".")).with_suffix(".py")
+        if helper.is_file() and not front_free(helper, seen):
+            return False
+    return True
+
+
+def unit_test_files() -> list[Path]:
+    return sorted(p for folder in UNIT_DIRS.values() for p in folder.glob("test_*.py"))
+
+
+def test_every_module_of_the_core_and_the_command_side_has_a_unit_test_without_the_handler():
+    covered: dict[str, list[str]] = {}
+    through_front: dict[str, list[str]] = {}
+    for path in unit_test_files():
+        found, _ = imports_of(path)
+        into = covered if front_free(path) else through_front
+        for name in found:
+            into.setdefault(name, []).append(path.name)
+    missing = []
+    for module in modules_needing_a_test():
+        if module in covered:
+            continue
+        if module in through_front:
+            missing.append(f"{module}: imported only by tests that build the Handler or a node "
+                           f"({', '.join(sorted(through_front[module]))})")
+        else:
+            missing.append(f"{module}: no test in test/core or test/commands imports it")
+    assert not missing, "modules without a unit test of their own:\n  " + "\n  ".join(missing)
+
+
+def test_the_listing_sees_package_imports_the_handler_and_helpers(tmp_path):
+    """The check itself: a name from a package counts for the module that defines it, and a Handler
+    reached through a helper counts as much as one imported directly."""
+    test = tmp_path / "test_x.py"
+    test.write_text("from dynamixel_handler.commands import Commander, CommandPaths\n"
+                    "from dynamixel_handler.core import deferred as d\n"
+                    "from dynamixel_handler.core.step import Step\n")
+    found, _ = imports_of(test)
+    assert {"dynamixel_handler.commands.commander", "dynamixel_handler.commands.paths",
+            "dynamixel_handler.core.deferred", "dynamixel_handler.core.step"} <= found
+    assert front_free(test)
+    test.write_text("from dynamixel_handler import Handler\n")
+    assert not front_free(test)
+    test.write_text("import rclpy.node\n")
+    assert not front_free(test)
+    test.write_text("from support.handler_bench import handler_on_virtual_bus\n")
+    assert not front_free(test)  # the helper builds a Handler
+    test.write_text("from support.fake_bus import FakeBus\nfrom support.parts import build\n")
+    assert front_free(test)
+    assert "dynamixel_handler.core.handler" not in modules_needing_a_test()
+    assert "dynamixel_handler.core.requests" in modules_needing_a_test()
+
+
+# ---------------------------------------------------------------- the parts as the Handler builds them
+def _settings():
+    from dynamixel_handler.settings import Settings
+    return Settings().but(loop__rate_hz=50, loop__no_response_auto_remove=3, method__fast_read=True,
+                          method__split_write=False, scan__expected=2, start__bus_watchdog_ms=300.0,
+                          term__servo_auto_stop=False, logs__max_width=3)
+
+
+def test_the_unit_tests_hand_each_part_the_settings_slice_the_handler_does():
+    from dynamixel_handler.core import handler
+
+    from support import parts
+
+    settings = _settings()
+    theirs, ours = handler._settings(settings), parts.slices(settings)
+    assert [f.name for f in fields(theirs)] == [f.name for f in fields(ours)]
+    for f in fields(theirs):
+        assert getattr(ours, f.name) == getattr(theirs, f.name), f.name
+
+
+def _wiring(root: dict[str, object]) -> set[tuple[str, str, str]]:
+    """(part, attribute, part it refers to) of every reference between the named parts."""
+    names = {id(value): name for name, value in root.items()}
+    out = set()
+    for name, part in root.items():
+        for attr, value in vars(part).items() if hasattr(part, "__dict__") else ():
+            if id(value) in names and attr != "log":
+                out.add((name, attr, names[id(value)]))
+    return out
+
+
+def _watchers(table, root: dict[str, object]) -> list[str]:
+    """Who is told of a removal, in order: the part whose method it is ("front": the Handler's own line)."""
+    names = {id(value): name for name, value in root.items()}
+    return [names.get(id(getattr(w, "__self__", None)), "front") for w in table._removal_watchers]
+
+
+def test_the_unit_tests_wire_the_parts_as_the_handler_does():
+    from dynamixel_handler.loop import Handler
+
+    from support import parts
+    from support.fake_bus import XM430, FakeBus
+
+    settings = _settings()
+    log = logging.getLogger("test_unit_coverage")
+    h = Handler(FakeBus({1: XM430}), settings, log)
+    built = parts.build(FakeBus({1: XM430}), settings, log)
+    theirs = {name: getattr(h, name) for name in parts.PART_NAMES}
+    ours = {name: getattr(built, name) for name in parts.PART_NAMES}
+    assert _wiring(ours) == _wiring(theirs)
+    assert _wiring(ours)  # the comparison sees references (the parts do refer to each other)
+    assert _watchers(built.table, {**ours, "front": built}) == _watchers(h.table, {**theirs, "front": h})
+    assert set(built.intake.routes()) == set(h.intake.routes())
