@@ -318,9 +318,9 @@ class Follower:
     def device_gone(self) -> str | None:
         """Why nothing reaches the servos now (the bus adapter vanished), or None."""
         h = self.goals.h
-        if not getattr(h, "device_lost", False):
+        if not h.figures().device_lost:
             return None
-        return f"the device {getattr(h.bus, 'device', '')} is gone (unplugged?): the servos cannot be commanded"
+        return f"the device {h.settings.bus.device} is gone (unplugged?): the servos cannot be commanded"
 
     def _judge(self, job: Job, stamp: float) -> bool:
         """Judge ``job`` on the positions just read (its run starts from the first read); False

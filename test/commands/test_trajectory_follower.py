@@ -113,9 +113,6 @@ def test_a_stopped_trajectory_holds_its_joints_and_one_without_a_position_to_sta
     assert lines == ["trajectory: no present position of ['pan'] to start from"] and access.goals == []
 
 
-@pytest.mark.xfail(strict=True, reason="Follower.device_gone reads `device_lost` and `bus` off the handler; the Handler "
-                                       "no longer has `device_lost` (it is in figures(), core.api.LoopFigures), so a "
-                                       "vanished device does not end a trajectory")
 def test_a_vanished_device_ends_the_trajectory_at_the_next_loop_without_holding():
     follower, access, _ = _follower()
     job = _job()
