@@ -8,10 +8,12 @@ from __future__ import annotations
 import csv
 import json
 import os
+import subprocess
+import sys
 import time
 
 import pytest
-from test_setup_tool import BAUD_RATE_ADDR, XL330, XM430, XM540, Sim, sdk_ping, sdk_read, sdk_write1, sdk_write4
+from test_setup_tool import BAUD_RATE_ADDR, ENV, ROOT, TOOL, XL330, XM430, XM540, Sim, sdk_ping, sdk_read, sdk_write1, sdk_write4
 from test_setup_tool import tool as _tool
 
 LED, HW_ERROR, GOAL_POSITION, PRESENT_POSITION = 65, 70, 116, 132  # X series (ROBOTIS e-Manual)
@@ -239,3 +241,19 @@ def test_set_get_and_set_mode_of_several_servos_in_one_sync_write_and_read(bus):
     assert out.returncode == 0, out.text
     assert [sdk_read(sim.path, 57600, i, 11, 1) for i in (1, 2)] == [1, 1]  # Operating Mode 1 = velocity
     assert sdk_read(sim.path, 57600, 2, 64, 1) == 1 and sdk_read(sim.path, 57600, 1, 64, 1) == 0  # torque as before
+
+
+def test_monitor_shows_a_missing_id_and_takes_it_in_once_it_is_plugged_in(bus):
+    sim = bus("1:XM430-W350")
+    cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
+    run = subprocess.Popen([*cmd, "--device", sim.path, "--latency", "30", "monitor", "1,2", "--baud", "57600",
+                            "--count", "30", "--rate", "5", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, env=ENV, cwd=ROOT)
+    time.sleep(1.0)
+    sim.send("add 2 XM540-W270")  # plugged in while the table runs
+    out, err = run.communicate(timeout=60)
+    assert run.returncode == 0 and "Traceback" not in err, out + err
+    doc = json.loads(out)
+    assert "ID 2: no servo answers at 57600 bps" in err  # said once, at the start
+    assert [r["id"] for r in doc["refreshes"][0]] == [1] and doc["missing"] == []
+    assert [(r["id"], r["model"]) for r in doc["refreshes"][-1]] == [(1, "XM430-W350"), (2, "XM540-W270")]

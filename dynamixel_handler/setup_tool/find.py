@@ -113,6 +113,23 @@ class Search:
         self._at(result.placed[0].baudrate if result.placed else self.first)
         return result
 
+    def again(self, ids: Sequence[int], rates: Sequence[int]) -> list[Placed]:
+        """Those of ``ids`` that answer now at one of ``rates`` (a quick look for servos plugged in
+        since; one ping per ID and rate), the bus left at the rate it was at. A model the control
+        table lacks is left out."""
+        before = self.bus.baudrate
+        try:
+            where = self._where(sorted(set(ids)), False, list(rates))
+        finally:
+            self._at(before)
+        placed = []
+        for dxl_id, (bps, number) in sorted(where.items()):
+            try:
+                placed.append(Placed(_servo(self.bus, dxl_id, number), bps))
+            except StepFailed:
+                continue
+        return placed
+
     def everywhere(self) -> list[tuple[int, int, int]]:
         """(ID, rate, model number) of every servo answering at every rate looked at, one ID at
         two rates listed twice (restore looks there for a replacement); the bus at the first rate."""

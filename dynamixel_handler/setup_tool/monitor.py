@@ -1,7 +1,8 @@
 """monitor: a live table of the servos (position, velocity, current, temperature, voltage, mode,
 torque, errors) refreshed several times a second, for checking a bus without ROS. On a terminal it
 is a rich live table and ``q`` quits (stdin in cbreak mode); piped, ``--count N`` prints N
-refreshes as plain text."""
+refreshes as plain text. An ID asked for that does not answer has a row saying so, and is looked
+for again every few seconds at the rates of the servos shown: plugged in later, it joins the table."""
 from __future__ import annotations
 
 import argparse
@@ -28,6 +29,8 @@ COLUMNS = ["ID", "model", "position", "velocity", "current", "temp", "voltage", 
 #: (column, sample key, unit)
 _SHOWN = (("position", "position", "deg"), ("velocity", "velocity", "deg/s"), ("current", "current", "mA"),
           ("temp", "temp", "degC"), ("voltage", "voltage", "V"))
+#: seconds between two looks for the IDs asked for that did not answer
+LOOK_AGAIN_S = 2.0
 
 
 def _row(sample: dict[str, Any]) -> tuple[list[object], bool]:
@@ -45,14 +48,15 @@ def _row(sample: dict[str, Any]) -> tuple[list[object], bool]:
 
 def _servos(ctx: Context, ids: list[int] | None) -> tuple[list[tuple[Placed, str]], list[int]]:
     """The servos to watch (every one on the bus when no IDs are given) with their mode, and the IDs
-    that answer nowhere (said, and left out)."""
+    that answer nowhere (said, and looked for again while the table runs)."""
     found = ctx.servos(ids)
-    servos = []
-    for placed in found.placed:
-        servo = ctx.at(placed)
-        mode = (servo.model.mode_name(servo.read("operating_mode")) or "?") if servo.model.has("operating_mode") else "-"
-        servos.append((placed, mode))
-    return servos, found.missing
+    return [_with_mode(ctx, placed) for placed in found.placed], found.missing
+
+
+def _with_mode(ctx: Context, placed: Placed) -> tuple[Placed, str]:
+    servo = ctx.at(placed)
+    mode = (servo.model.mode_name(servo.read("operating_mode")) or "?") if servo.model.has("operating_mode") else "-"
+    return placed, mode
 
 
 @contextlib.contextmanager
@@ -78,21 +82,35 @@ def _quit_pressed(timeout: float) -> bool:
 class _Refresh:
     """One refresh: every servo sampled at its rate, logged (``--log``) and kept (``--plot``, JSON)."""
 
-    def __init__(self, ctx: Context, servos: list[tuple[Placed, str]], log: CsvLog | None) -> None:
+    def __init__(self, ctx: Context, servos: list[tuple[Placed, str]], missing: list[int], log: CsvLog | None) -> None:
         self.ctx, self.servos, self.log = ctx, servos, log
+        #: IDs asked for that have not answered yet, and where to look for them
+        self.missing = list(missing)
+        self.rates = sorted({placed.baudrate for placed, _ in servos}) or ctx.search.rates()
         self.snapshots: list[list[dict[str, Any]]] = []
         self.timed: list[tuple[float, dict[str, Any]]] = []
         self.start = time.monotonic()
+        self._look_at = self.start + LOOK_AGAIN_S
 
     def __call__(self) -> tuple[list[list[object]], list[str | None]]:
         at = time.monotonic()
+        if self.missing and at >= self._look_at:
+            self._look_again(at)
         samples = [sample(self.ctx.at(placed), placed.baudrate, mode) for placed, mode in self.servos]
         self.snapshots.append(samples)
         self.timed += [(at - self.start, s) for s in samples]
         if self.log is not None:
             self.log.write(at, samples)
         rows = [_row(s) for s in samples]
-        return [r for r, _ in rows], ["red" if bad else None for _, bad in rows]
+        absent = [[dxl_id, "-", "not found", "", "", "", "", "", "", ""] for dxl_id in self.missing]
+        return [r for r, _ in rows] + absent, ["red" if bad else None for _, bad in rows] + ["red"] * len(absent)
+
+    def _look_again(self, now: float) -> None:
+        for placed in self.ctx.search.again(self.missing, self.rates):
+            self.servos.append(_with_mode(self.ctx, placed))
+            self.missing.remove(placed.dxl_id)
+        self.servos.sort(key=lambda s: s[0].dxl_id)
+        self._look_at = now + LOOK_AGAIN_S
 
 
 def _printed(ctx: Context, table: _Refresh, title: str, count: int, period: float) -> None:
@@ -133,7 +151,7 @@ def monitor(ctx: Context, args: argparse.Namespace) -> None:
     servos, missing = _servos(ctx, args.ids)
     period = 1.0 / max(0.2, min(args.rate, 50.0))
     log = CsvLog(args.log) if args.log else None
-    table = _Refresh(ctx, servos, log)
+    table = _Refresh(ctx, servos, missing, log)
     rates = sorted({placed.baudrate for placed, _ in servos})
     live = ctx.out.human and args.count is None and sys.stdin.isatty() and ctx.out.svg is None
     title = f"{ctx.bus.device} at {', '.join(map(str, rates))} bps (q quits)"
@@ -147,8 +165,8 @@ def monitor(ctx: Context, args: argparse.Namespace) -> None:
     finally:
         if log is not None:
             log.close()
-        ctx.out.document.update(refreshes=table.snapshots, missing=missing)
+        ctx.out.document.update(refreshes=table.snapshots, missing=table.missing)
     _saved(ctx, table, args.log, plot)
-    if missing:
-        raise StepFailed(f"{len(missing)} of {len(missing) + len(servos)} servo(s) not found (ID "
-                         f"{', '.join(map(str, missing))}); the others were monitored")
+    if table.missing:
+        raise StepFailed(f"{len(table.missing)} of {len(table.missing) + len(table.servos)} servo(s) not found (ID "
+                         f"{', '.join(map(str, table.missing))}); the others were monitored")
