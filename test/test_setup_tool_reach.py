@@ -172,6 +172,17 @@ def test_trace_prints_each_instruction_and_status_with_time_hex_and_meaning(bus)
     assert "goal_position = " in out.stdout  # the verb's own output stays on stdout
 
 
+def test_trace_decodes_protocol_1_packets_too(bus):
+    sim = bus("3:AX-12A")  # Protocol 1.0, 1 Mbps from the factory
+    out = tool(sim, "scan", "--ids", "3", "--baud", "1000000", "--protocol", "1", "--trace")
+    assert out.returncode == 0, out.text
+    lines = out.stderr.splitlines()
+    assert any(line.endswith("Protocol 1.0 ping ID 3") and "> FF FF 03 02 01 F9" in line for line in lines), out.stderr
+    assert any(line.endswith("Protocol 1.0 status ID 3 no error") for line in lines), out.stderr
+    assert any(line.endswith("Protocol 1.0 status ID 3 no error: model 12 (AX-12A), firmware 24") for line in lines), \
+        out.stderr
+
+
 # ---------------------------------------------------------------------- --log, --plot, plot
 def test_monitor_logs_csv_rows_and_plots_goal_against_present(bus, tmp_path):
     sim = bus("1:XM430-W350", "2:XM540-W270")

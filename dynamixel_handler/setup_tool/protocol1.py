@@ -16,7 +16,7 @@ import serial
 
 from ..bus import DynamixelBus
 
-__all__ = ["ping1", "model_name1", "SWITCH_TO_2"]
+__all__ = ["ping1", "model_name1", "SWITCH_TO_2", "statuses1", "error_text1"]
 
 PING, READ = 0x01, 0x02
 
@@ -40,18 +40,35 @@ def _packet(dxl_id: int, instruction: int, params: bytes = b"") -> bytes:
     return b"\xff\xff" + body + bytes([~sum(body) & 0xFF])
 
 
-def _status(data: bytes, dxl_id: int) -> bytes | None:
-    """The parameters of the first valid status of ``dxl_id`` in ``data`` (None if none)."""
+#: the status error byte's bits (e-Manual, Protocol 1.0 "Status Packet")
+ERROR_BITS1 = ("input voltage", "angle limit", "overheating", "range", "checksum", "overload", "instruction")
+
+
+def error_text1(error: int) -> str:
+    """A Protocol 1.0 status error byte in words ("no error" when 0)."""
+    named = [name for bit, name in enumerate(ERROR_BITS1) if error >> bit & 1]
+    return ", ".join(named) + f" error (0x{error:02X})" if named else "no error"
+
+
+def statuses1(data: bytes) -> list[tuple[int, int, bytes]]:
+    """Every valid status packet in ``data`` as (ID, error byte, parameters); noise and packets
+    with a wrong checksum are skipped."""
+    found = []
     start = data.find(b"\xff\xff")
     while start >= 0 and start + 6 <= len(data):
         sid, length = data[start + 2], data[start + 3]
         end = start + 4 + length
-        if sid == dxl_id and end <= len(data):
-            body = data[start + 2:end - 1]
-            if (~sum(body) & 0xFF) == data[end - 1]:
-                return bytes(data[start + 5:end - 1])
+        if length >= 2 and end <= len(data) and (~sum(data[start + 2:end - 1]) & 0xFF) == data[end - 1]:
+            found.append((sid, data[start + 4], bytes(data[start + 5:end - 1])))
+            start = data.find(b"\xff\xff", end)
+            continue
         start = data.find(b"\xff\xff", start + 1)
-    return None
+    return found
+
+
+def _status(data: bytes, dxl_id: int) -> bytes | None:
+    """The parameters of the first valid status of ``dxl_id`` in ``data`` (None if none)."""
+    return next((params for sid, _error, params in statuses1(data) if sid == dxl_id), None)
 
 
 def _exchange(bus: DynamixelBus, packet: bytes, dxl_id: int, reply_params: int) -> bytes | None:

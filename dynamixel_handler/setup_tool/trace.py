@@ -17,6 +17,7 @@ from ..bus import DynamixelBus
 from ..control_table import Model, model_by_number
 from ..protocol import HEADER, INSTRUCTION_NAMES, FrameReader
 from ..protocol import host as p
+from .protocol1 import error_text1, model_name1, statuses1
 
 __all__ = ["install", "Tracer"]
 
@@ -47,6 +48,10 @@ class Tracer:
         self.asked: dict[int, tuple[int, int, int]] = {}
         self.answered = True
         self.protocol1 = False
+        #: Protocol 1.0 reply bytes not yet shown (no whole status among them yet)
+        self.pending1 = b""
+        #: (address, size) of the last Protocol 1.0 read
+        self.read1: tuple[int, int] | None = None
 
     def line(self, arrow: str, data: bytes, meaning: str) -> None:
         print(f"{self.clock() - self.start:9.4f} {arrow} {_hex(data):<50} {meaning}", file=self.stream, flush=True)
@@ -66,12 +71,17 @@ class Tracer:
 
     # ------------------------------------------------------------- sent
     def sent(self, packet: bytes) -> None:
+        if self.pending1:
+            self.line("<", self.pending1, "Protocol 1.0: no valid status in these bytes")
+            self.pending1 = b""
         self.reader = FrameReader(min_length=3)
         self.answered = False
         if not packet.startswith(HEADER):
             self.protocol1 = True
             what = {1: "ping", 2: "read", 3: "write"}.get(packet[4] if len(packet) > 4 else 0, "instruction")
-            self.line(">", packet, f"Protocol 1.0 {what} ID {packet[2] if len(packet) > 2 else '?'}")
+            where = f" @{packet[5]} x{packet[6]}" if what == "read" and len(packet) > 7 else ""
+            self.read1 = (packet[5], packet[6]) if where else None
+            self.line(">", packet, f"Protocol 1.0 {what} ID {packet[2] if len(packet) > 2 else '?'}{where}")
             return
         self.protocol1 = False
         for dxl_id, body, _size in FrameReader(min_length=3).frames(packet):
@@ -122,13 +132,26 @@ class Tracer:
                 self.answered = True
             return
         self.answered = True
-        if self.protocol1:
-            self.line("<", data, "Protocol 1.0 status bytes")
+        if self.protocol1:  # bytes gathered until they hold a status (a reply may come in pieces)
+            self.pending1 += data
+            found = statuses1(self.pending1)
+            for dxl_id, error, params in found:
+                self.line("<", self.pending1, f"Protocol 1.0 status ID {dxl_id} {error_text1(error)}{self._value1(params)}")
+            if found:
+                self.pending1 = b""
             return
         for dxl_id, body, _size in self.reader.frames(data):
             if body[0] == p.STATUS and len(body) >= 2:
                 frame = p.build_status(dxl_id, body[1], body[2:])
                 self.line("<", frame, self._status(dxl_id, body[1], body[2:]))
+
+    def _value1(self, params: bytes) -> str:
+        """A Protocol 1.0 read's parameters: the model number and firmware (address 0 in every
+        Protocol 1.0 table), else the value."""
+        if self.read1 == (0, 3) and len(params) == 3:
+            number = _u16(params, 0)
+            return f": model {number} ({model_name1(number)}), firmware {params[2]}"
+        return f": {int.from_bytes(params, 'little')}" if 0 < len(params) <= 4 else ""
 
     def _status(self, dxl_id: int, error: int, params: bytes) -> str:
         text = f"status ID {dxl_id} {p.error_text(error)}"
