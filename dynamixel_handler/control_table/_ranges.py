@@ -4,12 +4,13 @@ Range Error; both read these through ``Model.value_range``.
 
 Source: the ROBOTIS e-Manual (github.com/ROBOTIS-GIT/emanual), the "Range" column of each model's
 control table (``docs/en/dxl/x/<model>.md``, ``docs/en/dxl/p/<model>.md``, ``docs/en/dxl/pro/<model>.md``,
-``docs/en/dxl/y/<model>.md``) and, where a page has no such column, the value range its item sections
-give, mostly from the sections it includes (``_includes/en/dxl/control_table_*.md``: ``id``,
-``return_delay_time``, ``shadowid``, ``buswatchdog``, ``homingoffset``, ``movingthreshold``,
-``temp_limit_2``, ``volt_limit_2``, ``pwm_limit``, ``acclimit``, ``vellimit``, ``velocity_pi_gain``,
-``position_pid_gain``; the old PRO "-R" table's ``*_pro`` sections). ``scripts/emanual_ranges.py``
-prints these columns from a checkout of that repository. The pages read:
+``docs/en/dxl/y/<model>.md``, ``docs/en/platform/rh_p12_rn/<page>.md``) and, where a page has no such
+column, the value range its item sections give, mostly from the sections it includes
+(``_includes/en/dxl/control_table_*.md``: ``id``, ``return_delay_time``, ``shadowid``, ``buswatchdog``,
+``homingoffset``, ``movingthreshold``, ``temp_limit_2``, ``volt_limit_2``, ``pwm_limit``, ``acclimit``,
+``vellimit``, ``velocity_pi_gain``, ``position_pid_gain``, ``status_return_lv``, ``torque_enable_2``; the
+old PRO "-R" table's ``*_pro`` sections; the P sections ``_includes/en/dxl/p/control_table_*.md``).
+``scripts/emanual_ranges.py`` prints these columns from a checkout of that repository. The pages read:
 
 * X: xm430-w350, xm430-w210, xh430-w350, xh430-w210, xh430-v350, xh430-v210, xd430-t350, xd430-t210,
   xl430-w250, xc430-w150, xc430-w240, 2xl430-w250, 2xc430-w250, xw430-t333, xw430-t200, xh540-w270,
@@ -17,7 +18,11 @@ prints these columns from a checkout of that repository. The pages read:
   xw540-h260, xl330-m077, xl330-m288, xc330-t181, xc330-t288, xc330-m181, xc330-m288, xm335-t323;
 * MX (2.0): mx-28-2; P: ph42-020-s300-r, ph54-100-s500-r, ph54-200-s500-r, pm42-010-s260-r,
   pm54-040-s250-r, pm54-060-s250-r; PRO: h54-200-s500-ra, h54-200-s500-r (the old "-R" table);
-  Y: ym070-210-m001-rh; XL-320: xl320.
+  Y: ym070-210-m001-rh; XL-320: xl320;
+* grippers (``platform/rh_p12_rn/``): rh_p12_rn (RH-P12-RN, its item sections and the ``*_pro``
+  sections it includes; commit 089162d6f19f, the newer of the two stored revisions, which give the same
+  ranges as 54d84a1c6fde), rh-p12-rna (RH-P12-RN(A), its Range column and the P sections it includes;
+  commit 09a8c52bd870, the newer of the two stored revisions, against fee860d7aaf9).
 
 Where the pages disagree with themselves, and what is kept:
 
@@ -28,22 +33,38 @@ Where the pages disagree with themselves, and what is kept:
 * Velocity Limit: the X330 and XM335 tables give 0 ~ 2,047 and include the X430 section (0 ~ 1,023):
   the tables are kept.
 * ID: some X tables (XM430-W350, XH430-W350, XH430-V350, XC430, 2XL430, 2XC430, XH540-W150, XH540-V270,
-  XH540-V150) give 0 ~ 253, the others and the ID section 0 ~ 252 (254 is broadcast): 0 ~ 252.
+  XH540-V150) give 0 ~ 253, the others and the ID section 0 ~ 252 (254 is broadcast): 0 ~ 252. The
+  grippers' specification tables and the RH-P12-RN(A) table give 0 ~ 252, while the ID section the
+  RH-P12-RN includes (``control_table_id``) and the newest stored P ID section (``p/control_table_7_id``,
+  0 ~ 252 in an older revision) say 0 ~ 253: 0 ~ 252.
 * Secondary ID: the X tables give 0 ~ 252, yet their Default is 255 and the section says 253 ~ 255
-  switch it off; the P tables give 0 ~ 255: 0 ~ 255.
+  switch it off; the P tables (and the RH-P12-RN(A) one) give 0 ~ 255: 0 ~ 255.
 * Bus Watchdog: the X tables give 1 ~ 127 with a Default of 0; the section gives 0 (off) and 1 ~ 127:
-  0 ~ 127 (its -1 is an error the servo sets, not a value to write).
-* Return Delay Time: the H54-200-S500-R(A) table gives 0 ~ 255, the section it includes 0 ~ 254 (as
-  every other table): 0 ~ 254.
+  0 ~ 127 (its -1 is an error the servo sets, not a value to write). The RH-P12-RN(A) table gives
+  0 ~ 127, as the P section it includes.
+* Return Delay Time: the H54-200-S500-R(A) and RH-P12-RN(A) tables give 0 ~ 255, the sections they
+  include 0 ~ 254 (as every other table): 0 ~ 254.
+* Voltage limits of the RH-P12-RN(A): its table and the P section it includes (which names the
+  gripper) give both limits 150 ~ 300, yet the table's Max Voltage Limit Default is 350; the older
+  revision (fee860d7aaf9) gave 0 ~ 350, the P section 150 ~ 350 to the other P models: 150 ~ 350 is
+  kept, the newest lowest bound with the highest that holds the Default.
+* Velocity Limit of the RH-P12-RN: its section gives 0 ~ 2,147,483,647 while its Present Velocity
+  section says -1,023 ~ 1,023 are used: the Velocity Limit section is kept.
 * Protocol Type: "1 ~ 2" on X430/X540, "2 ~ 22" on X330/XM335, "2, 10" on P, "2" on Y; a list is kept
-  as its lowest .. highest (the set-up tool writes 2 only).
-* Profile Acceleration / Velocity on P and Y: "0 ~ Acceleration (Velocity) Limit": kept as 0 .. the
-  highest that limit takes (the servo bounds it by the limit's present value).
+  as its lowest .. highest (the set-up tool writes 2 only). So is the RH-P12-RN's External Port Mode,
+  a list of the modes 0 ~ 3 without a range column.
+* Profile Acceleration / Velocity on P, Y and the RH-P12-RN(A), and the RH-P12-RN's Goal Acceleration:
+  "0 ~ Acceleration (Velocity) Limit": kept as 0 .. the highest that limit takes (the servo bounds it
+  by the limit's present value).
 * XD430-T350 and XD430-T210 tables give the Model Number of the XH430 they equal (1,000 and 1,010),
   the XW430-T200 table has its columns shifted by one, the Y table sizes of Inverter Temperature Limit
-  and Min Voltage Limit (4) disagree with their addresses; the ranges themselves are unaffected.
+  and Min Voltage Limit (4) disagree with their addresses; the sections the RH-P12-RN includes name
+  other models' addresses (Max / Min Voltage Limit 36 / 40, Torque Enable 64), the RH-P12-RN(A) page
+  once names Profile Velocity at 562 and Goal PWM at 584; the ranges themselves are unaffected.
 * Revisions: the PH54-200-S500-R page has had an Acceleration Limit Default of 9,982 and of
-  3,992,644; both revisions give the range 0 ~ 3,992,644.
+  3,992,644; both revisions give the range 0 ~ 3,992,644. The RH-P12-RN(A) page has had a Moving
+  Threshold Default of 50 (fee860d7aaf9) and of 80, the range 0 ~ 2,970 in both; the older one also
+  had Drive Mode (10, 0 ~ 1), which the newer one no longer lists.
 
 Inferred, not read on a page of its own (said at each entry): XD540-T150 (the XD pages say their
 tables equal the XH ones: XH540-W150's), XC335-T332 (no page: XC330-T288's, as its factory values),
@@ -54,11 +75,11 @@ table is the one they share), the Y models other than YM070-210-M001-RH (the twe
 the items whose Default is the same on all twelve).
 
 Missing on the pages (the register's byte range is kept, ``Model.byte_range_items`` names them): the
-old PRO "-R" Homing Offset, Goal Acceleration (``profile_acceleration``) and External Port Mode; every
-listed item of the RH-P12-RN and RH-P12-RN(A) grippers but Return Delay Time (their pages were not
-read); the Velocity and Acceleration Limits and the profiles of the Y models other than
-YM070-210-M001-RH. The XL-320's ranges beyond ID, Status Return Level and Torque Enable are its items'
-own (``_xl320.RANGES``, the same page's Min/Max columns).
+old PRO "-R" Homing Offset, Goal Acceleration (``profile_acceleration``) and External Port Mode; the
+RH-P12-RN(A)'s Protocol Type (its SDK file has it at 13, its page lists no such item); the Velocity and
+Acceleration Limits and the profiles of the Y models other than YM070-210-M001-RH. The XL-320's ranges
+beyond ID, Status Return Level and Torque Enable are its items' own (``_xl320.RANGES``, the same page's
+Min/Max columns).
 """
 
 from __future__ import annotations
@@ -168,7 +189,31 @@ _Y_TABLE: Ranges = {
 _YM070_M001: Ranges = {**_Y_TABLE, "acceleration_limit": (0, 38_520_000), "velocity_limit": (0, 642_200),
                        "profile_acceleration": (0, 38_520_000), "profile_velocity": (0, 642_200)}
 
-# Model number -> its e-Manual ranges; the comment names the page (docs/en/dxl/...).
+# RH-P12-RN(A) (platform/rh_p12_rn/rh-p12-rna, commit 09a8c52bd870; the Range column and the P sections):
+# Homing Offset 0 ~ 1,150 (its stroke), Moving Threshold and Velocity Limit 0 ~ 2,970, Current Limit
+# 0 ~ 1,984, Acceleration Limit 0 ~ 1,378,788, PWM Limit 0 ~ 2,009, the seven gains 0 ~ 32,767; no
+# Protocol Type (its byte range is kept); voltage limits: see above
+_RH_P12_RN_A: Ranges = {
+    **_ANY, "secondary_id": (0, 255), "homing_offset": (0, 1150), "moving_threshold": (0, 2970),
+    "temperature_limit": (0, 100), "max_voltage_limit": (150, 350), "min_voltage_limit": (150, 350),
+    "pwm_limit": (0, 2009), "current_limit": (0, 1984), "acceleration_limit": (0, 1_378_788),
+    "velocity_limit": (0, 2970), "bus_watchdog": (0, 127), **{gain: (0, 32767) for gain in _X_GAINS},
+    **{port: (0, 3) for port in _PORTS}, "profile_acceleration": (0, 1_378_788), "profile_velocity": (0, 2970),
+}
+
+# RH-P12-RN (platform/rh_p12_rn/rh_p12_rn, commit 089162d6f19f; its item sections and the ``*_pro`` ones
+# it includes): Moving Threshold, Acceleration and Velocity Limit 0 ~ 2,147,483,647, Min/Max Voltage
+# Limit 0 ~ 400, Current Limit 0 ~ 820, the Position PID Gains 0 ~ 32,767, External Port Mode 0 ~ 3,
+# Goal Acceleration (``profile_acceleration``) 0 ~ Acceleration Limit
+_RH_P12_RN: Ranges = {
+    **_ANY, "moving_threshold": (0, _I32_TOP), "temperature_limit": (0, 100), "max_voltage_limit": (0, 400),
+    "min_voltage_limit": (0, 400), "acceleration_limit": (0, _I32_TOP), "current_limit": (0, 820),
+    "velocity_limit": (0, _I32_TOP), **{port: (0, 3) for port in _PORTS},
+    **{gain: (0, 32767) for gain in ("position_d_gain", "position_i_gain", "position_p_gain")},
+    "profile_acceleration": (0, _I32_TOP),
+}
+
+# Model number -> its e-Manual ranges; the comment names the page (docs/en/dxl/..., docs/en/platform/...).
 RANGES: Mapping[int, Ranges] = {
     # ---- MX (2.0): the X sections (mx/mx-28-2); current limit 0 .. its Default, as every X table --------
     30: _x(_V12, None),                                 # mx/mx-28-2
@@ -225,10 +270,9 @@ RANGES: Mapping[int, Ranges] = {
     46353: _PM54_060,                                   # pro/m54-60-s250-ra: inferred (PM54-060-S250-R's)
     51201: _PH42_020,                                   # pro/h42-20-s300-ra: inferred (PH42-020-S300-R's)
     53769: _PH54_100,                                   # pro/h54-100-s500-ra: inferred (PH54-100-S500-R's)
-    # ---- RH-P12-RN(A), RH-P12-RN: pages not read; the Return Delay Time section names their product
-    # groups (rh_p12_rna, rh_p12_rn) ------------------------------------------------------------------
-    35074: {"return_delay_time": (0, 254)},
-    35073: {"return_delay_time": (0, 254)},
+    # ---- grippers (docs/en/platform/rh_p12_rn/...) ----------------------------------------------------
+    35074: _RH_P12_RN_A,                                # rh-p12-rna (commit 09a8c52bd870)
+    35073: _RH_P12_RN,                                  # rh_p12_rn (commit 089162d6f19f)
     # ---- old PRO "-R": the H54-200-S500-R table; its siblings and the L series inferred (shared table) -
     54024: _OLD_PRO,                                    # pro/h54-200-s500-r
     **{number: _OLD_PRO for number in (43288, 46096, 46352, 51200, 53768, 37896, 37928, 38152, 38176, 35072)},

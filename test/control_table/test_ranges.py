@@ -39,13 +39,28 @@ def test_every_model_with_ranges_is_known_and_every_known_model_has_some():
     (2020, "profile_velocity", (0, 2900)), (2020, "velocity_i_gain", (0, 32767)), (2000, "moving_threshold", (0, 2920)),
     (54024, "max_voltage_limit", (0, 400)), (4000, "velocity_limit", (0, 642_200)), (350, "temperature_limit", (0, 150)),
     (350, "id", (0, 252)),
+    # the grippers (platform/rh_p12_rn): RH-P12-RN(A) ...
+    (35074, "current_limit", (0, 1984)), (35074, "pwm_limit", (0, 2009)), (35074, "velocity_limit", (0, 2970)),
+    (35074, "acceleration_limit", (0, 1_378_788)), (35074, "homing_offset", (0, 1150)),
+    (35074, "max_voltage_limit", (150, 350)), (35074, "temperature_limit", (0, 100)), (35074, "secondary_id", (0, 255)),
+    (35074, "return_delay_time", (0, 254)), (35074, "position_p_gain", (0, 32767)),
+    (35074, "profile_acceleration", (0, 1_378_788)),
+    # ... and RH-P12-RN (old PRO table)
+    (35073, "current_limit", (0, 820)), (35073, "velocity_limit", (0, 2_147_483_647)),
+    (35073, "max_voltage_limit", (0, 400)), (35073, "position_d_gain", (0, 32767)),
+    (35073, "external_port_mode_1", (0, 3)), (35073, "temperature_limit", (0, 100)),
 ])
 def test_the_e_manual_ranges_of_some_models(number, item, expected):
     assert model_by_number(number).value_range(item) == expected
 
 
 def test_an_item_without_an_e_manual_range_keeps_its_bytes_and_is_named():
-    model = model_by_number(35074)  # RH-P12-RN(A): its page's ranges not taken
-    assert "velocity_limit" in model.byte_range_items
-    assert model.value_range("velocity_limit") == (0, 0xFFFFFFFF)
-    assert "velocity_limit" not in model_by_number(2020).byte_range_items
+    model = model_by_number(54024)  # H54-200-S500-R: its page gives Homing Offset no range
+    assert "homing_offset" in model.byte_range_items
+    assert model.value_range("homing_offset") == (-(1 << 31), (1 << 31) - 1)
+    assert "homing_offset" not in model_by_number(2020).byte_range_items
+
+
+def test_the_grippers_keep_the_byte_range_only_where_their_pages_give_none():
+    assert model_by_number(35074).byte_range_items == {"protocol_type"}  # RH-P12-RN(A): not on its page
+    assert model_by_number(35073).byte_range_items == set()
