@@ -27,9 +27,10 @@ class Instructions:
             tx.ok(1, 1)
             return Result(status.params)
 
-    def send(self, instruction: int, what: str, dxl_id: int, params: bytes) -> Result[bool]:
+    def send(self, instruction: int, what: str, dxl_id: int, params: bytes, retries: int | None = None) -> Result[bool]:
         """An instruction whose only answer is an acknowledgement: True when the servo acknowledged
-        (broadcast: when sent). A unicast action's status reply is read and consumed here too."""
+        (broadcast: when sent). A unicast action's status reply is read and consumed here too.
+        ``retries``: how often it is sent again without an answer (None: the bus's retry count)."""
         if dxl_id != p.BROADCAST_ID:
             dxl_id = check_id(dxl_id)
         t = self._t
@@ -39,7 +40,7 @@ class Instructions:
                     tx.ok(1, 1)
                     return _ACKNOWLEDGED
                 return Result(False, tx.fail(f"{what} broadcast: {t.why(None)}"))
-            status = t.unicast(dxl_id, instruction, params, 0)
+            status = t.unicast(dxl_id, instruction, params, 0, retries)
             if status is None or status.refused:
                 return Result(False, tx.fail(f"{what} ID {dxl_id}: {t.why(status)}"))
             tx.ok(1, 1)
@@ -55,7 +56,9 @@ class Instructions:
         return self.send(p.ACTION, "action", dxl_id, b"")
 
     def reboot(self, dxl_id: int) -> Result[bool]:
-        return self.send(p.REBOOT, "reboot", dxl_id, b"")
+        """Sent once: a servo whose acknowledgement came late has rebooted already, and a reboot
+        sent again would reboot it a second time."""
+        return self.send(p.REBOOT, "reboot", dxl_id, b"", retries=0)
 
     def clear_multi_turn(self, dxl_id: int) -> Result[bool]:
         return self.send(p.CLEAR, "clear multi-turn", dxl_id, b"\x01\x44\x58\x4c\x22")

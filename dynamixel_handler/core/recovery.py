@@ -61,8 +61,8 @@ class Recovery:
             return Result(False, refused)
         # a reboot resets the RAM area: what the handler had set there comes back afterwards
         kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
-        rebooted = self.bus.reboot_result(dxl_id)
-        if rebooted:
+        rebooted = self.bus.reboot_result(dxl_id)  # sent once (a late acknowledgement: rebooted all the same)
+        if rebooted or self.bus.is_open:  # unacknowledged, it may be booting: wait for it all the same
             deadline = time.monotonic() + REBOOT_WAIT_S
             time.sleep(0.02)
             while self.bus.ping_result(dxl_id, retries=0).value is None:

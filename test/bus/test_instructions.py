@@ -35,6 +35,18 @@ def test_an_acknowledged_reboot_is_true(line):
     assert peer.received == [instruction(7, 0x08)]
 
 
+def test_an_unanswered_reboot_is_sent_once_whatever_the_retry_count(line):
+    """A reboot whose acknowledgement was lost may have happened: sent again, it would reboot the
+    servo a second time."""
+    peer, transport = line(retry_num=3)
+    result = Instructions(transport).reboot(7)
+    assert result.value is False and result.failure.startswith("reboot ID 7: no reply within")
+    assert peer.received == [instruction(7, 0x08)]
+    peer2, transport2 = line(retry_num=3)
+    Instructions(transport2).write(7, 116, b"\x00\x00\x00\x00")  # a write is retried as asked
+    assert len(peer2.received) == 4
+
+
 def test_a_broadcast_action_waits_for_no_reply(line):
     peer, transport = line(lambda packet: [])
     result = Instructions(transport).action()
