@@ -49,12 +49,11 @@ class Rules:
         return True
 
     def limits(self, dxl_id: int, item: str, model: Model) -> tuple[int | None, int | None]:
-        """The pulses ``item`` may take on this servo now (its register range, narrowed by its
-        limits, its mode and its family)."""
+        """The pulses ``item`` may take on this servo now (the range its e-Manual page gives, or its
+        register's, narrowed by its limits, its mode and its family)."""
         if item == "goal_position":
             return goal_position_limits(self.h, dxl_id, model)
-        spec = model.item(item)
-        lo, hi = spec.min_raw, spec.max_raw
+        lo, hi = model.value_range(item)
         bound_item = MAGNITUDE_LIMIT.get(item)
         if item.startswith("profile_") and model.family.profile_max is not None:
             bound_item = None  # X: the register's own range, not Velocity Limit

@@ -176,15 +176,34 @@ class Startup:
         servo, would let it trip on the first servos while the last ones are still set up)."""
         model = self.table.model(dxl_id)
         start = self.settings.start
-        for item, param, value in (("profile_acceleration", "default/profile_acc", start.profile_acc),
-                                   ("profile_velocity", "default/profile_vel", start.profile_vel)):
+        for item, limit, param, value in (
+                ("profile_acceleration", "acceleration_limit", "default/profile_acc", start.profile_acc),
+                ("profile_velocity", "velocity_limit", "default/profile_vel", start.profile_vel)):
             if model.has(item):
-                pulses = int(units.unit_to_pulse([model], item, [value])[0])
+                pulses = self._within(dxl_id, item, limit, param, value)
                 written = self.io.write_item(dxl_id, item, pulses)
                 if not written:  # e.g. above a P servo's velocity limit
                     self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
                                      f"({item} {pulses} refused: {written.failure})")
         self.watchdog.request_arm(dxl_id)
+
+    def _within(self, dxl_id: int, item: str, limit: str, param: str, value: float) -> int:
+        """A default profile in pulses, within what this servo takes: its e-Manual range and, where
+        the family bounds profiles by them (P, PRO, Y), its Velocity / Acceleration Limit (one line
+        when it had to be lowered: the servo would refuse it)."""
+        model = self.table.model(dxl_id)
+        pulses = int(units.unit_to_pulse([model], item, [value])[0])
+        hi = model.value_range(item)[1]
+        if model.family.profile_max is None and model.has(limit):
+            bound = self.io.read_item(dxl_id, limit)
+            if bound is not None and bound > 0:
+                hi = min(hi, bound)
+        if pulses <= hi:
+            return pulses
+        shown = float(units.pulse_to_unit([model], item, [hi])[0])
+        self.log.info(f"ID {dxl_id} ({model.name}): {param} = {value:g} is beyond what it takes ({limit} and its "
+                      f"e-Manual range): {item} set to {shown:g}")
+        return hi
 
     def want_handled(self, dxl_id: int, handled: bool) -> None:
         """add_id (True) or remove_id (False) from a command, applied once the queued operations of
