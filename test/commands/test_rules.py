@@ -77,3 +77,15 @@ def test_to_pulses_refuses_an_item_the_model_lacks():
     rules, lines = _rules(FakeAccess({1: H54}))
     assert rules.to_pulses("goal", "pwm_percent", 1, "goal_pwm", 10.0) is None
     assert lines == ["goal: ID 1 (H54-200-S500-R) has no goal_pwm: 'pwm_percent' ignored"]
+
+
+def test_limits_and_gains_are_clamped_to_the_model_s_e_manual_range_with_a_warning():
+    """The servo would refuse a value beyond its e-Manual range (a Data Range Error): it is
+    clamped before it is sent, the same range the set-up tool and the virtual bus hold to."""
+    access = FakeAccess({1: XM430, 3: PH54})
+    rules, lines = _rules(access)
+    assert rules.limits(3, "velocity_limit", access.model(3)) == (0, 2900)      # PH54-200 page
+    assert rules.limits(1, "position_p_gain", access.model(1)) == (0, 16383)    # X gains
+    assert rules.to_pulses("limit", "velocity_limit_deg_s", 3, "velocity_limit", 1e6) == 2900
+    assert rules.to_pulses("gain", "position_p_gain_pulse", 1, "position_p_gain", 20000) == 16383
+    assert len(lines) == 2 and all("beyond the servo's limit: clamped to" in line for line in lines), lines
