@@ -11,7 +11,6 @@ from __future__ import annotations
 import ast
 import importlib
 import logging
-from dataclasses import fields
 from pathlib import Path
 from types import ModuleType
 
@@ -159,15 +158,19 @@ def _settings():
 
 
 def test_the_unit_tests_hand_each_part_the_settings_slice_the_handler_does():
-    from dynamixel_handler.core import handler
+    from dynamixel_handler.loop import Handler
 
     from support import parts
+    from support.fake_bus import XM430, FakeBus
 
     settings = _settings()
-    theirs, ours = handler._settings(settings), parts.slices(settings)
-    assert [f.name for f in fields(theirs)] == [f.name for f in fields(ours)]
-    for f in fields(theirs):
-        assert getattr(ours, f.name) == getattr(theirs, f.name), f.name
+    h = Handler(FakeBus({1: XM430}), settings, logging.getLogger("test_unit_coverage"))
+    built = parts.build(FakeBus({1: XM430}), settings)
+    for name in ("reads", "watchdog", "recovery", "requests", "startup", "steps", "ending"):
+        assert getattr(built, name).settings == getattr(h, name).settings, name
+    assert built.writes.split_write == h.writes.split_write
+    h.settings = settings.but(loop__rate_hz=7)  # replaced settings reach the parts as at the start
+    assert h.watchdog.settings == parts.build(FakeBus({1: XM430}), settings.but(loop__rate_hz=7)).watchdog.settings
 
 
 def _wiring(root: dict[str, object]) -> set[tuple[str, str, str]]:

@@ -25,109 +25,30 @@ slice of the parameters, the log) and the other parts it calls:
 ``Handler.step()`` runs queued operations (torque, mode, reboot...), writes pending values in
 grouped sync writes, reads what the ratios ask for this loop, and returns a ``StepReport`` that
 says which groups were read. The ROS layer turns the table into messages. The parts read typed
-settings (``dynamixel_handler.settings``), handed out in one place (``_settings`` below): each
+settings (``dynamixel_handler.settings``), handed out in one place (``parts.part_settings``): each
 part gets its slice, again whenever ``settings`` is replaced.
 """
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
-from typing import Any, Callable, Protocol, TypeVar
+from typing import Callable, TypeVar
 
 from ..bus import ServoBus
 from ..config import Config
 from ..control_table import OPERATING_MODES, Model
 from ..errors import Interrupted, StartupError
-from ..servos import PendingWrites, ServoTable
-from ..settings import LoopSettings, Settings, TermSettings
+from ..settings import Settings
 from .api import LoopFigures, ServoAccess
-from .deferred import EEPROM_WRITE_INTERVAL_S, Deferred
-from .group_io import GroupIO
-from .intake import Intake
+from .deferred import EEPROM_WRITE_INTERVAL_S
 from .log_limits import LogLimits
-from .pacing import Pacing
-from .read_plan import ReadPlan, ReadSettings, every
-from .recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S, Recovery
-from .request_types import (
-    AddServo,
-    Answer,
-    CancelDeferred,
-    ChangeMode,
-    ClearError,
-    DeferModeChange,
-    Reboot,
-    RemoveServo,
-    SetGoals,
-    SetUserWatchdog,
-    TorqueOff,
-    TorqueOn,
-    WantHandled,
-    WriteEeprom,
-    WriteItem,
-    answer,
-)
-from .requests import Requests
-from .servo_io import Log, ServoIO
-from .shutdown import Shutdown
-from .startup import Startup, StartupSettings
-from .state import RECHECK_LOOPS, StepReport, recheck_loops
-from .step import Step, StepSettings
-from .watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED, Watchdog, WatchdogSettings
-from .write_batch import WriteBatch
-
-
-@dataclass(frozen=True)
-class _PartSettings:
-    """What each part reads of the settings."""
-
-    reads: ReadSettings
-    watchdog: WatchdogSettings
-    loop: LoopSettings          # Recovery and Requests: the intervals, the removal count
-    startup: StartupSettings
-    step: StepSettings
-    term: TermSettings          # Shutdown
-    split_write: bool           # WriteBatch
-
-
-def _settings(s: Settings) -> _PartSettings:
-    """Each part's slice of the typed settings (the one place that hands them out)."""
-    return _PartSettings(
-        reads=ReadSettings(s.ratios, s.method.fast_read, s.method.split_read),
-        watchdog=WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
-                                  s.term.servo_auto_stop),
-        loop=s.loop,
-        startup=StartupSettings(s.scan, s.start, s.loop.debug),
-        step=StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
-        term=s.term,
-        split_write=s.method.split_write,
-    )
-
-
-class _Logs(Protocol):
-    log: Log
-
+from .parts import build_parts
+from .recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S
+from .request_types import Answer
+from .servo_io import Log
+from .state import RECHECK_LOOPS, StepReport
+from .watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED
 
 R = TypeVar("R")
-
-
-def _core_routes(h: Handler) -> dict[type, Callable[[Any], Answer | None]]:
-    """The table from each core request type to the part that does it."""
-    return {
-        SetGoals: h.requests.put_goals,
-        ChangeMode: h.requests.change_mode,
-        DeferModeChange: h.requests.defer_mode_change,
-        CancelDeferred: h.requests.cancel_deferred,
-        ClearError: h.requests.clear_error,
-        TorqueOn: lambda r: answer(h.io.torque_on(r.dxl_id)),
-        TorqueOff: lambda r: answer(h.io.torque_off(r.dxl_id)),
-        WriteItem: lambda r: answer(h.io.write_item(r.dxl_id, r.item, r.pulses)),
-        WriteEeprom: lambda r: answer(h.work.write_eeprom(r.dxl_id, r.item, r.pulses)),
-        Reboot: lambda r: answer(h.recovery.reboot(r.dxl_id)),
-        AddServo: lambda r: answer(h.startup.add_id(r.dxl_id), f"ID {r.dxl_id} not added"),
-        RemoveServo: lambda r: h.table.remove(r.dxl_id),
-        WantHandled: lambda r: h.startup.want_handled(r.dxl_id, r.handled),
-        SetUserWatchdog: lambda r: h.watchdog.set_user(r.dxl_id, r.pulses),
-    }
 
 
 class Handler:
@@ -141,51 +62,22 @@ class Handler:
 
     def __init__(self, bus: ServoBus, settings: Settings | Config, logger: Log | None = None, *,
                  tripped_once: bool = True) -> None:
-        self.bus = bus
-        self.table = ServoTable()
-        self.pending = PendingWrites()
         self._log: Log = logger or logging.getLogger("dynamixel_handler")
         self._settings = settings.settings if isinstance(settings, Config) else settings
-        s = _settings(self._settings)
-        log = self._log
         #: why operations are not taken now (a lifecycle node that is not active); None: they are
         self.refuse_ops: str | None = None
         #: true once the node is asked to exit: start-up (scan, set-up) stops between two steps
         self.interrupted: Callable[[], bool] = lambda: False
-        stopping = self._stopping
-        self.io = ServoIO(bus, self.table, log)
-        self.group = GroupIO(bus, self.table, log)
-        self.pacing = Pacing(bus, self.table, stopping)
-        self.reads = ReadPlan(bus, self.table, log, self.pacing, s.reads)
-        self.writes = WriteBatch(bus, self.table, self.pending, log, s.split_write)
-        self.watchdog = Watchdog(self.table, log, self.io, self.group, s.watchdog, tripped_once)
-        self.work = Deferred(self.table, log, self.io)
-        self.intake = Intake(log)
-        self.recovery = Recovery(bus, self.table, log, self.io, self.watchdog, s.loop, self._set_up)
-        self.startup = Startup(bus, self.table, log, self.io, self.work, self.recovery, self.watchdog, s.startup,
-                               stopping)
-        self.requests = Requests(self.table, self.pending, log, self.io, self.watchdog, self.pacing, self.work,
-                                 self.recovery, s.loop)
-        self.steps = Step(bus, self.table, log, self.reads, self.writes, self.pacing, self.watchdog, self.recovery,
-                          self.work, self.intake, self.startup, s.step)
-        self.ending = Shutdown(bus, self.table, log, self.io, self.group, s.term)
-        self._parts: tuple[_Logs, ...] = (self.io, self.group, self.reads, self.writes, self.watchdog, self.work,
-                                        self.intake, self.recovery, self.startup, self.requests, self.steps,
-                                        self.ending)
+        p = self._parts = build_parts(bus, self._settings, self._log, self._stopping, tripped_once)
+        self.bus, self.table, self.pending = p.bus, p.table, p.pending
+        self.io, self.group, self.pacing, self.reads, self.writes = p.io, p.group, p.pacing, p.reads, p.writes
+        self.watchdog, self.work, self.intake, self.recovery = p.watchdog, p.work, p.intake, p.recovery
+        self.startup, self.requests, self.steps, self.ending = p.startup, p.requests, p.steps, p.ending
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
-        # a servo removed (a remove_id request, silent too long, the lifecycle's cleanup): each part
-        # that keeps something per servo forgets it, then one line says so
-        for forget in (self.pending.forget, self.work.forget, self.watchdog.forget, self.recovery.forget,
-                       self._say_removed):
-            self.table.watch_removals(forget)
-        for kind, route in _core_routes(self).items():
-            self.intake.register(kind, route)
+        self.table.watch_removals(self._say_removed)  # after the parts forgot it: one line says so
 
     def _stopping(self) -> bool:
         return self.interrupted()
-
-    def _set_up(self, dxl_id: int) -> None:
-        self.startup.setup_servo(dxl_id)
 
     # ---------------------------------------------------------------- what every part shares
     @property
@@ -196,11 +88,7 @@ class Handler:
     def settings(self, settings: Settings) -> None:
         """New settings (replaced as a whole): each part gets its new slice."""
         self._settings = settings
-        s = _settings(settings)
-        self.reads.settings, self.watchdog.settings, self.startup.settings = s.reads, s.watchdog, s.startup
-        self.recovery.settings = self.requests.settings = s.loop
-        self.steps.settings, self.ending.settings = s.step, s.term
-        self.writes.split_write = s.split_write
+        self._parts.apply(settings)
 
     @property
     def log(self) -> Log:
@@ -209,8 +97,7 @@ class Handler:
     @log.setter
     def log(self, log: Log) -> None:
         self._log = log
-        for part in self._parts:
-            part.log = log
+        self._parts.set_log(log)
 
     # ---------------------------------------------------------------- life on the bus
     def start(self) -> None:
