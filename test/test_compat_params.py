@@ -55,6 +55,7 @@ def test_original_handler_yaml_loads_without_unknown_parameter_lines(name, expec
         # the device, its baud rate and the scan are this bus's; everything else is the file's
         cmd = node_command(f"device_name:={sim.path}", "baudrate:=57600", "latency_timer:=1",
                            "init/baudrate_auto_set:=false", "init/servo_auto_search.max_id:=1",
+                           "init/servo_auto_search.retry_times:=5",  # a busy host: scan until one answers
                            "verbose_ratio:=0", "loop_rate:=100", params_file=DATA / name)
         proc = NodeProcess(cmd)
         try:
@@ -138,13 +139,15 @@ def _refuse_profiles_above_limits(sim: VirtualBus) -> None:
     servo.check_write = with_profile_limits  # type: ignore[method-assign]
 
 
-def test_a_default_profile_the_servo_refuses_is_logged():
-    # 1000 deg/s is far above a PH54-200's velocity limit (~174 deg/s)
+def test_a_default_profile_beyond_the_servo_s_limit_is_lowered_to_it_with_one_line():
+    # 1000 deg/s is far above a PH54-200's velocity limit (~174 deg/s): the servo would refuse it
     rig = Rig({1: X, 2: P}, before_start=_refuse_profiles_above_limits)
     try:
-        line = rig.wait_log("ID 2", "default/profile_vel", "not set")
-        assert "WARN" in line and "refused" in line
-        assert not [ln for ln in rig.node_proc.lines if "ID 1 " in ln and "not set" in ln]
+        line = rig.wait_log("ID 2", "default/profile_vel", "beyond what it takes")
+        assert "profile_velocity set to 174" in line, line
+        assert rig.sim.servo(2).read("profile_velocity") == rig.sim.servo(2).read("velocity_limit")
+        assert not [ln for ln in rig.node_proc.lines if "ID 1 " in ln and ("not set" in ln or "beyond" in ln)]
+        assert list(rig.sim.refused) == []
     finally:
         rig.close()
 

@@ -163,11 +163,13 @@ def test_unsupported_items_read_as_not_supported(rig):
 
 def test_hybrid_area_is_written_at_start_up_only_where_it_differs(rig):
     """Gains and profiles are Y's Hybrid area, stored in non-volatile memory when written with
-    torque off: the start-up's profile defaults (1000 deg/s, 6008 deg/s^2) go only to a servo that
-    holds other values."""
+    torque off: the start-up's profile defaults (1000 deg/s, 6008 deg/s^2, each lowered to the
+    servo's Velocity / Acceleration Limit: its profiles take no more) go only to a servo that holds
+    other values."""
     assert rig.stop_node() == 0
-    rig.sim.servo(1).write("profile_velocity", pulses(1000.0, DEG_S))
-    rig.sim.servo(1).write("profile_acceleration", 6008)  # 10 rev/min^2 = 1 deg/s^2 a unit
+    one = rig.sim.servo(1)  # YM080-230-A099: a Velocity Limit of 121 deg/s
+    one.write("profile_velocity", min(pulses(1000.0, DEG_S), one.read("velocity_limit")))
+    one.write("profile_acceleration", min(6008, one.read("acceleration_limit")))  # 1 deg/s^2 a unit
     rig.sim.servo(2).write("profile_velocity", 123)
     rig.sim.clear_log()
     rig.start_node(*PARAMS)
