@@ -49,6 +49,8 @@ class Recovery:
         self._next_reconnect = 0.0
         #: IDs handled when the device went, set up again when it is back (None: not gone)
         self._lost_ids: list[int] | None = None
+        #: silent after a reconnect: set up as at start-up once they answer
+        self._not_set_up: set[int] = set()
         self._last_reboot: dict[int, float] = {}  # ID -> time.monotonic() of its last reboot
 
     def reboot(self, dxl_id: int) -> Result[bool]:
@@ -136,7 +138,8 @@ class Recovery:
     def _set_up_again(self, ids: list[int]) -> None:
         """After a reconnect: each servo pinged; one that answers is set up as at start-up (its
         power may have gone with the adapter: RAM at its defaults, torque off); one that does not
-        stays handled with ping false and is pinged again as any silent servo."""
+        stays handled with ping false, is pinged again as any silent servo, and is set up as soon
+        as it answers (``set_up_returned``)."""
         answered, silent = [], []
         for dxl_id in ids:
             if self.bus.ping_result(dxl_id, retries=1).value is None:
@@ -148,7 +151,25 @@ class Recovery:
             self._set_up(dxl_id)
             answered.append(dxl_id)
         self.log.info(f"after the reconnect: {len(answered)} servo(s) {answered} answer and are set up as at start-up"
-                      + (f"; no answer yet from {silent} (pinged again as silent servos)" if silent else ""))
+                      + (f"; no answer yet from {silent} (pinged again as silent servos, set up once they answer)"
+                         if silent else ""))
+        self._not_set_up.update(silent)
+
+    @property
+    def set_up_due(self) -> bool:
+        """A servo silent after a reconnect answers now and waits for its set-up."""
+        return bool(self._not_set_up) and any(self.table.ping[self.table.index[i]] for i in self._not_set_up
+                                              if i in self.table)
+
+    def set_up_returned(self) -> None:
+        """Set up as at start-up each servo that was silent after a reconnect and answers now."""
+        for dxl_id in sorted(self._not_set_up):
+            if dxl_id not in self.table:
+                self._not_set_up.discard(dxl_id)
+            elif self.table.ping[self.table.index[dxl_id]]:
+                self._not_set_up.discard(dxl_id)
+                self.log.info(f"ID {dxl_id}: answers after the reconnect: set up as at start-up")
+                self._set_up(dxl_id)
 
     def update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table
@@ -196,3 +217,4 @@ class Recovery:
     def forget(self, dxl_id: int) -> None:
         """The servo is no longer handled."""
         self.ping_log.forget(dxl_id)
+        self._not_set_up.discard(dxl_id)

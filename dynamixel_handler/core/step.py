@@ -78,6 +78,8 @@ class Step:
         by ``begin_step``, and again before ``send_step`` for commands that came meanwhile."""
         if self.recovery.device_gone:
             self.recovery.reconnect(report)
+        if self.recovery.set_up_due:  # silent after a reconnect, answering now: set up as at start-up
+            self.recovery.set_up_returned()
         self.watchdog.arm_waiting()
         if self.work.waiting:
             for what, request in self.work.run_deferred():

@@ -88,6 +88,15 @@ def test_a_vanished_device_marks_every_servo_silent_without_counting_and_sets_th
     part.reconnect(StepReport(loop=1))
     assert not part.device_lost and part.reconnects == 1 and set_up == [1]
     assert "1 servo(s) [1] answer and are set up as at start-up" in lines[-1]
+    # ID 2 answers later (a slow power-up, a busy host): set up as at start-up then, once
+    assert not part.set_up_due
+    bus.silent = set()
+    loop(part, table, {1, 2})
+    assert part.set_up_due
+    part.set_up_returned()
+    assert set_up == [1, 2] and lines[-1] == "ID 2: answers after the reconnect: set up as at start-up"
+    loop(part, table, {1, 2})
+    assert not part.set_up_due and set_up == [1, 2]
 
 
 def test_a_refused_reboot_says_why_in_its_result():
