@@ -18,6 +18,8 @@ from dynamixel_handler.core.read_plan import Read, ReadPart, decode_replies, dec
 from dynamixel_handler.protocol import ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_NONE
 from dynamixel_handler.sim.servo import VirtualServo
 
+from support.clock import HandClock
+
 M = model_by_number(350)
 XL320 = family_named("XL320")
 DEG = 300.0 / 1023.0
@@ -125,16 +127,9 @@ def test_error_bits_in_its_own_order():
     assert error_state.common_array([x, M], np.array([0x20, 0b001])).tolist() == [0x20, 0x20]  # both overload
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
-
 
 def test_virtual_xl320_unboxed_its_write_rules_and_wheel_mode():
-    clock = Clock()
+    clock = HandClock(100.0)
     servo = VirtualServo(350, 1, clock)
     assert servo.baudrate == 1_000_000 and not servo.supports_fast_read
     assert (servo.read("operating_mode"), servo.read("shutdown"), servo.read("pwm_limit")) == (2, 3, 1023)
@@ -154,7 +149,7 @@ def test_virtual_xl320_unboxed_its_write_rules_and_wheel_mode():
 
 
 def test_virtual_xl320_takes_torque_limit_from_max_torque_at_power_on():
-    clock = Clock()
+    clock = HandClock(100.0)
     servo = VirtualServo(350, 1, clock)
     assert servo.host_write(15, (600).to_bytes(2, "little"), clock.t) == ERR_NONE  # Max Torque (EEPROM)
     assert servo.read("torque_limit") == 1023  # RAM: still the value taken at power on

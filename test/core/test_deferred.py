@@ -10,21 +10,12 @@ from dynamixel_handler.core.deferred import EEPROM_WRITE_INTERVAL_S, Deferred
 from dynamixel_handler.core.request_types import ChangeMode
 from dynamixel_handler.core.servo_io import ServoIO
 
+from support.clock import HandClock
 from support.fake_bus import XM430, FakeBus, table_of
 
 
-class Clock:
-    """``time`` for the part under test, advanced by hand (the EEPROM interval is a second)."""
-
-    def __init__(self) -> None:
-        self.t = 1000.0
-
-    def monotonic(self) -> float:
-        return self.t
-
-
 def work(monkeypatch):
-    clock = Clock()
+    clock = HandClock(1000.0)
     monkeypatch.setattr(deferred_module, "time", clock)
     bus = FakeBus({1: XM430, 2: XM430})
     table = table_of(bus)

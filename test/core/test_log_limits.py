@@ -8,19 +8,11 @@ import logging
 from dynamixel_handler import logs
 from dynamixel_handler.core.log_limits import LINE_INTERVAL_S, LogLimits, PingLog
 
-
-class Clock:
-    """``time`` for the throttle, advanced by hand."""
-
-    def __init__(self) -> None:
-        self.t = 500.0
-
-    def monotonic(self) -> float:
-        return self.t
+from support.clock import HandClock
 
 
-def limits(monkeypatch) -> tuple[LogLimits, list[tuple[int, str]], Clock]:
-    clock = Clock()
+def limits(monkeypatch) -> tuple[LogLimits, list[tuple[int, str]], HandClock]:
+    clock = HandClock(500.0)
     monkeypatch.setattr(logs, "time", clock)
     lines: list[tuple[int, str]] = []
     return LogLimits(lambda level, msg: lines.append((level, msg))), lines, clock

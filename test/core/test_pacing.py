@@ -5,15 +5,8 @@ from __future__ import annotations
 from dynamixel_handler.core import pacing as pacing_module
 from dynamixel_handler.core.pacing import MIN_SPAN, OPS_SHARE, Pacing
 
+from support.clock import HandClock
 from support.fake_bus import H54, XM430, FakeBus, table_of
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 50.0
-
-    def monotonic(self) -> float:
-        return self.t
 
 
 def test_the_shortest_armed_watchdog_is_the_smallest_positive_one_known():
@@ -40,7 +33,7 @@ def test_the_read_span_fits_a_third_of_the_watchdog_time_on_the_wire_or_is_not_c
 
 
 def test_mode_changes_after_the_reads_stop_at_their_share_of_the_watchdog_and_a_stop_drops_them(monkeypatch):
-    clock = Clock()
+    clock = HandClock(50.0)
     monkeypatch.setattr(pacing_module, "time", clock)
     stopping = [False]
     bus = FakeBus({1: XM430})

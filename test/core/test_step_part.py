@@ -11,6 +11,7 @@ from dynamixel_handler.core.request_types import WantHandled, WriteItem
 from dynamixel_handler.core.step import Step
 from dynamixel_handler.settings import LogSettings, ReadRatios, Settings
 
+from support.clock import HandClock
 from support.fake_bus import XM430, FakeBus
 from support.parts import Parts, build, lines_of
 
@@ -51,18 +52,9 @@ def test_between_loops_the_queued_requests_and_their_writes_go_out_at_once_witho
     assert [c[0] for c in bus.calls] == ["write", "sync_write"] and step.loop_count == 1
 
 
-class Clock:
-    """``time`` of the ping lines (at most one a second per servo), advanced by hand."""
-
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def monotonic(self) -> float:
-        return self.t
-
 
 def test_a_silent_servo_is_left_out_of_the_reads_pinged_every_recheck_loops_loops_and_named_once(monkeypatch):
-    clock = Clock()
+    clock = HandClock(100.0)
     monkeypatch.setattr(log_limits, "time", clock)
     bus, parts, step, lines = started("silent", loop__no_response_auto_remove=0)
     bus.silent.add(2)
