@@ -24,6 +24,8 @@ from typing import Callable
 
 from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, PacketHandler
 
+from dynamixel_handler.bus.ops import SyncRead
+
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sdk_baseline import FairPort  # noqa: E402
 from sim_process import BusProcess  # noqa: E402
@@ -67,7 +69,7 @@ def ours(path: str, ids: list[int], baudrate: int, fast: bool, latency_ms: float
     bus.open()
 
     def step() -> bool:
-        return len(bus.sync_read(PRESENT_ADDRESS, PRESENT_LENGTH, ids, fast)) == len(ids)
+        return len(bus.execute(SyncRead(PRESENT_ADDRESS, PRESENT_LENGTH, ids, fast)).value) == len(ids)
     return step, bus.close
 
 

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
-from .bus import BusStats, DynamixelBus, GroupRead, PreparedWrite, Result
+from .bus import BusStats, DynamixelBus, Failure, GroupRead, PreparedWrite, Result
+from .bus.ops import ClearError, ClearMultiTurn, Instruction, Ping, Read, Reboot, SyncRead, Write
 from .control_table import family_named, model_by_number
 from .protocol import host as p
 from .sim.servo import CLEAR_KEY, VirtualServo
@@ -86,18 +87,45 @@ class BusWithDummies:
     def is_open(self) -> bool:
         return self._bus.is_open
 
-    def _unusable(self, what: str) -> Result[None]:
+    def _unusable(self, what: str, value: object = None) -> Result[Any]:
         """Why a call for a real servo fails at once: the wire is closed or gone."""
-        return Result(None, f"{what}: port closed or device lost")
+        return Result(value, Failure.PORT_CLOSED, f"{what}: port closed or device lost")
 
-    # ------------------------------------------------------------ single servo
-    def ping_result(self, dxl_id: int, retries: int | None = None) -> Result[int | None]:
-        if dxl_id in self.dummies:
-            return Result(self.dummies[dxl_id].model.number)
-        return self._bus.ping_result(dxl_id, retries) if self._real_ok() else self._unusable(f"ping ID {dxl_id}")
+    # ------------------------------------------------------------ instructions
+    def execute(self, instruction: Instruction) -> Result[Any]:
+        """As ``DynamixelBus.execute``: an instruction to a dummy is done in-process, a sync read or
+        write that includes dummies is split between them and the wire."""
+        if isinstance(instruction, PreparedWrite):
+            return self._send_prepared(instruction)
+        if isinstance(instruction, SyncRead):
+            return self._sync_read(instruction)
+        if isinstance(instruction, _TO_ONE) and instruction.dxl_id in self.dummies:
+            return self._in_process(instruction)
+        if not self._real_ok():
+            return self._unusable(_what(instruction), None if isinstance(instruction, (Ping, Read)) else False)
+        return self._bus.execute(instruction)
 
-    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
-        return self.ping_result(dxl_id, retries).value
+    def _in_process(self, op: ToOne) -> Result[Any]:
+        """An instruction to a dummy servo, answered as the servo would."""
+        now = time.monotonic()
+        servo = self._dummy(op.dxl_id, now)
+        if isinstance(op, Ping):
+            return Result(servo.model.number)
+        if isinstance(op, Read):
+            error, data = servo.host_read(op.address, op.size, now)
+            return _refused(None, op, error) if error & 0x7F else Result(data)
+        if isinstance(op, Write):
+            error = servo.host_write(op.address, op.data, now)
+        elif isinstance(op, Reboot):
+            servo.reboot(now)
+            error = 0
+        elif isinstance(op, ClearMultiTurn):
+            error = servo.clear_multi_turn(CLEAR_KEY, now)
+        elif isinstance(op, ClearError):
+            error = servo.clear(op.params, now)
+        else:
+            return Result(False, Failure.REFUSED, f"{_what(op)}: not served by a dummy servo")
+        return _refused(False, op, error) if error & 0x7F else _DONE
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         real, dummy = self._split(ids)
@@ -105,81 +133,31 @@ class BusWithDummies:
         found.update({i: self.dummies[i].model.number for i in dummy})
         return dict(sorted(found.items()))
 
-    def read_result(self, dxl_id: int, address: int, size: int) -> Result[bytes | None]:
-        if dxl_id in self.dummies:
-            error, data = self._dummy(dxl_id, now := time.monotonic()).host_read(address, size, now)
-            if error & 0x7F:
-                return Result(None, f"read ID {dxl_id} @{address}x{size}: {p.error_text(error)}")
-            return Result(data)
-        if not self._real_ok():
-            return self._unusable(f"read ID {dxl_id} @{address}x{size}")
-        return self._bus.read_result(dxl_id, address, size)
-
-    def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
-        return self.read_result(dxl_id, address, size).value
-
-    def write_result(self, dxl_id: int, address: int, data: bytes) -> Result[bool]:
-        if dxl_id in self.dummies:
-            error = self._dummy(dxl_id, now := time.monotonic()).host_write(address, bytes(data), now)
-            return Result(False, f"write ID {dxl_id}: {p.error_text(error)}") if error & 0x7F else _DONE
-        if not self._real_ok():
-            return _failed(self._unusable(f"write ID {dxl_id}"))
-        return self._bus.write_result(dxl_id, address, data)
-
-    def write(self, dxl_id: int, address: int, data: bytes) -> bool:
-        return self.write_result(dxl_id, address, data).value
-
-    def reboot_result(self, dxl_id: int) -> Result[bool]:
-        if dxl_id in self.dummies:
-            self.dummies[dxl_id].reboot(time.monotonic())
-            return _DONE
-        return self._bus.reboot_result(dxl_id) if self._real_ok() else _failed(self._unusable(f"reboot ID {dxl_id}"))
-
-    def reboot(self, dxl_id: int) -> bool:
-        return self.reboot_result(dxl_id).value
-
-    def clear_multi_turn_result(self, dxl_id: int) -> Result[bool]:
-        if dxl_id in self.dummies:
-            error = self.dummies[dxl_id].clear_multi_turn(CLEAR_KEY, time.monotonic())
-            return Result(False, f"clear multi-turn ID {dxl_id}: {p.error_text(error)}") if error & 0x7F else _DONE
-        if not self._real_ok():
-            return _failed(self._unusable(f"clear multi-turn ID {dxl_id}"))
-        return self._bus.clear_multi_turn_result(dxl_id)
-
-    def clear_multi_turn(self, dxl_id: int) -> bool:
-        return self.clear_multi_turn_result(dxl_id).value
-
-    def clear_error_result(self, dxl_id: int, params: bytes) -> Result[bool]:
-        if dxl_id in self.dummies:
-            error = self.dummies[dxl_id].clear(bytes(params), time.monotonic())
-            return Result(False, f"error clear ID {dxl_id}: {p.error_text(error)}") if error & 0x7F else _DONE
-        if not self._real_ok():
-            return _failed(self._unusable(f"error clear ID {dxl_id}"))
-        return self._bus.clear_error_result(dxl_id, params)
-
     # ------------------------------------------------------------ groups
-    def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
-        real, dummy = self._split(ids)
-        out = self._bus.sync_read(address, length, real, fast) if (real and self._real_ok()) else {}
+    def _sync_read(self, op: SyncRead) -> Result[dict[int, bytes]]:
+        real, dummy = self._split(op.ids)
+        out: dict[int, bytes] = {}
+        failure, why = None, ""
+        if real and self._real_ok():
+            got = self._bus.execute(SyncRead(op.address, op.length, tuple(real), op.fast))
+            out, failure, why = dict(got.value), got.failure, got.why
         now = time.monotonic()
         for i in dummy:
-            error, data = self._dummy(i, now).host_read(address, length, now)
+            error, data = self._dummy(i, now).host_read(op.address, op.length, now)
             if not error & 0x7F:
                 out[i] = data
-        return out
+        return Result(out) if out or not op.ids else Result(out, failure or Failure.NOBODY_ANSWERED,
+                                                            why or f"sync read @{op.address}x{op.length}: no servo answered")
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
         """As ``DynamixelBus.start_sync_read``; a read that includes dummies is done at once."""
         real, dummy = self._split(ids)
         if not dummy and self._real_ok():
             return self._bus.start_sync_read(address, length, real, fast)
-        return GroupRead.finished(self.sync_read(address, length, ids, fast))
-
-    def sync_write_result(self, address: int, length: int, data: Mapping[int, bytes]) -> Result[bool]:
-        return self.send_prepared_result(self.prepare_sync_write(address, length, data))
-
-    def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
-        return self.send_prepared_result(self.prepare_sync_write(address, length, data)).value
+        done = self._sync_read(SyncRead(address, length, tuple(ids), fast))
+        read = GroupRead.finished(done.value)
+        read.failure, read.why = done.failure, done.why
+        return read
 
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
         """As ``DynamixelBus.prepare_sync_write``; the dummies' part is written when it is sent."""
@@ -188,7 +166,7 @@ class BusWithDummies:
         dummy = {i: bytes(d) for i, d in data.items() if i in self.dummies}
         return dataclasses.replace(prepared, dummies=dummy) if dummy else prepared
 
-    def send_prepared_result(self, prepared: PreparedWrite) -> Result[bool]:
+    def _send_prepared(self, prepared: PreparedWrite) -> Result[bool]:
         now = time.monotonic()
         for i, chunk in prepared.dummies.items():
             if i in self.dummies:
@@ -196,15 +174,25 @@ class BusWithDummies:
         if not prepared.packet:
             return _DONE
         if not self._real_ok():
-            return _failed(self._unusable(f"sync write @{prepared.address}x{prepared.length}"))
-        return self._bus.send_prepared_result(prepared)
-
-    def send_prepared(self, prepared: PreparedWrite) -> bool:
-        return self.send_prepared_result(prepared).value
+            return self._unusable(f"sync write @{prepared.address}x{prepared.length}", False)
+        return self._bus.execute(prepared)
 
 
 _DONE: Result[bool] = Result(True)
+#: the instructions to one servo (the dummies answer these)
+_TO_ONE = (Ping, Read, Write, Reboot, ClearMultiTurn, ClearError)
+ToOne = Ping | Read | Write | Reboot | ClearMultiTurn | ClearError
 
 
-def _failed(why: Result[None]) -> Result[bool]:
-    return Result(False, why.failure)
+def _what(op: Instruction) -> str:
+    """An instruction as a log line names it: "read ID 3 @132x4", "sync write @116x4"."""
+    name = {Ping: "ping", Read: "read", Write: "write", Reboot: "reboot", ClearMultiTurn: "clear multi-turn",
+            ClearError: "error clear"}.get(type(op), type(op).__name__)
+    where = f" ID {op.dxl_id}" if hasattr(op, "dxl_id") else ""
+    if isinstance(op, Read):
+        where += f" @{op.address}x{op.size}"
+    return name + where
+
+
+def _refused(value: object, op: Instruction, error: int) -> Result[Any]:
+    return Result(value, Failure.REFUSED, f"{_what(op)}: {p.error_text(error)}")

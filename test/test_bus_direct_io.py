@@ -15,6 +15,7 @@ import pytest
 from test_bus_wire import WirePeer, fast_reply, status
 
 from dynamixel_handler.bus import DynamixelBus
+from dynamixel_handler.bus.ops import SyncRead
 from dynamixel_handler.protocol.host import build_instruction
 
 DATA = {1: bytes(range(10, 20)), 2: bytes([0xFF, 0xFF, 0xFD, 0x00, 2, 2, 2, 0xFD, 0xFD, 0x55]),
@@ -78,7 +79,7 @@ def _run(script: list, fast: bool, direct_io: bool, leftover: bytes = b"") -> tu
         if leftover:
             peer.send(leftover)
             time.sleep(0.05)  # let them land in the input before the first instruction goes out
-        results = [bus.sync_read(126, 10, [1, 2, 3], fast) for _ in range(2)]
+        results = [bus.execute(SyncRead(126, 10, [1, 2, 3], fast)).value for _ in range(2)]
         s = bus.stats
         return results, s.crc_errors, s.discarded_bytes, s.timeouts, s.bytes_rx, s.bytes_tx, log.lines
     finally:
@@ -116,7 +117,7 @@ def _vanish_mid_run(direct_io: bool) -> tuple:
     bus = DynamixelBus(peer.path, 1_000_000, **BUS, logger=log, direct_io=direct_io)
     try:
         bus.open()
-        first = bus.sync_read(126, 10, [1, 2, 3])
+        first = bus.execute(SyncRead(126, 10, [1, 2, 3])).value
         read = bus.start_sync_read(126, 10, [1, 2, 3])
         peer.vanish()
         return first, read.result(), bus.is_open, bus.stats.disconnects, [line for line in log.lines if "stopped" in line]
@@ -143,9 +144,9 @@ def _stale_before_a_write(direct_io: bool) -> tuple:
         bus.open()
         peer.send(stale)
         time.sleep(0.05)
-        assert bus.sync_write(116, 4, {1: bytes(4), 2: bytes(4)})
+        assert bus.execute(bus.prepare_sync_write(116, 4, {1: bytes(4), 2: bytes(4)})).value
         time.sleep(0.02)  # the write is answered by nothing
-        return bus.sync_read(126, 10, [1, 2, 3]), bus.stats.discarded_bytes, len(stale), peer.received
+        return bus.execute(SyncRead(126, 10, [1, 2, 3])).value, bus.stats.discarded_bytes, len(stale), peer.received
     finally:
         bus.close()
         peer.close()

@@ -12,6 +12,7 @@ from ament_index_python.packages import get_package_prefix
 
 from dynamixel_handler.bus import BusError, DynamixelBus
 from dynamixel_handler.bus.lock_holder import lock_holder
+from dynamixel_handler.bus.ops import Ping
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.setup_tool.errors import BadArguments
 from dynamixel_handler.setup_tool.items import find_item, parse_value, show_value
@@ -36,7 +37,7 @@ def test_an_open_bus_holds_the_device_lock_and_a_second_opener_is_told_who():
             assert f"is busy: {_program} (pid {os.getpid()}) holds it" in out.stderr and f"kill {os.getpid()}" in out.stderr
         assert lock_holder(sim.path) is None  # closed: the lock went with it
         with DynamixelBus(sim.path, 57600, latency_timer_ms=1.0) as bus:
-            assert bus.ping(1) == XM430
+            assert bus.execute(Ping(1)).value == XM430
 
 
 def test_ros2_run_finds_the_setup_executable_and_the_console_script_runs():

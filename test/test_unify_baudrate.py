@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from dynamixel_handler.bus import DynamixelBus
+from dynamixel_handler.bus.ops import Ping, Write
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler.tools.baudrate import baud_register_values, search_rates, unify_baudrate, validate_tool_params
@@ -52,8 +53,8 @@ def test_virtual_servo_answers_only_at_its_baud_rate_and_switches_after_the_repl
         assert answering(sim.path, 4_500_000) == {}
         with DynamixelBus(sim.path, 57600, latency_timer_ms=LATENCY_MS, retry_num=0) as bus:
             # the status reply of the Baud Rate write still comes at the old rate
-            assert bus.write(1, model_by_number(X).item("baud_rate").address, bytes([3]))
-            assert bus.ping(1) is None
+            assert bus.execute(Write(1, model_by_number(X).item("baud_rate").address, bytes([3]))).value
+            assert bus.execute(Ping(1)).value is None
         assert answering(sim.path, 1_000_000) == {1: X}
 
 

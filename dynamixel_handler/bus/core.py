@@ -25,16 +25,32 @@ PortHandler for the serial handle) and never lets the known defects of
 transaction at a time, retries, the read in flight, counters) with its ``receive.Receiver`` (reply
 gathering and timing), and over that transport ``reads.Reads`` (pings, group reads, scan),
 ``writes.Writes`` (group writes) and ``instructions.Instructions`` (single-servo instructions).
-Each call comes in two forms: ``write(...)`` gives the value (None or False on failure),
-``write_result(...)`` a ``Result`` with the value and why it failed. ROS-free.
+One door for instructions: ``execute(instruction)`` takes a value of :mod:`.ops` (``Read(1, 132,
+4)``, ``SyncRead(...)``, a prepared sync write ...) and gives one ``Result`` (the value, the
+``Failure`` kind and why in words); beside it the operations that are more than one instruction
+or leave one on the wire: ``scan``, ``start_sync_read``, ``prepare_sync_write``. ROS-free.
 """
 from __future__ import annotations
 
-from typing import Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
-from ..protocol import host as p
 from .group_read import GroupRead
 from .instructions import Instructions
+from .ops import (
+    Action,
+    BulkRead,
+    BulkWrite,
+    ClearError,
+    ClearMultiTurn,
+    FactoryReset,
+    Instruction,
+    Ping,
+    Read,
+    Reboot,
+    RegWrite,
+    SyncRead,
+    Write,
+)
 from .port import SerialPort
 from .reads import Reads
 from .result import Result
@@ -54,6 +70,23 @@ class DynamixelBus:
         self._reads = Reads(self._t)
         self._writes = Writes(self._t)
         self._one = Instructions(self._t)
+        one, writes = self._one, self._writes
+        #: the part that sends each kind of instruction
+        self._run: dict[type, Callable[[Any], Result[Any]]] = {
+            Ping: self._ping,
+            Read: self._read,
+            Write: lambda op: one.write(op.dxl_id, op.address, op.data),
+            RegWrite: lambda op: one.reg_write(op.dxl_id, op.address, op.data),
+            Action: lambda op: one.action(op.dxl_id),
+            Reboot: lambda op: one.reboot(op.dxl_id),
+            ClearMultiTurn: lambda op: one.clear_multi_turn(op.dxl_id),
+            ClearError: lambda op: one.clear_error(op.dxl_id, op.params),
+            FactoryReset: lambda op: one.factory_reset(op.dxl_id, op.option),
+            SyncRead: lambda op: self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast)),
+            BulkRead: lambda op: self._group(self._reads.bulk_read(op.requests, op.fast)),
+            BulkWrite: lambda op: writes.bulk_write(op.data),
+            PreparedWrite: writes.send_prepared,
+        }
 
     # ------------------------------------------------------------ the line
     @property
@@ -94,12 +127,6 @@ class DynamixelBus:
     @property
     def timeout_margin_ms(self) -> float:
         return self._t.rx.timeout_margin_ms
-
-    @property
-    def last_failure(self) -> str:
-        """Why the latest failed call failed ("" if none yet): for a script's message; each call's
-        ``Result`` carries its own."""
-        return self._t.last_failure
 
     @property
     def last_timeout_ms(self) -> float:
@@ -156,96 +183,33 @@ class DynamixelBus:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # ------------------------------------------------------------ reads
-    def ping_result(self, dxl_id: int, retries: int | None = None) -> Result[int | None]:
-        return self._reads.ping(dxl_id, retries)
+    # ------------------------------------------------------------ instructions
+    def execute(self, instruction: Instruction) -> Result[Any]:
+        """Send one instruction (a value of :mod:`.ops`) and give its ``Result``."""
+        return self._run[type(instruction)](instruction)
 
-    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
-        """Model number of ``dxl_id``, or None if it does not answer."""
-        return self._reads.ping(dxl_id, retries).value
+    def _ping(self, op: Ping) -> Result[int | None]:
+        return self._reads.ping(op.dxl_id, op.retries)
+
+    def _read(self, op: Read) -> Result[bytes | None]:
+        return self._one.read(op.dxl_id, op.address, op.size)
+
+    def _group(self, read: GroupRead) -> Result[dict[int, bytes]]:
+        data = read.result()
+        return Result(data, read.failure, read.why)
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         """``{id: model_number}`` of the servos among ``ids`` that answer a ping (see ``Reads.scan``)."""
         return self._reads.scan(ids, broadcast)
 
-    def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
-        """Same item from many servos in one instruction; returns the IDs that answered (see
-        ``Reads.sync_read``)."""
-        return self._reads.sync_read(address, length, ids, fast)
-
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
         """Send a sync read and return at once; ``result()`` of the returned read waits for the
-        replies (``failure`` then says why when nobody answered)."""
+        replies (``failure`` then says why when nobody answered). Meanwhile the caller may do work
+        that needs no bus; any other transaction first waits for this read to end."""
         return self._reads.start_sync_read(address, length, ids, fast)
 
-    def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:
-        """Different ``(address, size)`` per servo in one instruction; returns the IDs that answered."""
-        return self._reads.bulk_read(requests, fast)
-
-    def read_result(self, dxl_id: int, address: int, size: int) -> Result[bytes | None]:
-        return self._one.read(dxl_id, address, size)
-
-    def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
-        """``size`` raw bytes from the control table of ``dxl_id``, or None."""
-        return self._one.read(dxl_id, address, size).value
-
-    # ------------------------------------------------------------ writes
-    def write_result(self, dxl_id: int, address: int, data: bytes) -> Result[bool]:
-        return self._one.write(dxl_id, address, data)
-
-    def write(self, dxl_id: int, address: int, data: bytes) -> bool:
-        """Write raw bytes; True when the servo acknowledged (broadcast: when sent)."""
-        return self._one.write(dxl_id, address, data).value
-
-    def reg_write(self, dxl_id: int, address: int, data: bytes) -> bool:
-        """Register a write to be executed by :meth:`action`."""
-        return self._one.reg_write(dxl_id, address, data).value
-
-    def action(self, dxl_id: int = p.BROADCAST_ID) -> bool:
-        """Execute registered writes. A unicast action's status reply is read and consumed here."""
-        return self._one.action(dxl_id).value
-
-    def reboot_result(self, dxl_id: int) -> Result[bool]:
-        return self._one.reboot(dxl_id)
-
-    def reboot(self, dxl_id: int) -> bool:
-        """Reboot a servo (it needs a few hundred ms before it answers again)."""
-        return self._one.reboot(dxl_id).value
-
-    def clear_multi_turn_result(self, dxl_id: int) -> Result[bool]:
-        return self._one.clear_multi_turn(dxl_id)
-
-    def clear_multi_turn(self, dxl_id: int) -> bool:
-        """Reset the present position to within one turn (Clear instruction, servo must be stopped)."""
-        return self._one.clear_multi_turn(dxl_id).value
-
-    def clear_error_result(self, dxl_id: int, params: bytes) -> Result[bool]:
-        """Clear a servo's error with the Clear instruction (``params``: the family's error clear)."""
-        return self._one.clear_error(dxl_id, params)
-
-    def factory_reset(self, dxl_id: int, option: int = 0x02) -> bool:
-        """Factory reset; option 0xFF all, 0x01 all but ID, 0x02 (default) all but ID and baud rate."""
-        return self._one.factory_reset(dxl_id, option).value
-
-    def sync_write_result(self, address: int, length: int, data: Mapping[int, bytes]) -> Result[bool]:
-        return self._writes.send_prepared(Writes.prepare_sync_write(address, length, data))
-
-    def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
-        """Same item to many servos in one broadcast packet (no reply); True when sent."""
-        return self._writes.send_prepared(Writes.prepare_sync_write(address, length, data)).value
-
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
-        """Check and build a sync write now, to send it later with :meth:`send_prepared` (e.g.
-        while a read is on the wire). ValueError for invalid IDs or data lengths, as :meth:`sync_write`."""
+        """Check and build a sync write now, to send it later with ``execute`` (e.g. while a read is
+        on the wire, so the packet is ready the moment the line is free). ValueError for invalid
+        IDs or data lengths."""
         return Writes.prepare_sync_write(address, length, data)
-
-    def send_prepared_result(self, prepared: PreparedWrite) -> Result[bool]:
-        return self._writes.send_prepared(prepared)
-
-    def send_prepared(self, prepared: PreparedWrite) -> bool:
-        """Send a write built by :meth:`prepare_sync_write`; True when sent (or nothing to send)."""
-        return self._writes.send_prepared(prepared).value
-
-    def bulk_write(self, data: Mapping[int, tuple[int, bytes]]) -> bool:
-        """Different ``(address, bytes)`` per servo in one broadcast packet (no reply); True when sent."""
-        return self._writes.bulk_write(data).value

@@ -7,11 +7,13 @@ import time
 from typing import Callable, Iterable
 
 from ..protocol import host as p
+from .result import Failure
 
 
 class GroupRead:
     """A sync read on the wire: ``result()`` waits for its replies (once; later calls return the
-    same dict), ``failure`` then says why when nobody answered ("" otherwise). ``eta`` is when
+    same dict), ``failure`` (a ``Failure``) and ``why`` then say why when nobody answered (None
+    and "" otherwise). ``eta`` is when
     they should be in (``time.monotonic()``). ``gather`` is called once by ``result()`` and must
     end with :meth:`finish`."""
 
@@ -27,8 +29,9 @@ class GroupRead:
         self.started = time.monotonic()
         self.eta = self.started
         self._data: dict[int, bytes] | None = None
-        #: why the read failed ("" while it has not, or when at least one servo answered)
-        self.failure = ""
+        #: why the read failed (None while it has not, or when at least one servo answered)
+        self.failure: Failure | None = None
+        self.why = ""
 
     @classmethod
     def finished(cls, data: dict[int, bytes]) -> GroupRead:
@@ -40,9 +43,10 @@ class GroupRead:
     def done(self) -> bool:
         return self._data is not None
 
-    def finish(self, data: dict[int, bytes], failure: str = "") -> None:
+    def finish(self, data: dict[int, bytes], failure: Failure | None = None, why: str = "") -> None:
         self._data = data
         self.failure = failure
+        self.why = why
 
     def result(self) -> dict[int, bytes]:
         if self._data is None and self._gather is not None:

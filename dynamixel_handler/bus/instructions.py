@@ -23,7 +23,7 @@ class Instructions:
         with t.transaction() as tx:
             status = t.unicast(dxl_id, p.READ, p.u16(address) + p.u16(size), size)
             if status is None or status.refused:
-                return Result(None, tx.fail(f"read ID {dxl_id} @{address}x{size}: {t.why(status)}"))
+                return tx.failed(None, f"read ID {dxl_id} @{address}x{size}", status)
             tx.ok(1, 1)
             return Result(status.params)
 
@@ -39,10 +39,10 @@ class Instructions:
                 if t.broadcast(p.build_instruction(dxl_id, instruction, params)):
                     tx.ok(1, 1)
                     return _ACKNOWLEDGED
-                return Result(False, tx.fail(f"{what} broadcast: {t.why(None)}"))
+                return tx.failed(False, f"{what} broadcast")
             status = t.unicast(dxl_id, instruction, params, 0, retries)
             if status is None or status.refused:
-                return Result(False, tx.fail(f"{what} ID {dxl_id}: {t.why(status)}"))
+                return tx.failed(False, f"{what} ID {dxl_id}", status)
             tx.ok(1, 1)
             return _ACKNOWLEDGED
 

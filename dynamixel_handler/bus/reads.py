@@ -39,19 +39,10 @@ class Reads:
         with t.transaction() as tx:
             status = t.unicast(dxl_id, p.PING, b"", PING_REPLY_PARAMS, retries)
             if status is None or status.refused:
-                return Result(None, tx.fail(f"ping ID {dxl_id}: {t.why(status)}"))
+                return tx.failed(None, f"ping ID {dxl_id}", status)
             tx.ok(1, 1)
             self.firmware_versions[dxl_id] = status.params[2]
             return Result(status.params[0] | (status.params[1] << 8))
-
-    def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
-        """Same item from many servos in one instruction; returns the IDs that answered.
-
-        A silent servo costs one reply wait and never empties the others' data. The
-        instruction is retried only when nobody answered. ``fast`` uses Fast Sync Read
-        (X firmware 45+, P 12+): one unstuffed reply for all servos.
-        """
-        return self.start_sync_read(address, length, ids, fast).result()
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
         """Send a sync read and return at once; ``result()`` of the returned read waits for the
@@ -77,17 +68,16 @@ class Reads:
         return self._t.start_group_read(packet, list(expected), fast,
                                         f"{'fast ' if fast else ''}sync read @{address}x{length}")
 
-    def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> dict[int, bytes]:
-        """Different ``(address, size)`` per servo in one instruction; returns the IDs that answered."""
-        requests = {check_id(i): (int(a), int(n)) for i, (a, n) in requests.items()}
+    def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> GroupRead:
+        """Different ``(address, size)`` per servo (IDs checked) in one instruction, on the wire."""
         order = list(requests)
         if not order:
-            return {}
+            return GroupRead.finished({})
         instruction = p.FAST_BULK_READ if fast else p.BULK_READ
         params = p.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
         packet = p.build_instruction(p.BROADCAST_ID, instruction, params)
         return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], fast,
-                                        f"{'fast ' if fast else ''}bulk read").result()
+                                        f"{'fast ' if fast else ''}bulk read")
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         """``{id: model_number}`` of the servos among ``ids`` that answer a ping.
@@ -124,7 +114,7 @@ class Reads:
         with t.transaction() as tx:
             stream = p.StatusStream()
             if not t.send(packet):
-                tx.fail(f"broadcast ping: {t.why(None)}")
+                tx.fail(f"broadcast ping: {t.why(None)[1]}")
                 return {}, False
             rx.last_timeout_ms = wait_ms
             deadline = time.monotonic() + wait_ms / 1000.0

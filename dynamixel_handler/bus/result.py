@@ -1,24 +1,48 @@
-"""``Result``: what a bus call returned, with why it failed, as one value (no shared "last
-failure" to read afterwards, which another thread's call may have changed meanwhile)."""
+"""``Result``: what a bus instruction returned, with why it failed, as one value (no shared "last
+failure" to read afterwards, which another thread's call may have changed meanwhile), and
+``Failure``, the kinds of failure a caller may act on."""
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
 T = TypeVar("T", covariant=True)
 
 
+class Failure(enum.Enum):
+    """Why an instruction failed, as a kind a caller can act on; the text of ``Result.why`` adds
+    the detail (which instruction, which servo, how long was waited)."""
+
+    #: nothing came back within the reply wait
+    NO_REPLY = "no reply"
+    #: the servo answered with an error in its status (range, access, CRC, instruction ...)
+    REFUSED = "refused"
+    #: the device went away mid-run (unplugged, hung up): failing fast until it is reopened
+    DEVICE_LOST = "device lost"
+    #: the port is closed
+    PORT_CLOSED = "port closed"
+    #: a group read that no servo answered
+    NOBODY_ANSWERED = "no servo answered"
+    #: not sent: the servo's model has no such item
+    NO_SUCH_ITEM = "no such item"
+    #: not sent: the handler holds it back (a reboot asked for again too soon)
+    HELD_BACK = "held back"
+
+
 @dataclass(frozen=True, slots=True)
 class Result(Generic[T]):
-    """``value``: what the call gives (data, a model number, True) or its failure value (None,
-    False); ``failure``: why it failed, "" when it worked. True in a condition when it worked."""
+    """``value``: what the instruction gives (data, a model number, True) or its failure value
+    (None, False); ``failure``: the kind of failure, None when it worked; ``why``: that failure in
+    words for a log line ("" when it worked). True in a condition when it worked."""
 
     value: T
-    failure: str = ""
+    failure: Failure | None = None
+    why: str = ""
 
     @property
     def ok(self) -> bool:
-        return not self.failure
+        return self.failure is None
 
     def __bool__(self) -> bool:
-        return not self.failure
+        return self.failure is None

@@ -9,7 +9,7 @@ import logging
 import threading
 import time
 from contextlib import contextmanager
-from typing import Iterator
+from typing import Iterator, TypeVar
 
 import serial
 
@@ -18,7 +18,10 @@ from .errors import BusError
 from .group_read import GroupRead, reply_bytes
 from .port import SerialPort
 from .receive import Receiver
+from .result import Failure, Result
 from .stats import BusStats
+
+T = TypeVar("T")
 
 #: cap of the learnt reply lag [s]
 _MAX_REPLY_LAG_S = 0.02
@@ -41,10 +44,15 @@ class Outcome:
     def fail(self, reason: str) -> str:
         """Note a failure (a log line when verbose); returns ``reason`` for the call's result."""
         transport = self._transport
-        transport.last_failure = reason
         if transport.rx.verbose:
             transport.log("warning", reason)
         return reason
+
+    def failed(self, value: T, what: str, status: p.Status | None = None) -> Result[T]:
+        """The result of a transaction that got ``status`` (None: no reply) instead of an answer:
+        ``value`` (the failure value), the kind and ``what`` with the reason."""
+        kind, reason = self._transport.why(status)
+        return Result(value, kind, self.fail(f"{what}: {reason}"))
 
 
 class Transport:
@@ -64,8 +72,6 @@ class Transport:
         self.retry_num = max(0, int(retry_num))
         self.retry_interval_ms = max(0.0, float(retry_interval_ms))
         self.stats = BusStats()
-        #: human-readable reason of the latest failure ("" if none yet); calls return their own
-        self.last_failure = ""
         self._logger = logger if logger is not None else logging.getLogger("dynamixel_handler.bus")
         # direct_io=False: the port's bytes through pyserial's read/write (same results, slower)
         self.port = SerialPort(device, baudrate, latency_timer_ms, log=self.log, direct_io=direct_io)
@@ -162,15 +168,19 @@ class Transport:
         if self.retry_interval_ms:
             time.sleep(self.retry_interval_ms / 1000.0)
 
-    def why(self, status: p.Status | None) -> str:
-        """Why a transaction got ``status`` (None: no reply) instead of an answer."""
+    def why(self, status: p.Status | None) -> tuple[Failure, str]:
+        """Why a transaction got ``status`` (None: no reply) instead of an answer: the kind, in words."""
         if self.port.lost:
-            return "device lost"
+            return Failure.DEVICE_LOST, "device lost"
         if not self.port.is_open:
-            return "port closed"
+            return Failure.PORT_CLOSED, "port closed"
         if status is None:
-            return f"no reply within {self.rx.last_timeout_ms:.1f} ms"
-        return p.error_text(status.error)
+            return Failure.NO_REPLY, f"no reply within {self.rx.last_timeout_ms:.1f} ms"
+        return Failure.REFUSED, p.error_text(status.error)
+
+    def _nobody(self) -> tuple[Failure, str]:
+        """Why a group read got no reply: the port, or no servo answered."""
+        return self.why(None) if not self.port.is_open else (Failure.NOBODY_ANSWERED, "no servo answered")
 
     def _exchange(self, packet: bytes, expected: list[tuple[int, int]], fast: bool) -> dict[int, p.Status] | None:
         """Send ``packet`` and gather the expected replies; None if the port is unusable."""
@@ -214,20 +224,22 @@ class Transport:
             if self._inflight is read:
                 self._inflight = None
             data: dict[int, bytes] = {}
-            failure = ""
+            failure: Failure | None = None
+            why = ""
             try:
                 data = self._group_replies(read)
                 if data:
                     Outcome(self).ok(len(data), len(read.expected))
                 else:
-                    failure = Outcome(self).fail(f"{read.what}: no servo answered")
+                    failure, why = self._nobody()
+                    why = Outcome(self).fail(f"{read.what}: {why}")
                 missing = [i for i, _ in read.expected if i not in data]
                 if missing and data and self.rx.verbose:
                     self.log("warning", f"{read.what}: no valid reply from ID {missing}")
             finally:
                 self.stats.transactions += 1
                 self.stats.time_s += time.monotonic() - read.started
-                read.finish({i: data[i] for i, _ in read.expected if i in data}, failure)
+                read.finish({i: data[i] for i, _ in read.expected if i in data}, failure, why)
 
     def _group_replies(self, read: GroupRead) -> dict[int, bytes]:
         """The data of the servos that answered ``read``; the instruction is sent again (up to

@@ -64,7 +64,7 @@ class Writes:
             if t.broadcast(packet):
                 tx.ok(1, 1)
                 return _SENT
-            return Result(False, tx.fail(f"{what}: {t.why(None)}"))
+            return tx.failed(False, f"{what}")
 
 
 _SENT: Result[bool] = Result(True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import logging
 import time
 
-from ..bus import Result
+from ..bus import Failure, Result
 from ..servos import ServoTable
 from .log_limits import LogLimits
 from .servo_io import Log, ServoIO
@@ -44,7 +44,7 @@ class Deferred:
         """Write one EEPROM item (see ``write_eeprom_many``)."""
         model = self.table.model(dxl_id)
         if not model.has(item):
-            return Result(False, f"ID {dxl_id} ({model.name}) has no {item}")
+            return Result(False, Failure.NO_SUCH_ITEM, f"ID {dxl_id} ({model.name}) has no {item}")
         return self.write_eeprom_many(dxl_id, {item: pulses})
 
     def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> Result[bool]:
@@ -85,18 +85,18 @@ class Deferred:
     def _write_now(self, dxl_id: int, todo: dict[str, int]) -> Result[bool]:
         """Torque off, the EEPROM items written, torque back on if it was on; the first failure."""
         torque = self.io.torque_off_for_eeprom(dxl_id)
-        failure = ""
+        first_failed: Result[bool] | None = None
         for item, pulses in todo.items():
             written = self.io.write_item(dxl_id, item, pulses)
             if written:
                 self._eeprom_written[(dxl_id, item)] = time.monotonic()
                 self._ram_copy(dxl_id, item, pulses)
             else:
-                failure = failure or written.failure
-                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {written.failure}")
+                first_failed = first_failed or written
+                self.log.warning(f"ID {dxl_id}: writing {item}={pulses} failed: {written.why}")
         if torque:
             self.io.torque_on(dxl_id)
-        return Result(False, failure) if failure else _WRITTEN
+        return first_failed or _WRITTEN
 
     def defer(self, dxl_id: int, when: float, what: str, request: object) -> None:
         """``request`` for the servo again at ``when`` (monotonic); it replaces one waiting."""

@@ -7,6 +7,7 @@ from typing import Iterable, Mapping
 
 from .. import units
 from ..bus import ServoBus
+from ..bus.ops import SyncRead
 from ..servos import ServoTable
 from .servo_io import Log
 
@@ -33,7 +34,7 @@ class GroupIO:
         """``item`` of the servos that answered, one sync read per layout; kept in the table."""
         values: dict[int, int] = {}
         for (address, size), members in self._layouts(item, ids).items():
-            replies = self.bus.sync_read(address, size, members)
+            replies = self.bus.execute(SyncRead(address, size, tuple(members))).value
             for dxl_id, data in replies.items():
                 spec = self.table.model(dxl_id).item(item)
                 values[dxl_id] = int(units.decode(spec, data)[0])
@@ -44,9 +45,9 @@ class GroupIO:
         """``item`` := ``values`` ({ID: pulses}), one sync write per layout; kept in the table."""
         for (address, size), members in self._layouts(item, values).items():
             data = {i: units.encode(self.table.model(i).item(item), [values[i]]) for i in members}
-            written = self.bus.sync_write_result(address, size, data)
+            written = self.bus.execute(self.bus.prepare_sync_write(address, size, data))
             if written:
                 for dxl_id in members:
                     self.table.set_value(item, dxl_id, values[dxl_id])
             else:
-                self.log.warning(f"{what}: writing {item} to IDs {members} failed: {written.failure}")
+                self.log.warning(f"{what}: writing {item} to IDs {members} failed: {written.why}")

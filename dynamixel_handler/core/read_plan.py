@@ -8,6 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from ..bus import ServoBus
+from ..bus.ops import SyncRead
 from ..groups import GROUP_ITEMS, PRESENT, due
 from ..servos import ServoTable
 from ..settings import ReadRatios
@@ -181,7 +182,7 @@ class ReadPlan:
         P); those after it were only cut off. So only that first one can lack the instruction: if it
         answers the plain read FAST_MISSES_PLAIN times in a row, it is read so from now on."""
         missing = [i for i in read.ids if i not in data]
-        plain = self.bus.sync_read(read.address, read.length, missing)
+        plain = self.bus.execute(SyncRead(read.address, read.length, tuple(missing))).value
         first = missing[0]
         if first in plain:
             self._fast_misses[first] = self._fast_misses.get(first, 0) + 1

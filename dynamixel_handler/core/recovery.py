@@ -7,7 +7,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..bus import Result, ServoBus, dummy_ids
+from ..bus import Failure, Result, ServoBus, dummy_ids
+from ..bus.ops import ClearError, Ping, Reboot
 from ..servos import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
@@ -60,14 +61,14 @@ class Recovery:
         sooner is refused with one line a second (False)."""
         refused = self._reboot_refused(dxl_id)
         if refused:
-            return Result(False, refused)
+            return Result(False, Failure.HELD_BACK, refused)
         # a reboot resets the RAM area: what the handler had set there comes back afterwards
         kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
-        rebooted = self.bus.reboot_result(dxl_id)  # sent once (a late acknowledgement: rebooted all the same)
+        rebooted = self.bus.execute(Reboot(dxl_id))  # sent once (a late acknowledgement: rebooted all the same)
         if rebooted or self.bus.is_open:  # unacknowledged, it may be booting: wait for it all the same
             deadline = time.monotonic() + REBOOT_WAIT_S
             time.sleep(0.02)
-            while self.bus.ping_result(dxl_id, retries=0).value is None:
+            while self.bus.execute(Ping(dxl_id, retries=0)).value is None:
                 if time.monotonic() > deadline:
                     self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
                     break
@@ -82,7 +83,7 @@ class Recovery:
     def clear_error(self, dxl_id: int, params: bytes) -> Result[bool]:
         """The error clear of a servo that has one (Y: the Clear instruction with ``params``): no
         reboot; the error item and torque are read again afterwards."""
-        cleared = self.bus.clear_error_result(dxl_id, params)
+        cleared = self.bus.execute(ClearError(dxl_id, params))
         model = self.table.model(dxl_id)
         codes = model.family.error_codes
         for item in ("torque_enable", codes.item if codes is not None else ""):
@@ -142,7 +143,7 @@ class Recovery:
         as it answers (``set_up_returned``)."""
         answered, silent = [], []
         for dxl_id in ids:
-            if self.bus.ping_result(dxl_id, retries=1).value is None:
+            if self.bus.execute(Ping(dxl_id, retries=1)).value is None:
                 silent.append(dxl_id)
                 continue
             pos = self.table.index[dxl_id]

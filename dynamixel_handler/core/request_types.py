@@ -50,7 +50,7 @@ DONE = Answer()
 def answer(result: Result[Any] | bool, failure: str = "") -> Answer:
     """A bus call's ``Result`` (or a plain truth value) as an ``Answer``."""
     if isinstance(result, Result):
-        return DONE if result else Answer(Outcome.FAILED, result.failure)
+        return DONE if result else Answer(Outcome.FAILED, result.why)
     return DONE if result else Answer(Outcome.FAILED, failure)
 
 

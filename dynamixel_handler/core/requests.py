@@ -107,7 +107,7 @@ class Requests:
             self.io.torque_on(dxl_id)
         self.watchdog.arm_after_ops(dxl_id)
         if not written:
-            return Answer(Outcome.FAILED, f"{what}: ID {dxl_id} mode change to '{mode}' failed: {written.failure}")
+            return Answer(Outcome.FAILED, f"{what}: ID {dxl_id} mode change to '{mode}' failed: {written.why}")
         self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
         return DONE
 
@@ -143,7 +143,7 @@ class Requests:
         offset = self.io.read_item(dxl_id, "homing_offset")
         rebooted = self.recovery.reboot(dxl_id)
         if not rebooted:
-            return answer(False, f"{what}: ID {dxl_id} reboot failed: {rebooted.failure}")
+            return answer(False, f"{what}: ID {dxl_id} reboot failed: {rebooted.why}")
         self.io.read_item(dxl_id, "torque_enable")
         self.io.read_item(dxl_id, "hardware_error_status")
         if keep_rotation and before is not None and offset is not None:
@@ -163,7 +163,7 @@ class Requests:
         name = error_state.describe(model, error)
         cleared = self.recovery.clear_error(dxl_id, params)
         if not cleared:
-            return answer(False, f"{what}: ID {dxl_id} {name} not cleared: {cleared.failure}")
+            return answer(False, f"{what}: ID {dxl_id} {name} not cleared: {cleared.why}")
         if torque:
             self.io.torque_on(dxl_id)
         self.log.info(f"ID {dxl_id}: {name} cleared (error clear instruction, no reboot)")

@@ -5,7 +5,8 @@ import logging
 from typing import Any
 
 from .. import units
-from ..bus import Result, ServoBus
+from ..bus import Failure, Result, ServoBus
+from ..bus.ops import Read, Write
 from ..servos import ServoTable
 
 Log = logging.Logger | logging.LoggerAdapter[Any]
@@ -24,7 +25,7 @@ class ServoIO:
         if not model.has(item):
             return None
         spec = model.item(item)
-        data = self.bus.read_result(dxl_id, spec.address, spec.size).value
+        data = self.bus.execute(Read(dxl_id, spec.address, spec.size)).value
         if data is None:
             return None
         value = int(units.decode(spec, data)[0])
@@ -35,11 +36,11 @@ class ServoIO:
         """Write one item of one servo (kept in the table when acknowledged): True, or False and why."""
         model = self.table.model(dxl_id)
         if not model.has(item):
-            return Result(False, f"ID {dxl_id} ({model.name}) has no {item}")
+            return Result(False, Failure.NO_SUCH_ITEM, f"ID {dxl_id} ({model.name}) has no {item}")
         if item in model.hybrid_items and self.value(dxl_id, item) == pulses:
             return Result(True)  # Y's Hybrid area, stored when torque is off: not written again
         spec = model.item(item)
-        written = self.bus.write_result(dxl_id, spec.address, units.encode(spec, [pulses]))
+        written = self.bus.execute(Write(dxl_id, spec.address, units.encode(spec, [pulses])))
         if written:
             self.table.set_value(item, dxl_id, pulses)
         return written

@@ -7,6 +7,7 @@ from typing import Callable, Sequence
 
 from .. import error_state, units
 from ..bus import ServoBus, dummy_ids
+from ..bus.ops import Ping
 from ..control_table import model_by_number
 from ..errors import Interrupted, StartupError
 from ..servos import ServoTable
@@ -166,7 +167,7 @@ class Startup:
             self.log.warning(f"ID {dxl_id}: {error_state.describe(model, err or 0)} at start-up: clearing it")
             cleared = self.recovery.clear_error(dxl_id, params=codes.clear_params)
             if not cleared:
-                self.log.warning(f"ID {dxl_id}: error not cleared: {cleared.failure}")
+                self.log.warning(f"ID {dxl_id}: error not cleared: {cleared.why}")
             return
         self.log.warning(f"ID {dxl_id}: hardware error 0x{err or 0:02X} at start-up: clearing it by reboot")
         self.recovery.reboot(dxl_id)
@@ -184,7 +185,7 @@ class Startup:
                 written = self.io.write_item(dxl_id, item, pulses)
                 if not written:  # e.g. above a P servo's velocity limit
                     self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
-                                     f"({item} {pulses} refused: {written.failure})")
+                                     f"({item} {pulses} refused: {written.why})")
         self.watchdog.request_arm(dxl_id)
 
     def _within(self, dxl_id: int, item: str, limit: str, param: str, value: float) -> int:
@@ -226,7 +227,7 @@ class Startup:
 
     def add_id(self, dxl_id: int) -> bool:
         """Ping ``dxl_id`` and handle it if it answers with a model of a used series."""
-        number = self.bus.ping_result(dxl_id).value
+        number = self.bus.execute(Ping(dxl_id)).value
         if number is None:
             self.limited(logging.WARNING, f"ID {dxl_id}: no answer to ping, not added", f"not added {dxl_id}")
             return False

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import error_state, units
 from ..bus import ServoBus
+from ..bus.ops import Ping
 from ..groups import GROUP_ITEMS, PRESENT
 from ..servos import ServoTable
 from ..settings import LogSettings
@@ -166,7 +167,7 @@ class Step:
                 mark(answered, data)
         for dxl_id in report.recheck:
             mark(addressed, [dxl_id])
-            if dxl_id in index and self.bus.ping_result(dxl_id, retries=0).value is not None:
+            if dxl_id in index and self.bus.execute(Ping(dxl_id, retries=0)).value is not None:
                 mark(answered, [dxl_id])
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
         self.recovery.update_ping(addressed, answered)

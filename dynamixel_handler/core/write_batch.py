@@ -36,9 +36,9 @@ class WriteBatch:
             self._build_writes()
         prepared, self._prepared, self._taken = self._prepared, [], {}
         for write in prepared:
-            sent = self.bus.send_prepared_result(write)
+            sent = self.bus.execute(write)
             if not sent:
-                reason = sent.failure
+                reason = sent.why
                 self._write_failures(f"sync write @{write.address}x{write.length} to IDs "
                                      f"{sorted((*write.ids, *write.dummies))} failed: {reason}",
                                      key=f"{write.address}x{write.length} {reason}")

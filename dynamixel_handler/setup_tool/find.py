@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 from ..bus import BusError, DynamixelBus
+from ..bus.ops import Ping
 from ..control_table import model_by_number
 from .errors import StepFailed
 from .protocol1 import model_name1, ping1
@@ -81,7 +82,7 @@ class Search:
             return self.bus.scan(ids, broadcast=True)
         answered = {}
         for dxl_id in ids:
-            model = self.bus.ping_result(dxl_id).value  # retried as --retries says
+            model = self.bus.execute(Ping(dxl_id)).value  # retried as --retries says
             if model is not None:
                 answered[dxl_id] = model
         return answered

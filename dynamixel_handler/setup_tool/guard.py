@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Iterable, Mapping
 
 from ..bus import BusError
+from ..bus.ops import Ping
 from ..control_table import Item
 from .checks import check, needed
 from .context import Context
@@ -73,7 +74,7 @@ def only_one(ctx: Context, servo: Servo) -> None:
                 ctx.bus.set_baudrate(bps)
             except BusError:
                 continue
-            if ctx.bus.ping_result(servo.dxl_id, retries=0).value is not None:
+            if ctx.bus.execute(Ping(servo.dxl_id, retries=0)).value is not None:
                 raise StepFailed(f"ID {servo.dxl_id} answers at {here} and at {bps} bps: two servos have it; refused, "
                                  "nothing written (give --baud to choose one)")
     finally:

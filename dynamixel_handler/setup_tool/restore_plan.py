@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable
 
 from ..bus import BusError
+from ..bus.ops import Ping
 from ..control_table import Item
 from .checks import problems
 from .context import Context
@@ -85,7 +86,7 @@ def _in_place(ctx: Context, plans: dict[int, Plan], path: str) -> None:
 
     for plan in plans.values():
         bps = ctx.search.first if ctx.baud_given else (plan.entry.baudrate or ctx.search.first)
-        if _at(ctx, bps) and ctx.bus.ping_result(plan.entry.dxl_id).value is not None:
+        if _at(ctx, bps) and ctx.bus.execute(Ping(plan.entry.dxl_id)).value is not None:
             place(plan, connect(ctx.bus, plan.entry.dxl_id), bps)
     rest = [i for i, plan in plans.items() if plan.servo is None]
     if rest:
@@ -160,7 +161,7 @@ def _baud_move(ctx: Context, plan: Plan, raw: int, seen: Iterable[tuple[int, int
     target = plan.target_bps
     other = any(i == plan.entry.dxl_id and b == target for i, b, _ in seen)
     if not other and not plan.replacement:
-        other = _at(ctx, target) and ctx.bus.ping_result(plan.entry.dxl_id).value is not None
+        other = _at(ctx, target) and ctx.bus.execute(Ping(plan.entry.dxl_id)).value is not None
         _at(ctx, plan.baudrate)
     if other:
         plan.refused.append(f"baud_rate {target} bps: another servo answers at ID {plan.entry.dxl_id} at {target} bps "

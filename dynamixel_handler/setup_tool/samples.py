@@ -6,6 +6,7 @@ import csv
 import datetime
 from typing import IO, Any
 
+from ..bus.ops import Read
 from .errors import StepFailed
 from .items import to_unit
 from .scan import _errors
@@ -32,7 +33,7 @@ def sample(servo: Servo, baudrate: int, mode: str) -> dict[str, Any]:
     if not items:
         return doc
     first = items[0].address
-    got = servo.bus.read_result(servo.dxl_id, first, items[-1].address + items[-1].size - first)
+    got = servo.bus.execute(Read(servo.dxl_id, first, items[-1].address + items[-1].size - first))
     if got.value is None:
         return doc
     raw = {i.name: int.from_bytes(got.value[i.address - first:][:i.size], "little", signed=i.signed) for i in items}

@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
 from ..bus import BusError, DynamixelBus
+from ..bus.ops import Ping, Read
 from ..control_table import model_by_number
 from ..units import decode_hardware_error
 from .protocol1 import SWITCH_TO_2, model_name1, ping1
@@ -91,7 +92,7 @@ def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int
 
 
 def _ping(bus: DynamixelBus, dxl_id: int, pause_s: float) -> int | None:
-    model = bus.ping_result(dxl_id, retries=0).value
+    model: int | None = bus.execute(Ping(dxl_id, retries=0)).value
     if pause_s:
         time.sleep(pause_s)
     return model
@@ -139,7 +140,7 @@ def _details(bus: DynamixelBus, dxl_id: int, number: int) -> Found:
 
 def _read_into(servo: Servo, name: str, setter: Callable[[int], None]) -> None:
     item = servo.model.item(name)
-    got = servo.bus.read_result(servo.dxl_id, item.address, item.size)
+    got = servo.bus.execute(Read(servo.dxl_id, item.address, item.size))
     if got.value is not None:
         setter(int.from_bytes(got.value[:item.size], "little"))
 

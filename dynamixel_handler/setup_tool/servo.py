@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..bus import DynamixelBus
+from ..bus.ops import Ping, Read, Write
 from ..control_table import Item, Model, model_by_number
 from ..units import decode, encode
 from .errors import StepFailed
@@ -35,25 +36,25 @@ class Servo:
 
     def read(self, name: str) -> int:
         item = self.item(name)
-        got = self.bus.read_result(self.dxl_id, item.address, item.size)
+        got = self.bus.execute(Read(self.dxl_id, item.address, item.size))
         if got.value is None:
-            raise StepFailed(f"{self.who}: reading {item.name} failed: {_cause(got.failure)}")
+            raise StepFailed(f"{self.who}: reading {item.name} failed: {_cause(got.why)}")
         return int(decode(item, got.value)[0])
 
     def read_block(self, first: Item, last: Item) -> bytes:
         """The bytes from ``first`` to the end of ``last`` in one read."""
         size = last.address + last.size - first.address
-        got = self.bus.read_result(self.dxl_id, first.address, size)
+        got = self.bus.execute(Read(self.dxl_id, first.address, size))
         if got.value is None:
-            raise StepFailed(f"{self.who}: reading {first.name}..{last.name} failed: {_cause(got.failure)}")
+            raise StepFailed(f"{self.who}: reading {first.name}..{last.name} failed: {_cause(got.why)}")
         return bytes(got.value)
 
     def write(self, name: str, raw: int) -> None:
         item = self.item(name)
-        done = self.bus.write_result(self.dxl_id, item.address, encode(item, raw))
+        done = self.bus.execute(Write(self.dxl_id, item.address, encode(item, raw)))
         if not done:
             raise StepFailed(f"{self.who}: writing {item.name} = {show_value(self.model, item, raw)} "
-                             f"failed: {_cause(done.failure)}")
+                             f"failed: {_cause(done.why)}")
 
     def torque_on(self) -> bool:
         return self.read("torque_enable") == 1
@@ -90,9 +91,9 @@ def _cause(failure: str) -> str:
 def connect(bus: DynamixelBus, dxl_id: int) -> Servo:
     """The servo at ``dxl_id`` on the bus at its present rate; StepFailed when it does not answer
     or its model is not one the control table knows."""
-    got = bus.ping_result(dxl_id)
+    got = bus.execute(Ping(dxl_id))
     if got.value is None:
-        raise StepFailed(f"ID {dxl_id}: no servo answers at {bus.baudrate} bps ({_cause(got.failure)})")
+        raise StepFailed(f"ID {dxl_id}: no servo answers at {bus.baudrate} bps ({_cause(got.why)})")
     try:
         return Servo(bus, dxl_id, model_by_number(got.value))
     except KeyError:

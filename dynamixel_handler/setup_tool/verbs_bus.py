@@ -5,6 +5,7 @@ import argparse
 import time
 
 from ..bus import DynamixelBus
+from ..bus.ops import FactoryReset, Ping, Reboot
 from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
@@ -54,7 +55,7 @@ def _wait_back(bus: DynamixelBus, dxl_id: int) -> int | None:
     deadline = time.monotonic() + _BACK_WITHIN_S
     while time.monotonic() < deadline:
         time.sleep(0.1)
-        number = bus.ping_result(dxl_id, retries=0).value
+        number: int | None = bus.execute(Ping(dxl_id, retries=0)).value
         if number is not None:
             return number
     return None
@@ -92,9 +93,9 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
     failed ("" when it answers again)."""
     with held():
         entry = JOURNAL.touch(servo.dxl_id, servo.model.name, baudrate, "on" if torque else "off")
-        done = ctx.bus.reboot_result(servo.dxl_id)
+        done = ctx.bus.execute(Reboot(servo.dxl_id))
         if not done:
-            return done.failure or "no reply"
+            return done.why or "no reply"
         if _wait_back(ctx.bus, servo.dxl_id) is None:
             entry.torque = "unknown (it does not answer)"
             return f"it does not answer within {_BACK_WITHIN_S:.0f} s"
@@ -129,7 +130,7 @@ def _check_free_after_reset(ctx: Context, servo: Servo, level: str) -> None:
         return
     here = ctx.bus.baudrate
     ctx.bus.set_baudrate(where_bps)
-    other = ctx.bus.ping_result(where_id, retries=1).value
+    other = ctx.bus.execute(Ping(where_id, retries=1)).value
     ctx.bus.set_baudrate(here)
     if other is not None:
         raise StepFailed(f"{servo.who}: after this reset it would answer at ID {where_id}, {where_bps} bps, where another "
@@ -144,8 +145,9 @@ def _reset(ctx: Context, servo: Servo, level: str, torque: bool, where: tuple[in
         if torque:
             servo.write("torque_enable", 0)
             entry.torque = "off (it was on)"
-        if not ctx.bus.factory_reset(servo.dxl_id, _RESET_OPTION[level]):
-            raise StepFailed(f"{servo.who}: factory reset refused: {ctx.bus.last_failure or 'no reply'}; nothing was "
+        reset = ctx.bus.execute(FactoryReset(servo.dxl_id, _RESET_OPTION[level]))
+        if not reset:
+            raise StepFailed(f"{servo.who}: factory reset refused: {reset.why or 'no reply'}; nothing was "
                              f"reset (torque {entry.torque})")
         entry.done.append(f"factory reset (keeping {level if level != 'all' else 'nothing'}) sent")
         entry.dxl_id, entry.baudrate = where_id, where_bps
@@ -194,7 +196,7 @@ def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
     bus.set_baudrate(new.baudrate)
     servo = connect(bus, new.dxl_id)
     if new_id != servo.dxl_id:
-        if bus.ping_result(new_id, retries=1).value is not None:
+        if bus.execute(Ping(new_id, retries=1)).value is not None:
             raise StepFailed(f"{servo.who}: ID {new_id} is in use at {new.baudrate} bps; not changed")
         servo.set_checked("id", new_id, after=lambda: connect(bus, new_id), torque_off=ctx.torque_off)
         servo = connect(bus, new_id)

@@ -9,6 +9,7 @@ import argparse
 from typing import Any
 
 from ..bus import BusError
+from ..bus.ops import Ping
 from ..control_table import Item
 from ..units import decode
 from . import guard
@@ -145,7 +146,7 @@ def set_id(ctx: Context, args: argparse.Namespace) -> None:
         ctx.out.say(f"{servo.who} already has ID {new}: nothing written")
         ctx.out.document.update(id=new, written=False)
         return
-    taken = ctx.bus.ping_result(new, retries=1).value
+    taken = ctx.bus.execute(Ping(new, retries=1)).value
     if taken is not None:
         raise StepFailed(f"{servo.who}: ID {new} is already in use at {ctx.bus.baudrate} bps (model {taken}): "
                          "two servos at one ID cannot be told apart; choose another")
@@ -169,7 +170,7 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
         ctx.out.document.update(id=servo.dxl_id, baudrate=old, written=False)
         return
     ctx.bus.set_baudrate(args.bps)
-    there = ctx.bus.ping_result(servo.dxl_id, retries=1).value
+    there = ctx.bus.execute(Ping(servo.dxl_id, retries=1)).value
     ctx.bus.set_baudrate(old)
     if there is not None:
         raise StepFailed(f"{servo.who}: another servo (model {there}) answers at ID {servo.dxl_id} at {args.bps} bps: "

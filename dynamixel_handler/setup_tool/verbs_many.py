@@ -9,6 +9,7 @@ import argparse
 import time
 from typing import Any, Callable, Iterable
 
+from ..bus.ops import SyncRead
 from ..control_table import Item
 from ..units import decode, encode
 from . import guard
@@ -51,7 +52,7 @@ def _read(ctx: Context, placed: list[Placed], item_of: Callable[[Placed], Item])
     values: dict[int, int] = {}
     for (bps, address, size), group in _groups(placed, item_of).items():
         ctx.at(group[0])
-        got = ctx.bus.sync_read(address, size, [p.dxl_id for p in group])
+        got = ctx.bus.execute(SyncRead(address, size, tuple(p.dxl_id for p in group))).value
         for p in group:
             if p.dxl_id in got:
                 values[p.dxl_id] = int(decode(item_of(p), got[p.dxl_id])[0])
@@ -105,10 +106,10 @@ def _sync_write(ctx: Context, group: list[Want]) -> None:
     p0, item0, _ = group[0]
     ctx.at(p0)
     data = {p.dxl_id: encode(item, raw) for p, item, raw in group}
-    done = ctx.bus.sync_write_result(item0.address, item0.size, data)
+    done = ctx.bus.execute(ctx.bus.prepare_sync_write(item0.address, item0.size, data))
     if not done:
         raise StepFailed(f"sync write of {item0.name} to ID {', '.join(map(str, data))} failed: "
-                         f"{done.failure or 'not sent'}")
+                         f"{done.why or 'not sent'}")
     # no status comes back: wait until the packet is out of the adapter before the bus may change rate
     packet = 14 + len(data) * (1 + item0.size)
     time.sleep(2 * ctx.bus.latency_timer_ms / 1000.0 + packet * 10.0 / ctx.bus.baudrate)

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, BusError, DynamixelBus
+from ..bus.ops import Read, Write
 from ..control_table import Model, model_by_number
 
 #: Scan order: the usual rates first, 9600 (slow and rare) last.
@@ -161,23 +162,23 @@ def _move(bus: DynamixelBus, dxl_id: int, number: int, rate: int, target: int, r
         log.error(f"ID {dxl_id} not moved: {outcome.reason}")
         return
     item, torque = model.item("baud_rate"), model.item("torque_enable")
-    state = bus.read_result(dxl_id, torque.address, torque.size)
+    state = bus.execute(Read(dxl_id, torque.address, torque.size))
     if state.value is None:
-        outcome.reason = f"no reply reading Torque Enable at {rate} bps ({state.failure})"
+        outcome.reason = f"no reply reading Torque Enable at {rate} bps ({state.why})"
         log.error(f"ID {dxl_id} not moved: {outcome.reason}")
         return
     if state.value[0]:
         log.warning(f"ID {dxl_id} ({model.name}): torque off to change its baud rate (EEPROM)")
-        off = bus.write_result(dxl_id, torque.address, bytes([0]))
+        off = bus.execute(Write(dxl_id, torque.address, bytes([0])))
         if not off:
-            outcome.reason = f"torque off refused ({off.failure})"
+            outcome.reason = f"torque off refused ({off.why})"
             log.error(f"ID {dxl_id} not moved: {outcome.reason}")
             return
     value = values[target]
-    written = bus.write_result(dxl_id, item.address, value.to_bytes(item.size, "little"))
+    written = bus.execute(Write(dxl_id, item.address, value.to_bytes(item.size, "little")))
     if not written:
         # The servo may have switched before its reply got through; verification decides.
-        log.warning(f"ID {dxl_id}: no acknowledgement of Baud Rate = {value} ({written.failure}); "
+        log.warning(f"ID {dxl_id}: no acknowledgement of Baud Rate = {value} ({written.why}); "
                     f"checking at {target} bps")
     else:
         log.info(f"ID {dxl_id} ({model.name}): Baud Rate {rate} -> {target} bps (register value {value})")

@@ -4,6 +4,7 @@ from __future__ import annotations
 import pytest
 
 from dynamixel_handler.bus.group_read import GroupRead, check_id, reply_bytes, unique_ids
+from dynamixel_handler.bus.result import Failure
 
 
 def test_the_result_is_gathered_once_and_kept():
@@ -20,8 +21,9 @@ def test_the_result_is_gathered_once_and_kept():
 
 
 def test_a_read_that_found_nobody_keeps_why():
-    read = GroupRead(lambda r: r.finish({}, "sync read @146x1: no servo answered"), b"p", [(1, 1)], False, "")
-    assert read.result() == {} and read.failure == "sync read @146x1: no servo answered"
+    read = GroupRead(lambda r: r.finish({}, Failure.NOBODY_ANSWERED, "sync read @146x1: no servo answered"), b"p", [(1, 1)], False,
+                     "")
+    assert read.result() == {} and read.failure is Failure.NOBODY_ANSWERED and read.why == "sync read @146x1: no servo answered"
 
 
 def test_a_finished_read_needs_no_bus():

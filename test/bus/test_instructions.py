@@ -5,12 +5,13 @@ import pytest
 from conftest import instruction, status
 
 from dynamixel_handler.bus.instructions import Instructions
+from dynamixel_handler.bus.result import Failure
 
 
 def test_a_read_returns_the_data_and_no_failure(line):
     peer, transport = line(lambda packet: [status(1, b"\x00\x08\x00\x00")])
     result = Instructions(transport).read(1, 132, 4)
-    assert result.value == b"\x00\x08\x00\x00" and result.failure == "" and result
+    assert result.value == b"\x00\x08\x00\x00" and result.failure is None and result
     assert peer.received == [instruction(1, 0x02, bytes([0x84, 0x00, 0x04, 0x00]))]
 
 
@@ -18,14 +19,14 @@ def test_a_failed_read_returns_none_and_why(line):
     _, transport = line(retry_num=1)
     result = Instructions(transport).read(3, 132, 4)
     assert result.value is None and not result
-    assert result.failure.startswith("read ID 3 @132x4: no reply within")
+    assert result.why.startswith("read ID 3 @132x4: no reply within")
 
 
 def test_a_refused_write_returns_false_and_the_servo_s_error(line):
     _, transport = line(lambda packet: [status(1, error=0x07)])
     result = Instructions(transport).write(1, 116, b"\x00\x00\x00\x00")
-    assert result.value is False and result.failure.startswith("write ID 1: ")
-    assert "access" in result.failure.lower()
+    assert result.value is False and result.why.startswith("write ID 1: ")
+    assert result.failure is Failure.REFUSED and "access" in result.why.lower()
 
 
 def test_an_acknowledged_reboot_is_true(line):
@@ -40,7 +41,7 @@ def test_an_unanswered_reboot_is_sent_once_whatever_the_retry_count(line):
     servo a second time."""
     peer, transport = line(retry_num=3)
     result = Instructions(transport).reboot(7)
-    assert result.value is False and result.failure.startswith("reboot ID 7: no reply within")
+    assert result.value is False and result.why.startswith("reboot ID 7: no reply within")
     assert peer.received == [instruction(7, 0x08)]
     peer2, transport2 = line(retry_num=3)
     Instructions(transport2).write(7, 116, b"\x00\x00\x00\x00")  # a write is retried as asked

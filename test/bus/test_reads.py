@@ -4,6 +4,7 @@ from __future__ import annotations
 from conftest import instruction, status
 
 from dynamixel_handler.bus.reads import Reads
+from dynamixel_handler.bus.result import Failure
 
 
 def _answering(present: dict[int, bytes]):
@@ -18,7 +19,7 @@ def test_a_ping_gives_the_model_and_notes_the_firmware(line):
     peer, transport = line(lambda packet: [status(1, b"\x14\x04\x2d")])
     reads = Reads(transport)
     result = reads.ping(1)
-    assert result.value == 1044 and result.failure == ""
+    assert result.value == 1044 and result.failure is None and result.why == ""
     assert reads.firmware_versions == {1: 0x2D}
     assert peer.received == [instruction(1, 0x01)]
 
@@ -26,13 +27,13 @@ def test_a_ping_gives_the_model_and_notes_the_firmware(line):
 def test_a_silent_ping_is_none_and_says_why(line):
     _, transport = line()
     result = Reads(transport).ping(4, retries=0)
-    assert result.value is None and result.failure.startswith("ping ID 4: no reply within")
+    assert result.value is None and result.failure is Failure.NO_REPLY and result.why.startswith("ping ID 4: no reply within")
 
 
 def test_a_sync_read_keeps_the_servos_that_answered(line):
     peer, transport = line(_answering({1: b"\x10\x00", 3: b"\x30\x00"}))
     read = Reads(transport).start_sync_read(132, 2, (1, 2, 3))
-    assert read.result() == {1: b"\x10\x00", 3: b"\x30\x00"} and read.failure == ""
+    assert read.result() == {1: b"\x10\x00", 3: b"\x30\x00"} and read.failure is None
     assert peer.received == [instruction(0xFE, 0x82, bytes([0x84, 0x00, 0x02, 0x00, 1, 2, 3]))]
 
 

@@ -45,7 +45,7 @@ def test_a_device_lost_mid_run_is_counted_once_and_fails_fast():
         transport.rx.lose(OSError("gone"))
         transport.rx.lose(OSError("gone again"))
         assert transport.stats.disconnects == 1 and len(lines) == 1 and "stopped working" in lines[0]
-        assert transport.why(None) == "device lost" and transport.send(b"\x00") is False
+        assert transport.why(None)[1] == "device lost" and transport.send(b"\x00") is False
     finally:
         transport.close()
         peer.close()

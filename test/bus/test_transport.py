@@ -8,6 +8,7 @@ import pytest
 from conftest import instruction, status
 
 from dynamixel_handler.bus.errors import BusError
+from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.bus.transport import Transport
 
 PING = instruction(1, 0x01)
@@ -18,7 +19,7 @@ def test_a_silent_servo_gets_the_same_packet_again_until_retries_run_out(line):
     assert transport.unicast(1, 0x01, b"", 3) is None
     assert peer.received == [PING, PING, PING]
     assert transport.stats.retries == 2 and transport.stats.packets_sent == 3
-    assert transport.why(None).startswith("no reply within")
+    assert transport.why(None) == (Failure.NO_REPLY, transport.why(None)[1]) and transport.why(None)[1].startswith("no reply within")
 
 
 def test_a_retry_that_is_answered_ends_the_retries(line):
@@ -35,14 +36,14 @@ def test_a_servo_crc_error_is_retried_but_a_refusal_is_an_answer(line):
     reply = transport.unicast(1, 0x03, b"\x40\x00\x01", 0)
     assert reply is not None and reply.error == 0x07  # access error: the servo's answer, not retried
     assert len(peer.received) == 2
-    assert "access" in transport.why(reply).lower()
+    assert transport.why(reply)[0] is Failure.REFUSED and "access" in transport.why(reply)[1].lower()
 
 
 def test_a_failed_transaction_counts_and_says_why(line):
     _, transport = line(retry_num=0)
     with transport.transaction() as tx:
         reason = tx.fail("read ID 1 @132x4: no reply")
-    assert reason == "read ID 1 @132x4: no reply" == transport.last_failure
+    assert reason == "read ID 1 @132x4: no reply"
     assert transport.stats.transactions == 1 and transport.stats.successes == 0
     with transport.transaction() as tx:
         tx.ok(1, 2)
@@ -59,7 +60,7 @@ def test_a_read_in_flight_is_gathered_before_the_next_packet_goes_out(line):
     assert transport.inflight_eta is not None and not read.done
     with transport.transaction():
         transport.unicast(1, 0x03, b"\x41\x00\x01", 0)  # an LED write while the read is on the wire
-    assert read.done and read.result() == {1: b"\x2a\x00", 2: b"\x2b\x00"} and read.failure == ""
+    assert read.done and read.result() == {1: b"\x2a\x00", 2: b"\x2b\x00"} and read.failure is None
     assert [p[7] for p in peer.received] == [0x82, 0x03]
     assert transport.inflight_eta is None
 
@@ -69,7 +70,7 @@ def test_a_group_read_nobody_answers_is_sent_again_and_says_so(line):
     packet = instruction(0xFE, 0x82, bytes([0x84, 0x00, 0x02, 0x00, 1]))
     read = transport.start_group_read(packet, [(1, 2)], False, "sync read @132x2")
     assert read.result() == {}
-    assert read.failure == "sync read @132x2: no servo answered"
+    assert read.failure is Failure.NOBODY_ANSWERED and read.why == "sync read @132x2: no servo answered"
     deadline = time.monotonic() + 5.0  # the peer's thread may not have taken the second one in yet
     while len(peer.received) < 2 and time.monotonic() < deadline:
         time.sleep(0.01)
@@ -87,4 +88,4 @@ def test_a_closed_port_fails_at_once_without_sending(line):
     peer, transport = line()
     transport.close()
     assert transport.send(PING) is False
-    assert transport.why(None) == "port closed" and peer.received == []
+    assert transport.why(None)[1] == "port closed" and peer.received == []

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from conftest import instruction
 
+from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.bus.writes import Writes
 
 
@@ -18,7 +19,7 @@ def test_a_prepared_write_goes_out_as_built_and_is_true_when_sent(line):
     peer, transport = line()
     prepared = Writes.prepare_sync_write(64, 1, {1: b"\x01", 2: b"\x01"})
     result = Writes(transport).send_prepared(prepared)
-    assert result.value is True and result.failure == ""
+    assert result.value is True and result.failure is None
     assert peer.wait_for(1) == [prepared.packet]
 
 
@@ -41,4 +42,4 @@ def test_a_write_on_a_closed_port_is_false_and_says_why(line):
     _, transport = line()
     transport.close()
     result = Writes(transport).send_prepared(Writes.prepare_sync_write(64, 1, {1: b"\x01"}))
-    assert result.value is False and result.failure == "sync write @64x1: port closed"
+    assert result.value is False and result.failure is Failure.PORT_CLOSED and result.why == "sync write @64x1: port closed"

@@ -6,6 +6,7 @@ import logging
 
 import numpy as np
 
+from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.group_io import GroupIO
 from dynamixel_handler.core.recovery import Recovery
@@ -101,6 +102,6 @@ def test_a_vanished_device_marks_every_servo_silent_without_counting_and_sets_th
 
 def test_a_refused_reboot_says_why_in_its_result():
     _, _, part, _, _, _ = recovery({1: XM430}, interval_s=60.0)
-    assert part.reboot(1).failure == ""
+    assert part.reboot(1).failure is None
     refused = part.reboot(1)
-    assert refused.value is False and refused.failure.startswith("refused: the last one was")
+    assert refused.value is False and refused.failure is Failure.HELD_BACK and refused.why.startswith("refused: the last one was")

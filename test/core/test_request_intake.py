@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import pytest
 
 from dynamixel_handler.bus import Result
+from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.core.intake import Intake, label
 from dynamixel_handler.core.request_types import DONE, Answer, Outcome, WriteItem, answer
 
@@ -62,6 +63,6 @@ def test_asked_now_a_request_goes_to_its_handler_and_a_handler_that_answers_noth
 
 def test_answers_and_labels():
     assert answer(Result(True)) is DONE and answer(True) is DONE
-    assert answer(Result(False, "no reply")) == Answer(Outcome.FAILED, "no reply")
+    assert answer(Result(False, Failure.NO_REPLY, "no reply")) == Answer(Outcome.FAILED, "no reply")
     assert answer(False, "not added") == Answer(Outcome.FAILED, "not added")
     assert label(Note("x")) == "note" and label(object()) == "object"

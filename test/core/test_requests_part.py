@@ -5,7 +5,10 @@ why, and the turns it keeps. (test_requests.py asks the same through the Handler
 from __future__ import annotations
 
 import logging
+from typing import Any
 
+from dynamixel_handler.bus.ops import Reboot
+from dynamixel_handler.bus.result import Result
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.request_types import (
     CancelDeferred,
@@ -138,9 +141,10 @@ def test_an_error_clear_too_soon_is_refused_and_one_without_an_answer_fails_with
 class TurnsLostOnReboot(FakeBus):
     """A reboot brings the present position back within one turn, as the firmware does."""
 
-    def reboot(self, dxl_id: int) -> bool:
-        self.set(dxl_id, "present_position", self.get(dxl_id, "present_position") % 4096)
-        return super().reboot(dxl_id)
+    def execute(self, op: Any) -> Result[Any]:
+        if isinstance(op, Reboot):
+            self.set(op.dxl_id, "present_position", self.get(op.dxl_id, "present_position") % 4096)
+        return super().execute(op)
 
 
 def test_an_error_clear_that_keeps_the_rotation_moves_the_lost_turns_into_the_homing_offset():

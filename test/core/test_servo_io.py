@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 
+from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.group_io import GroupIO
 from dynamixel_handler.core.servo_io import ServoIO
@@ -60,7 +61,7 @@ def test_a_failed_write_says_why_in_its_own_result():
     io = ServoIO(bus, table_of(bus), LOG)
     bus.silent.add(2)
     written = io.write_item(2, "led", 1)
-    assert not written and written.value is False and written.failure == "no reply"
-    assert io.write_item(1, "led", 1).failure == "" and io.torque_off(1)
+    assert not written and written.value is False and written.failure is Failure.NO_REPLY
+    assert io.write_item(1, "led", 1).failure is None and io.torque_off(1)
     missing = io.write_item(1, "no_such_item", 1)
-    assert not missing and missing.failure == "ID 1 (XM430-W350) has no no_such_item"
+    assert not missing and missing.failure is Failure.NO_SUCH_ITEM and missing.why == "ID 1 (XM430-W350) has no no_such_item"

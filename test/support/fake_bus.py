@@ -12,7 +12,8 @@ from typing import Any, Iterable, Mapping
 
 from dynamixel_handler import units
 from dynamixel_handler.bus import GroupRead, PreparedWrite
-from dynamixel_handler.bus.result import Result
+from dynamixel_handler.bus.ops import Ping, Read, Reboot, SyncRead, Write
+from dynamixel_handler.bus.result import Failure, Result
 from dynamixel_handler.bus.stats import BusStats
 from dynamixel_handler.control_table import Model, model_by_number
 from dynamixel_handler.servos import ServoTable
@@ -41,7 +42,6 @@ class FakeBus:
         self.stats = BusStats()
         self.dummies: dict[int, object] = {}
         self.inflight_eta: float | None = None
-        self.last_failure = ""
         self.is_open = True
         self.can_reopen = True
         self.calls: list[tuple[Any, ...]] = []
@@ -104,59 +104,40 @@ class FakeBus:
             raise OSError("still gone")
         self.is_open = True
 
-    def ping(self, dxl_id: int, retries: int | None = None) -> int | None:
-        self.calls.append(("ping", dxl_id))
-        if not self._answers(dxl_id):
-            self.last_failure = "no reply"
-            return None
-        return self.models[dxl_id].number
-
-    def _result(self, value: Any) -> Result[Any]:
-        return Result(value, "" if value not in (None, False) else self.last_failure or "no reply")
-
-    def ping_result(self, dxl_id: int, retries: int | None = None) -> Result[int | None]:
-        return self._result(self.ping(dxl_id, retries))
-
-    def read_result(self, dxl_id: int, address: int, size: int) -> Result[bytes | None]:
-        return self._result(self.read(dxl_id, address, size))
-
-    def write_result(self, dxl_id: int, address: int, data: bytes) -> Result[bool]:
-        return self._result(self.write(dxl_id, address, data))
-
-    def reboot_result(self, dxl_id: int) -> Result[bool]:
-        return self._result(self.reboot(dxl_id))
-
-    def sync_write_result(self, address: int, length: int, data: Mapping[int, bytes]) -> Result[bool]:
-        return self._result(self.sync_write(address, length, data))
-
-    def send_prepared_result(self, prepared: PreparedWrite) -> Result[bool]:
-        return self._result(self.send_prepared(prepared))
+    def execute(self, op: Any) -> Result[Any]:
+        """The one door of ``ServoBus``: each instruction value recorded and answered."""
+        kind = type(op)
+        if kind is FakePrepared:
+            return self._sync_write(op)
+        if kind is SyncRead:
+            data = self._sync_read(op.address, op.length, op.ids, op.fast)
+            return Result(data) if data or not op.ids else Result(data, Failure.NOBODY_ANSWERED, "no servo answered")
+        dxl_id = op.dxl_id
+        if kind is Ping:
+            self.calls.append(("ping", dxl_id))
+            return Result(self.models[dxl_id].number) if self._answers(dxl_id) else _no_reply(None)
+        if kind is Read:
+            self.calls.append(("read", dxl_id, op.address, op.size))
+            if not self._answers(dxl_id):
+                return _no_reply(None)
+            return Result(bytes(self.memory[dxl_id][op.address:op.address + op.size]))
+        if kind is Write:
+            self.calls.append(("write", dxl_id, op.address, op.data))
+            if not self._answers(dxl_id):
+                return _no_reply(False)
+            self.memory[dxl_id][op.address:op.address + len(op.data)] = op.data
+            return Result(True)
+        if kind is Reboot:
+            self.calls.append(("reboot", dxl_id))
+            return Result(True) if self._answers(dxl_id) else _no_reply(False)
+        raise AssertionError(f"the fake bus does not take {op!r}")
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         ids = list(ids)
         self.calls.append(("scan", tuple(ids)))
         return {i: self.models[i].number for i in ids if self._answers(i)}
 
-    def read(self, dxl_id: int, address: int, size: int) -> bytes | None:
-        self.calls.append(("read", dxl_id, address, size))
-        if not self._answers(dxl_id):
-            self.last_failure = "no reply"
-            return None
-        return bytes(self.memory[dxl_id][address:address + size])
-
-    def write(self, dxl_id: int, address: int, data: bytes) -> bool:
-        self.calls.append(("write", dxl_id, address, bytes(data)))
-        if not self._answers(dxl_id):
-            self.last_failure = "no reply"
-            return False
-        self.memory[dxl_id][address:address + len(data)] = data
-        return True
-
-    def reboot(self, dxl_id: int) -> bool:
-        self.calls.append(("reboot", dxl_id))
-        return self._answers(dxl_id)
-
-    def sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
+    def _sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
         ids = tuple(ids)
         self.calls.append(("sync_read", address, length, ids, fast))
         out = {}
@@ -169,24 +150,23 @@ class FakeBus:
         return out
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
-        return GroupRead.finished(self.sync_read(address, length, ids, fast))
-
-    def sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> bool:
-        return self.send_prepared(self.prepare_sync_write(address, length, data))
+        return GroupRead.finished(self._sync_read(address, length, ids, fast))
 
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
         return FakePrepared(address, length, tuple(sorted(data)), b"", {}, dict(data))
 
-    def send_prepared(self, prepared: PreparedWrite) -> bool:
-        assert isinstance(prepared, FakePrepared)
+    def _sync_write(self, prepared: FakePrepared) -> Result[bool]:
         self.calls.append(("sync_write", prepared.address, prepared.length, dict(prepared.data)))
         if self.fail_sync_writes or not self.is_open:
-            self.last_failure = "the adapter is gone"
-            return False
+            return Result(False, Failure.DEVICE_LOST, "the adapter is gone")
         for dxl_id, chunk in prepared.data.items():
             if self._answers(dxl_id):
                 self.memory[dxl_id][prepared.address:prepared.address + len(chunk)] = chunk
-        return True
+        return Result(True)
+
+
+def _no_reply(value: Any) -> Result[Any]:
+    return Result(value, Failure.NO_REPLY, "no reply")
 
 
 def table_of(bus: FakeBus, ids: Iterable[int] | None = None) -> ServoTable:
