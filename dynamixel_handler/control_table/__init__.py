@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Tuple
 
-from . import _xl320, _y
+from . import _protocol1, _xl320, _y
 from ._factory import FACTORY
 from ._facts import (
     BAUD_RATES,
@@ -41,83 +41,28 @@ from ._family import (
     POSITION_LIMITED_MODES,
     POSITION_MODES,
     PRO,
+    PROTOCOL1_FAMILIES,
     P,
     ServoFamily,
     X,
     family_named,
     family_titled,
 )
+from ._item import Item
 from ._ranges import LISTED as RANGED_ITEMS
 from ._ranges import ranges_of
 from ._sdk_files import load_sdk_table
 
 __all__ = ["FAMILIES", "KEPT_POSITION_MODES", "MAX_ROTATION", "OPERATING_MODES", "POSITION_LIMITED_MODES",
-           "POSITION_MODES", "PRO", "P", "RANGED_ITEMS", "SERIES", "X", "Item", "Model", "ServoFamily", "family_named",
-           "family_titled", "known_models", "model_by_number"]
+           "POSITION_MODES", "PROTOCOL1_FAMILIES", "PRO", "P", "RANGED_ITEMS", "SERIES", "X", "Item", "Model",
+           "ServoFamily", "family_named", "family_titled", "known_models", "model_by_number", "protocol1_model_by_number",
+           "protocol1_models"]
 
 SERIES: Tuple[str, ...] = tuple(f.name for f in FAMILIES)
 
 OPERATING_MODES: Mapping[str, int] = MappingProxyType({
     "current": 0, "velocity": 1, "position": 3, "ex_position": 4, "cur_position": 5, "pwm": 16,
 })
-
-
-@dataclass(frozen=True)
-class Item:
-    """One control-table entry: where it lives and how its bytes read."""
-
-    name: str
-    address: int
-    size: int
-    signed: bool
-    eeprom: bool
-    #: a sign-magnitude item: this bit carries the direction (set: clockwise, negative) and the
-    #: bits below it the magnitude (XL-320 speeds and load: bit 10); 0: plain or two's complement
-    direction_bit: int = 0
-    #: the values the register takes where that is narrower than its bytes (XL-320 positions
-    #: 0..1023); None: whatever the bytes hold
-    value_range: Optional[Tuple[int, int]] = None
-
-    @property
-    def min_raw(self) -> int:
-        """Smallest value the item holds (its bytes, or the register's narrower range)."""
-        if self.value_range is not None:
-            return self.value_range[0]
-        if self.direction_bit:
-            return -((1 << self.direction_bit) - 1)
-        return -(1 << (8 * self.size - 1)) if self.signed else 0
-
-    @property
-    def max_raw(self) -> int:
-        """Largest value the item holds (its bytes, or the register's narrower range)."""
-        if self.value_range is not None:
-            return self.value_range[1]
-        if self.direction_bit:
-            return (1 << self.direction_bit) - 1
-        return (1 << (8 * self.size - 1)) - 1 if self.signed else (1 << (8 * self.size)) - 1
-
-    def from_bytes(self, data: "bytes | bytearray") -> int:
-        """The value of the item's bytes (little-endian; sign-magnitude where it is such an item)."""
-        raw = int.from_bytes(data, "little", signed=self.signed)
-        return self.from_unsigned(raw) if self.direction_bit else raw
-
-    def from_unsigned(self, raw: int) -> int:
-        """A sign-magnitude register value (as its bytes read unsigned) as a signed number."""
-        magnitude = raw & ((1 << self.direction_bit) - 1)
-        return -magnitude if raw >> self.direction_bit & 1 else magnitude
-
-    def to_unsigned(self, value: int) -> int:
-        """A signed number as a sign-magnitude register value (the magnitude cut to its bits)."""
-        magnitude = min(abs(int(value)), (1 << self.direction_bit) - 1)
-        return magnitude | (1 << self.direction_bit) if value < 0 else magnitude
-
-    def to_bytes(self, value: int) -> bytes:
-        """The item's bytes for ``value``; OverflowError where the item cannot hold it."""
-        if self.direction_bit:
-            if not self.min_raw <= value <= self.max_raw:
-                raise OverflowError(f"{self.name}: {value} outside {self.min_raw}..{self.max_raw}")
-            value = self.to_unsigned(value)
-        return int(value).to_bytes(self.size, "little", signed=self.signed)
 
 
 @dataclass(frozen=True)
@@ -187,6 +132,17 @@ class Model:
     #: items kept in non-volatile memory when written with torque off although writable with torque
     #: on (Y's Hybrid area): the handler writes them only when the value differs
     hybrid_items: FrozenSet[str] = frozenset()
+    #: items the host may read but not write (Protocol 1.0 tables say so per item; empty: the
+    #: handler's own list of read-only items applies)
+    read_only: FrozenSet[str] = frozenset()
+    #: the raw value that reads 0 where an item is offset (MX Current: 2048 = 0 mA; EX Sensed
+    #: Current: 512 = 0 mA)
+    item_zero: Mapping[str, int] = field(default_factory=dict, repr=False)
+
+    @property
+    def protocol(self) -> int:
+        """The Dynamixel protocol the model speaks (its family's): 2, or 1."""
+        return self.family.protocol
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "mode_names", MappingProxyType({v: k for k, v in self.mode_values.items()}))
@@ -377,6 +333,49 @@ def _registry() -> Mapping[int, Model]:
     models.update({number: _build_y(number) for number in _y.SDK_FILES})
     models[_xl320.NUMBER] = _build_xl320()
     return MappingProxyType(dict(sorted(models.items())))
+
+
+def _build_protocol1(number: int, spec: _protocol1.Spec) -> Model:
+    """A Protocol 1.0 model from the facts of ``_protocol1`` (a table, units and modes of its own)."""
+    items = {name: Item(name, address, size, signed, eeprom, bit)
+             for name, address, size, eeprom, _, bit, signed in sorted(spec.rows, key=lambda r: r[1])}
+    modes = {m: _protocol1.MODE_CODES[m] for m in spec.modes}
+    spans = _protocol1.ranges(spec)
+    return Model(
+        number=number, name=spec.name, family=family_named(spec.family), items=MappingProxyType(items),
+        position_deg_per_pulse=spec.deg_per_pulse, position_zero_pulse=spec.zero,
+        velocity_deg_s_per_pulse=spec.rpm * 6.0,
+        acceleration_deg_ss_per_pulse=_protocol1.ACCELERATION_DEG_SS if "profile_acceleration" in items else math.nan,
+        current_ma_per_pulse=spec.current_ma if spec.current_ma is not None else math.nan,
+        pwm_percent_per_pulse=100.0 / _protocol1.OUTPUT_FULL_SCALE,
+        position_max_pulse=spec.top, position_min_pulse=0, layout=f"P1_{spec.family}",
+        baud_rates=MappingProxyType(dict(spec.bauds)), operating_modes=tuple(sorted(modes.values())),
+        table_size=max(address + size for _, address, size, *_ in spec.rows),
+        factory=MappingProxyType({k: v for k, v in spec.factory.items() if k in items}),
+        ranges=MappingProxyType(spans), mode_values=MappingProxyType(modes), own_modes=True,
+        ram_copies=MappingProxyType(dict(_protocol1.RAM_COPIES)),
+        read_only=frozenset(r[0] for r in spec.rows if r[4]),
+        item_zero=MappingProxyType({"present_current": spec.current_zero} if "present_current" in items else {}),
+    )
+
+
+@functools.lru_cache(maxsize=None)
+def _protocol1_registry() -> Mapping[int, Model]:
+    return MappingProxyType({n: _build_protocol1(n, spec) for n, spec in sorted(_protocol1.SPECS.items())})
+
+
+def protocol1_models() -> List[Model]:
+    """Every Protocol 1.0 model (AX, RX, DX, EX, MX with the 1.0 firmware), by model number. Kept
+    apart from ``known_models()``: the node does not drive them yet."""
+    return list(_protocol1_registry().values())
+
+
+def protocol1_model_by_number(number: int) -> Model:
+    """The Protocol 1.0 model whose Model Number reads ``number``; KeyError if we do not know it."""
+    try:
+        return _protocol1_registry()[int(number)]
+    except KeyError:
+        raise KeyError(f"unknown Protocol 1.0 Dynamixel model number {number}") from None
 
 
 def model_by_number(number: int) -> Model:

@@ -68,6 +68,11 @@ class ServoFamily:
     #: Hardware Error Status / Shutdown bits where they differ from the X and P layout: (cause,
     #: bit) pairs; (): that layout
     error_bits: Tuple[Tuple[str, int], ...] = ()
+    #: the Dynamixel protocol its servos speak (the framer a bus uses for them): 2, or 1 (AX, RX, DX,
+    #: EX, MX with the Protocol 1.0 firmware)
+    protocol: int = 2
+    #: the servos answer a Bulk Read (every Protocol 2.0 servo; on Protocol 1.0 the MX and EX only)
+    bulk_read: bool = True
 
     def __repr__(self) -> str:
         return f"ServoFamily({self.name})"
@@ -139,9 +144,39 @@ XL320 = ServoFamily(
     error_bits=(("overload", 0), ("overheating", 1), ("input_voltage", 2)),
 )
 
+# Protocol 1.0 families (``_protocol1``): no Operating Mode register (the Angle Limits select Joint,
+# Wheel and, on MX, multi-turn mode), Moving Speed as the speed of a move, driven through the
+# series-independent topics only. Status, Alarm LED and Shutdown bits: input voltage 0, angle limit 1,
+# overheating 2, range 3, checksum 4, overload 5, instruction 6 (here the three the X layout also has).
+_P1_BITS = (("input_voltage", 0), ("overheating", 2), ("overload", 5))
+
+
+def _protocol1_family(title: str, modes: FrozenSet[str], dummy: int, bulk_read: bool,
+                      multi_turn_goal: Optional[int] = None) -> ServoFamily:
+    return ServoFamily(
+        name=title, title=title, suffix=title.lower(), modes=modes, dummy_model=dummy, x_table=False,
+        profile_max=None, multi_turn_goal=multi_turn_goal, move_speed_field="profile_vel_deg_s",
+        move_speed_item="goal_velocity", has_protocol_type=False, series_topics=False,
+        error_bits=_P1_BITS, protocol=1, bulk_read=bulk_read,
+    )
+
+
+_JOINT_WHEEL = frozenset({"position", "velocity"})
+AX = _protocol1_family("AX", _JOINT_WHEEL, 12, bulk_read=False)
+RX = _protocol1_family("RX", _JOINT_WHEEL, 28, bulk_read=False)
+DX = _protocol1_family("DX", frozenset({"position"}), 117, bulk_read=False)  # no Wheel Mode
+EX = _protocol1_family("EX", _JOINT_WHEEL, 107, bulk_read=True)
+# MX (1.0): multi-turn on MX-28/64/106 (both Angle Limits 4095, goal -28,672..28,672), current
+# (Torque Control Mode) on MX-64/106: each model lists its own modes
+MX1 = _protocol1_family("MX1", frozenset({"position", "velocity", "ex_position", "current"}), 29,
+                        bulk_read=True, multi_turn_goal=28_672)
+
 #: every family, in the order parameters, topics and logs list them
 FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO, Y, XL320)
-_BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES}
+#: the Protocol 1.0 families: known by name (``family_named``) and to ``protocol1_models()``, but
+#: not (yet) in ``FAMILIES``: no ``init/used_servo_series`` key, so the node does not drive them
+PROTOCOL1_FAMILIES: Tuple[ServoFamily, ...] = (AX, RX, DX, EX, MX1)
+_BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES + PROTOCOL1_FAMILIES}
 _BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
 
 

@@ -19,7 +19,7 @@ AnyServo = Union[VirtualServo, Protocol1Servo]
 def new_servo(model_number: int, servo_id: int, clock: Callable[[], float]) -> AnyServo:
     """A factory-fresh servo of the model at ``servo_id``."""
     if model_number in PROTOCOL1_MODELS:
-        return Protocol1Servo(PROTOCOL1_MODELS[model_number], servo_id)
+        return Protocol1Servo(PROTOCOL1_MODELS[model_number], servo_id, clock)
     return VirtualServo(model_number, servo_id, clock)
 
 
@@ -70,7 +70,7 @@ def read_state(path: str, clock: Callable[[], float]) -> list[AnyServo]:
     for entry in data["servos"]:
         servo: AnyServo
         if entry.get("protocol") == 1:
-            servo = Protocol1Servo.from_state(entry)
+            servo = Protocol1Servo.from_state(entry, clock)
         else:
             servo = VirtualServo(int(entry["model"]), 1, clock)
             servo.load_state(entry, clock())

@@ -1,19 +1,21 @@
-"""Protocol 1.0 servos on the virtual bus: an AX-12A, AX-18A or MX-28 (1.0 firmware).
+"""Protocol 1.0 on the virtual bus: packets, and what its Protocol 1.0 servos do with them.
 
-The handler drives Protocol 2.0 servos only; these sit on the bus so that a scan meets what an
-owner's old servos really do: they answer Protocol 1.0 packets (``FF FF ID LEN INST PARAMS CHK``,
-the checksum being the inverted low byte of the sum from ID on) and ignore Protocol 2.0 ones, as
-the 2.0 servos ignore theirs. They are a small table of their own, never ``known_models()``.
+The servos are the AX, RX, DX, EX and MX (Protocol 1.0 firmware) models of ``control_table``
+(``protocol1_models()``: their tables, units and factory values), each a ``Protocol1Servo``
+(``protocol1_servo``, its shaft in ``protocol1_motion``). They answer Protocol 1.0 packets
+(``FF FF ID LEN INST PARAMS CHK``, the checksum being the inverted low byte of the sum from ID on)
+and ignore Protocol 2.0 ones, as the 2.0 servos ignore theirs, so a 2.0 and a 1.0 servo on one ID
+do not collide: each hears only its own protocol.
 
-Facts (ROBOTIS e-Manual, AX-12A / AX-18A / MX-28 pages, Protocol 1.0): the control table
-addresses, sizes and initial values below; Baud Rate value v runs at 2,000,000 / (v + 1) bps
-(1 = 1 Mbps, 34 = 57600 with a 0.794 % error, 207 = 9600), the MX adding 250 = 2.25 M,
-251 = 2.5 M, 252 = 3 M; less than 3 % of error does not affect the UART, so a servo hears a host
-within 3 % of its rate; Return Delay Time in 2 µs; Status Return Level 0 answers only PING,
-1 also READ, 2 everything; a broadcast (ID 254) is never answered; the status error bits are
-0 input voltage, 1 angle limit, 2 overheating, 3 range, 4 checksum, 5 overload, 6 instruction.
-The firmware version is representative (the pages leave it blank). No motion is simulated: the
-present position stays where it powered up.
+Facts (ROBOTIS e-Manual, "Protocol 1.0" and the models' pages): PING 0x01, READ 0x02, WRITE 0x03,
+REG WRITE 0x04, ACTION 0x05, RESET 0x06 (factory values), SYNC WRITE 0x83 and BULK READ 0x92 (MX and
+EX; AX, RX and DX do not know it and stay silent); any other instruction gets the Instruction Error
+bit, and so does an Action with nothing registered. Status Return Level 0 answers only PING, 1 also
+READ, 2 everything; a broadcast (ID 254) is never answered. A packet whose checksum is wrong gets the
+Checksum Error bit from the servo it names. In a Bulk Read, each servo answers after the status
+packet of the one listed before it (a listed ID that does not answer ends the replies); an ID listed
+twice answers once. Baud Rate value v runs at 2,000,000 / (v + 1) bps, and less than 3 % of error
+does not affect the UART, so a servo hears a host within 3 % of its rate.
 
 A Protocol 2.0 servo whose Protocol Type is set to 1 (X series: "1: DYNAMIXEL Protocol 1.0") answers
 these packets too, with its own control table (the 1.0 packet's one-byte address reaches the first
@@ -23,94 +25,36 @@ these packets too, with its own control table (the 1.0 packet's one-byte address
 from __future__ import annotations
 
 import collections
-from dataclasses import dataclass
 from typing import Callable
+
+from dynamixel_handler.control_table import Model, protocol1_models
 
 from ..protocol import servo as p2
 from .faults import Replies
+from .protocol1_servo import ERR_CHECKSUM, ERR_INSTRUCTION, ERR_RANGE, Protocol1Servo
 from .servo import VirtualServo
+
+__all__ = ["PROTOCOL1_MODELS", "Protocol1Servo", "Protocol1Instructions", "Protocol1Parser", "build_instruction1",
+           "build_status1", "checksum", "protocol1_model"]
 
 HEADER1 = b"\xff\xff"
 BROADCAST_ID1 = 0xFE
-PING1, READ1, WRITE1, RESET1, SYNC_WRITE1 = 0x01, 0x02, 0x03, 0x06, 0x83
+PING1, READ1, WRITE1, REG_WRITE1, ACTION1, RESET1 = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
+SYNC_WRITE1, BULK_READ1 = 0x83, 0x92
 KNOWN_INSTRUCTIONS1 = (0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x08, 0x83, 0x92)
-ERR_RANGE1, ERR_INSTRUCTION1 = 0x08, 0x40
-BAUD_TOLERANCE = 0.03
+ERR_RANGE1, ERR_INSTRUCTION1 = ERR_RANGE, ERR_INSTRUCTION
 _MAX_LENGTH = 0x8F  # the longest instruction packet an AX/MX buffer takes (143 bytes of parameters)
 
-# (name, address, size, writable) shared by AX and MX; EEPROM is below address 24
-_COMMON_ITEMS = (
-    ("model_number", 0, 2, False), ("firmware_version", 2, 1, False), ("id", 3, 1, True),
-    ("baud_rate", 4, 1, True), ("return_delay_time", 5, 1, True), ("cw_angle_limit", 6, 2, True),
-    ("ccw_angle_limit", 8, 2, True), ("temperature_limit", 11, 1, True),
-    ("min_voltage_limit", 12, 1, True), ("max_voltage_limit", 13, 1, True), ("max_torque", 14, 2, True),
-    ("status_return_level", 16, 1, True), ("alarm_led", 17, 1, True), ("shutdown", 18, 1, True),
-    ("torque_enable", 24, 1, True), ("led", 25, 1, True), ("goal_position", 30, 2, True),
-    ("moving_speed", 32, 2, True), ("torque_limit", 34, 2, True), ("present_position", 36, 2, False),
-    ("present_speed", 38, 2, False), ("present_load", 40, 2, False), ("present_voltage", 42, 1, False),
-    ("present_temperature", 43, 1, False), ("registered", 44, 1, False), ("moving", 46, 1, False),
-    ("lock", 47, 1, True), ("punch", 48, 2, True))
-_AX_ITEMS = _COMMON_ITEMS + (
-    ("cw_compliance_margin", 26, 1, True), ("ccw_compliance_margin", 27, 1, True),
-    ("cw_compliance_slope", 28, 1, True), ("ccw_compliance_slope", 29, 1, True))
-_MX_ITEMS = _COMMON_ITEMS + (
-    ("multi_turn_offset", 20, 2, True), ("resolution_divider", 22, 1, True), ("d_gain", 26, 1, True),
-    ("i_gain", 27, 1, True), ("p_gain", 28, 1, True), ("realtime_tick", 50, 2, False),
-    ("goal_acceleration", 73, 1, True))
-EEPROM_END = 24
-_AX_BAUDS = {1: 1_000_000, 3: 500_000, 4: 400_000, 7: 250_000, 9: 200_000, 16: 115_200, 34: 57_600,
-             103: 19_200, 207: 9_600}
-_MX_BAUDS = {**_AX_BAUDS, 250: 2_250_000, 251: 2_500_000, 252: 3_000_000}
-_AX_FACTORY = {"id": 1, "baud_rate": 1, "return_delay_time": 250, "cw_angle_limit": 0,
-               "ccw_angle_limit": 1023, "temperature_limit": 70, "min_voltage_limit": 60,
-               "max_voltage_limit": 140, "max_torque": 1023, "status_return_level": 2, "alarm_led": 36,
-               "shutdown": 36, "cw_compliance_margin": 1, "ccw_compliance_margin": 1,
-               "cw_compliance_slope": 32, "ccw_compliance_slope": 32, "punch": 32,
-               "present_position": 512, "goal_position": 512, "present_voltage": 111,
-               "present_temperature": 30}
+PROTOCOL1_MODELS: dict[int, Model] = {m.number: m for m in protocol1_models()}
+"""Protocol 1.0 models by number (``control_table.protocol1_models()``)."""
 
 
-@dataclass(frozen=True)
-class Protocol1Model:
-    """A Protocol 1.0 model: its number and name, items and factory values, baud rate values."""
-
-    number: int
-    name: str
-    items: tuple[tuple[str, int, int, bool], ...]
-    factory: dict[str, int]
-    bauds: dict[int, int]
-    firmware: int
-    series: str = "Protocol 1.0"
-
-    @property
-    def size(self) -> int:
-        return max(address + size for _, address, size, _ in self.items)
-
-    def item(self, name: str) -> tuple[int, int, bool]:
-        for item, address, size, writable in self.items:
-            if item == name:
-                return address, size, writable
-        raise KeyError(f"{self.name} has no item {name!r}")
-
-
-PROTOCOL1_MODELS: dict[int, Protocol1Model] = {m.number: m for m in (
-    Protocol1Model(12, "AX-12A", _AX_ITEMS, _AX_FACTORY, _AX_BAUDS, 24),
-    Protocol1Model(18, "AX-18A", _AX_ITEMS, {**_AX_FACTORY, "temperature_limit": 75, "max_torque": 983},
-                   _AX_BAUDS, 24),
-    Protocol1Model(29, "MX-28", _MX_ITEMS,
-                   {**{k: v for k, v in _AX_FACTORY.items() if "compliance" not in k},
-                    "baud_rate": 34, "ccw_angle_limit": 4095, "temperature_limit": 80,
-                    "max_voltage_limit": 160, "punch": 0, "p_gain": 32, "resolution_divider": 1,
-                    "present_position": 2048, "goal_position": 2048, "present_voltage": 120},
-                   _MX_BAUDS, 41),
-)}
-"""Protocol 1.0 models by number; kept apart from the handler's control table."""
-
-
-def protocol1_model(text: str | int) -> Protocol1Model | None:
+def protocol1_model(text: str | int) -> Model | None:
     """The Protocol 1.0 model of a number or a name (case-insensitive; "MX-28(1.0)" as well as
-    "MX-28"), or None."""
+    "MX-28", "AX-12" and "AX-12+" for the AX-12A), or None."""
     key = str(text).strip().lower()
+    if key in ("ax-12", "ax-12+"):
+        key = "ax-12a"
     for model in PROTOCOL1_MODELS.values():
         if key in (str(model.number), model.name.lower(), f"{model.name.lower()}(1.0)"):
             return model
@@ -135,7 +79,8 @@ def build_instruction1(servo_id: int, instruction: int, params: bytes = b"") -> 
 class Protocol1Parser:
     """Incremental reader of Protocol 1.0 instruction packets, resynchronising after noise as a
     servo's receiver does. A Protocol 2.0 header (``FF FF FD 00``) reads as ID 253 with length 0
-    and is skipped, so 2.0 traffic passes by."""
+    and is skipped, so 2.0 traffic passes by. A packet whose checksum is wrong comes out with
+    ``BAD_CHECKSUM`` added to its instruction (its servo answers with the Checksum Error bit)."""
 
     def __init__(self) -> None:
         self._buf = bytearray()
@@ -168,7 +113,8 @@ class Protocol1Parser:
             if end > len(buf):
                 break
             if checksum(buf[pos + 2:end - 1]) != buf[end - 1]:
-                pos += 1  # no reply to a bad checksum: it may be another protocol's bytes
+                out.append(p2.Packet(servo_id, inst | BAD_CHECKSUM, b"", end - pos))
+                pos += 1  # it may be another protocol's bytes: read on from the next byte
                 continue
             out.append(p2.Packet(servo_id, inst, bytes(buf[pos + 5:end - 1]), end - pos))
             pos = end
@@ -176,109 +122,14 @@ class Protocol1Parser:
         return out
 
 
-class Protocol1Servo:
-    """A Protocol 1.0 servo: a register file with its model's items; the bus's servo interface
-    (``id``, ``baudrate``, ``silent``, ``model``, ``read``/``write`` by name, ``state``)."""
-
-    speaks_protocol_2 = False
-    partner = None
-
-    def __init__(self, model: Protocol1Model, servo_id: int) -> None:
-        self.model = model
-        self.baud_rates = dict(model.bauds)
-        self.silent = False
-        self.eeprom_changed = False
-        self.regs = bytearray(model.size)
-        self._factory()
-        self.write("id", servo_id)
-        self.eeprom_changed = False
-
-    def _factory(self) -> None:
-        self.regs[:] = bytes(len(self.regs))
-        self.write("model_number", self.model.number)
-        self.write("firmware_version", self.model.firmware)
-        for name, value in self.model.factory.items():
-            self.write(name, value)
-        self.write("torque_limit", self.read("max_torque"))
-
-    def read(self, name: str) -> int:
-        address, size, _ = self.model.item(name)
-        return int.from_bytes(self.regs[address:address + size], "little")
-
-    def write(self, name: str, value: int) -> None:
-        """Set an item with no checks (a test's way to set a state a host could not)."""
-        address, size, _ = self.model.item(name)
-        self.regs[address:address + size] = int(value).to_bytes(size, "little")
-
-    @property
-    def id(self) -> int:
-        return self.regs[3]
-
-    @property
-    def baudrate(self) -> int:
-        """The line speed of its Baud Rate register: the e-Manual's nominal rate where it lists
-        the value, else 2,000,000 / (value + 1)."""
-        value = self.regs[4]
-        return self.baud_rates.get(value, 2_000_000 // (value + 1))
-
-    def hears(self, line_bps: int | None) -> bool:
-        """Whether it decodes a host at ``line_bps`` (None: any speed): within 3 % of its actual rate."""
-        actual = 2_000_000 / (self.regs[4] + 1)
-        return line_bps is None or abs(line_bps - actual) <= BAUD_TOLERANCE * line_bps
-
-    @property
-    def return_delay_s(self) -> float:
-        return self.regs[5] * 2e-6
-
-    @property
-    def status_return_level(self) -> int:
-        return self.regs[16]
-
-    def host_read(self, address: int, length: int) -> tuple[int, bytes]:
-        if length < 1 or address + length > len(self.regs):
-            return ERR_RANGE1, b""
-        return 0, bytes(self.regs[address:address + length])
-
-    def host_write(self, address: int, data: bytes) -> int:
-        """A host's write: refused whole (Range Error) when it touches a read-only item, runs past
-        the table, holds an ID or baud value out of range or hits EEPROM while Lock is 1."""
-        end = address + len(data)
-        if not data or end > len(self.regs):
-            return ERR_RANGE1
-        new = bytearray(self.regs)
-        new[address:end] = data
-        for _, item_address, size, writable in self.model.items:
-            touched = item_address < end and address < item_address + size
-            if touched and not writable:
-                return ERR_RANGE1
-        if new[3] > 253 or (address < EEPROM_END and self.regs[47]):
-            return ERR_RANGE1
-        if new[:EEPROM_END] != self.regs[:EEPROM_END]:
-            self.eeprom_changed = True
-        self.regs[:] = new
-        return 0
-
-    def factory_reset(self) -> None:
-        self._factory()
-        self.eeprom_changed = True
-
-    def state(self) -> dict:
-        """Its EEPROM, for the bus's ``--state`` file."""
-        return {"protocol": 1, "model": self.model.number, "eeprom": bytes(self.regs[:EEPROM_END]).hex()}
-
-    @classmethod
-    def from_state(cls, entry: dict) -> "Protocol1Servo":
-        servo = cls(PROTOCOL1_MODELS[int(entry["model"])], 1)
-        eeprom = bytes.fromhex(entry["eeprom"])[:EEPROM_END]
-        servo.regs[:len(eeprom)] = eeprom
-        servo.write("model_number", servo.model.number)
-        servo.write("torque_limit", servo.read("max_torque"))
-        return servo
+BAD_CHECKSUM = 0x100
 
 
 class _SwitchedTo1:
     """A Protocol 2.0 servo set to Protocol Type 1, seen through the 1.0 servo interface: its
     control table, any refused access answered with the Range Error bit."""
+
+    bulk_read = False
 
     def __init__(self, servo: VirtualServo, now: float) -> None:
         self.servo, self.now = servo, now
@@ -295,6 +146,9 @@ class _SwitchedTo1:
     def status_return_level(self) -> int:
         return self.servo.status_return_level
 
+    def error_flags(self, error: int) -> int:
+        return error
+
     def host_read(self, address: int, length: int) -> tuple[int, bytes]:
         error, data = self.servo.host_read(address, length, self.now)
         return (ERR_RANGE1, b"") if error else (0, data)
@@ -302,13 +156,21 @@ class _SwitchedTo1:
     def host_write(self, address: int, data: bytes) -> int:
         return ERR_RANGE1 if self.servo.host_write(address, data, self.now) & 0x7F else 0
 
+    def reg_write(self, address: int, data: bytes) -> int:
+        return ERR_RANGE1 if self.servo.reg_write(address, data, self.now) & 0x7F else 0
+
+    def action(self) -> int:
+        return ERR_INSTRUCTION1 if self.servo.action(self.now) & 0x7F else 0
+
     def factory_reset(self) -> None:
         self.servo.factory_reset(0xFF, self.now)
 
 
+Listener = Protocol1Servo | _SwitchedTo1
+
+
 class Protocol1Instructions:
-    """What the Protocol 1.0 servos of the bus do with a 1.0 packet: PING, READ, WRITE, RESET
-    (factory values) and SYNC WRITE; other instructions get the Instruction Error bit. ``servos``
+    """What the Protocol 1.0 servos of the bus do with a 1.0 packet (see the module). ``servos``
     is the bus's list: its Protocol 2.0 servos hear a 1.0 packet only when set to Protocol Type 1."""
 
     def __init__(self, servos: list, stats: collections.Counter[str], clock: Callable[[], float]) -> None:
@@ -317,7 +179,7 @@ class Protocol1Instructions:
         self.clock = clock
         self.line_bps: int | None = None
 
-    def _hearing(self, packet_id: int) -> list:
+    def _hearing(self, packet_id: int) -> list[Listener]:
         alive = [_one_point_o(s, self.line_bps, self.clock) for s in self._servos if not s.silent]
         hearing = [s for s in alive if s is not None]
         if packet_id == BROADCAST_ID1:
@@ -329,12 +191,17 @@ class Protocol1Instructions:
         if packet.instruction == SYNC_WRITE1:
             self._sync_write(packet.params)
             return []
+        if packet.instruction == BULK_READ1:
+            return self._bulk_read(packet.params)
         out: Replies = []
         for servo in self._hearing(packet.packet_id):
             before = (servo.id, servo.status_return_level)
-            error, data = _ONE.get(packet.instruction, _unknown)(servo, packet.params)
+            if packet.instruction & BAD_CHECKSUM:
+                error, data = ERR_CHECKSUM, b""
+            else:
+                error, data = _ONE.get(packet.instruction, _unknown)(servo, packet.params)
             if _answers(packet, before[1]):
-                out.append((servo.return_delay_s, build_status1(before[0], error, data)))
+                out.append((servo.return_delay_s, build_status1(before[0], servo.error_flags(error), data)))
         return out
 
     def _sync_write(self, prm: bytes) -> None:
@@ -345,9 +212,28 @@ class Protocol1Instructions:
             for servo in self._hearing(prm[k]):
                 servo.host_write(address, prm[k + 1:k + 1 + length])
 
+    def _bulk_read(self, prm: bytes) -> Replies:
+        """Each listed servo in turn, right after the one before it (the first after its Return
+        Delay Time); the replies stop at a listed ID that does not answer."""
+        out: Replies = []
+        seen: set[int] = set()
+        for k in range(1, len(prm) - 2, 3):
+            length, servo_id, address = prm[k], prm[k + 1], prm[k + 2]
+            if servo_id in seen:
+                continue
+            seen.add(servo_id)
+            servos = [s for s in self._hearing(servo_id) if s.bulk_read] if servo_id != BROADCAST_ID1 else []
+            if not servos:
+                break
+            for servo in servos:
+                error, data = servo.host_read(address, length)
+                delay = servo.return_delay_s if not out else 0.0
+                out.append((delay, build_status1(servo.id, servo.error_flags(error), data)))
+        return out
+
 
 def _one_point_o(servo: Protocol1Servo | VirtualServo, line_bps: int | None,
-                 clock: Callable[[], float]) -> Protocol1Servo | _SwitchedTo1 | None:
+                 clock: Callable[[], float]) -> Listener | None:
     """The servo as a Protocol 1.0 listener at ``line_bps`` (None: it does not hear the packet)."""
     if isinstance(servo, Protocol1Servo):
         return servo if servo.hears(line_bps) else None
@@ -360,26 +246,36 @@ def _answers(packet: p2.Packet, level: int) -> bool:
     """Whether a status packet goes back: never to a broadcast, else as Status Return Level says."""
     if packet.packet_id == BROADCAST_ID1:
         return False
-    return packet.instruction == PING1 or level == 2 or (level == 1 and packet.instruction == READ1)
+    instruction = packet.instruction & 0xFF
+    return instruction == PING1 or level == 2 or (level == 1 and instruction == READ1)
 
 
-def _read(servo: Protocol1Servo, prm: bytes) -> tuple[int, bytes]:
+def _read(servo: Listener, prm: bytes) -> tuple[int, bytes]:
     return servo.host_read(prm[0], prm[1]) if len(prm) == 2 else (ERR_RANGE1, b"")
 
 
-def _write(servo: Protocol1Servo, prm: bytes) -> tuple[int, bytes]:
+def _write(servo: Listener, prm: bytes) -> tuple[int, bytes]:
     return (servo.host_write(prm[0], prm[1:]) if len(prm) >= 2 else ERR_RANGE1), b""
 
 
-def _reset(servo: Protocol1Servo, prm: bytes) -> tuple[int, bytes]:
+def _reg_write(servo: Listener, prm: bytes) -> tuple[int, bytes]:
+    return (servo.reg_write(prm[0], prm[1:]) if len(prm) >= 2 else ERR_RANGE1), b""
+
+
+def _action(servo: Listener, prm: bytes) -> tuple[int, bytes]:
+    return servo.action(), b""
+
+
+def _reset(servo: Listener, prm: bytes) -> tuple[int, bytes]:
     servo.factory_reset()
     return 0, b""
 
 
-def _unknown(servo: Protocol1Servo, prm: bytes) -> tuple[int, bytes]:
+def _unknown(servo: Listener, prm: bytes) -> tuple[int, bytes]:
     return ERR_INSTRUCTION1, b""
 
 
-_ONE: dict[int, Callable[[Protocol1Servo, bytes], tuple[int, bytes]]] = {
-    PING1: lambda servo, prm: (0, b""), READ1: _read, WRITE1: _write, RESET1: _reset,
+_ONE: dict[int, Callable[[Listener, bytes], tuple[int, bytes]]] = {
+    PING1: lambda servo, prm: (0, b""), READ1: _read, WRITE1: _write, REG_WRITE1: _reg_write,
+    ACTION1: _action, RESET1: _reset,
 }
