@@ -10,7 +10,7 @@ Tests, demos and users' CI open it with the real ``dynamixel_sdk`` like a USB ad
         bus.servo(1).read("present_position")
 
 Two servos given one ID collide on the wire as on hardware (``collision``), and Protocol 1.0
-servos (AX-12A, AX-18A, MX-28 with its 1.0 firmware: ``protocol1``) can share the line.
+servos (AX, RX, DX, EX and MX with its 1.0 firmware: ``protocol1``) can share the line.
 
 Also runnable as a command: ``dynamixel_handler_sim`` (or ``python -m dynamixel_handler.sim``);
 docs/virtual_bus.md describes what the servos do and every option.

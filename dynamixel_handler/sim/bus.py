@@ -37,8 +37,10 @@ __all__ = ["VirtualBus", "LoggedInstruction", "FACTORY_BAUDRATE", "AnyServo"]
 class VirtualBus(WireSettings):
     """A bus of virtual servos on a pty. ``servos`` maps ID -> model number, or is a list of
     (ID, model number) pairs, where an ID given twice puts two servos at it (they collide, see
-    ``collision``). A Protocol 1.0 model number (``protocol1.PROTOCOL1_MODELS``: 12 AX-12A,
-    18 AX-18A, 29 MX-28) adds a servo answering only Protocol 1.0.
+    ``collision``). A Protocol 1.0 model number (``protocol1.PROTOCOL1_MODELS``, the AX, RX, DX,
+    EX and MX (1.0) models of ``control_table.protocol1_models()``: 12 AX-12A, 29 MX-28, 107
+    EX-106+ ...) adds a servo answering only Protocol 1.0; one at the ID of a 2.0 servo does not
+    collide with it (each hears only its own protocol).
 
     By default the servos are as unboxed: factory values, Baud Rate 57600 (1 Mbps on the XM335),
     and they behave as on a real bus:

@@ -42,7 +42,9 @@ def parse_model(text: str) -> int:
     """A model number or a model name such as XM430-W350 or AX-12A (case-insensitive).
 
     A Protocol 2.0 model wins a name both firmwares have: "MX-28" is the MX-28(2.0) (model 30), as
-    are "MX-64" and "MX-106"; "MX-28(1.0)" or 29 is the Protocol 1.0 one. "YM080-230-A099" names
+    are "MX-64" and "MX-106"; "MX-28(1.0)" or 29 is the Protocol 1.0 one. Every Protocol 1.0 model
+    goes by its name (AX-12A, AX-12W, AX-18A, RX-10, RX-24F, RX-28, RX-64, DX-113, DX-116, DX-117,
+    EX-106+, MX-12W, MX-28(1.0), MX-64(1.0), MX-106(1.0)) or number. "YM080-230-A099" names
     YM080-230-A099-RH (the SDK's spelling of the Y names)."""
     text = text.strip()
     if text.isdigit() and protocol1_model(text) is None:
