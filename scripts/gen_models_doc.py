@@ -21,7 +21,14 @@ from typing import Iterable, List
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from dynamixel_handler.control_table import FAMILIES, Model, ServoFamily, known_models  # noqa: E402
+from dynamixel_handler.control_table import (  # noqa: E402
+    FAMILIES,
+    PROTOCOL1_FAMILIES,
+    Model,
+    ServoFamily,
+    known_models,
+    protocol1_models,
+)
 from dynamixel_handler.control_table._sdk_files import sdk_model_index  # noqa: E402
 
 DOC = ROOT / "docs" / "models.md"
@@ -131,6 +138,35 @@ def baud_rows(models: Iterable[Model]) -> List[str]:
     return out
 
 
+PROTOCOL1_HEAD = """## Protocol 1.0 (the virtual bus; not driven by the node yet)
+
+The AX, RX, DX, EX and MX (Protocol 1.0 firmware) models, written after each model's e-Manual page
+(`dynamixel_handler/control_table/_protocol1.py`, whose docstring says where the pages disagree:
+MX-12W reports 360 where its page says 104, the EX-106+ position text is the AX's). They are kept
+apart from the models above (`protocol1_models()`, not `known_models()`): the node does not drive them
+yet, `init/used_servo_series` has no key for them; the virtual bus serves every one of them and the
+set-up tool's scan names them. No Operating Mode register: the Angle Limits select the mode (both 0:
+Wheel, `velocity`; both 4095 on MX: multi-turn, `ex_position`; Torque Control Mode Enable on
+MX-64/106: `current`). Positions count from the middle of the range; Moving Speed, Present Speed and
+Present Load carry the direction in bit 10. Bulk Read: MX and EX only.
+"""
+
+
+def protocol1_rows(models: Iterable[Model]) -> List[str]:
+    out = ["| number | name | family | position °/pulse (range, middle) | velocity °/s per unit | current mA per unit "
+           "| modes | bulk read | baud rates (factory) |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for m in models:
+        modes = ", ".join(sorted(m.mode_values, key=lambda k: m.mode_values[k]))
+        rates = m.baud_rates
+        factory = rates.get(m.factory.get("baud_rate", -1))
+        span = f"{_num(m.position_deg_per_pulse)} (0..{m.position_max_pulse}, {m.position_zero_pulse})"
+        out.append(f"| {m.number} | {m.name} | {m.family.title} | {span} | {_num(m.velocity_deg_s_per_pulse)} | "
+                   f"{_num(m.current_ma_per_pulse)} | {modes} | {'yes' if m.family.bulk_read else 'no'} | "
+                   f"{_rate(min(rates.values()))}..{_rate(max(rates.values()))} ({_rate(factory) if factory else '–'}) |")
+    return out
+
+
 def render() -> str:
     models = known_models()
     parts = [HEAD]
@@ -146,6 +182,11 @@ def render() -> str:
                  "leaves the factory at. A bus runs at one rate: new servos of a model whose factory rate differs "
                  "from the bus's are found by `dynamixel_handler_setup scan` or `init/baudrate_auto_set`.\n")
     parts.append("\n".join(baud_rows(models)) + "\n")
+    old = protocol1_models()
+    parts.append(PROTOCOL1_HEAD)
+    counts = ", ".join(f"{f.title} {sum(m.family is f for m in old)}" for f in PROTOCOL1_FAMILIES)
+    parts.append(f"{len(old)} models: {counts}.\n")
+    parts.append("\n".join(protocol1_rows(old)) + "\n")
     return "\n".join(parts)
 
 

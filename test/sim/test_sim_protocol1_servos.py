@@ -293,6 +293,9 @@ def test_the_sdk_reads_a_bare_error_status_as_the_checksum_byte(make_bus, sdk1):
     value, result, error = ph1.read1ByteTxRx(port, 1, 60)   # beyond the AX's table: Range Error, no data
     assert (result, error) == (COMM_SUCCESS, 0x08)
     assert value == checksum(bytes([1, 2, 0x08]))           # dynamixel_sdk 4.1.0: the checksum as the value
+    with pytest.raises(IndexError):                          # ... and the 2-byte read fails outright
+        ph1.read2ByteTxRx(port, 1, 60)
+    assert ph1.read1ByteTxRx(port, 1, 3) == (1, COMM_SUCCESS, 0)  # the next transaction is clean
 
 
 def test_the_command_line_takes_every_protocol1_name():
