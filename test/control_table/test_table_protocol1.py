@@ -174,3 +174,13 @@ def test_baud_tables():
     assert (mx.baud_rates[250], mx.baud_rates[251], mx.baud_rates[252]) == (2_250_000, 2_500_000, 3_000_000)
     assert mx.baud_rates[0] == 2_000_000 and mx.baud_rates[249] == 8000 and 253 not in mx.baud_rates
     assert M(107).baud_rates == ax.baud_rates and M(360).baud_rates == mx.baud_rates
+
+
+def test_status_error_bits_read_as_the_handlers_error_causes():
+    from dynamixel_handler import error_state
+    ax = M(12)
+    # Protocol 1.0: 0 input voltage, 1 angle limit, 2 overheating, 3 range, 4 checksum, 5 overload, 6 instruction;
+    # input voltage, overheating and overload sit where the X layout has them, the rest are no hardware error
+    assert error_state.common_bits(ax, 0x7F) == 0x25
+    assert error_state.common_bits(ax, 0x24) == 0x24 and error_state.own_bits(ax, 0x25) == 0x25
+    assert error_state.common_bits(ax, 0x1A) == 0  # angle limit, range, checksum
