@@ -105,7 +105,9 @@ class _Plan:
             else:
                 attr, zeroed = _SCALE_SOURCE[kind]
                 scale = float(model.item_scales.get(item, getattr(model, attr)))
-                offset = float(model.position_zero_pulse) if zeroed else 0.0
+                # the model's zero pulse for positions; an item read with an offset (MX Current:
+                # 2048 = 0 mA) its own
+                offset = float(model.position_zero_pulse) if zeroed else float(model.item_zero.get(item, 0))
             self.lo[i], self.hi[i] = entry.min_raw, entry.max_raw
             if np.isfinite(scale):
                 self.scale[i], self.offset[i] = scale, offset

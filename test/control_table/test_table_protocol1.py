@@ -184,3 +184,10 @@ def test_status_error_bits_read_as_the_handlers_error_causes():
     assert error_state.common_bits(ax, 0x7F) == 0x25
     assert error_state.common_bits(ax, 0x24) == 0x24 and error_state.own_bits(ax, 0x25) == 0x25
     assert error_state.common_bits(ax, 0x1A) == 0  # angle limit, range, checksum
+
+
+def test_currents_read_from_their_zero():
+    mx64, ex = M(310), M(107)
+    assert units.pulse_to_unit([mx64, mx64, ex], "present_current", [2048, 2148, 312]).tolist() == \
+        pytest.approx([0.0, 450.0, -2000.0])  # 4.5 mA from 2048; 10 mA from 512 (the pages' examples)
+    assert units.pulse_to_unit([mx64], "goal_current", [-100]).tolist() == pytest.approx([-450.0])
