@@ -194,9 +194,12 @@ class Protocol1Servo:
         for it in self._file.items:
             if not (it.address < end and address < it.address + it.size):
                 continue
-            value = it.from_bytes(new[it.address:it.address + it.size])
+            raw = new[it.address:it.address + it.size]
+            value = it.from_bytes(raw)
             if it.name in self.model.read_only:
                 return ERR_RANGE, bytearray()
+            if it.direction_bit and int.from_bytes(raw, "little") >> (it.direction_bit + 1):
+                return ERR_RANGE, bytearray()  # a speed or torque beyond 0..2047
             error = self._value_error(it.name, value, new)
             if error:
                 return error, bytearray()

@@ -168,6 +168,7 @@ def test_error_bits_of_the_status(make_bus, sdk1, make_raw, manual_clock):
     assert ph1.write1ByteTxRx(port, 1, 3, 254) == (COMM_SUCCESS, 0x08)      # ID 254: range
     assert ph1.write1ByteTxRx(port, 1, 4, 0) == (COMM_SUCCESS, 0x08)        # Baud Rate 0 (2 Mbps): not an AX's
     assert ph1.write2ByteTxRx(port, 1, PRESENT, 5) == (COMM_SUCCESS, 0x08)  # read-only
+    assert ph1.write2ByteTxRx(port, 1, SPEED, 2048) == (COMM_SUCCESS, 0x08)    # Moving Speed 0..2047
     assert ph1.txRxPacket(port, list(build_instruction1(1, 0x08)))[2] == 0x40  # no reboot on an AX
     ax.shaft.supply_v = 15.0                                                    # above Max Voltage 14.0 V
     assert ph1.read1ByteTxRx(port, 1, 42)[1:] == (COMM_SUCCESS, 0x01)
