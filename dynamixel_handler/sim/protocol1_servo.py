@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from typing import Callable
 
-from dynamixel_handler.control_table import Model, protocol1_model_by_number
+from dynamixel_handler.control_table import Item, Model, protocol1_model_by_number
 from dynamixel_handler.control_table._protocol1 import actual_bps, mode_of
 
 from .protocol1_motion import Shaft1
@@ -192,18 +192,19 @@ class Protocol1Servo:
         if address < self._file.eeprom_end and regs[LOCK_ADDRESS]:
             return ERR_RANGE, bytearray()
         for it in self._file.items:
-            if not (it.address < end and address < it.address + it.size):
-                continue
-            raw = new[it.address:it.address + it.size]
-            value = it.from_bytes(raw)
-            if it.name in self.model.read_only:
-                return ERR_RANGE, bytearray()
-            if it.direction_bit and int.from_bytes(raw, "little") >> (it.direction_bit + 1):
-                return ERR_RANGE, bytearray()  # a speed or torque beyond 0..2047
-            error = self._value_error(it.name, value, new)
+            error = self._item_error(it, new) if it.address < end and address < it.address + it.size else 0
             if error:
                 return error, bytearray()
         return 0, new
+
+    def _item_error(self, it: Item, new: bytearray) -> int:
+        """The error a touched item's new bytes get (0: none)."""
+        raw = new[it.address:it.address + it.size]
+        if it.name in self.model.read_only:
+            return ERR_RANGE
+        if it.direction_bit and int.from_bytes(raw, "little") >> (it.direction_bit + 1):
+            return ERR_RANGE  # a speed or torque beyond 0..2047
+        return self._value_error(it.name, it.from_bytes(raw), new)
 
     def _value_error(self, name: str, value: int, new: bytearray) -> int:
         lo, hi = self.model.ranges.get(name, (-(1 << 31), 1 << 31))
