@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Iterable, Mapping
 
+from ..protocol.framers import FRAMERS
 from .group_read import GroupRead
 from .instructions import Instructions
 from .ops import (
@@ -71,17 +72,17 @@ class DynamixelBus:
         self._writes = Writes(self._t)
         self._one = Instructions(self._t)
         one, writes = self._one, self._writes
-        #: the part that sends each kind of instruction
+        #: the part that sends each kind of instruction, in the framing of its protocol
         self._run: dict[type, Callable[[Any], Result[Any]]] = {
-            Ping: self._ping,
-            Read: self._read,
-            Write: lambda op: one.write(op.dxl_id, op.address, op.data),
-            RegWrite: lambda op: one.reg_write(op.dxl_id, op.address, op.data),
-            Action: lambda op: one.action(op.dxl_id),
-            Reboot: lambda op: one.reboot(op.dxl_id),
-            ClearMultiTurn: lambda op: one.clear_multi_turn(op.dxl_id),
-            ClearError: lambda op: one.clear_error(op.dxl_id, op.params),
-            FactoryReset: lambda op: one.factory_reset(op.dxl_id, op.option),
+            Ping: lambda op: self._reads.ping(op.dxl_id, op.retries, FRAMERS[op.protocol]),
+            Read: lambda op: one.read(op.dxl_id, op.address, op.size, FRAMERS[op.protocol]),
+            Write: lambda op: one.write(op.dxl_id, op.address, op.data, FRAMERS[op.protocol]),
+            RegWrite: lambda op: one.reg_write(op.dxl_id, op.address, op.data, FRAMERS[op.protocol]),
+            Action: lambda op: one.action(op.dxl_id, FRAMERS[op.protocol]),
+            Reboot: lambda op: one.reboot(op.dxl_id, FRAMERS[op.protocol]),
+            ClearMultiTurn: lambda op: one.clear_multi_turn(op.dxl_id, FRAMERS[op.protocol]),
+            ClearError: lambda op: one.clear_error(op.dxl_id, op.params, FRAMERS[op.protocol]),
+            FactoryReset: lambda op: one.factory_reset(op.dxl_id, op.option, FRAMERS[op.protocol]),
             SyncRead: lambda op: self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast)),
             BulkRead: lambda op: self._group(self._reads.bulk_read(op.requests, op.fast)),
             BulkWrite: lambda op: writes.bulk_write(op.data),
@@ -188,12 +189,6 @@ class DynamixelBus:
         """Send one instruction (a value of :mod:`.ops`) and give its ``Result``."""
         return self._run[type(instruction)](instruction)
 
-    def _ping(self, op: Ping) -> Result[int | None]:
-        return self._reads.ping(op.dxl_id, op.retries)
-
-    def _read(self, op: Read) -> Result[bytes | None]:
-        return self._one.read(op.dxl_id, op.address, op.size)
-
     def _group(self, read: GroupRead) -> Result[dict[int, bytes]]:
         data = read.result()
         return Result(data, read.failure, read.why)
@@ -208,8 +203,8 @@ class DynamixelBus:
         that needs no bus; any other transaction first waits for this read to end."""
         return self._reads.start_sync_read(address, length, ids, fast)
 
-    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
-        """Check and build a sync write now, to send it later with ``execute`` (e.g. while a read is
-        on the wire, so the packet is ready the moment the line is free). ValueError for invalid
-        IDs or data lengths."""
-        return Writes.prepare_sync_write(address, length, data)
+    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
+        """Check and build a sync write (in ``protocol``) now, to send it later with ``execute``
+        (e.g. while a read is on the wire, so the packet is ready the moment the line is free).
+        ValueError for invalid IDs or data lengths."""
+        return Writes.prepare_sync_write(address, length, data, protocol)

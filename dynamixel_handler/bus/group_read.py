@@ -54,12 +54,13 @@ class GroupRead:
         return self._data if self._data is not None else {}
 
 
-def reply_bytes(expected: list[tuple[int, int]], fast: bool) -> int:
+def reply_bytes(expected: list[tuple[int, int]], fast: bool, overhead: int = p.STATUS_OVERHEAD) -> int:
     """Bytes on the wire of the replies to a read of ``expected`` ``(id, size)``: one status packet
-    each, or one fast-read packet (header, ID, length, instruction, then ERR ID data CRC each)."""
+    each (``overhead``: a status's bytes without parameters), or one fast-read packet (header, ID,
+    length, instruction, then ERR ID data CRC each)."""
     if fast:
         return 8 + sum(size + 4 for _, size in expected)
-    return sum(p.STATUS_OVERHEAD + size for _, size in expected)
+    return sum(overhead + size for _, size in expected)
 
 
 def check_id(dxl_id: int) -> int:

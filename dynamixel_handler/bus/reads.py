@@ -8,8 +8,9 @@ from typing import Iterable, Mapping
 import serial
 
 from ..protocol import host as p
+from ..protocol.framers import PROTOCOL2, Framer
 from .group_read import GroupRead, check_id, unique_ids
-from .result import Result
+from .result import Failure, Result
 from .transport import Transport
 
 #: Scans of more IDs than this use one broadcast ping instead of a ping per ID.
@@ -32,14 +33,24 @@ class Reads:
         # sync read packets and their (id, size) list by (address, length, ids as given, fast)
         self._packets: dict[tuple[int, int, tuple[int, ...], bool], tuple[bytes, tuple[tuple[int, int], ...]]] = {}
 
-    def ping(self, dxl_id: int, retries: int | None = None) -> Result[int | None]:
-        """Model number of ``dxl_id`` (None and why if it does not answer)."""
+    def ping(self, dxl_id: int, retries: int | None = None, framer: Framer = PROTOCOL2) -> Result[int | None]:
+        """Model number of ``dxl_id`` (None and why if it does not answer). A Protocol 1.0 ping's
+        status carries nothing: the model number and firmware are read at address 0 after it."""
         dxl_id = check_id(dxl_id)
         t = self._t
         with t.transaction() as tx:
-            status = t.unicast(dxl_id, p.PING, b"", PING_REPLY_PARAMS, retries)
+            status = t.unicast(dxl_id, framer.PING, b"", framer.ping_params(), retries, framer)
             if status is None or status.refused:
-                return tx.failed(None, f"ping ID {dxl_id}", status)
+                return tx.failed(None, f"ping ID {dxl_id}", status, framer)
+            if framer.version == 2:
+                tx.ok(1, 1)
+                self.firmware_versions[dxl_id] = status.params[2]
+                return Result(status.params[0] | (status.params[1] << 8))
+            status = t.unicast(dxl_id, framer.READ, framer.read_params(0, 3), 3, retries, framer)
+            if status is None or status.refused:
+                return Result(None, Failure.ANSWERS_PING_ONLY, tx.fail(
+                    f"ping ID {dxl_id}: answers a Protocol 1.0 ping but not a read of its model number "
+                    "(Status Return Level 0?)"))
             tx.ok(1, 1)
             self.firmware_versions[dxl_id] = status.params[2]
             return Result(status.params[0] | (status.params[1] << 8))

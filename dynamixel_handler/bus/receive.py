@@ -4,11 +4,12 @@ device that stops working mid-run."""
 from __future__ import annotations
 
 import time
-from typing import Callable
+from typing import Any, Callable
 
 import serial
 
 from ..protocol import host as p
+from ..protocol.framers import PROTOCOL2, Framer
 from .group_read import reply_bytes
 from .port import SerialPort
 from .stats import BusStats
@@ -44,8 +45,9 @@ class Receiver:
                 + self.timeout_margin_ms)
 
     def gather(self, expected: list[tuple[int, int]], tx_bytes: int, fast: bool,
-               sent_at: float | None = None) -> dict[int, p.Status] | None:
-        """The replies to a packet sent at ``sent_at`` (default: just now); None if the port is unusable."""
+               sent_at: float | None = None, framer: Framer = PROTOCOL2) -> dict[int, Any] | None:
+        """The replies to a packet sent at ``sent_at`` (default: just now) in ``framer``'s protocol;
+        None if the port is unusable."""
         if not expected:
             return {}
         port = self.port
@@ -55,12 +57,12 @@ class Receiver:
         sent_at = max(sent_at, self.wire_free_at - tx_bytes * port.tx_ms_per_byte / 1000.0)
         # when the last reply byte should be in: the line is free of what was sent at wire_free_at
         # (no other packet goes out while a read is in flight), then the replies and the usual lag
-        due = (self.wire_free_at + reply_bytes(expected, fast) * port.tx_ms_per_byte / 1000.0
+        due = (self.wire_free_at + reply_bytes(expected, fast, framer.status_overhead) * port.tx_ms_per_byte / 1000.0
                + self.reply_lag_s)
         try:
             if fast:
                 return self._receive_fast(expected, tx_bytes, sent_at, due)
-            return self._receive(expected, tx_bytes, sent_at, due)
+            return self._receive(expected, tx_bytes, sent_at, due, framer)
         except (OSError, serial.SerialException) as exc:
             self.lose(exc)
             return None
@@ -69,7 +71,7 @@ class Receiver:
             self.wire_free_at = min(self.wire_free_at, time.monotonic())
 
     def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
-                 due: float | None = None) -> dict[int, p.Status]:
+                 due: float | None = None, framer: Framer = PROTOCOL2) -> dict[int, Any]:
         """Collect stuffed status packets, one per expected ID, each with its own wait.
 
         The first reply gets the full timeout (our packet's wire time included); each
@@ -77,16 +79,17 @@ class Receiver:
         one reply wait and the others are still collected.
         """
         pending = dict(expected)
-        largest = p.STATUS_OVERHEAD + max(size for _, size in expected)
+        overhead = framer.status_overhead
+        largest = overhead + max(size for _, size in expected)
         first_ms = self.reply_timeout_ms(tx_bytes, largest)
         gap_s = self.reply_timeout_ms(0, largest) / 1000.0
         self.last_timeout_ms = first_ms
         deadline = sent_at + first_ms / 1000.0
-        stream = p.StatusStream()
-        got: dict[int, p.Status] = {}
+        stream = framer.statuses()
+        got: dict[int, Any] = {}
         stats = self.stats
         while pending:
-            data = self.port.read_until(deadline, sum(p.STATUS_OVERHEAD + n for n in pending.values())
+            data = self.port.read_until(deadline, sum(overhead + n for n in pending.values())
                                         - stream.pending_bytes, due)
             if not data:
                 break
@@ -96,11 +99,11 @@ class Receiver:
                 size = pending.get(status.dxl_id)
                 if size is None or (len(status.params) != size and not status.refused):
                     # a late reply of an earlier transaction, or not ours: never take it as the answer
-                    stats.discarded_bytes += p.STATUS_OVERHEAD + len(status.params)
+                    stats.discarded_bytes += overhead + len(status.params)
                     continue
                 del pending[status.dxl_id]
                 got[status.dxl_id] = status
-                self.note_status(status)
+                self.note_status(status, framer)
                 answered = True
             if answered:  # each reply restarts the wait for the next
                 deadline = max(deadline, time.monotonic() + gap_s)
@@ -135,12 +138,12 @@ class Receiver:
         self.stats.discarded_bytes += reply.discarded_bytes
         return got
 
-    def note_status(self, status: p.Status) -> None:
+    def note_status(self, status: Any, framer: Framer = PROTOCOL2) -> None:
         self.last_error_bytes[status.dxl_id] = status.error
         if status.refused:
             self.stats.servo_errors += 1
             if self.verbose:
-                self.log("warning", f"ID {status.dxl_id} refused: {p.error_text(status.error)}")
+                self.log("warning", f"ID {status.dxl_id} refused: {framer.error_text(status.error)}")
 
     def lose(self, exc: BaseException) -> None:
         """The device went away mid-run: fail fast from now on until reopen()."""

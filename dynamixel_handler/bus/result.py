@@ -28,6 +28,11 @@ class Failure(enum.Enum):
     NO_SUCH_ITEM = "no such item"
     #: not sent: the handler holds it back (a reboot asked for again too soon)
     HELD_BACK = "held back"
+    #: a Protocol 1.0 servo answered the ping but not the read of its model number (Status Return
+    #: Level 0: it answers nothing but pings)
+    ANSWERS_PING_ONLY = "answers a ping only"
+    #: not sent: the servo's protocol has no such instruction (a Clear in Protocol 1.0)
+    NOT_IN_PROTOCOL = "not in the protocol"
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,11 +9,11 @@ import logging
 import threading
 import time
 from contextlib import contextmanager
-from typing import Iterator, TypeVar
+from typing import Any, Iterator, TypeVar
 
 import serial
 
-from ..protocol import host as p
+from ..protocol.framers import PROTOCOL2, Framer
 from .errors import BusError
 from .group_read import GroupRead, reply_bytes
 from .port import SerialPort
@@ -48,10 +48,10 @@ class Outcome:
             transport.log("warning", reason)
         return reason
 
-    def failed(self, value: T, what: str, status: p.Status | None = None) -> Result[T]:
+    def failed(self, value: T, what: str, status: Any = None, framer: Framer = PROTOCOL2) -> Result[T]:
         """The result of a transaction that got ``status`` (None: no reply) instead of an answer:
         ``value`` (the failure value), the kind and ``what`` with the reason."""
-        kind, reason = self._transport.why(status)
+        kind, reason = self._transport.why(status, framer)
         return Result(value, kind, self.fail(f"{what}: {reason}"))
 
 
@@ -121,19 +121,20 @@ class Transport:
                 self.stats.time_s += time.monotonic() - start
 
     def unicast(self, dxl_id: int, instruction: int, params: bytes, reply_params: int,
-                retries: int | None = None) -> p.Status | None:
-        """Send to one servo and return its status; retried on silence, noise and servo CRC errors."""
-        packet = p.build_instruction(dxl_id, instruction, params)
+                retries: int | None = None, framer: Framer = PROTOCOL2) -> Any:
+        """Send to one servo in ``framer``'s protocol and return its status (None: no reply);
+        retried on silence, noise and a packet the servo got corrupted."""
+        packet = framer.instruction(dxl_id, instruction, params)
         attempts = 1 + (self.retry_num if retries is None else max(0, retries))
         status = None
         for attempt in range(attempts):
             if attempt:
                 self.pause_before_retry()
-            replies = self._exchange(packet, [(dxl_id, reply_params)], False)
+            replies = self._exchange(packet, [(dxl_id, reply_params)], False, framer)
             if replies is None:
                 return None
             status = replies.get(dxl_id)
-            if status is not None and (status.error & 0x7F) != 3:
+            if status is not None and not framer.corrupted(status.error):
                 return status
         return status
 
@@ -168,7 +169,7 @@ class Transport:
         if self.retry_interval_ms:
             time.sleep(self.retry_interval_ms / 1000.0)
 
-    def why(self, status: p.Status | None) -> tuple[Failure, str]:
+    def why(self, status: Any, framer: Framer = PROTOCOL2) -> tuple[Failure, str]:
         """Why a transaction got ``status`` (None: no reply) instead of an answer: the kind, in words."""
         if self.port.lost:
             return Failure.DEVICE_LOST, "device lost"
@@ -176,17 +177,18 @@ class Transport:
             return Failure.PORT_CLOSED, "port closed"
         if status is None:
             return Failure.NO_REPLY, f"no reply within {self.rx.last_timeout_ms:.1f} ms"
-        return Failure.REFUSED, p.error_text(status.error)
+        return Failure.REFUSED, framer.error_text(status.error)
 
     def _nobody(self) -> tuple[Failure, str]:
         """Why a group read got no reply: the port, or no servo answered."""
         return self.why(None) if not self.port.is_open else (Failure.NOBODY_ANSWERED, "no servo answered")
 
-    def _exchange(self, packet: bytes, expected: list[tuple[int, int]], fast: bool) -> dict[int, p.Status] | None:
+    def _exchange(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
+                  framer: Framer = PROTOCOL2) -> dict[int, Any] | None:
         """Send ``packet`` and gather the expected replies; None if the port is unusable."""
         if not self.send(packet):
             return None
-        return self.rx.gather(expected, len(packet), fast)
+        return self.rx.gather(expected, len(packet), fast, framer=framer)
 
     # ------------------------------------------------------------ the group read on the wire
     def start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,

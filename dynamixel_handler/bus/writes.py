@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Mapping
 
 from ..protocol import host as p
+from ..protocol.framers import FRAMERS
 from .group_read import check_id
 from .result import Result
 from .transport import Transport
@@ -31,16 +32,17 @@ class Writes:
         self._t = transport
 
     @staticmethod
-    def prepare_sync_write(address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
-        """Check and build a sync write now, to send it later with :meth:`send_prepared` (e.g.
-        while a read is on the wire, so that the packet is ready the moment the line is free).
-        ValueError for invalid IDs or data lengths."""
+    def prepare_sync_write(address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
+        """Check and build a sync write in ``protocol`` now, to send it later with
+        :meth:`send_prepared` (e.g. while a read is on the wire, so that the packet is ready the
+        moment the line is free). ValueError for invalid IDs or data lengths."""
         data = {check_id(i): bytes(chunk) for i, chunk in data.items()}
         if not data:
             return PreparedWrite(address, length, (), b"")
-        params = p.sync_write_params(address, length, data.items())
+        framer = FRAMERS[protocol]
+        params = framer.sync_write_params(address, length, data.items())
         return PreparedWrite(address, length, tuple(data),
-                             p.build_instruction(p.BROADCAST_ID, p.SYNC_WRITE, params))
+                             framer.instruction(framer.broadcast_id, framer.SYNC_WRITE, params))
 
     def send_prepared(self, prepared: PreparedWrite) -> Result[bool]:
         """Send a write built by :meth:`prepare_sync_write`: True when sent (or nothing to send)."""

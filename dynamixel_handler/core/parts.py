@@ -40,7 +40,7 @@ from .servo_io import Log, ServoIO
 from .shutdown import Shutdown
 from .startup import Startup, StartupSettings
 from .state import recheck_loops
-from .step import Step, StepSettings
+from .step import Step, Stepped, StepSettings
 from .watchdog import Watchdog, WatchdogSettings
 from .write_batch import WriteBatch
 
@@ -136,7 +136,7 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
     recovery = Recovery(bus, table, log, io, watchdog, s.loop, set_up)
     startup = Startup(bus, table, log, io, work, recovery, watchdog, s.startup, interrupted)
     requests = Requests(table, pending, log, io, watchdog, pacing, work, recovery, s.loop)
-    steps = Step(bus, table, log, reads, writes, pacing, watchdog, recovery, work, intake, startup, s.step)
+    steps = Step(bus, table, log, Stepped(intake, startup, work, pacing, writes, reads, recovery, watchdog), s.step)
     ending = Shutdown(bus, table, log, io, group, s.term)
     parts = Parts(bus, table, pending, io, group, pacing, reads, writes, watchdog, work, intake, recovery, startup,
                   requests, steps, ending)

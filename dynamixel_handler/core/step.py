@@ -24,7 +24,7 @@ from .state import RECHECK_LOOPS, StepReport
 from .watchdog import Watchdog
 from .write_batch import WriteBatch
 
-__all__ = ["RECHECK_LOOPS", "Step", "StepSettings"]
+__all__ = ["RECHECK_LOOPS", "Step", "StepSettings", "Stepped"]
 
 
 @dataclass(frozen=True)
@@ -33,23 +33,36 @@ class StepSettings:
     logs: LogSettings = LogSettings()       # the read logs: values, silent servos, hardware errors
 
 
+@dataclass(frozen=True)
+class Stepped:
+    """The parts a loop step drives, in the order of a step: requests and start-up work first,
+    then pacing, writes, reads, recovery of silent servos, the watchdog."""
+
+    intake: Intake
+    startup: Startup
+    work: Deferred
+    pacing: Pacing
+    writes: WriteBatch
+    reads: ReadPlan
+    recovery: Recovery
+    watchdog: Watchdog
+
+
 class Step:
     """The loop step and its phases, over the parts that do the work; the read logs."""
 
-    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, reads: ReadPlan, writes: WriteBatch,
-                 pacing: Pacing, watchdog: Watchdog, recovery: Recovery, work: Deferred, intake: Intake,
-                 startup: Startup, settings: StepSettings) -> None:
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, parts: Stepped, settings: StepSettings) -> None:
         self.bus = bus
         self.table = table
         self.log = log
-        self.reads = reads
-        self.writes = writes
-        self.pacing = pacing
-        self.watchdog = watchdog
-        self.recovery = recovery
-        self.work = work
-        self.intake = intake
-        self.startup = startup
+        self.reads = parts.reads
+        self.writes = parts.writes
+        self.pacing = parts.pacing
+        self.watchdog = parts.watchdog
+        self.recovery = parts.recovery
+        self.work = parts.work
+        self.intake = parts.intake
+        self.startup = parts.startup
         self.settings = settings
         self.loop_count = 0
         self._reported_errors: dict[int, tuple[int, str | None]] = {}

@@ -27,6 +27,7 @@ from . import (  # noqa: F401
     BULK_READ,
     BULK_WRITE,
     CLEAR,
+    ERR_CRC,
     ERROR_NAMES,
     FACTORY_RESET,
     FAST_BULK_READ,

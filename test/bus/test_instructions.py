@@ -5,6 +5,7 @@ import pytest
 from conftest import instruction, status
 
 from dynamixel_handler.bus.instructions import Instructions
+from dynamixel_handler.bus.ops import FactoryReset
 from dynamixel_handler.bus.result import Failure
 
 
@@ -65,7 +66,7 @@ def test_clear_multi_turn_sends_the_clear_key(line):
 def test_a_bad_factory_reset_option_sends_nothing(line):
     peer, transport = line()
     with pytest.raises(ValueError, match="0x01, 0x02 or 0xFF"):
-        Instructions(transport).factory_reset(1, 0x03)
+        FactoryReset(1, 0x03)
     with pytest.raises(ValueError, match="invalid Dynamixel ID"):
         Instructions(transport).write(300, 64, b"\x01")
     assert peer.received == []
