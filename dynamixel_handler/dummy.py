@@ -159,10 +159,10 @@ class BusWithDummies:
         read.failure, read.why = done.failure, done.why
         return read
 
-    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
+    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
         """As ``DynamixelBus.prepare_sync_write``; the dummies' part is written when it is sent."""
         real = {i: d for i, d in data.items() if i not in self.dummies}
-        prepared = self._bus.prepare_sync_write(address, length, real)
+        prepared = self._bus.prepare_sync_write(address, length, real, protocol)
         dummy = {i: bytes(d) for i, d in data.items() if i in self.dummies}
         return dataclasses.replace(prepared, dummies=dummy) if dummy else prepared
 

@@ -152,7 +152,7 @@ class FakeBus:
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
         return GroupRead.finished(self._sync_read(address, length, ids, fast))
 
-    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes]) -> PreparedWrite:
+    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
         return FakePrepared(address, length, tuple(sorted(data)), b"", {}, dict(data))
 
     def _sync_write(self, prepared: FakePrepared) -> Result[bool]:
