@@ -54,9 +54,11 @@ class Shaft1:
 
     # ------------------------------------------------------------------ modes and frames
     def mode(self) -> str:
+        """The mode the registers select, where the model has it; else Joint Mode (a DX with both
+        Angle Limits 0, an EX-106+ with both at 4095: no Wheel Mode, no multi-turn there)."""
         r = self._r
-        return mode_of(r.get("min_position_limit"), r.get("max_position_limit"),
-                       r.get("torque_control_mode_enable"))
+        mode = mode_of(r.get("min_position_limit"), r.get("max_position_limit"), r.get("torque_control_mode_enable"))
+        return mode if mode in r.model.mode_values else "position"
 
     def _divider(self) -> int:
         return max(1, self._r.get("resolution_divider", 1))

@@ -114,9 +114,7 @@ class Protocol1Servo:
     @property
     def mode(self) -> str:
         """Joint ("position"), Wheel ("velocity"), multi-turn ("ex_position") or torque ("current")."""
-        r = self.registers
-        return mode_of(r.peek("min_position_limit"), r.peek("max_position_limit"),
-                       r.get("torque_control_mode_enable"))
+        return self.shaft.mode()
 
     @property
     def id(self) -> int:

@@ -240,6 +240,19 @@ def test_joint_mode_moves_at_moving_speed_and_0_is_as_fast_as_it_goes(make_bus, 
     assert position == pytest.approx(812 - 0.1 * 1023 * 0.666 / (300 / 1023), abs=2)  # at 1023 units
 
 
+def test_no_wheel_mode_on_dx_and_no_multi_turn_on_ex(make_bus, sdk1, manual_clock):
+    bus = make_bus({1: 117, 2: EX106}, clock=manual_clock)
+    port, ph1 = sdk1(bus.path)
+    assert ph1.write4ByteTxRx(port, 1, CW_LIMIT, 0) == (COMM_SUCCESS, 0)       # DX-117: both limits 0
+    assert ph1.write2ByteTxRx(port, 2, CW_LIMIT, 4095) == (COMM_SUCCESS, 0)    # EX-106+: both 4095
+    assert [bus.servos_at(sid)[0].mode for sid in (1, 2)] == ["position", "position"]
+    for sid in (1, 2):
+        assert ph1.write1ByteTxRx(port, sid, TORQUE, 1) == (COMM_SUCCESS, 0)
+    assert ph1.write2ByteTxRx(port, 1, SPEED, 300) == (COMM_SUCCESS, 0)
+    manual_clock.advance(1.0)
+    assert ph1.read2ByteTxRx(port, 1, PRESENT_SPEED)[0] == 0  # it does not turn endlessly
+
+
 def test_multi_turn_on_mx_with_its_offset(make_bus, sdk1, manual_clock):
     bus = make_bus({1: MX28}, clock=manual_clock)
     port, ph1 = sdk1(bus.path)
