@@ -319,3 +319,17 @@ def test_the_command_line_takes_every_protocol1_name():
              "MX-28(1.0)": 29, "MX-64(1.0)": 310, "MX-106(1.0)": 320, "310": 310, "107": 107}
     assert {name: parse_model(name) for name in names} == names
     assert parse_model("MX-64") == 311  # the 2.0 firmware wins a name both have
+
+
+def test_the_state_file_keeps_a_wheel_mode_and_a_baud_rate(tmp_path, make_bus, sdk1):
+    from dynamixel_handler.sim import VirtualBus
+    state = str(tmp_path / "bus.json")
+    bus = make_bus({3: EX106, 4: MX64}, state_file=state)
+    port, ph1 = sdk1(bus.path)
+    assert ph1.write4ByteTxRx(port, 3, CW_LIMIT, 0) == (COMM_SUCCESS, 0)      # EX-106+ to Wheel Mode
+    assert ph1.write1ByteTxRx(port, 4, 4, 250) == (COMM_SUCCESS, 0)           # MX-64 to 2.25 Mbps
+    bus.save_state()
+    again = VirtualBus(state_file=state, wire_timing=False)
+    ex, mx = again.servos_at(3)[0], again.servos_at(4)[0]
+    assert (ex.model.name, ex.mode, ex.read("torque_limit")) == ("EX-106+", "velocity", 1023)
+    assert (mx.model.name, mx.baudrate) == ("MX-64", 2_250_000)
