@@ -47,6 +47,9 @@ Where the pages disagree with themselves or with the servos, and what is kept:
   value; the range is the section's). The MX Current item is marked RW and initial 0 in the tables,
   its section says it reads 2,048 with no current: read here as a measurement.
 * RX and DX specifications say "7343 bps ~ 1 Mbps"; the slowest rate, value 254, is 7,843 bps.
+* Temperature Limit: the section most pages include gives 0..100 (kept); the AX-12W page 0..99.
+* The AX-12W and AX-18A pages say EEPROM is written only with "Torque Enable(64)" off: an X-series
+  sentence (64 is not an AX address); Protocol 1.0 servos take EEPROM writes with torque on.
 * AX-12, AX-12+ and AX-12A share model number 12 (one model here, named AX-12A).
 """
 from __future__ import annotations
@@ -243,7 +246,7 @@ def ranges(spec: Spec) -> Dict[str, Tuple[int, int]]:
         "goal_position": (-MULTI_TURN_GOAL, MULTI_TURN_GOAL) if mx else (0, top),
         "pwm_limit": (0, 1023), "torque_limit": (0, 1023), "punch": (0, 1023),
         "min_voltage_limit": (50, 160 if mx else 250), "max_voltage_limit": (50, 160 if mx else 250),
-        "torque_enable": (0, 1), "led": (0, 1), "lock": (0, 1), "alarm_led": (0, 127), "shutdown": (0, 127),
+        "temperature_limit": (0, 100), "torque_enable": (0, 1), "led": (0, 1), "lock": (0, 1), "alarm_led": (0, 127), "shutdown": (0, 127),
         "cw_compliance_slope": (0, 254), "ccw_compliance_slope": (0, 254),
         "position_d_gain": (0, 254), "position_i_gain": (0, 254), "position_p_gain": (0, 254),
         "multi_turn_offset": (-24_576, 24_576), "resolution_divider": (1, 4), "profile_acceleration": (0, 254),
