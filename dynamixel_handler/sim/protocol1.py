@@ -29,21 +29,23 @@ from typing import Callable
 
 from dynamixel_handler.control_table import Model, protocol1_models
 
+from ..protocol import protocol1 as p1
 from ..protocol import servo as p2
+from ..protocol.protocol1 import ERR_CHECKSUM, ERR_INSTRUCTION, ERR_RANGE, checksum
 from .faults import Replies
-from .protocol1_servo import ERR_CHECKSUM, ERR_INSTRUCTION, ERR_RANGE, Protocol1Servo
+from .protocol1_servo import Protocol1Servo
 from .servo import VirtualServo
 
 __all__ = ["PROTOCOL1_MODELS", "Protocol1Servo", "Protocol1Instructions", "Protocol1Parser", "build_instruction1",
            "build_status1", "checksum", "protocol1_model"]
 
-HEADER1 = b"\xff\xff"
-BROADCAST_ID1 = 0xFE
-PING1, READ1, WRITE1, REG_WRITE1, ACTION1, RESET1 = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
-SYNC_WRITE1, BULK_READ1 = 0x83, 0x92
-KNOWN_INSTRUCTIONS1 = (0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x08, 0x83, 0x92)
+HEADER1 = p1.HEADER
+BROADCAST_ID1 = p1.BROADCAST_ID
+PING1, READ1, WRITE1, REG_WRITE1, ACTION1, RESET1 = p1.PING, p1.READ, p1.WRITE, p1.REG_WRITE, p1.ACTION, p1.RESET
+SYNC_WRITE1, BULK_READ1 = p1.SYNC_WRITE, p1.BULK_READ
+KNOWN_INSTRUCTIONS1 = p1.INSTRUCTIONS
 ERR_RANGE1, ERR_INSTRUCTION1 = ERR_RANGE, ERR_INSTRUCTION
-_MAX_LENGTH = 0x8F  # the longest instruction packet an AX/MX buffer takes (143 bytes of parameters)
+_MAX_LENGTH = p1.MAX_LENGTH  # the longest instruction packet an AX/MX buffer takes (143 bytes of parameters)
 
 PROTOCOL1_MODELS: dict[int, Model] = {m.number: m for m in protocol1_models()}
 """Protocol 1.0 models by number (``control_table.protocol1_models()``)."""
@@ -61,19 +63,14 @@ def protocol1_model(text: str | int) -> Model | None:
     return None
 
 
-def checksum(body: bytes | bytearray) -> int:
-    """Protocol 1.0 checksum of ID, LEN, INST/ERROR and the parameters."""
-    return ~sum(body) & 0xFF
-
-
 def build_status1(servo_id: int, error: int, params: bytes = b"") -> bytes:
-    body = bytes([servo_id, len(params) + 2, error]) + bytes(params)
-    return HEADER1 + body + bytes([checksum(body)])
+    """A status packet (the shared Protocol 1.0 framing, ``protocol.protocol1``)."""
+    return p1.build_packet(servo_id, error, params)
 
 
 def build_instruction1(servo_id: int, instruction: int, params: bytes = b"") -> bytes:
-    body = bytes([servo_id, len(params) + 2, instruction]) + bytes(params)
-    return HEADER1 + body + bytes([checksum(body)])
+    """An instruction packet, unchecked (a test may send what no host would)."""
+    return p1.build_packet(servo_id, instruction, params)
 
 
 class Protocol1Parser:

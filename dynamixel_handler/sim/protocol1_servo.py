@@ -26,11 +26,18 @@ from typing import Callable
 from dynamixel_handler.control_table import Item, Model, protocol1_model_by_number
 from dynamixel_handler.control_table._protocol1 import actual_bps, mode_of
 
+from ..protocol.protocol1 import (
+    ERR_ANGLE_LIMIT,
+    ERR_INSTRUCTION,
+    ERR_OVERHEATING,
+    ERR_OVERLOAD,
+    ERR_RANGE,
+    ERR_VOLTAGE,
+)
 from .protocol1_motion import Shaft1
 from .registers import RegisterFile, Registers
 
-ERR_VOLTAGE, ERR_ANGLE, ERR_OVERHEAT, ERR_RANGE, ERR_CHECKSUM, ERR_OVERLOAD, ERR_INSTRUCTION = (
-    0x01, 0x02, 0x04, 0x08, 0x10, 0x20, 0x40)
+ERR_ANGLE, ERR_OVERHEAT = ERR_ANGLE_LIMIT, ERR_OVERHEATING
 BAUD_TOLERANCE = 0.03
 #: Firmware Version a virtual servo reports (the pages leave it blank): representative numbers,
 #: MX from v41 (Realtime Tick needs v40 / v41)
