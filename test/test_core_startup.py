@@ -111,3 +111,29 @@ def test_sigint_exits_0_and_leaves_the_servos_as_term_params_say(torque_off, sto
             assert [sim.servo(i).read("bus_watchdog") for i in (1, 2, 3)] == [0, 0, 0]
     finally:
         bench.close()
+
+
+@pytest.mark.parametrize("servos, shared_model", [
+    ([(1, XM430), (2, XM430), (2, XM540)], "XM"),   # equal Return Delay Times: the replies garble
+    ([(1, XM430), (2, XM430)], None),               # one servo alone: nothing to say
+])
+def test_two_servos_at_one_id_are_named_and_left_alone(servos, shared_model):
+    """The start-up scan tells an ID that two servos answer at (their replies collide), in one
+    line with what to do, and handles the others; nothing is written to the shared ID."""
+    sim = VirtualBus(servos=servos)
+    path = sim.start()
+    node = NodeProcess(node_command(f"device_name:={path}", *BASE_PARAMS))
+    try:
+        node.wait_for("loop running", timeout=30)
+        output = node.output
+        shared = [line for line in output.splitlines() if "two or more servos answer at this ID" in line]
+        if shared_model is None:
+            assert not shared and "ID 2: XM430-W350" in output
+            return
+        assert len(shared) == 1 and "ID 2:" in shared[0] and "not handled" in shared[0]
+        assert "dynamixel_handler_setup assign-ids" in shared[0] and "[ERROR]" in shared[0]
+        assert "ID 1: XM430-W350" in output and "ID 2: XM" not in output.split("two or more")[1]
+        assert not any(e.instruction == WRITE and 2 in e.ids for e in sim.log)
+    finally:
+        node.stop()
+        sim.close()

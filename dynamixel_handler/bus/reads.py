@@ -114,6 +114,19 @@ class Reads:
                         found[dxl_id] = model
         return dict(sorted(found.items()))
 
+    def _take_ping(self, status: p.Status, wanted: list[int], found: dict[int, int]) -> bool:
+        """Note one reply of a broadcast ping in ``found``; True when its ID had answered already
+        (two servos share it: the second reply is counted as discarded)."""
+        t = self._t
+        if status.dxl_id in found:
+            t.stats.discarded_bytes += p.STATUS_OVERHEAD + len(status.params)
+            return True
+        if len(status.params) == PING_REPLY_PARAMS and status.dxl_id in wanted:
+            t.rx.note_status(status)
+            self.firmware_versions[status.dxl_id] = status.params[2]
+            found[status.dxl_id] = status.params[0] | (status.params[1] << 8)
+        return False
+
     def _broadcast_ping(self, wanted: list[int]) -> tuple[dict[int, int], bool]:
         t = self._t
         rx, stats = t.rx, t.stats
@@ -122,6 +135,7 @@ class Reads:
         slots = (max(wanted) + 1) * (reply_bytes * t.port.tx_ms_per_byte + BROADCAST_PING_SLOT_MS)
         wait_ms = rx.reply_timeout_ms(len(packet), 0) + slots
         found: dict[int, int] = {}
+        garbled_ids = False
         with t.transaction() as tx:
             stream = p.StatusStream()
             if not t.send(packet):
@@ -136,13 +150,10 @@ class Reads:
                         break
                     stats.bytes_rx += len(data)
                     for status in stream.feed(data):
-                        if len(status.params) == PING_REPLY_PARAMS and status.dxl_id in wanted:
-                            rx.note_status(status)
-                            self.firmware_versions[status.dxl_id] = status.params[2]
-                            found[status.dxl_id] = status.params[0] | (status.params[1] << 8)
+                        garbled_ids = self._take_ping(status, wanted, found) or garbled_ids
             except (OSError, serial.SerialException) as exc:
                 rx.lose(exc)
-            garbled = bool(stream.crc_errors or stream.discarded_bytes or stream.pending_bytes)
+            garbled = garbled_ids or bool(stream.crc_errors or stream.discarded_bytes or stream.pending_bytes)
             stats.crc_errors += stream.crc_errors
             stats.discarded_bytes += stream.discarded_bytes + stream.pending_bytes
             if found:

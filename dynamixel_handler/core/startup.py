@@ -7,6 +7,7 @@ from typing import Callable, Sequence
 
 from .. import error_state, units
 from ..bus import ServoBus, dummy_ids
+from ..bus.census import census
 from ..bus.ops import Ping
 from ..control_table import model_by_number
 from ..errors import Interrupted, StartupError
@@ -21,6 +22,13 @@ from .watchdog import Watchdog
 #: what a user can do about a model number the control table does not know
 UNKNOWN_MODEL_HELP = ("this version does not know that model (docs/models.md lists those it does); a newer "
                       "release may, otherwise report the number with the output of `dynamixel_handler_setup scan`")
+
+
+def _name(number: int) -> str:
+    try:
+        return model_by_number(number).name
+    except KeyError:
+        return f"model {number}"
 
 
 def _known(number: int) -> bool:
@@ -57,6 +65,7 @@ class Startup:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
         self.membership: dict[int, bool] | None = None
+        self._told_shared: set[int] = set()  # IDs said to be shared (once each)
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
@@ -86,7 +95,9 @@ class Startup:
         for attempt in range(attempts):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted during the scan (attempt {attempt + 1}/{attempts})")
-            found.update(self.bus.scan(sorted(set(range(lo, hi + 1)) | set(dummies))))
+            seen = census(self.bus, set(range(lo, hi + 1)) | set(dummies))
+            found.update(seen.found)
+            self._shared(seen.shared, found)
             real = sorted(set(found) - set(dummies))
             self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} on {self.bus.device} at "
                           f"{self.bus.baudrate} bps: {len(real)} servo(s) {real}"
@@ -100,6 +111,19 @@ class Startup:
                        "(init/baudrate_auto_set can find servos at other rates)")
             self._startup_problem(message)
         return found
+
+    def _shared(self, shared: dict[int, int | None], found: dict[int, int]) -> None:
+        """IDs two or more servos answer at: one line each, and not handled (a command to one would
+        move all of them, and their replies garble every read)."""
+        for dxl_id, number in sorted(shared.items()):
+            found.pop(dxl_id, None)
+            if dxl_id in self._told_shared:
+                continue
+            self._told_shared.add(dxl_id)
+            which = f" (one of them a {_name(number)})" if number is not None else ""
+            self.log.error(f"ID {dxl_id}: two or more servos answer at this ID{which}, their replies collide: not "
+                           "handled. Give each its own ID: connect them one at a time and run "
+                           "`dynamixel_handler_setup assign-ids` (docs/setup_tool.md)")
 
     def _keep(self, found: dict[int, int], dummies: Sequence[int]) -> None:
         """Put the servos found that are known models of a used series (or dummies) in the table."""

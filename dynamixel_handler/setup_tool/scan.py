@@ -4,12 +4,12 @@ person needs (model, firmware, mode, torque, hardware error) and two servos at o
 from one: their replies collide (CRC errors or bytes that belong to no reply, at that ID only)."""
 from __future__ import annotations
 
-import time
 from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
 from ..bus import BusError, DynamixelBus
-from ..bus.ops import Ping, Read
+from ..bus.census import census
+from ..bus.ops import Read
 from ..control_table import model_by_number
 from ..units import decode_hardware_error
 from .protocol1 import SWITCH_TO_2, model_name1, ping1
@@ -17,8 +17,6 @@ from .servo import Servo
 
 __all__ = ["Found", "ScanResult", "scan_bus", "scan_steps"]
 
-#: pings per found ID that must all come back clean for it to count as one servo
-_CLEAN_PINGS = 3
 #: bytes of one ping's status reply (Protocol 2.0: header 4, ID, length 2, instruction, error, 3 params, CRC 2)
 _PING_REPLY_BYTES = 14
 
@@ -91,35 +89,6 @@ def scan_steps(rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int
     return total
 
 
-def _ping(bus: DynamixelBus, dxl_id: int, pause_s: float) -> int | None:
-    model: int | None = bus.execute(Ping(dxl_id, retries=0)).value
-    if pause_s:
-        time.sleep(pause_s)
-    return model
-
-
-def _probe(bus: DynamixelBus, dxl_id: int, pings: int) -> tuple[int | None, bool]:
-    """Ping ``dxl_id`` ``pings`` times: (its model number or None, whether two servos seem to answer).
-
-    Two servos at one ID show as CRC errors, as bytes read while waiting that made no valid reply
-    (overlapping replies), or as a second complete reply after an answered ping (counted when the
-    next ping flushes the input, so with ``pings`` > 1 the first ping only flushes what came
-    before). A reply that is merely late (a loaded host) is none of these.
-    """
-    # a second servo's reply may come up to a Return Delay Time (508 us at most) after the first one:
-    # each ping waits for it, so the next ping's input flush counts it instead of taking it as its answer
-    pause_s = (0.0015 + 2 * _PING_REPLY_BYTES * 10.0 / bus.baudrate) if pings > 1 else 0.0
-    first = _ping(bus, dxl_id, pause_s) if pings > 1 else None
-    stats = bus.stats
-    crc, rx, discarded = stats.crc_errors, stats.bytes_rx, stats.discarded_bytes
-    models = [_ping(bus, dxl_id, pause_s) for _ in range(max(1, pings - 1))]
-    answered = [m for m in models if m is not None]
-    garbled = stats.crc_errors != crc or stats.bytes_rx - rx > len(answered) * _PING_REPLY_BYTES
-    if pings > 1 and len(answered) == len(models):
-        garbled = garbled or stats.discarded_bytes != discarded
-    return (answered[0] if answered else first), garbled
-
-
 def _details(bus: DynamixelBus, dxl_id: int, number: int) -> Found:
     found = Found(dxl_id, bus.baudrate, 2, number, firmware=bus.firmware_versions.get(dxl_id))
     try:
@@ -150,24 +119,11 @@ def _errors(bits: int) -> list[str]:
 
 
 def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -> None:
-    before = bus.stats.crc_errors + bus.stats.discarded_bytes
-    answered = bus.scan(ids, broadcast=len(ids) >= 5)
-    garbled_train = bus.stats.crc_errors + bus.stats.discarded_bytes != before
-    for dxl_id in ids:
-        number = answered.get(dxl_id)
-        if number is None:
-            if not garbled_train:
-                continue  # a clean reply train: nobody at this ID
-            quick, noisy = _probe(bus, dxl_id, 1)
-            if quick is None and not noisy:
-                continue
-        # the last ping's input flush is the next one's: one more than needed counts doubled replies
-        probed, collision = _probe(bus, dxl_id, _CLEAN_PINGS + 2)
-        number = number if number is not None else probed
-        if number is None and not collision:
-            continue
+    seen = census(bus, ids, broadcast=len(ids) >= 5, thorough=True)
+    for dxl_id in sorted({*seen.found, *seen.shared}):
+        number = seen.found.get(dxl_id, seen.shared.get(dxl_id))
         found = _details(bus, dxl_id, number) if number is not None else Found(dxl_id, bus.baudrate, 2)
-        if collision:
+        if dxl_id in seen.shared:
             found.collision = True
             found.note = ("two or more servos answer at this ID (garbled or doubled replies; how many, the wire "
                           "cannot tell): connect them one at a time with assign-ids, each gets its own ID")
