@@ -111,12 +111,13 @@ def test_codes_bits_and_numbers_are_read_by_name(bus):
     while sdk_read(sim.path, 57600, 1, HW_ERROR, 1) != 0x24 and time.monotonic() < end:
         time.sleep(0.05)
     assert sdk_read(sim.path, 57600, 1, HW_ERROR, 1) == 0x24  # bits 2 and 5: overheating, overload
-    shown = {args: tool(sim, "get", *args).stdout.strip() for args in (
+    rate = {"1": "57600", "2": "1000000"}  # where each is: values by name, not the search, are this test's
+    shown = {args: tool(sim, "get", *args, "--baud", rate[args[0]]).stdout.strip() for args in (
         ("1", "hardware_error_status"), ("2", "baud_rate"), ("1", "operating_mode"), ("2", "current_limit"))}
     assert shown[("1", "hardware_error_status")].endswith("hardware_error_status = overload, overheating (0x24)")
     assert shown[("2", "baud_rate")].endswith("baud_rate = 1,000,000 bps (3)")
     assert shown[("1", "operating_mode")].endswith("operating_mode = position (3)")
-    table = {line.split()[1]: line for line in tool(sim, "info", "1").stdout.splitlines() if line[:1].isdigit()}
+    table = {line.split()[1]: line for line in tool(sim, "info", "1", "--baud", "57600").stdout.splitlines() if line[:1].isdigit()}
     assert sdk_read(sim.path, 57600, 1, 63, 1) == 0x34  # Shutdown: overload, electrical shock, overheating
     assert "overload, electrical_shock, overheating" in table["shutdown"] and "57,600 bps" in table["baud_rate"]
     assert table["operating_mode"].split()[2] == "position" and "overload, overheating" in table["hardware_error_status"]
@@ -128,11 +129,10 @@ def test_codes_bits_and_numbers_are_read_by_name(bus):
 def test_every_verb_names_a_servo_by_id_in_one_json_shape(bus, tmp_path):
     sim = bus("1:XM430-W350", "2:XM540-W270")
     backup = tmp_path / "b.yaml"
-    runs = [("scan", "--ids", "0-3", "--baud", "57600", "--protocol", "2"), ("get", "1", "id"),
-            ("monitor", "--once"), ("backup", str(backup)), ("restore", str(backup), "--dry-run"),
-            ("reboot", "1,2")]
-    for args in runs:
-        out = tool(sim, *args, "--json")
+    runs = [("scan", "--ids", "0-3", "--protocol", "2"), ("get", "1", "id"), ("monitor", "--once"),
+            ("backup", str(backup)), ("restore", str(backup), "--dry-run"), ("reboot", "1,2")]
+    for args in runs:  # where the servos are: the search at every rate is the first test's
+        out = tool(sim, *args, "--json", "--baud", "57600")
         assert out.returncode == 0, (args, out.text)
         doc = json.loads(out.stdout)
         assert "dxl_id" not in _keys(doc), (args, out.stdout)
@@ -143,7 +143,8 @@ def test_every_verb_names_a_servo_by_id_in_one_json_shape(bus, tmp_path):
     assert sdk_ping(sim.path, 57600, 1) == XM430 and sdk_ping(sim.path, 57600, 2) == XM540
     for args in (("info", "1"), ("get", "1", "id"), ("set", "1", "led", "1"), ("set-mode", "1", "velocity"),
                  ("set-id", "1", "4"), ("set-baud", "4", "1M"), ("factory-reset", "4", "--keep", "id,baud")):
-        out = tool(sim, *args, "--json", "--yes")
+        bps = "1000000" if args[0] == "factory-reset" else "57600"  # after set-baud, ID 4 is at 1 Mbps
+        out = tool(sim, *args, "--json", "--yes", "--baud", bps)
         assert out.returncode == 0, (args, out.text)
         doc = json.loads(out.stdout)
         assert "dxl_id" not in _keys(doc) and doc["model"] == "XM430-W350" and doc["model_number"] == XM430, (args, doc)
@@ -190,7 +191,7 @@ def test_monitor_logs_csv_rows_and_plots_goal_against_present(bus, tmp_path):
     sdk_write4(sim.path, 57600, 1, GOAL_POSITION, 3072)  # 90 deg
     log, picture = tmp_path / "m.csv", tmp_path / "m.svg"
     out = tool(sim, "monitor", "--count", "4", "--rate", "10", "--log", str(log), "--plot", str(picture),
-               "position,current")
+               "position,current", "--baud", "57600")
     assert out.returncode == 0, out.text
     rows = list(csv.DictReader(log.open()))
     assert len(rows) == 8 and [r["id"] for r in rows[:2]] == ["1", "2"]
@@ -206,11 +207,11 @@ def test_monitor_logs_csv_rows_and_plots_goal_against_present(bus, tmp_path):
     out = tool(sim, "plot", str(log), str(again), "velocity")
     assert out.returncode == 0 and again.read_text().lstrip().startswith("<?xml"), out.text
     for args in (("plot", str(log), str(tmp_path / "no" / "such" / "dir.svg")),
-                 ("monitor", "--once", "--log", str(tmp_path / "no" / "x.csv")),
-                 ("monitor", "--once", "--plot", str(tmp_path / "no" / "x.svg")),
+                 ("monitor", "--once", "--baud", "57600", "--log", str(tmp_path / "no" / "x.csv")),
+                 ("monitor", "--once", "--baud", "57600", "--plot", str(tmp_path / "no" / "x.svg")),
                  ("plot", str(tmp_path / "missing.csv"), str(again)),
                  ("plot", str(log), str(again), "torque_of_the_moon"), ("plot", str(fifo), str(again)),
-                 ("monitor", "--once", "--log", str(fifo)), ("backup", str(fifo))):
+                 ("monitor", "--once", "--baud", "57600", "--log", str(fifo)), ("backup", str(fifo), "--baud", "57600")):
         out = tool(sim, *args)
         lines = [line for line in out.stderr.splitlines() if line.strip()]
         assert out.returncode in (1, 2) and len(lines) == 1 and lines[0].startswith("error: "), (args, out.text)

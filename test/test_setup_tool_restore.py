@@ -54,7 +54,7 @@ def test_restore_gives_a_factory_reset_replacement_its_id_rate_and_items(bus, tm
     sdk_write1(sim.path, 1_000_000, 3, RETURN_DELAY, 10)
     before = _eeprom(sim, 1_000_000, 3)
     backup = tmp_path / "robot.yaml"
-    out = tool(sim, "backup", str(backup))
+    out = tool(sim, "backup", str(backup), "1,3,5")  # IDs given: the search ends at the rate of the last
     assert out.returncode == 0 and "3 servo(s) saved" in out.stdout, out.text
 
     out = tool(sim, "factory-reset", "3", "--all", "--yes")  # the replacement: ID 1 at 57600 bps, factory values

@@ -109,7 +109,7 @@ def test_an_eeprom_write_on_a_servo_holding_its_load_is_refused_unless_torque_of
     hold(sim)
     for args in (("set", "1", "max_position_limit", "90deg"), ("set-mode", "1", "velocity"), ("set-id", "1", "4"),
                  ("set-baud", "1", "1M")):
-        out = tool(sim, *args, "--yes")
+        out = tool(sim, *args, "--yes", "--baud", "57600")
         assert out.returncode == 2, (args, out.text)
         line = one_error_line(out)
         assert "torque is on" in line and "--torque-off" in line and "nothing written" in line, line
@@ -117,11 +117,11 @@ def test_an_eeprom_write_on_a_servo_holding_its_load_is_refused_unless_torque_of
     assert (sdk_read(sim.path, 57600, 1, MAX_POS, 4), sdk_read(sim.path, 57600, 1, 11, 1)) == (4095, 3)
     assert sdk_ping(sim.path, 57600, 4) is None and sdk_ping(sim.path, 1_000_000, 1) is None
 
-    out = tool(sim, "set", "1", "max_position_limit", "90deg", "--torque-off", stdin="n\n")  # the prompt says it
+    out = tool(sim, "set", "1", "max_position_limit", "90deg", "--torque-off", "--baud", "57600", stdin="n\n")  # the prompt says it
     assert out.returncode == 1 and "Its torque is on: it goes off for the write" in out.stdout, out.text
     assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 4095
 
-    out = tool(sim, "set", "1", "max_position_limit", "90deg", "--torque-off", "--yes")
+    out = tool(sim, "set", "1", "max_position_limit", "90deg", "--torque-off", "--yes", "--baud", "57600")
     assert out.returncode == 0, out.text
     assert "torque was turned off for the write and back on" in out.stdout, out.text
     assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 3072 and sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1
@@ -129,7 +129,7 @@ def test_an_eeprom_write_on_a_servo_holding_its_load_is_refused_unless_torque_of
     assert abs(sdk_read(sim.path, 57600, 1, GOAL_POS, 4) - present) < 20  # goal := where it is
 
     sdk_write1(sim.path, 57600, 1, TORQUE, 0)  # torque off: nothing to ask
-    out = tool(sim, "set", "1", "max_position_limit", "80deg", "--yes")
+    out = tool(sim, "set", "1", "max_position_limit", "80deg", "--yes", "--baud", "57600")
     assert out.returncode == 0 and "torque was turned off" not in out.stdout, out.text
     assert sdk_read(sim.path, 57600, 1, TORQUE, 1) == 0
 
@@ -154,10 +154,10 @@ def test_reboot_and_factory_reset_of_a_servo_holding_its_load_need_torque_off(si
     assert [sdk_read(sim.path, 57600, i, TORQUE, 1) for i in (1, 2)] == [1, 0]  # each as before
     assert abs(sdk_read(sim.path, 57600, 1, GOAL_POS, 4) - sdk_read(sim.path, 57600, 1, PRESENT_POS, 4)) < 20
 
-    out = tool(sim, "factory-reset", "1", "--keep", "id,baud", "--yes")
+    out = tool(sim, "factory-reset", "1", "--keep", "id,baud", "--yes", "--baud", "57600")
     assert out.returncode == 2 and "torque is on and a factory reset turns it off" in one_error_line(out), out.text
     assert sdk_read(sim.path, 57600, 1, RETURN_DELAY, 1) == 20 and sdk_read(sim.path, 57600, 1, TORQUE, 1) == 1
-    out = tool(sim, "factory-reset", "1", "--keep", "id,baud", "--yes", "--torque-off")
+    out = tool(sim, "factory-reset", "1", "--keep", "id,baud", "--yes", "--torque-off", "--baud", "57600")
     assert out.returncode == 0 and "torque off (the factory state)" in out.stdout, out.text
     assert sdk_read(sim.path, 57600, 1, RETURN_DELAY, 1) == 250 and sdk_read(sim.path, 57600, 1, TORQUE, 1) == 0
 
@@ -206,9 +206,9 @@ def _where(sim) -> int:
     return at[0]
 
 
-def _back_to_start(sim) -> None:
-    """ID 1 at 57600 bps, max position limit 4095, holding its position (torque on)."""
-    bps = _where(sim)
+def _back_to_start(sim, bps: int) -> None:
+    """ID 1 at 57600 bps, max position limit 4095, holding its position (torque on); ``bps``: the
+    rate it answers at now (the last ``_where``)."""
     sdk_write1(sim.path, bps, 1, TORQUE, 0)
     if bps != 57600:
         sdk_write1(sim.path, bps, 1, BAUD, 1)
@@ -220,10 +220,10 @@ def _back_to_start(sim) -> None:
 def test_a_signal_after_each_bus_instruction_leaves_the_servo_in_a_named_state(sim_of, verb):
     sim = sim_of("1:XM430-W350")
     args = {"set": ("set", "1", "max_position_limit", "90deg"), "set-baud": ("set-baud", "1", "1M")}[verb]
-    stops = 0
+    stops, bps = 0, 57600
     for after in range(0, 60):
         signum = (signal.SIGINT, signal.SIGTERM)[after % 2]  # both signals, each at every other point
-        _back_to_start(sim)
+        _back_to_start(sim, bps)
         run = Paused(sim, after, *args, "--torque-off", "--yes", "--baud", "57600")
         if not run.paused():  # the whole run has fewer instructions: every point was tried
             code, text = run.finish()
@@ -260,7 +260,7 @@ def test_a_signal_during_a_reboot_of_a_servo_holding_its_load_leaves_its_torque_
     sim = sim_of("1:XM430-W350")
     stops = 0
     for after in range(0, 80):
-        _back_to_start(sim)
+        _back_to_start(sim, 57600)  # a reboot keeps the rate: each stop below reads it at 57600 bps
         sdk_write1(sim.path, 57600, 1, LED, 1)  # RAM: 0 once rebooted
         run = Paused(sim, after, "reboot", "1", "--torque-off", "--yes", "--baud", "57600")
         if not run.paused():
@@ -314,12 +314,12 @@ def test_an_interrupted_scan_emits_what_it_had_found(sim_of):
 # ---------------------------------------------------------------------- item 7: units
 def test_a_bare_number_for_an_item_with_a_unit_is_refused_with_both_readings(sim_of):
     sim = sim_of("1:XM430-W350")
-    out = tool(sim, "set", "1", "max_position_limit", "90", "--yes")
+    out = tool(sim, "set", "1", "max_position_limit", "90", "--yes", "--baud", "57600")
     assert out.returncode == 2, out.text
     line = one_error_line(out)
     assert "90 = 90 deg? write 90deg, or --raw for register value 90" in line and "-172" in line, line
     assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 4095
-    out = tool(sim, "set", "1", "max_position_limit", "3000", "--raw", "--yes")
+    out = tool(sim, "set", "1", "max_position_limit", "3000", "--raw", "--yes", "--baud", "57600")
     assert out.returncode == 0, out.text
     assert sdk_read(sim.path, 57600, 1, MAX_POS, 4) == 3000
 
@@ -334,7 +334,7 @@ def test_ranges_and_limit_pairs_are_checked_before_anything_is_sent(sim_of):
              ("goal_position", "100deg"): "outside the position limits", ("goal_velocity", "1000rpm"): "beyond velocity_limit"}
     goals = [sdk_read(sim.path, 57600, 1, a, 4) for a in (GOAL_POS, GOAL_VEL)]
     for args, text in cases.items():
-        out = tool(sim, "set", "1", *args, "--yes")
+        out = tool(sim, "set", "1", *args, "--yes", "--baud", "57600")
         assert out.returncode == 2 and text in one_error_line(out), (args, out.text)
     assert [sdk_read(sim.path, 57600, 1, a, n) for a, n in ((MIN_POS, 4), (MAX_POS, 4), (TEMP_LIMIT, 1),
                                                               (CURRENT_LIMIT, 2))] == [0, 3072, 80, 1193]
@@ -353,7 +353,7 @@ def test_protection_lowering_values_need_force_and_protocol_type_1_is_refused(si
     out = tool(sim, "set", "1", "shutdown", "0", "--yes", "--force", "--baud", "57600")
     assert out.returncode == 0 and sdk_read(sim.path, 57600, 1, SHUTDOWN, 1) == 0, out.text
 
-    out = tool(sim, "set", "1", "protocol_type", "1", "--yes", "--force")
+    out = tool(sim, "set", "1", "protocol_type", "1", "--yes", "--force", "--baud", "57600")
     assert out.returncode == 2 and "Protocol 1.0 only" in one_error_line(out), out.text
     assert sdk_read(sim.path, 57600, 1, PROTOCOL, 1) == 2
 
@@ -365,7 +365,7 @@ def test_a_protocol_1_servo_is_listed_with_what_the_tool_can_do_with_it(sim_of):
     assert out.returncode == 0, out.text
     notes = {s["id"]: s["note"] for s in json.loads(out.stdout)["servos"]}
     assert all("cannot yet read or write it" in notes[i] for i in (1, 8)), notes
-    out = tool(sim, "get", "1", "id")  # every other verb: not "no servo", but what it is and why not
+    out = tool(sim, "get", "1", "id", "--baud", "57600")  # every other verb: not "no servo", but what it is and why not
     assert out.returncode == 1, out.text
     line = one_error_line(out)
     assert "it answers Protocol 1.0 at 57600 bps (XM430-W350 set to Protocol Type 1)" in line, line
@@ -420,7 +420,7 @@ def test_bad_numbers_and_long_input_are_one_line_with_exit_code_2(sim_of):
              ("set", "1", "torque_enable", "2"), ("reboot", "254"), ("reboot", "-1"), ("monitor", "--rate", "inf"),
              ("set", "1", long_name, "3"), ("get", "1", long_name), (long_name,)]
     for args in cases:
-        out = tool(sim, *args, "--yes")
+        out = tool(sim, *args, "--yes", *(() if "--baud" in args else ("--baud", "57600")))
         assert out.returncode == 2, (args[:4], out.text[:500])
         line = one_error_line(out)
         assert "unexpected" not in line and "defect" not in line and len(line) < 400, (args[:4], line[:500])
