@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
-from .control_table import FAMILIES
+from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
 from .joints import JointMap, joint_map
 from .settings import (
@@ -36,6 +36,10 @@ from .settings import (
 # Parameter types, as ROS knows them.
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
 STR_ARRAY = "str[]"
+#: the families ``init/used_servo_series`` switches: the Protocol 2.0 ones, then the Protocol 1.0 ones
+USED_FAMILIES = FAMILIES + PROTOCOL1_FAMILIES
+#: the models of each Protocol 1.0 family, for the parameters' descriptions
+_PROTOCOL1_NAMES = {f.name: [m.name for m in protocol1_models() if m.family is f] for f in PROTOCOL1_FAMILIES}
 #: init/dummy_servo_series spellings -> series ("" : the first used series)
 #: a dummy's series as the parameter may spell it ("x", "Pro", ...) -> its name ("" : the first used)
 DUMMY_SERIES = {"": "", **{f.title.lower(): f.name for f in FAMILIES}}
@@ -69,6 +73,9 @@ SCHEMA: tuple[Param, ...] = (
     _p("init/baudrate_auto_set", BOOL, False, "at start-up, find servos at other baud rates and set them to `baudrate`"),
     *(_p(f"init/used_servo_series.{f.title}", BOOL, f.used_by_default, f"handle {f.title} series servos")
       for f in FAMILIES),
+    *(_p(f"init/used_servo_series.{f.title}", BOOL, False,
+         f"handle {f.title} series servos (Protocol 1.0: {', '.join(_PROTOCOL1_NAMES[f.name])})")
+      for f in PROTOCOL1_FAMILIES),
     _p("init/expected_servo_num", INT, 0, "servos the scan must find (0: at least one)"),
     _p("init/servo_auto_search.min_id", INT, 0, "lowest ID scanned"),
     _p("init/servo_auto_search.max_id", INT, 10, "highest ID scanned"),
@@ -227,7 +234,7 @@ class Config:
 
 
 def _used_series(v: Mapping[str, Any]) -> tuple[str, ...]:
-    return tuple(f.name for f in FAMILIES if v[f"init/used_servo_series.{f.title}"])
+    return tuple(f.name for f in USED_FAMILIES if v[f"init/used_servo_series.{f.title}"])
 
 
 def _dummy_ids(v: Mapping[str, Any]) -> list[int]:
@@ -350,8 +357,8 @@ def _check_dummies_and_series(v: Mapping[str, Any]) -> None:
     _need(len(series) in (1, n_dummies),
           f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
           f"ID of init/dummy_servo_list ({n_dummies})")
-    _need(any(v[f"init/used_servo_series.{f.title}"] for f in FAMILIES),
-          "parameters 'init/used_servo_series.{" + ",".join(f.title for f in FAMILIES)
+    _need(any(v[f"init/used_servo_series.{f.title}"] for f in USED_FAMILIES),
+          "parameters 'init/used_servo_series.{" + ",".join(f.title for f in USED_FAMILIES)
           + "}' are all false: enable at least one series")
 
 

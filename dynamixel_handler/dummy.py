@@ -139,7 +139,7 @@ class BusWithDummies:
         out: dict[int, bytes] = {}
         failure, why = None, ""
         if real and self._real_ok():
-            got = self._bus.execute(SyncRead(op.address, op.length, tuple(real), op.fast))
+            got = self._bus.execute(SyncRead(op.address, op.length, tuple(real), op.fast, op.protocol))
             out, failure, why = dict(got.value), got.failure, got.why
         now = time.monotonic()
         for i in dummy:
@@ -149,12 +149,13 @@ class BusWithDummies:
         return Result(out) if out or not op.ids else Result(out, failure or Failure.NOBODY_ANSWERED,
                                                             why or f"sync read @{op.address}x{op.length}: no servo answered")
 
-    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
+                        protocol: int = 2) -> GroupRead:
         """As ``DynamixelBus.start_sync_read``; a read that includes dummies is done at once."""
         real, dummy = self._split(ids)
         if not dummy and self._real_ok():
-            return self._bus.start_sync_read(address, length, real, fast)
-        done = self._sync_read(SyncRead(address, length, tuple(ids), fast))
+            return self._bus.start_sync_read(address, length, real, fast, protocol)
+        done = self._sync_read(SyncRead(address, length, tuple(ids), fast, protocol))
         read = GroupRead.finished(done.value)
         read.failure, read.why = done.failure, done.why
         return read

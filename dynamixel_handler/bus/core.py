@@ -83,7 +83,8 @@ class DynamixelBus:
             ClearMultiTurn: lambda op: one.clear_multi_turn(op.dxl_id, FRAMERS[op.protocol]),
             ClearError: lambda op: one.clear_error(op.dxl_id, op.params, FRAMERS[op.protocol]),
             FactoryReset: lambda op: one.factory_reset(op.dxl_id, op.option, FRAMERS[op.protocol]),
-            SyncRead: lambda op: self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast)),
+            SyncRead: lambda op: self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast,
+                                                                           op.protocol)),
             BulkRead: lambda op: self._group(self._reads.bulk_read(op.requests, op.fast)),
             BulkWrite: lambda op: writes.bulk_write(op.data),
             PreparedWrite: writes.send_prepared,
@@ -197,11 +198,13 @@ class DynamixelBus:
         """``{id: model_number}`` of the servos among ``ids`` that answer a ping (see ``Reads.scan``)."""
         return self._reads.scan(ids, broadcast)
 
-    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
+                        protocol: int = 2) -> GroupRead:
         """Send a sync read and return at once; ``result()`` of the returned read waits for the
         replies (``failure`` then says why when nobody answered). Meanwhile the caller may do work
-        that needs no bus; any other transaction first waits for this read to end."""
-        return self._reads.start_sync_read(address, length, ids, fast)
+        that needs no bus; any other transaction first waits for this read to end. Protocol 1.0
+        servos have no Sync Read: each is read on its own, and the read is done when it returns."""
+        return self._reads.start_sync_read(address, length, ids, fast, protocol)
 
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
         """Check and build a sync write (in ``protocol``) now, to send it later with ``execute``

@@ -146,6 +146,8 @@ class SyncRead:
     length: int
     ids: tuple[int, ...]
     fast: bool = False
+    #: 1: Protocol 1.0 servos, which have no Sync Read: each is read on its own
+    protocol: int = 2
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "ids", tuple(unique_ids(self.ids)))

@@ -8,7 +8,7 @@ from typing import Iterable, Mapping
 import serial
 
 from ..protocol import host as p
-from ..protocol.framers import PROTOCOL2, Framer
+from ..protocol.framers import FRAMERS, PROTOCOL2, Framer
 from .group_read import GroupRead, check_id, unique_ids
 from .result import Failure, Result
 from .transport import Transport
@@ -55,11 +55,14 @@ class Reads:
             self.firmware_versions[dxl_id] = status.params[2]
             return Result(status.params[0] | (status.params[1] << 8))
 
-    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
+                        protocol: int = 2) -> GroupRead:
         """Send a sync read and return at once; ``result()`` of the returned read waits for the
         replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
         bus; any other transaction first waits for this read to end, so none is ever lost.
         """
+        if protocol != 2:
+            return self._read_each(address, length, ids, FRAMERS[protocol])
         given = ids if isinstance(ids, tuple) else tuple(ids)
         # plain ints only as a key: 1.0 or True would find the entry of 1 and skip the ID check
         key = (address, length, given, fast) if set(map(type, given)) == _INT_ONLY else None
@@ -78,6 +81,22 @@ class Reads:
         packet, expected = cached
         return self._t.start_group_read(packet, list(expected), fast,
                                         f"{'fast ' if fast else ''}sync read @{address}x{length}")
+
+    def _read_each(self, address: int, length: int, ids: Iterable[int], framer: Framer) -> GroupRead:
+        """The same item of each servo, one read instruction each (a protocol without Sync Read):
+        not sent again on silence, as a sync read's silent servo is not."""
+        t = self._t
+        data: dict[int, bytes] = {}
+        for dxl_id in unique_ids(ids):
+            with t.transaction() as tx:
+                status = t.unicast(dxl_id, framer.READ, framer.read_params(address, length), length, 0, framer)
+                if status is not None and not status.refused:
+                    tx.ok(1, 1)
+                    data[dxl_id] = status.params
+        read = GroupRead.finished(data)
+        if not data and ids:
+            read.failure, read.why = Failure.NOBODY_ANSWERED, f"read @{address}x{length}: no servo answered"
+        return read
 
     def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> GroupRead:
         """Different ``(address, size)`` per servo (IDs checked) in one instruction, on the wire."""

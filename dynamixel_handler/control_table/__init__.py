@@ -138,6 +138,9 @@ class Model:
     #: the raw value that reads 0 where an item is offset (MX Current: 2048 = 0 mA; EX Sensed
     #: Current: 512 = 0 mA)
     item_zero: Mapping[str, int] = field(default_factory=dict, repr=False)
+    #: how the mode is read and set where no Operating Mode register holds it (Protocol 1.0: the
+    #: Angle Limits, ``_protocol1.LimitModes``); None: the Operating Mode register
+    mode_select: Optional["_protocol1.LimitModes"] = field(default=None, repr=False)
 
     @property
     def protocol(self) -> int:
@@ -356,6 +359,7 @@ def _build_protocol1(number: int, spec: _protocol1.Spec) -> Model:
         ram_copies=MappingProxyType(dict(_protocol1.RAM_COPIES)),
         read_only=frozenset(r[0] for r in spec.rows if r[4]),
         item_zero=MappingProxyType({"present_current": spec.current_zero} if "present_current" in items else {}),
+        mode_select=_protocol1.LimitModes(spec.top, _protocol1.TORQUE_CONTROL_ITEM in items),
     )
 
 

@@ -254,3 +254,41 @@ def ranges(spec: Spec) -> Dict[str, Tuple[int, int]]:
     }
     names = {r[0] for r in spec.rows}
     return {name: span for name, span in out.items() if name in names}
+
+
+#: the items that select a Protocol 1.0 servo's mode
+LIMIT_ITEMS = ("min_position_limit", "max_position_limit")
+TORQUE_CONTROL_ITEM = "torque_control_mode_enable"
+
+
+class LimitModes:
+    """How a Protocol 1.0 servo's mode is read and set: it has no Operating Mode register; the
+    Angle Limits (CW, CCW) select Joint Mode (position), Wheel Mode (both 0: velocity) and, on MX,
+    multi-turn (both 4095: ex_position); Torque Control Mode Enable (MX-64/106) selects current
+    control over any of them. Back to Joint Mode, the limits it had are written again (``joint``),
+    or the factory ones (0, ``top``) when none are known."""
+
+    def __init__(self, top: int, torque_control: bool) -> None:
+        self.top = top
+        self.torque_control = torque_control
+        #: what is read to know the mode
+        self.items: Tuple[str, ...] = LIMIT_ITEMS + ((TORQUE_CONTROL_ITEM,) if torque_control else ())
+
+    def code(self, values: Mapping[str, Optional[int]]) -> Optional[int]:
+        """The mode's code (``MODE_CODES``) from the values of ``items`` (None: one is unknown)."""
+        lo, hi = values.get(LIMIT_ITEMS[0]), values.get(LIMIT_ITEMS[1])
+        torque = values.get(TORQUE_CONTROL_ITEM, 0) if self.torque_control else 0
+        if lo is None or hi is None or torque is None:
+            return None
+        return MODE_CODES[mode_of(lo, hi, torque)]
+
+    def writes(self, mode: str, joint: Optional[Tuple[int, int]] = None) -> Dict[str, int]:
+        """The items to write, in order, to switch to ``mode``; ``joint``: Joint Mode's limits."""
+        limits = {"velocity": (0, 0), "ex_position": (MULTI_TURN_LIMIT, MULTI_TURN_LIMIT)}.get(mode)
+        out: Dict[str, int] = {}
+        if self.torque_control:
+            out[TORQUE_CONTROL_ITEM] = 1 if mode == "current" else 0
+        if mode != "current":
+            lo, hi = limits or joint or (0, self.top)
+            out.update({LIMIT_ITEMS[0]: lo, LIMIT_ITEMS[1]: hi})
+        return out

@@ -20,21 +20,21 @@ class GroupIO:
         self.table = table
         self.log = log
 
-    def _layouts(self, item: str, ids: Iterable[int]) -> dict[tuple[int, int], list[int]]:
-        """The servos of ``ids`` that have ``item``, by its (address, size) in their model."""
-        out: dict[tuple[int, int], list[int]] = {}
+    def _layouts(self, item: str, ids: Iterable[int]) -> dict[tuple[int, int, int], list[int]]:
+        """The servos of ``ids`` that have ``item``, by its (address, size) in their model and their protocol."""
+        out: dict[tuple[int, int, int], list[int]] = {}
         for dxl_id in ids:
             model = self.table.model(dxl_id)
             if model.has(item):
                 spec = model.item(item)
-                out.setdefault((spec.address, spec.size), []).append(dxl_id)
+                out.setdefault((spec.address, spec.size, model.protocol), []).append(dxl_id)
         return out
 
     def read_group(self, item: str, ids: Iterable[int]) -> dict[int, int]:
         """``item`` of the servos that answered, one sync read per layout; kept in the table."""
         values: dict[int, int] = {}
-        for (address, size), members in self._layouts(item, ids).items():
-            replies = self.bus.execute(SyncRead(address, size, tuple(members))).value
+        for (address, size, protocol), members in self._layouts(item, ids).items():
+            replies = self.bus.execute(SyncRead(address, size, tuple(members), protocol=protocol)).value
             for dxl_id, data in replies.items():
                 spec = self.table.model(dxl_id).item(item)
                 values[dxl_id] = int(units.decode(spec, data)[0])
@@ -43,9 +43,9 @@ class GroupIO:
 
     def write_group(self, item: str, values: Mapping[int, int], what: str = "shutdown") -> None:
         """``item`` := ``values`` ({ID: pulses}), one sync write per layout; kept in the table."""
-        for (address, size), members in self._layouts(item, values).items():
+        for (address, size, protocol), members in self._layouts(item, values).items():
             data = {i: units.encode(self.table.model(i).item(item), [values[i]]) for i in members}
-            written = self.bus.execute(self.bus.prepare_sync_write(address, size, data))
+            written = self.bus.execute(self.bus.prepare_sync_write(address, size, data, protocol))
             if written:
                 for dxl_id in members:
                     self.table.set_value(item, dxl_id, values[dxl_id])

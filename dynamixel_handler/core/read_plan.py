@@ -70,6 +70,8 @@ class Read:
     ids: tuple[int, ...]
     parts: tuple[ReadPart, ...]
     fast: bool = False
+    #: the servos' protocol (1: no Sync Read, each read on its own)
+    protocol: int = 2
 
 
 class ReadPlan:
@@ -121,21 +123,22 @@ class ReadPlan:
         plan = self._plans.get(key)
         if plan is not None:
             return plan
-        layouts: dict[tuple[bool, tuple[_Sig, ...]], list[int]] = {}
+        layouts: dict[tuple[int, bool, tuple[_Sig, ...]], list[int]] = {}
         fast_read = self.settings.fast_read
         for pos, model in enumerate(self.table.models):
             if not live[pos]:
                 continue
             sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed,
                          model.items[i].direction_bit) for i in items if model.has(i))
-            fast = fast_read and self.table.ids[pos] not in self.plain_read
+            protocol = model.protocol
+            fast = fast_read and protocol == 2 and self.table.ids[pos] not in self.plain_read
             if sig:
-                layouts.setdefault((fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
+                layouts.setdefault((protocol, fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
         plan = []
-        for (fast, sig), positions in layouts.items():
+        for (protocol, fast, sig), positions in layouts.items():
             ids = tuple(self.table.ids[p] for p in positions)
             for address, length, parts in _spans(sig, self.settings.split_read, self.pacing.read_span_limit(len(ids))):
-                plan.append(Read(address, length, ids, parts, fast))
+                plan.append(Read(address, length, ids, parts, fast, protocol))
         self._plans[key] = plan
         return plan
 

@@ -64,11 +64,12 @@ class Recovery:
             return Result(False, Failure.HELD_BACK, refused)
         # a reboot resets the RAM area: what the handler had set there comes back afterwards
         kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
-        rebooted = self.bus.execute(Reboot(dxl_id))  # sent once (a late acknowledgement: rebooted all the same)
+        protocol = self.table.model(dxl_id).protocol
+        rebooted = self.bus.execute(Reboot(dxl_id, protocol))  # sent once (a late acknowledgement: rebooted all the same)
         if rebooted or self.bus.is_open:  # unacknowledged, it may be booting: wait for it all the same
             deadline = time.monotonic() + REBOOT_WAIT_S
             time.sleep(0.02)
-            while self.bus.execute(Ping(dxl_id, retries=0)).value is None:
+            while self.bus.execute(Ping(dxl_id, 0, protocol)).value is None:
                 if time.monotonic() > deadline:
                     self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
                     break
@@ -143,7 +144,7 @@ class Recovery:
         as it answers (``set_up_returned``)."""
         answered, silent = [], []
         for dxl_id in ids:
-            if self.bus.execute(Ping(dxl_id, retries=1)).value is None:
+            if self.bus.execute(Ping(dxl_id, 1, self.table.model(dxl_id).protocol)).value is None:
                 silent.append(dxl_id)
                 continue
             pos = self.table.index[dxl_id]

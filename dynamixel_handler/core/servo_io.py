@@ -7,9 +7,12 @@ from typing import Any
 from .. import units
 from ..bus import Failure, Result, ServoBus
 from ..bus.ops import Read, Write
+from ..control_table import Model
 from ..servos import ServoTable
 
 Log = logging.Logger | logging.LoggerAdapter[Any]
+#: the item that holds the mode (Protocol 1.0 servos: the Angle Limits stand for it)
+MODE = "operating_mode"
 
 
 class ServoIO:
@@ -19,13 +22,17 @@ class ServoIO:
         self.bus = bus
         self.table = table
         self.log = log
+        #: Joint Mode's Angle Limits of each Protocol 1.0 servo, as last seen in Joint Mode
+        self._joint: dict[int, tuple[int, int]] = {}
 
     def read_item(self, dxl_id: int, item: str) -> int | None:
         model = self.table.model(dxl_id)
+        if item == MODE and model.mode_select is not None:
+            return self._read_mode(dxl_id, model)
         if not model.has(item):
             return None
         spec = model.item(item)
-        data = self.bus.execute(Read(dxl_id, spec.address, spec.size)).value
+        data = self.bus.execute(Read(dxl_id, spec.address, spec.size, model.protocol)).value
         if data is None:
             return None
         value = int(units.decode(spec, data)[0])
@@ -35,15 +42,46 @@ class ServoIO:
     def write_item(self, dxl_id: int, item: str, pulses: int) -> Result[bool]:
         """Write one item of one servo (kept in the table when acknowledged): True, or False and why."""
         model = self.table.model(dxl_id)
+        if item == MODE and model.mode_select is not None:
+            return self._write_mode(dxl_id, model, pulses)
         if not model.has(item):
             return Result(False, Failure.NO_SUCH_ITEM, f"ID {dxl_id} ({model.name}) has no {item}")
         if item in model.hybrid_items and self.value(dxl_id, item) == pulses:
             return Result(True)  # Y's Hybrid area, stored when torque is off: not written again
         spec = model.item(item)
-        written = self.bus.execute(Write(dxl_id, spec.address, units.encode(spec, [pulses])))
+        written = self.bus.execute(Write(dxl_id, spec.address, units.encode(spec, [pulses]), model.protocol))
         if written:
             self.table.set_value(item, dxl_id, pulses)
         return written
+
+    def _read_mode(self, dxl_id: int, model: Model) -> int | None:
+        """The mode code of a servo whose mode the Angle Limits select (Protocol 1.0), kept in the
+        table as its ``operating_mode``."""
+        select = model.mode_select
+        assert select is not None
+        code = select.code({item: self.read_item(dxl_id, item) for item in select.items})
+        if code is not None:
+            self.table.set_value(MODE, dxl_id, code)
+            if model.mode_name(code) == "position":
+                self._joint[dxl_id] = (self.table.value("min_position_limit", dxl_id) or 0,
+                                       self.table.value("max_position_limit", dxl_id) or 0)
+        return code
+
+    def _write_mode(self, dxl_id: int, model: Model, code: int) -> Result[bool]:
+        """Switch a servo whose mode the Angle Limits select: the items its mode needs, Joint Mode's
+        limits as they were before it left it."""
+        select, mode = model.mode_select, model.mode_name(code)
+        assert select is not None
+        if mode is None:
+            return Result(False, Failure.NO_SUCH_ITEM, f"ID {dxl_id} ({model.name}) has no mode {code}")
+        if self.value(dxl_id, MODE) == model.mode_values.get("position"):
+            self._read_mode(dxl_id, model)  # the joint limits it has now, to come back to
+        for item, value in select.writes(mode, self._joint.get(dxl_id)).items():
+            written = self.write_item(dxl_id, item, value)
+            if not written:
+                return written
+        self.table.set_value(MODE, dxl_id, code)
+        return Result(True)
 
     def value(self, dxl_id: int, item: str) -> int | None:
         """The item's last known value, read from the servo when none is known."""
@@ -51,9 +89,9 @@ class ServoIO:
         return value if value is not None else self.read_item(dxl_id, item)
 
     def mode(self, dxl_id: int) -> str | None:
-        value = self.table.value("operating_mode", dxl_id)
+        value = self.table.value(MODE, dxl_id)
         if value is None:
-            value = self.read_item(dxl_id, "operating_mode")
+            value = self.read_item(dxl_id, MODE)
         return self.table.model(dxl_id).mode_name(value)
 
     def torque_on(self, dxl_id: int) -> Result[bool]:

@@ -7,36 +7,16 @@ from typing import Callable, Sequence
 
 from .. import error_state, units
 from ..bus import ServoBus, dummy_ids
-from ..bus.census import census
 from ..bus.ops import Ping
-from ..control_table import model_by_number
 from ..errors import Interrupted, StartupError
 from ..servos import ServoTable
 from ..settings import ScanSettings, StartValues
 from .deferred import Deferred
 from .log_limits import LogLimits
 from .recovery import Recovery
+from .scan import UNKNOWN_MODEL_HELP, Scan, Seen, lookup, none_handled
 from .servo_io import Log, ServoIO
 from .watchdog import Watchdog
-
-#: what a user can do about a model number the control table does not know
-UNKNOWN_MODEL_HELP = ("this version does not know that model (docs/models.md lists those it does); a newer "
-                      "release may, otherwise report the number with the output of `dynamixel_handler_setup scan`")
-
-
-def _name(number: int) -> str:
-    try:
-        return model_by_number(number).name
-    except KeyError:
-        return f"model {number}"
-
-
-def _known(number: int) -> bool:
-    try:
-        model_by_number(number)
-    except KeyError:
-        return False
-    return True
 
 
 @dataclass(frozen=True)
@@ -65,13 +45,14 @@ class Startup:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
         self.membership: dict[int, bool] | None = None
-        self._told_shared: set[int] = set()  # IDs said to be shared (once each)
+        self.scanning = Scan(bus, log, settings.scan, self._startup_problem, interrupted)
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
         dummies = dummy_ids(self.bus)
         expected = self.settings.scan.expected
-        found = self._scan(dummies, expected)
+        self.scanning.settings = self.settings.scan
+        found = self.scanning.scan(dummies, expected)
         self._keep(found, dummies)
         if expected > 0 and len(self.table) != expected:
             message = (f"handling {len(self.table)} servo(s) {list(self.table.ids)} on {self.bus.device}, but "
@@ -83,89 +64,31 @@ class Startup:
                 raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
             self.setup_servo(dxl_id)
 
-    def _enough(self, found: dict[int, int], dummies: Sequence[int], expected: int) -> bool:
-        return len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1
-
-    def _scan(self, dummies: Sequence[int], expected: int) -> dict[int, int]:
-        """Scan init/servo_auto_search (retry_times more times until enough servos answer):
-        {ID: model number}. Too few ends the start-up (``_startup_problem``)."""
-        lo, hi = self.settings.scan.min_id, self.settings.scan.max_id
-        attempts = self.settings.scan.retry_times + 1
-        found: dict[int, int] = {}
-        for attempt in range(attempts):
-            if self.interrupted():
-                raise Interrupted(f"start-up interrupted during the scan (attempt {attempt + 1}/{attempts})")
-            seen = census(self.bus, set(range(lo, hi + 1)) | set(dummies))
-            found.update(seen.found)
-            self._shared(seen.shared, found)
-            real = sorted(set(found) - set(dummies))
-            self.log.info(f"scan {attempt + 1}/{attempts} of IDs {lo}..{hi} on {self.bus.device} at "
-                          f"{self.bus.baudrate} bps: {len(real)} servo(s) {real}"
-                          + (f" + dummies {dummies}" if dummies else ""))
-            if self._enough(found, dummies, expected) or not self.bus.is_open:
-                break
-        if not self._enough(found, dummies, expected):
-            want = f"{expected}" if expected > 0 else "at least 1"
-            message = (f"found {len(found)} servo(s) on {self.bus.device} at {self.bus.baudrate} bps, expected "
-                       f"{want}: check power, wiring, IDs ({lo}..{hi}) and baudrate "
-                       "(init/baudrate_auto_set can find servos at other rates)")
-            self._startup_problem(message)
-        return found
-
-    def _shared(self, shared: dict[int, int | None], found: dict[int, int]) -> None:
-        """IDs two or more servos answer at: one line each, and not handled (a command to one would
-        move all of them, and their replies garble every read)."""
-        for dxl_id, number in sorted(shared.items()):
-            found.pop(dxl_id, None)
-            if dxl_id in self._told_shared:
-                continue
-            self._told_shared.add(dxl_id)
-            which = f" (one of them a {_name(number)})" if number is not None else ""
-            self.log.error(f"ID {dxl_id}: two or more servos answer at this ID{which}, their replies collide: not "
-                           "handled. Give each its own ID: connect them one at a time and run "
-                           "`dynamixel_handler_setup assign-ids` (docs/setup_tool.md)")
-
-    def _keep(self, found: dict[int, int], dummies: Sequence[int]) -> None:
+    def _keep(self, found: dict[int, Seen], dummies: Sequence[int]) -> None:
         """Put the servos found that are known models of a used series (or dummies) in the table."""
         used = set(self.settings.scan.used_series)
-        for dxl_id, number in sorted(found.items()):
-            try:
-                model = model_by_number(number)
-            except KeyError:
-                self.log.warning(f"ID {dxl_id}: unknown model number {number}, not handled: {UNKNOWN_MODEL_HELP}")
+        for dxl_id, seen in sorted(found.items()):
+            model = lookup(seen)
+            if model is None:
+                self.log.warning(f"ID {dxl_id}: unknown model number {seen[1]}"
+                                 f"{' (Protocol 1.0)' if seen[0] == 1 else ''}, not handled: {UNKNOWN_MODEL_HELP}")
                 continue
             if model.series not in used and dxl_id not in dummies:
                 self.log.info(f"ID {dxl_id}: {model.name} is series {model.series}, which "
                               f"init/used_servo_series does not enable: skipped")
                 continue
             self.table.add(dxl_id, model)
-            kind = "dummy" if dxl_id in dummies else f"model {number}"
-            self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}) handled")
+            kind = "dummy" if dxl_id in dummies else f"model {seen[1]}"
+            self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}"
+                          f"{', Protocol 1.0' if model.protocol == 1 else ''}) handled")
         if not len(self.table) and found and not self.settings.debug:
-            if not any(_known(number) for number in found.values()):
-                raise StartupError(f"no servo of a known model among IDs {sorted(found)} (model numbers "
-                                   f"{sorted(set(found.values()))}): {UNKNOWN_MODEL_HELP}")
-            raise StartupError(f"no servo of the used series ({'/'.join(sorted(used))}) among IDs "
-                               f"{sorted(found)}: enable their series in init/used_servo_series")
+            none_handled(found, used)
 
     def _startup_problem(self, message: str) -> None:
         """Start-up cannot go on (StartupError), unless the debug parameter says to run on anyway."""
         if not self.settings.debug:
             raise StartupError(message)
         self.log.warning(message + " (debug: running on)")
-
-    def _usable(self, found: dict[int, int], dummies: Sequence[int]) -> list[int]:
-        """IDs among ``found`` that would be handled: known model of a used series, or a dummy."""
-        used = set(self.settings.scan.used_series)
-        out = []
-        for dxl_id, number in found.items():
-            try:
-                series = model_by_number(number).series
-            except KeyError:
-                continue
-            if series in used or dxl_id in dummies:
-                out.append(dxl_id)
-        return out
 
     def setup_servo(self, dxl_id: int) -> None:
         """The set-up every servo gets, at start-up and when added later (add_id): hardware error
@@ -250,15 +173,20 @@ class Startup:
                 self.add_id(dxl_id)
 
     def add_id(self, dxl_id: int) -> bool:
-        """Ping ``dxl_id`` and handle it if it answers with a model of a used series."""
+        """Ping ``dxl_id`` and handle it if it answers with a model of a used series (in Protocol
+        1.0 too where a Protocol 1.0 family is used)."""
+        seen: Seen | None = None
         number = self.bus.execute(Ping(dxl_id)).value
-        if number is None:
+        if number is not None:
+            seen = (2, number)
+        elif self.scanning.protocol1():
+            seen = self.scanning.ping1([dxl_id]).get(dxl_id)
+        if seen is None:
             self.limited(logging.WARNING, f"ID {dxl_id}: no answer to ping, not added", f"not added {dxl_id}")
             return False
-        try:
-            model = model_by_number(number)
-        except KeyError:
-            self.limited(logging.WARNING, f"ID {dxl_id}: unknown model number {number}, not added", f"not added {dxl_id}")
+        model = lookup(seen)
+        if model is None:
+            self.limited(logging.WARNING, f"ID {dxl_id}: unknown model number {seen[1]}, not added", f"not added {dxl_id}")
             return False
         if model.series not in self.settings.scan.used_series:
             self.limited(logging.WARNING, f"ID {dxl_id}: {model.name} is series {model.series}, not enabled in "

@@ -143,7 +143,8 @@ class Step:
         live = self.table.ping.copy()
         if items:
             for read in self.reads.plan(items, live):
-                report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, fast=read.fast), None])
+                report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, read.fast,
+                                                                    read.protocol), None])
             self.pacing.note_reads_sent()
         # servos that stopped answering are pinged now and then, not read every loop
         if report.loop % self.settings.recheck_loops == 0:
@@ -180,7 +181,7 @@ class Step:
                 mark(answered, data)
         for dxl_id in report.recheck:
             mark(addressed, [dxl_id])
-            if dxl_id in index and self.bus.execute(Ping(dxl_id, retries=0)).value is not None:
+            if dxl_id in index and self.bus.execute(Ping(dxl_id, 0, table.model(dxl_id).protocol)).value is not None:
                 mark(answered, [dxl_id])
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
         self.recovery.update_ping(addressed, answered)

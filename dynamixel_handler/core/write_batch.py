@@ -8,6 +8,9 @@ from ..logs import Throttle
 from ..servos import PendingWrites, ServoTable
 from .servo_io import Log
 
+#: one sync write: (address, size, protocol)
+WriteKey = tuple[int, int, int]
+
 
 class WriteBatch:
     """The pending values as prepared sync writes; nothing taken is lost when a loop fails.
@@ -23,7 +26,7 @@ class WriteBatch:
         # writes taken from ``pending`` but not sent yet (encode_writes): {(address, size): {id: bytes}}
         # per item, and their packets, built for ServoTable.version ``_built_for``. Kept here, not in a
         # StepReport, so that a loop that fails between taking and sending them loses nothing.
-        self._taken: dict[tuple[int, int], dict[int, bytes]] = {}
+        self._taken: dict[WriteKey, dict[int, bytes]] = {}
         self._prepared: list[PreparedWrite] = []
         self._built_for = -1
         #: failed sync writes: one line a second per item and reason (a vanished device fails every loop's)
@@ -66,18 +69,18 @@ class WriteBatch:
                   if (kept := {i: chunk for i, chunk in data.items() if i in index})}
         if not self.split_write:
             writes = _merge_adjacent_writes(writes)
-        self._prepared = [self.bus.prepare_sync_write(address, size, data)
-                          for (address, size), data in sorted(writes.items())]
+        self._prepared = [self.bus.prepare_sync_write(address, size, data, protocol)
+                          for (address, size, protocol), data in sorted(writes.items())]
         self._built_for = self.table.version
 
-    def _encode_pending(self) -> dict[tuple[int, int], dict[int, bytes]]:
-        """The pending values as one sync write per item ``{(address, size): {id: bytes}}``; the
-        table takes them."""
+    def _encode_pending(self) -> dict[WriteKey, dict[int, bytes]]:
+        """The pending values as one sync write per item and protocol ``{(address, size, protocol):
+        {id: bytes}}``; the table takes them."""
         pending = self.pending.take()
         if not pending or not len(self.table):
             return {}
         # (address, size) -> {item: {id: pulses}}: one sync write per item and layout
-        writes: dict[tuple[int, int], dict[int, bytes]] = {}
+        writes: dict[WriteKey, dict[int, bytes]] = {}
         index = self.table.index
         for item, values in pending.items():
             positions, written = [], []
@@ -85,7 +88,8 @@ class WriteBatch:
                 pos = index.get(dxl_id)
                 if pos is None:
                     continue
-                spec = self.table.models[pos].items.get(item)
+                model = self.table.models[pos]
+                spec = model.items.get(item)
                 if spec is None:
                     continue
                 try:
@@ -93,7 +97,7 @@ class WriteBatch:
                 except OverflowError:
                     self.log.error(f"ID {dxl_id}: {item}={pulses} does not fit its {spec.size} bytes: not written")
                     continue
-                writes.setdefault((spec.address, spec.size), {})[dxl_id] = data
+                writes.setdefault((spec.address, spec.size, model.protocol), {})[dxl_id] = data
                 positions.append(pos)
                 written.append(pulses)
             if positions:
@@ -104,17 +108,18 @@ class WriteBatch:
 
 
 
-def _merge_adjacent_writes(writes: dict[tuple[int, int], dict[int, bytes]]) -> dict[tuple[int, int], dict[int, bytes]]:
-    """Join writes of back-to-back items that go to the same IDs into one sync write."""
-    merged: dict[tuple[int, int], dict[int, bytes]] = {}
-    last: tuple[int, int] | None = None
-    for (address, size), data in sorted(writes.items()):
-        if last is not None and last[0] + last[1] == address and set(merged[last]) == set(data):
+def _merge_adjacent_writes(writes: dict[WriteKey, dict[int, bytes]]) -> dict[WriteKey, dict[int, bytes]]:
+    """Join writes of back-to-back items that go to the same IDs (of one protocol) into one sync write."""
+    merged: dict[WriteKey, dict[int, bytes]] = {}
+    last: WriteKey | None = None
+    for (address, size, protocol), data in sorted(writes.items(), key=lambda kv: (kv[0][2], kv[0][0])):
+        if (last is not None and last[2] == protocol and last[0] + last[1] == address
+                and set(merged[last]) == set(data)):
             joined = {i: merged[last][i] + data[i] for i in data}
             del merged[last]
-            last = (last[0], last[1] + size)
+            last = (last[0], last[1] + size, protocol)
             merged[last] = joined
         else:
-            last = (address, size)
+            last = (address, size, protocol)
             merged[last] = dict(data)
     return merged

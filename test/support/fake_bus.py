@@ -15,7 +15,7 @@ from dynamixel_handler.bus import GroupRead, PreparedWrite
 from dynamixel_handler.bus.ops import Ping, Read, Reboot, SyncRead, Write
 from dynamixel_handler.bus.result import Failure, Result
 from dynamixel_handler.bus.stats import BusStats
-from dynamixel_handler.control_table import Model, model_by_number
+from dynamixel_handler.control_table import Model, model_by_number, protocol1_model_by_number
 from dynamixel_handler.servos import ServoTable
 
 XM430, XM540, PH54, H54 = 1020, 1130, 2020, 54024
@@ -33,9 +33,12 @@ class FakeBus:
     ``("reboot", id)``, ``("sync_read", address, length, ids, fast)``,
     ``("sync_write", address, length, {id: data})``."""
 
-    def __init__(self, servos: Mapping[int, int], baudrate: int = 57600, latency_timer_ms: float = 1.0) -> None:
+    def __init__(self, servos: Mapping[int, int], baudrate: int = 57600, latency_timer_ms: float = 1.0,
+                 protocol1: Mapping[int, int] | None = None) -> None:
         self.models: dict[int, Model] = {i: model_by_number(n) for i, n in servos.items()}
-        self.memory = {i: bytearray(MEMORY) for i in servos}
+        #: Protocol 1.0 servos ``{ID: model number}``: they answer Protocol 1.0 instructions only
+        self.models.update({i: protocol1_model_by_number(n) for i, n in (protocol1 or {}).items()})
+        self.memory = {i: bytearray(MEMORY) for i in self.models}
         self.baudrate = baudrate
         self.latency_timer_ms = latency_timer_ms
         self.device = "fake"
@@ -89,8 +92,9 @@ class FakeBus:
         return None
 
     # ---------------------------------------------------------------- ServoBus
-    def _answers(self, dxl_id: int) -> bool:
-        return self.is_open and dxl_id in self.memory and dxl_id not in self.silent
+    def _answers(self, dxl_id: int, protocol: int = 2) -> bool:
+        return (self.is_open and dxl_id in self.memory and dxl_id not in self.silent
+                and self.models[dxl_id].protocol == protocol)
 
     def open(self) -> None:
         self.is_open = True
@@ -114,28 +118,28 @@ class FakeBus:
             return Result(data) if data or not op.ids else Result(data, Failure.NOBODY_ANSWERED, "no servo answered")
         dxl_id = op.dxl_id
         if kind is Ping:
-            self.calls.append(("ping", dxl_id))
-            return Result(self.models[dxl_id].number) if self._answers(dxl_id) else _no_reply(None)
+            self.calls.append(("ping", dxl_id) if op.protocol == 2 else ("ping1", dxl_id))
+            return Result(self.models[dxl_id].number) if self._answers(dxl_id, op.protocol) else _no_reply(None)
         if kind is Read:
             self.calls.append(("read", dxl_id, op.address, op.size))
-            if not self._answers(dxl_id):
+            if not self._answers(dxl_id, op.protocol):
                 return _no_reply(None)
             return Result(bytes(self.memory[dxl_id][op.address:op.address + op.size]))
         if kind is Write:
             self.calls.append(("write", dxl_id, op.address, op.data))
-            if not self._answers(dxl_id):
+            if not self._answers(dxl_id, op.protocol):
                 return _no_reply(False)
             self.memory[dxl_id][op.address:op.address + len(op.data)] = op.data
             return Result(True)
         if kind is Reboot:
             self.calls.append(("reboot", dxl_id))
-            return Result(True) if self._answers(dxl_id) else _no_reply(False)
+            return Result(True) if self._answers(dxl_id, op.protocol) else _no_reply(False)
         raise AssertionError(f"the fake bus does not take {op!r}")
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         ids = list(ids)
         self.calls.append(("scan", tuple(ids)))
-        return {i: self.models[i].number for i in ids if self._answers(i)}
+        return {i: self.models[i].number for i in ids if self._answers(i)}  # a broadcast ping: Protocol 2.0
 
     def _sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
         ids = tuple(ids)
@@ -149,7 +153,8 @@ class FakeBus:
             out[dxl_id] = bytes(self.memory[dxl_id][address:address + length])
         return out
 
-    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> GroupRead:
+    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
+                        protocol: int = 2) -> GroupRead:
         return GroupRead.finished(self._sync_read(address, length, ids, fast))
 
     def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:

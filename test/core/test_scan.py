@@ -1,0 +1,54 @@
+"""The start-up scan (``core/scan.py``) on its own over a fake bus: the ID range asked, Protocol 1.0
+servos pinged ID by ID where a Protocol 1.0 family is used, and, where none is and too few servos
+answer, the Protocol 1.0 servos that do answer named with the parameter that drives them."""
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from dynamixel_handler.core.scan import Scan, lookup
+from dynamixel_handler.errors import StartupError
+from dynamixel_handler.settings import ScanSettings
+
+from support.fake_bus import XM430, FakeBus
+from support.parts import lines_of
+
+AX12A, MX28 = 12, 29
+
+
+def problem(message: str) -> None:
+    raise StartupError(message)
+
+
+def scan(bus: FakeBus, name: str, **settings) -> tuple[Scan, list[str]]:
+    log, lines = lines_of(f"test_scan.{name}", logging.INFO)
+    return Scan(bus, log, ScanSettings(min_id=1, max_id=6, **settings), problem, lambda: False), lines
+
+
+def test_protocol1_servos_are_pinged_id_by_id_where_their_family_is_used():
+    bus = FakeBus({1: XM430}, protocol1={4: AX12A, 5: MX28})
+    part, lines = scan(bus, "used", used_series=("X", "AX", "MX1"))
+    found = part.scan([], expected=3)
+    assert found == {1: (2, XM430), 4: (1, AX12A), 5: (1, MX28)}
+    assert bus.of("scan") == [("scan", (1, 2, 3, 4, 5, 6))]
+    assert [c[1] for c in bus.of("ping1")] == [2, 3, 4, 5, 6]     # the IDs the broadcast ping left
+    assert lookup(found[4]).name == "AX-12A" and lookup(found[4]).protocol == 1
+    assert lookup((2, 9999)) is None
+
+
+def test_without_a_protocol1_family_no_protocol1_ping_is_sent_while_enough_answer():
+    bus = FakeBus({1: XM430}, protocol1={4: AX12A})
+    part, _ = scan(bus, "unused", used_series=("X",))
+    assert part.scan([], expected=1) == {1: (2, XM430)}
+    assert not bus.of("ping1")
+
+
+def test_too_few_servos_names_the_protocol1_ones_and_their_parameter():
+    bus = FakeBus({1: XM430}, protocol1={4: AX12A, 5: AX12A, 6: MX28})
+    part, lines = scan(bus, "explain", used_series=("X",))
+    with pytest.raises(StartupError, match="found 1 servo"):
+        part.scan([], expected=4)
+    assert ("ID 4 AX-12A, ID 5 AX-12A: answer(s) Protocol 1.0, family AX, which init/used_servo_series does not "
+            "enable: set init/used_servo_series.AX true to drive them") in lines
+    assert any("ID 6 MX-28" in line and "init/used_servo_series.MX1 true" in line for line in lines)

@@ -1,0 +1,82 @@
+"""Protocol 1.0 servos (AX-12A, MX-28 and MX-64 with the 1.0 firmware) beside a Protocol 2.0 one
+on one bus, through the real node on the virtual bus, driven through the series-independent topics.
+
+The expected registers are written out from the e-Manual's AX-12A and MX pages (not taken from the
+product's tables): AX positions 0..1023 over 300 deg with 512 in the middle, MX 0..4095 over a turn
+with 2048 in the middle; Moving Speed 0.111 rpm a unit (AX), 0.114 rpm (MX), bit 10 the direction
+(set: clockwise, negative here); Wheel Mode = both Angle Limits (6, 8) 0, multi-turn = both 4095.
+"""
+from __future__ import annotations
+
+import pytest
+
+from dynamixel_handler_msgs.msg import DynamixelGoal, DynamixelStatus
+
+from support.rig import Rig
+
+AX12A, MX28, MX64, XM430 = 12, 29, 310, 1020
+AX, MX, MX_64, X = 4, 5, 6, 1
+AX_DEG, MX_DEG = 300.0 / 1023.0, 360.0 / 4096.0
+AX_DEG_S, MX_DEG_S = 0.111 * 6.0, 0.114 * 6.0
+CW = 1 << 10
+
+
+@pytest.fixture(scope="module")
+def rig():
+    r = Rig({X: XM430, AX: AX12A, MX: MX28, MX_64: MX64}, "baudrate:=1000000", "init/used_servo_series.AX:=true",
+            "init/used_servo_series.MX1:=true", "mode_change_interval_sec:=0.0", "pub_ratio/status:=3",
+            "pub_ratio/goal:=3", "pub_ratio/extra.static_items:=3",
+            sim_kwargs={"baudrate": 1_000_000})
+    yield r
+    assert r.close() == 0
+
+
+def servo(rig: Rig, dxl_id: int):
+    return rig.sim.servos_at(dxl_id)[0]
+
+
+def wait_items(rig: Rig, dxl_id: int, expected: dict[str, int]) -> None:
+    def now() -> dict[str, int]:
+        return {name: servo(rig, dxl_id).read(name) for name in expected}
+    try:
+        rig.wait(lambda: now() == expected, what=f"ID {dxl_id} items {expected}")
+    except AssertionError:
+        assert now() == expected
+
+
+def test_each_is_handled_beside_the_protocol2_servo(rig):
+    for dxl_id, name in ((AX, "AX-12A"), (MX, "MX-28"), (MX_64, "MX-64")):
+        assert f"ID {dxl_id}: {name}" in rig.output and "Protocol 1.0) handled" in rig.output, rig.output
+        rig.wait(lambda i=dxl_id: rig.state_of("status", "mode", i) == "position", what=f"status of ID {dxl_id}")
+        assert servo(rig, dxl_id).read("torque_enable") == 1          # torque on, as init/torque_auto_enable says
+    assert rig.state_of("status", "mode", X) == "position"
+
+
+@pytest.mark.parametrize("dxl_id, deg_per_pulse, zero", [(AX, AX_DEG, 512), (MX, MX_DEG, 2048)])
+def test_a_goal_in_degrees_is_written_and_reached(rig, dxl_id, deg_per_pulse, zero):
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[30.0]))
+    wait_items(rig, dxl_id, {"goal_position": zero + round(30.0 / deg_per_pulse)})
+    rig.wait(lambda: abs((rig.state_of("present", "position_deg", dxl_id) or 0.0) - 30.0) < 2.0,
+             what=f"ID {dxl_id} at 30 deg", timeout=15.0)
+
+
+def test_wheel_mode_and_back_keeps_the_joint_limits(rig):
+    servo(rig, AX).write("max_position_limit", 1000)       # an owner's joint range
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[AX], mode=["position"]))  # reads it again
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[AX], mode=["velocity"]))
+    wait_items(rig, AX, {"min_position_limit": 0, "max_position_limit": 0})
+    rig.wait(lambda: rig.state_of("status", "mode", AX) == "velocity", what="AX in wheel mode")
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[AX], velocity_deg_s=[-20.0]))
+    wait_items(rig, AX, {"goal_velocity": -round(20.0 / AX_DEG_S)})     # the virtual servo reads bit 10 as the sign
+    raw = servo(rig, AX).host_read(32, 2)[1]                                  # Moving Speed as on the wire
+    assert int.from_bytes(raw, "little") == CW + round(20.0 / AX_DEG_S)
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[AX], mode=["position"]))
+    wait_items(rig, AX, {"min_position_limit": 0, "max_position_limit": 1000})
+    rig.wait(lambda: rig.state_of("status", "mode", AX) == "position", what="AX in joint mode again")
+
+
+def test_multi_turn_on_the_mx(rig):
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[MX], mode=["ex_position"]))
+    wait_items(rig, MX, {"min_position_limit": 4095, "max_position_limit": 4095})
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[MX], position_deg=[540.0]))
+    wait_items(rig, MX, {"goal_position": 2048 + round(540.0 / MX_DEG)})
