@@ -20,7 +20,7 @@ __all__ = ["backup"]
 def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
     model = servo.model
     lines = [f"  {servo.dxl_id}:", f"    model: {model.name}", f"    model_number: {model.number}",
-             f"    baudrate: {servo.bus.baudrate}"]
+             f"    baudrate: {servo.bus.baudrate}", f"    protocol: {servo.protocol}"]
     if firmware is not None:
         lines.append(f"    firmware: {firmware}")
     lines.append("    eeprom:")

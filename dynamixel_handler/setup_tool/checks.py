@@ -138,9 +138,6 @@ def _one(model: Model, item: Item, raw: int, now: Mapping[str, int], dxl_id: int
     if not lo <= raw <= hi:
         return [Problem(name, f"{name} = {_shown(model, name, raw)} is outside what the e-Manual gives {model.name}: "
                               f"{_shown(model, name, lo)} .. {_shown(model, name, hi)}")]
-    if name == "protocol_type" and raw != 2:
-        return [Problem(name, "protocol_type 1 makes it answer Protocol 1.0 only, where this tool cannot reach it "
-                              "yet to write 2 back (a one-way door)")]
     danger = _danger(model, item, raw, now, others - {dxl_id})
     return [Problem(name, danger, forcible=True)] if danger else []
 

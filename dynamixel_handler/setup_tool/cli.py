@@ -11,6 +11,7 @@ import sys
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus
+from ..control_table import protocol1_models
 from . import backup, monitor, plot, restore, trace, verbs_bus, verbs_config, verbs_many
 from .checks import cut
 from .context import Context
@@ -112,6 +113,21 @@ def baud(text: str) -> int:
     return value
 
 
+def new_baud(text: str) -> int:
+    """A rate for ``set-baud``: a Dynamixel rate the bus opens, or one of a Protocol 1.0 baud table
+    (500,000 bps on an AX: refused by ``set-baud`` with why, rather than as no baud rate at all)."""
+    try:
+        return baud(text)
+    except argparse.ArgumentTypeError:
+        try:
+            value = int(float(text.lower().replace("m", "e6").replace("k", "e3")))
+        except (ValueError, OverflowError):
+            value = -1
+        if value in {bps for m in protocol1_models() for bps in m.baud_rates.values()}:
+            return value
+        raise
+
+
 def parse_rates(text: str) -> list[int]:
     """``all`` or ``57600,1000000`` (``1M`` works too)."""
     if text.strip().lower() == "all":
@@ -140,6 +156,10 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                         "a reversed direction, a Secondary ID another servo has)")
     g.add_argument("--raw", action="store_true", default=default(False),
                    help="set: the value is the register value, not a value in the item's unit")
+    g.add_argument("--protocol", choices=("2", "1", "both"), default=default(None),
+                   help="the protocols servos are looked for in: scan looks in both unless told; other verbs look for "
+                        "an ID in both (2.0 first) and for every servo (no IDs, all) in 2.0 unless told (Protocol 1.0 "
+                        "has no broadcast ping: each ID is pinged, about 3 s a rate)")
     g.add_argument("--json", action="store_true", default=default(False), help="one JSON document on stdout")
     g.add_argument("--latency", type=_at_most(_positive(float), 255, " ms (an adapter's latency timer: 1..255)"),
                    default=default(4.0), metavar="MS",
@@ -161,7 +181,6 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
     p = verb("scan", verbs_bus.scan, "find every servo: all baud rates and IDs, Protocol 2.0 and 1.0")
     p.add_argument("--ids", type=parse_ids, default=list(range(253)), metavar="RANGE", help="IDs (default 0-252)")
-    p.add_argument("--protocol", choices=("2", "1", "both"), default="both", help="protocols to look for")
     p = verb("info", verbs_config.info, "every control-table item of a servo, in units and raw")
     p.add_argument("id", type=servo_id)
     p.add_argument("--all", action="store_true", help="also the indirect address and data entries")
@@ -180,7 +199,7 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("new", type=servo_id)
     p = verb("set-baud", verbs_config.set_baud, "give a servo another baud rate and find it there")
     p.add_argument("id", type=servo_id)
-    p.add_argument("bps", type=baud)
+    p.add_argument("bps", type=new_baud)
     p = verb("set-mode", verbs_many.one_or_many(verbs_config.set_mode, verbs_many.mode_many),
              "operating mode: current, velocity, position, ex_position, "
              "cur_position, pwm or a register value (of several servos: 1,2,5, one sync write)")
@@ -277,7 +296,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             _plot(out, args)
         else:
             bus = _open(args, rate)
-            args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw), args)
+            args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw,
+                              protocols=args.protocol), args)
     except StepFailed as exc:
         out.error(str(exc))
         out.document["error"] = str(exc)

@@ -30,11 +30,13 @@ class Context:
     force: bool = False
     #: ``--raw``: values are register values (else a value of an item with a unit needs its unit)
     raw: bool = False
+    #: ``--protocol``: "2", "1" or "both" (None: an ID is looked for in both, every servo in 2.0)
+    protocols: str | None = None
     #: the one search every verb uses (``--baud`` given: that rate only; else every rate)
     search: Search = field(init=False)
 
     def __post_init__(self) -> None:
-        self.search = Search(self.bus, self.baud_given)
+        self.search = Search(self.bus, self.baud_given, self.protocols)
 
     def servo(self, dxl_id: int) -> Servo:
         """The servo at ``dxl_id`` (at any rate unless ``--baud``), the bus at its rate. The JSON

@@ -1,7 +1,12 @@
 """The one search every verb uses to find its servos: at the ``--baud`` rate when it is given, else
 at every rate (the bus's first, then where unboxed and set-up servos usually are). A list of IDs
 comes back as the servos found (each with its rate) and the IDs that answer nowhere, so a verb can
-do its work on the ones there and name each missing one; no list means every servo on the bus."""
+do its work on the ones there and name each missing one; no list means every servo on the bus.
+
+Both protocols: an ID asked for is pinged in Protocol 2.0 and, where none answers, in Protocol 1.0
+(at the rates a Protocol 1.0 servo can be at); the search for every servo looks in Protocol 2.0 (one
+broadcast ping per rate) and in Protocol 1.0 only when ``--protocol 1`` or ``both`` asks for it (a
+Protocol 1.0 servo has no broadcast ping: each of the 253 IDs is pinged, about 3 s a rate)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -9,9 +14,8 @@ from typing import Sequence
 
 from ..bus import BusError, DynamixelBus
 from ..bus.ops import Ping
-from ..control_table import model_by_number
 from .errors import StepFailed
-from .protocol1 import model_name1, ping1
+from .protocol1 import model_for, ping1, rates1
 from .servo import SEARCH_ORDER, Servo
 
 __all__ = ["Placed", "Search", "Found"]
@@ -47,23 +51,32 @@ class Found:
         return f"ID {dxl_id}: no servo answers at {where}"
 
 
-def _servo(bus: DynamixelBus, dxl_id: int, number: int) -> Servo:
-    """The servo whose ping gave model ``number``; StepFailed when the control table lacks it."""
+def _servo(bus: DynamixelBus, dxl_id: int, number: int, protocol: int = 2) -> Servo:
+    """The servo whose ping in ``protocol`` gave model ``number``; StepFailed when the control table
+    lacks it."""
     try:
-        return Servo(bus, dxl_id, model_by_number(number))
+        return Servo(bus, dxl_id, model_for(number, protocol), protocol)
     except KeyError:
-        raise StepFailed(f"ID {dxl_id}: model number {number} is not in the control table; "
+        raise StepFailed(f"ID {dxl_id}: model number {number} (Protocol {protocol}.0) is not in the control table; "
                          "the tool only sets up models the handler knows") from None
 
 
-class Search:
-    """Finding servos on ``bus``: at its rate only when ``baud_given``, else at every rate."""
+#: ID -> (rate, model number, protocol)
+Where = dict[int, tuple[int, int, int]]
 
-    def __init__(self, bus: DynamixelBus, baud_given: bool) -> None:
+
+class Search:
+    """Finding servos on ``bus``: at its rate only when ``baud_given``, else at every rate;
+    ``protocols``: where the search for every servo looks ("2", "1", "both"; None: Protocol 2.0)."""
+
+    def __init__(self, bus: DynamixelBus, baud_given: bool, protocols: str | None = None) -> None:
         self.bus = bus
         self.baud_given = baud_given
         #: the rate the bus was opened at (``--baud``, or 57600): looked at first
         self.first = bus.baudrate
+        #: the protocols an ID asked for is pinged in, and those the search for every servo uses
+        self.for_ids = {"2": (2,), "1": (1,)}.get(protocols or "", (2, 1))
+        self.for_all = {"1": (1,), "both": (2, 1)}.get(protocols or "", (2,))
 
     def rates(self) -> list[int]:
         if self.baud_given:
@@ -77,7 +90,17 @@ class Search:
             return False
         return True
 
-    def _answering(self, ids: Sequence[int]) -> dict[int, int]:
+    def _answering(self, ids: Sequence[int], protocols: Sequence[int]) -> dict[int, tuple[int, int]]:
+        """ID -> (model number, protocol) of those of ``ids`` that answer at the bus's rate."""
+        answered = {i: (n, 2) for i, n in self._answering2(ids).items()} if 2 in protocols else {}
+        if 1 in protocols and self.bus.baudrate in rates1():
+            for dxl_id in (i for i in ids if i not in answered):
+                got = ping1(self.bus, dxl_id, retries=0 if len(ids) >= _BROADCAST_FROM else 1)
+                if got is not None:
+                    answered[dxl_id] = (got[0], 1)
+        return answered
+
+    def _answering2(self, ids: Sequence[int]) -> dict[int, int]:
         if len(ids) >= _BROADCAST_FROM:
             return self.bus.scan(ids, broadcast=True)
         answered = {}
@@ -87,19 +110,19 @@ class Search:
                 answered[dxl_id] = model
         return answered
 
-    def _where(self, wanted: list[int], every: bool, rates: list[int]) -> dict[int, tuple[int, int]]:
-        """ID -> (the rate it answers at, its model number); every rate is looked at when ``every``
-        (else only until each wanted ID answered)."""
-        where: dict[int, tuple[int, int]] = {}
+    def _where(self, wanted: list[int], every: bool, rates: list[int], protocols: Sequence[int] = (2, 1)) -> Where:
+        """ID -> (the rate it answers at, its model number, protocol); every rate is looked at when
+        ``every`` (else only until each wanted ID answered)."""
+        where: Where = {}
         for bps in rates:
             rest = wanted if every else [i for i in wanted if i not in where]
             if not rest or not self._at(bps):
                 continue
-            for dxl_id, number in self._answering(rest).items():
+            for dxl_id, (number, protocol) in self._answering(rest, protocols).items():
                 if dxl_id in where:
                     raise StepFailed(f"ID {dxl_id} answers at {where[dxl_id][0]} and at {bps} bps: two servos share "
                                      "it; give --baud to choose one, or give one of them another ID")
-                where[dxl_id] = (bps, number)
+                where[dxl_id] = (bps, number, protocol)
         return where
 
     def find(self, ids: Sequence[int] | None) -> Found:
@@ -107,9 +130,9 @@ class Search:
         two rates is refused with both named (two servos share it: which one is meant?)."""
         wanted = list(range(253)) if ids is None else sorted(set(ids))
         result = Found(rates=self.rates())
-        where = self._where(wanted, ids is None, result.rates)
-        for dxl_id, (bps, number) in sorted(where.items()):
-            result.placed.append(Placed(_servo(self.bus, dxl_id, number), bps))
+        where = self._where(wanted, ids is None, result.rates, self.for_all if ids is None else self.for_ids)
+        for dxl_id, (bps, number, protocol) in sorted(where.items()):
+            result.placed.append(Placed(_servo(self.bus, dxl_id, number, protocol), bps))
         result.missing = [i for i in wanted if i not in where] if ids is not None else []
         self._at(result.placed[0].baudrate if result.placed else self.first)
         return result
@@ -120,24 +143,26 @@ class Search:
         table lacks is left out."""
         before = self.bus.baudrate
         try:
-            where = self._where(sorted(set(ids)), False, list(rates))
+            where = self._where(sorted(set(ids)), False, list(rates), self.for_ids)
         finally:
             self._at(before)
         placed = []
-        for dxl_id, (bps, number) in sorted(where.items()):
+        for dxl_id, (bps, number, protocol) in sorted(where.items()):
             try:
-                placed.append(Placed(_servo(self.bus, dxl_id, number), bps))
+                placed.append(Placed(_servo(self.bus, dxl_id, number, protocol), bps))
             except StepFailed:
                 continue
         return placed
 
-    def everywhere(self) -> list[tuple[int, int, int]]:
+    def everywhere(self, protocol1: bool = False) -> list[tuple[int, int, int]]:
         """(ID, rate, model number) of every servo answering at every rate looked at, one ID at
-        two rates listed twice (restore looks there for a replacement); the bus at the first rate."""
+        two rates listed twice (restore looks there for a replacement); the bus at the first rate.
+        ``protocol1``: Protocol 1.0 servos too (an ID answering both is listed once, in 2.0)."""
         seen = []
         for bps in self.rates():
             if self._at(bps):
-                seen += [(dxl_id, bps, number) for dxl_id, number in self.bus.scan(range(253), broadcast=True).items()]
+                seen += [(dxl_id, bps, number) for dxl_id, (number, _) in
+                         self._answering(range(253), (2, 1) if protocol1 else (2,)).items()]
         self._at(self.first)
         return seen
 
@@ -145,24 +170,9 @@ class Search:
         """The servo at ``dxl_id``, the bus left at its rate; StepFailed when it answers nowhere."""
         found = self.find([dxl_id])
         if not found.placed:
-            raise StepFailed(found.why_missing(dxl_id) + self._protocol1(dxl_id, found.rates))
+            raise StepFailed(found.why_missing(dxl_id))
         self._at(found.placed[0].baudrate)
         return found.placed[0].servo
-
-    def _protocol1(self, dxl_id: int, rates: Sequence[int]) -> str:
-        """What to add when ``dxl_id`` answers Protocol 1.0 at one of ``rates`` ("" when it does not)."""
-        for bps in rates:
-            got = ping1(self.bus, dxl_id) if self._at(bps) else None
-            if got is not None:
-                self._at(self.first)
-                try:
-                    name = model_by_number(got[0]).name + " set to Protocol Type 1"
-                except KeyError:
-                    name = model_name1(got[0])
-                return (f"; it answers Protocol 1.0 at {bps} bps ({name}): this tool cannot read or write it yet "
-                        "(scan says how to bring it to Protocol 2.0)")
-        self._at(self.first)
-        return ""
 
     def every(self) -> Found:
         """Every servo on the bus; StepFailed when none answers."""
@@ -170,5 +180,7 @@ class Search:
         if not found.placed:
             rates = found.rates
             where = f"{rates[0]} bps" if len(rates) == 1 else "any baud rate"
-            raise StepFailed(f"no servo answers at {where} on {self.bus.device}")
+            hint = "" if 1 in self.for_all else (" in Protocol 2.0 (Protocol 1.0 servos: give their IDs, or --protocol "
+                                                 "both to ping every ID in Protocol 1.0 too)")
+            raise StepFailed(f"no servo answers at {where} on {self.bus.device}{hint}")
         return found

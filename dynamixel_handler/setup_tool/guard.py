@@ -12,6 +12,7 @@ from ..control_table import Item
 from .checks import check, needed
 from .context import Context
 from .errors import StepFailed
+from .protocol1 import rates1
 from .safety import TorqueOn, needs_torque_off, refuse_torque
 from .servo import SEARCH_ORDER, Servo
 
@@ -32,7 +33,7 @@ def torque_gate(ctx: Context, servo: Servo, items: Iterable[Item]) -> bool:
     """Whether the servo's torque is on and must go off for ``items``; TorqueOn (exit 2, nothing
     written) when it is and ``--torque-off`` was not given."""
     for item in items:
-        if needs_torque_off(item) and servo.model.has("torque_enable") and servo.torque_on():
+        if needs_torque_off(item, servo.model) and servo.model.has("torque_enable") and servo.torque_on():
             if not ctx.torque_off:
                 raise refuse_torque(servo, item)
             return True
@@ -74,7 +75,9 @@ def only_one(ctx: Context, servo: Servo) -> None:
                 ctx.bus.set_baudrate(bps)
             except BusError:
                 continue
-            if ctx.bus.execute(Ping(servo.dxl_id, retries=0)).value is not None:
+            if servo.protocol == 1 and bps not in rates1():
+                continue
+            if ctx.bus.execute(Ping(servo.dxl_id, retries=0, protocol=servo.protocol)).value is not None:
                 raise StepFailed(f"ID {servo.dxl_id} answers at {here} and at {bps} bps: two servos have it; refused, "
                                  "nothing written (give --baud to choose one)")
     finally:

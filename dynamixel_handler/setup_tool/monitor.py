@@ -55,7 +55,7 @@ def _servos(ctx: Context, ids: list[int] | None) -> tuple[list[tuple[Placed, str
 
 def _with_mode(ctx: Context, placed: Placed) -> tuple[Placed, str]:
     servo = ctx.at(placed)
-    mode = (servo.model.mode_name(servo.read("operating_mode")) or "?") if servo.model.has("operating_mode") else "-"
+    mode = servo.mode() or ("?" if servo.model.has("operating_mode") else "-")
     return placed, mode
 
 

@@ -59,6 +59,11 @@ class Output:
     def error(self, text: str) -> None:
         print(f"error: {text}", file=self.err, flush=True)
 
+    def warn(self, text: str) -> None:
+        """A warning line on stderr, kept in the JSON document's ``warnings``."""
+        print(f"warning: {text}", file=self.err, flush=True)
+        self.document.setdefault("warnings", []).append(text)
+
     def table(self, title: str, columns: Sequence[str], rows: Sequence[Sequence[object]],
               styles: Sequence[str | None] | None = None) -> None:
         if self.as_json:

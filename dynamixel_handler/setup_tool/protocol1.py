@@ -1,36 +1,85 @@
-"""Protocol 1.0 servos for the set-up tool's scan: ping an ID and read its model number and
-firmware through the bus (the Protocol 1.0 framer, ``protocol.protocol1``), and name the model.
-The handler drives Protocol 2.0 servos only; a Protocol 1.0 servo found here is reported with what
-it is and how to bring it to Protocol 2.0 where it can. A broadcast ping gets no status in
-Protocol 1.0, so every ID is pinged on its own.
-"""
+"""Protocol 1.0 servos for the set-up tool: ping an ID and read its model number and firmware
+through the bus (the Protocol 1.0 framer, ``protocol.protocol1``), name the model and know what it
+is from the control table (``control_table.protocol1_models()``: the AX, RX, DX, EX and MX (1.0)
+models, and the MX models whose Protocol 2.0 firmware exists). A broadcast ping gets no status in
+Protocol 1.0, so every ID is pinged on its own. Also the rates a Protocol 1.0 servo can be reached
+at (its baud table, as far as the bus opens them) and its mode, which the Angle Limits select."""
 from __future__ import annotations
 
-from ..bus import DynamixelBus, Failure
+from functools import lru_cache
+
+from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus, Failure
 from ..bus.ops import Ping
+from ..control_table import Model, known_models, model_by_number, protocol1_model_by_number, protocol1_models
+from ..control_table._protocol1 import MODE_CODES, mode_of
 from ..protocol import protocol1 as p1
 
-__all__ = ["ping1", "model_name1", "SWITCH_TO_2", "statuses1", "error_text1"]
-
-
-#: Protocol 1.0 model numbers (ROBOTIS e-Manual pages of each model, "Model Number")
-MODELS_1: dict[int, str] = {
-    12: "AX-12A", 18: "AX-18A", 300: "AX-12W", 24: "RX-24F", 28: "RX-28", 64: "RX-64", 107: "EX-106+",
-    360: "MX-12W", 29: "MX-28", 310: "MX-64", 320: "MX-106",
-}
-#: MX models whose Protocol 2.0 firmware exists (then model 30, 311, 321: "MX-28(2.0)" ...)
-SWITCH_TO_2: dict[int, str] = {
-    29: "MX-28", 310: "MX-64", 320: "MX-106",
-}
+__all__ = ["ping1", "model_name1", "switch_to_2", "statuses1", "error_text1", "model_for", "rates1",
+           "mode1", "MODE_CODES", "error_names1"]
 
 
 def model_name1(number: int) -> str:
-    return MODELS_1.get(number, f"model {number}")
+    try:
+        return protocol1_model_by_number(number).name
+    except KeyError:
+        return f"model {number}"
+
+
+@lru_cache(maxsize=None)
+def _twins() -> dict[int, str]:
+    names = {m.name for m in known_models()}
+    return {m.number: m.name for m in protocol1_models() if f"{m.name}(2.0)" in names}
+
+
+def switch_to_2(number: int) -> str | None:
+    """The name of the Protocol 1.0 model whose Protocol 2.0 firmware exists (``MX-28`` for model
+    29: its 2.0 firmware makes it an MX-28(2.0)); None for the others."""
+    return _twins().get(number)
+
+
+def model_for(number: int, protocol: int) -> Model:
+    """The model of a servo that answered ``protocol`` with ``number``: a Protocol 1.0 model, or a
+    Protocol 2.0 model (a 2.0 servo set to Protocol Type 1 answers Protocol 1.0 with its own number);
+    KeyError when the control table has neither."""
+    if protocol == 1:
+        try:
+            return protocol1_model_by_number(number)
+        except KeyError:
+            pass
+    return model_by_number(number)
+
+
+def any_model(number: int) -> Model:
+    """The model of a number, Protocol 2.0 or 1.0 (their numbers do not overlap); KeyError otherwise."""
+    try:
+        return model_by_number(number)
+    except KeyError:
+        return protocol1_model_by_number(number)
+
+
+@lru_cache(maxsize=None)
+def rates1() -> tuple[int, ...]:
+    """The rates a Protocol 1.0 servo can be at that the bus opens (1 Mbps, 57,600 (value 34: 57,143
+    bps, within the UART's tolerance), 115,200, 9,600, and 2 and 3 Mbps on MX)."""
+    rates = {bps for m in protocol1_models() for bps in m.baud_rates.values()}
+    return tuple(bps for bps in DYNAMIXEL_BAUDRATES if bps in rates)
+
+
+def mode1(model: Model, cw_limit: int, ccw_limit: int, torque_control: int = 0) -> str:
+    """The mode a Protocol 1.0 model is in by its Angle Limits (and Torque Control Mode Enable):
+    a model without that mode (DX: no Wheel Mode; EX: no multi-turn) stays in Joint Mode."""
+    mode = mode_of(cw_limit, ccw_limit, torque_control)
+    return mode if mode in model.mode_values else "position"
 
 
 def error_text1(error: int) -> str:
     """A Protocol 1.0 status error byte in words ("no error" when 0)."""
     return p1.error_text(error)
+
+
+def error_names1(error: int) -> list[str]:
+    """The error bits of a Protocol 1.0 status byte by name (``overload``, ``angle_limit`` ...)."""
+    return [name.replace(" ", "_") for bit, name in enumerate(p1.ERROR_BITS) if error >> bit & 1]
 
 
 def statuses1(data: bytes) -> list[tuple[int, int, bytes]]:
@@ -39,10 +88,10 @@ def statuses1(data: bytes) -> list[tuple[int, int, bytes]]:
     return [(s.dxl_id, s.error, s.params) for s in p1.statuses(data)]
 
 
-def ping1(bus: DynamixelBus, dxl_id: int) -> tuple[int, int] | None:
+def ping1(bus: DynamixelBus, dxl_id: int, retries: int = 0) -> tuple[int, int] | None:
     """(model number, firmware) of a Protocol 1.0 servo at ``dxl_id``; None when none answers,
     (0, 0) when it answers the ping but not the read of its model number (Status Return Level 0)."""
-    got = bus.execute(Ping(dxl_id, retries=0, protocol=1))
+    got = bus.execute(Ping(dxl_id, retries=retries, protocol=1))
     if got.value is not None:
         return got.value, bus.firmware_versions.get(dxl_id, 0)
     return (0, 0) if got.failure is Failure.ANSWERS_PING_ONLY else None

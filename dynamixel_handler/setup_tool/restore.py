@@ -53,7 +53,7 @@ def _move(ctx: Context, plan: Plan, servo: Servo, touched: Touched, done: list[s
     if servo.dxl_id != new_id:
         was = str(servo.dxl_id)
         servo.write("id", new_id)
-        servo = connect(ctx.bus, new_id)
+        servo = connect(ctx.bus, new_id, servo.protocol)
         _verify(servo, "id", new_id)
         touched.dxl_id = new_id
         done.append(_written(servo, touched, "id", was, new_id))
@@ -62,7 +62,7 @@ def _move(ctx: Context, plan: Plan, servo: Servo, touched: Touched, done: list[s
         servo.write("baud_rate", plan.move_baud)
         touched.done.append(f"baud_rate -> {plan.target_bps} bps sent")
         ctx.bus.set_baudrate(plan.target_bps)
-        servo = connect(ctx.bus, new_id)
+        servo = connect(ctx.bus, new_id, servo.protocol)
         _verify(servo, "baud_rate", plan.move_baud)
         touched.baudrate = plan.target_bps
         touched.done.pop()

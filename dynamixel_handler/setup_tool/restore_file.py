@@ -13,10 +13,11 @@ from typing import Any
 
 import yaml
 
-from ..control_table import Item, Model, model_by_number
+from ..control_table import Item, Model
 from .checks import problems
 from .errors import BadArguments, cut
 from .items import check_raw
+from .protocol1 import any_model
 from .servo import Servo
 
 __all__ = ["Entry", "load", "kept", "present", "IDENTITY", "MAX_BYTES"]
@@ -149,7 +150,7 @@ def _entry(path: str, dxl_id: Any, body: Any) -> tuple[Entry | None, list[str]]:
     if not isinstance(dxl_id, int) or isinstance(dxl_id, bool) or not 0 <= dxl_id <= 252 or not isinstance(body, dict):
         return None, [f"{where}: not a servo ID 0..252 with its items"]
     try:
-        model = model_by_number(int(str(body.get("model_number"))))
+        model = any_model(int(str(body.get("model_number"))))
     except (KeyError, TypeError, ValueError):
         return None, [f"{where}: model_number {cut(body.get('model_number'))} is not one the tool knows"]
     values = body.get("eeprom")

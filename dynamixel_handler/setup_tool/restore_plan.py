@@ -16,7 +16,7 @@ from .context import Context
 from .errors import BadArguments
 from .items import show_value
 from .restore_file import Entry, present
-from .safety import refuse_torque
+from .safety import needs_torque_off, refuse_torque
 from .servo import Servo, connect
 from .values import servo_doc
 
@@ -86,8 +86,9 @@ def _in_place(ctx: Context, plans: dict[int, Plan], path: str) -> None:
 
     for plan in plans.values():
         bps = ctx.search.first if ctx.baud_given else (plan.entry.baudrate or ctx.search.first)
-        if _at(ctx, bps) and ctx.bus.execute(Ping(plan.entry.dxl_id)).value is not None:
-            place(plan, connect(ctx.bus, plan.entry.dxl_id), bps)
+        protocol = plan.entry.model.protocol
+        if _at(ctx, bps) and ctx.bus.execute(Ping(plan.entry.dxl_id, protocol=protocol)).value is not None:
+            place(plan, connect(ctx.bus, plan.entry.dxl_id, protocol), bps)
     rest = [i for i, plan in plans.items() if plan.servo is None]
     if rest:
         for placed in ctx.search.find(rest).placed:
@@ -97,7 +98,7 @@ def _in_place(ctx: Context, plans: dict[int, Plan], path: str) -> None:
 def _replacements(ctx: Context, plans: dict[int, Plan]) -> list[tuple[int, int, int]]:
     """The one unassigned servo of its model for each servo that answers nowhere; returns every
     servo seen (ID, rate, model number)."""
-    seen = ctx.search.everywhere()
+    seen = ctx.search.everywhere(protocol1=any(p.servo is None and p.entry.model.protocol == 1 for p in plans.values()))
     free = _unassigned(seen, plans.values())
     missing = [p for p in plans.values() if p.servo is None]
     for plan in missing:
@@ -135,7 +136,7 @@ def _take(ctx: Context, plan: Plan, candidate: tuple[int, int, int], seen: list[
                         f"ID {taken[0][0]}, {taken[0][1]} bps: not restored")
         return
     _at(ctx, bps)
-    plan.servo, plan.baudrate, plan.replacement = connect(ctx.bus, dxl_id), bps, True
+    plan.servo, plan.baudrate, plan.replacement = connect(ctx.bus, dxl_id, plan.entry.model.protocol), bps, True
 
 
 def _changes(ctx: Context, plan: Plan, seen: Iterable[tuple[int, int, int]]) -> dict[str, int]:
@@ -161,7 +162,8 @@ def _baud_move(ctx: Context, plan: Plan, raw: int, seen: Iterable[tuple[int, int
     target = plan.target_bps
     other = any(i == plan.entry.dxl_id and b == target for i, b, _ in seen)
     if not other and not plan.replacement:
-        other = _at(ctx, target) and ctx.bus.execute(Ping(plan.entry.dxl_id)).value is not None
+        ping = Ping(plan.entry.dxl_id, protocol=plan.entry.model.protocol)
+        other = _at(ctx, target) and ctx.bus.execute(ping).value is not None
         _at(ctx, plan.baudrate)
     if other:
         plan.refused.append(f"baud_rate {target} bps: another servo answers at ID {plan.entry.dxl_id} at {target} bps "
@@ -177,9 +179,11 @@ def _check(ctx: Context, plan: Plan, now: dict[str, int], ids: set[int]) -> list
     found = [f"{plan.entry.who}: {p.text}" + ("; --force writes it anyway" if p.forcible else "")
              for p in problems(plan.entry.model, new, now, plan.entry.dxl_id, ids - {plan.entry.dxl_id})
              if not (p.forcible and ctx.force)]
-    if plan.torque and not ctx.torque_off and plan.writes():
-        item = plan.entry.model.item(plan.writes()[0][0])
-        found.append(str(refuse_torque(plan.servo, item)))
+    model = plan.entry.model
+    off = [model.item(name) for name, _, _ in plan.writes() if needs_torque_off(model.item(name), model)]
+    plan.torque = plan.torque and bool(off)  # a Protocol 1.0 model keeps its torque for all but its Angle Limits
+    if plan.torque and not ctx.torque_off:
+        found.append(str(refuse_torque(plan.servo, off[0])))
     return found
 
 

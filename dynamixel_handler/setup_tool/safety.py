@@ -204,12 +204,25 @@ def held() -> Iterator[None]:
         raise Interrupted(f"interrupted ({_name(came)}) during a step that was then finished; {JOURNAL.state()}")
 
 
-def needs_torque_off(item: Item) -> bool:
-    """Items a servo takes only with torque off: its EEPROM area."""
+#: the items of a Protocol 1.0 model written with torque off although it takes them with torque on:
+#: the Angle Limits select its mode (both 0: it turns at Moving Speed)
+MODE_ITEMS_1 = ("min_position_limit", "max_position_limit")
+
+
+def needs_torque_off(item: Item, model: Model | None = None) -> bool:
+    """Items a servo takes only with torque off: its EEPROM area. A Protocol 1.0 model takes EEPROM
+    writes with torque on (it keeps holding its load), but its Angle Limits switch its mode: those
+    are written with torque off like an Operating Mode."""
+    if model is not None and model.protocol == 1:
+        return item.name in MODE_ITEMS_1
     return item.eeprom
 
 
 def refuse_torque(servo: _Servo, item: Item) -> TorqueOn:
+    if servo.model.protocol == 1:
+        return TorqueOn(f"{servo.who}: torque is on and {item.name} switches its mode (wheel, joint, multi-turn), "
+                        "which it would do holding its load: refused, nothing written (give --torque-off to turn it "
+                        "off, write, set the goal to where it is and turn it back on)")
     return TorqueOn(f"{servo.who}: torque is on and {item.name} (EEPROM) is written only with torque off, which "
                     "lets go of the load it holds: refused, nothing written (give --torque-off to turn it off, "
                     "write, set the goal to where it is and turn it back on)")
@@ -227,11 +240,11 @@ def checked_write(servo: S, name: str, raw: int, torque_off: bool = False,
     before = servo.read(item.name)
     if before == raw:
         return False
-    torque = needs_torque_off(item) and servo.torque_on()
+    torque = needs_torque_off(item, servo.model) and servo.torque_on()
     if torque and not torque_off:
         raise refuse_torque(servo, item)
     entry = JOURNAL.touch(servo.dxl_id, servo.model.name, servo.bus.baudrate,
-                          "on" if torque else ("off" if needs_torque_off(item) else "as it was"))
+                          "on" if torque else ("off" if needs_torque_off(item, servo.model) else "as it was"))
     what = f"{item.name} {show_value(servo.model, item, before)} -> {show_value(servo.model, item, raw)}"
     with held():
         _step(servo, item, raw, torque, entry, what, after)

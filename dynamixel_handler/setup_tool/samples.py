@@ -33,15 +33,16 @@ def sample(servo: Servo, baudrate: int, mode: str) -> dict[str, Any]:
     if not items:
         return doc
     first = items[0].address
-    got = servo.bus.execute(Read(servo.dxl_id, first, items[-1].address + items[-1].size - first))
+    got = servo.bus.execute(Read(servo.dxl_id, first, items[-1].address + items[-1].size - first, servo.protocol))
     if got.value is None:
         return doc
-    raw = {i.name: int.from_bytes(got.value[i.address - first:][:i.size], "little", signed=i.signed) for i in items}
+    raw = {i.name: i.from_bytes(bytes(got.value[i.address - first:][:i.size])) for i in items}
     doc["reply"] = True
     for key, name, _ in FIELDS:
         doc[key] = to_unit(model, model.item(name), raw[name]) if name in raw else None
     doc["torque"] = raw.get("torque_enable") == 1
-    doc["errors"] = _errors(raw.get("hardware_error_status", 0))
+    # Protocol 1.0: the error bits of the status packet (no Hardware Error Status register)
+    doc["errors"] = _errors(raw.get("hardware_error_status", 0)) + servo.status_errors()
     return doc
 
 

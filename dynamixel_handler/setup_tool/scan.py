@@ -12,7 +12,8 @@ from ..bus.census import census
 from ..bus.ops import Read
 from ..control_table import model_by_number
 from ..units import decode_hardware_error
-from .protocol1 import SWITCH_TO_2, model_name1, ping1
+from .errors import StepFailed
+from .protocol1 import model_for, model_name1, ping1, switch_to_2
 from .servo import Servo
 
 __all__ = ["Found", "ScanResult", "scan_bus", "scan_steps"]
@@ -137,30 +138,50 @@ def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, t
         if got is None:
             continue
         number, firmware = got
-        name, note = _protocol1_note(number)
-        result.found.append(Found(dxl_id, bus.baudrate, 1, number, name, firmware, note=note))
+        name, note = _protocol1_note(number, dxl_id)
+        found = Found(dxl_id, bus.baudrate, 1, number, name, firmware, note=note)
+        if number:
+            _details1(bus, found)
+        result.found.append(found)
 
 
-def _protocol1_note(number: int) -> tuple[str, str]:
+def _details1(bus: DynamixelBus, found: Found) -> None:
+    """Mode (a Protocol 1.0 model's from its Angle Limits), torque and the status's error bits."""
+    try:
+        servo = Servo(bus, found.dxl_id, model_for(found.model_number or 0, 1), 1)
+    except KeyError:
+        return
+    try:
+        if servo.model.has("firmware_version"):  # a 2.0 model set to Protocol Type 1 has it elsewhere
+            found.firmware = servo.read("firmware_version")
+        found.mode = servo.mode() or ""
+        found.torque = servo.torque_on() if servo.model.has("torque_enable") else None
+        found.hardware_error = servo.status_errors()
+    except StepFailed:  # Status Return Level 0: it answers pings only
+        found.note += "; it answers pings only (Status Return Level 0)"
+
+
+def _protocol1_note(number: int, dxl_id: int) -> tuple[str, str]:
     """The name of a servo that answered Protocol 1.0 and what its owner can do about it."""
-    if number in SWITCH_TO_2:
+    twin = switch_to_2(number)
+    if twin is not None:
         return model_name1(number), (
-            f"Protocol 1.0: not driven by the handler; {_ONLY_FOUND}; to switch it to Protocol 2.0 install its "
-            f"2.0 firmware (DYNAMIXEL Wizard 2.0, Firmware Recovery, {SWITCH_TO_2[number]}(2.0))")
+            f"Protocol 1.0 firmware: {_ALL_VERBS}; to switch it to Protocol 2.0 install its 2.0 firmware (DYNAMIXEL "
+            f"Wizard 2.0, Firmware Recovery, {twin}(2.0))")
     try:
         model = model_by_number(number)
     except KeyError:
-        return model_name1(number), (f"Protocol 1.0 only: the handler does not drive it (no Protocol 2.0 firmware "
-                                     f"exists for it); {_ONLY_FOUND}")
+        if number == 0:
+            return "?", "answers a Protocol 1.0 ping only (Status Return Level 0): set it to 1 or 2 with another tool"
+        return model_name1(number), f"Protocol 1.0 only (no Protocol 2.0 firmware exists for it): {_ALL_VERBS}"
     item = model.items.get("protocol_type")
     where = f" (address {item.address})" if item is not None else ""
-    return model.name, (f"a Protocol 2.0 model set to Protocol Type 1; {_ONLY_FOUND}: write 2 to Protocol "
-                        f"Type{where} with a Protocol 1.0 write (DYNAMIXEL Wizard 2.0 does) and the handler and "
-                        "every verb reach it again")
+    return model.name, (f"a Protocol 2.0 model set to Protocol Type 1: `set {dxl_id} protocol_type 2`{where} brings it "
+                        "back to Protocol 2.0, where the handler reaches it; every verb of this tool reaches it now")
 
 
-#: what the tool can do with a servo that answers Protocol 1.0 only
-_ONLY_FOUND = "this tool finds it (scan) but cannot yet read or write it (info, get, set, backup: no)"
+#: what the tool can do with a servo that answers Protocol 1.0
+_ALL_VERBS = "every verb of this tool reads and writes it (info, get, set, set-mode, backup ...)"
 
 
 def scan_bus(bus: DynamixelBus, rates: Sequence[int], ids: Sequence[int], protocols: Sequence[int],

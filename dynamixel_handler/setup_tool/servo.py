@@ -1,6 +1,9 @@
-"""One servo as the tool sees it: its model from the control table, reads and writes by item name,
-and the checked write every verb uses (only when the value differs; EEPROM with torque off and
-torque restored; read back and verified; a failure says which state the servo is left in)."""
+"""One servo as the tool sees it: its model from the control table, the protocol it answers (2.0, or
+1.0: an AX, RX, DX, EX or MX (1.0) model, or a 2.0 model set to Protocol Type 1), reads and writes
+by item name in that protocol, its mode (a Protocol 1.0 model's from its Angle Limits), and the
+checked write every verb uses (only when the value differs; EEPROM with torque off and torque
+restored where the model needs it; read back and verified; a failure says which state the servo
+is left in)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -8,10 +11,11 @@ from typing import Callable
 
 from ..bus import DynamixelBus
 from ..bus.ops import Ping, Read, Write
-from ..control_table import Item, Model, model_by_number
+from ..control_table import Item, Model
 from ..units import decode, encode
 from .errors import StepFailed
 from .items import find_item, show_value
+from .protocol1 import error_names1, mode1, model_for
 from .safety import checked_write
 
 __all__ = ["Servo", "connect", "SEARCH_ORDER"]
@@ -26,17 +30,24 @@ class Servo:
     bus: DynamixelBus
     dxl_id: int
     model: Model
+    #: the protocol it answers: 2, or 1 (a Protocol 1.0 model, or a 2.0 model set to Protocol Type 1)
+    protocol: int = 2
 
     @property
     def who(self) -> str:
         return f"ID {self.dxl_id} ({self.model.name})"
+
+    @property
+    def protocol1_model(self) -> bool:
+        """An AX, RX, DX, EX or MX (1.0) model: no Operating Mode register, modes by Angle Limits."""
+        return self.model.protocol == 1
 
     def item(self, name: str) -> Item:
         return find_item(self.model, name)
 
     def read(self, name: str) -> int:
         item = self.item(name)
-        got = self.bus.execute(Read(self.dxl_id, item.address, item.size))
+        got = self.bus.execute(Read(self.dxl_id, item.address, item.size, self.protocol))
         if got.value is None:
             raise StepFailed(f"{self.who}: reading {item.name} failed: {_cause(got.why)}")
         return int(decode(item, got.value)[0])
@@ -44,20 +55,39 @@ class Servo:
     def read_block(self, first: Item, last: Item) -> bytes:
         """The bytes from ``first`` to the end of ``last`` in one read."""
         size = last.address + last.size - first.address
-        got = self.bus.execute(Read(self.dxl_id, first.address, size))
+        got = self.bus.execute(Read(self.dxl_id, first.address, size, self.protocol))
         if got.value is None:
             raise StepFailed(f"{self.who}: reading {first.name}..{last.name} failed: {_cause(got.why)}")
         return bytes(got.value)
 
     def write(self, name: str, raw: int) -> None:
         item = self.item(name)
-        done = self.bus.execute(Write(self.dxl_id, item.address, encode(item, raw)))
+        done = self.bus.execute(Write(self.dxl_id, item.address, encode(item, raw), self.protocol))
         if not done:
             raise StepFailed(f"{self.who}: writing {item.name} = {show_value(self.model, item, raw)} "
                              f"failed: {_cause(done.why)}")
 
     def torque_on(self) -> bool:
         return self.read("torque_enable") == 1
+
+    def mode(self) -> str | None:
+        """The mode it is in by name (None: the model has no modes): the Operating Mode register, or
+        on a Protocol 1.0 model the Angle Limits (both 0: velocity, both 4095 on MX: ex_position)
+        and Torque Control Mode Enable (current)."""
+        model = self.model
+        if model.has("operating_mode"):
+            return model.mode_name(self.read("operating_mode"))
+        if not (self.protocol1_model and model.has("min_position_limit")):
+            return None
+        control = self.read("torque_control_mode_enable") if model.has("torque_control_mode_enable") else 0
+        return mode1(model, self.read("min_position_limit"), self.read("max_position_limit"), control)
+
+    def status_errors(self) -> list[str]:
+        """The error bits of its latest Protocol 1.0 status packet by name ([] in Protocol 2.0,
+        whose servos report them in Hardware Error Status)."""
+        if self.protocol != 1:
+            return []
+        return error_names1(self.bus.last_error_bytes.get(self.dxl_id, 0))
 
     def set_checked(self, name: str, raw: int, after: Callable[[], Servo] | None = None,
                     torque_off: bool = False) -> bool:
@@ -70,7 +100,7 @@ class Servo:
         """Torque on without a jump, as the handler does: the goal of the servo's mode first set to
         where it is (position modes, clipped to the limits in position mode) or to rest (0)."""
         model = self.model
-        mode = model.mode_name(self.read("operating_mode")) if model.has("operating_mode") else None
+        mode = self.mode()
         if mode in ("position", "ex_position", "cur_position") and model.has("goal_position"):
             goal = self.read("present_position")
             if mode == "position" and model.has("min_position_limit") and model.has("max_position_limit"):
@@ -88,14 +118,15 @@ def _cause(failure: str) -> str:
     return failure.split(": ", 1)[1] if ": " in failure else failure or "no reply"
 
 
-def connect(bus: DynamixelBus, dxl_id: int) -> Servo:
-    """The servo at ``dxl_id`` on the bus at its present rate; StepFailed when it does not answer
-    or its model is not one the control table knows."""
-    got = bus.execute(Ping(dxl_id))
+def connect(bus: DynamixelBus, dxl_id: int, protocol: int = 2) -> Servo:
+    """The servo at ``dxl_id`` on the bus at its present rate, in ``protocol``; StepFailed when it
+    does not answer or its model is not one the control table knows."""
+    got = bus.execute(Ping(dxl_id, protocol=protocol))
     if got.value is None:
-        raise StepFailed(f"ID {dxl_id}: no servo answers at {bus.baudrate} bps ({_cause(got.why)})")
+        raise StepFailed(f"ID {dxl_id}: no servo answers{' Protocol 1.0' if protocol == 1 else ''} at "
+                         f"{bus.baudrate} bps ({_cause(got.why)})")
     try:
-        return Servo(bus, dxl_id, model_by_number(got.value))
+        return Servo(bus, dxl_id, model_for(got.value, protocol), protocol)
     except KeyError:
         raise StepFailed(f"ID {dxl_id}: model number {got.value} is not in the control table; "
                          "the tool only sets up models the handler knows") from None

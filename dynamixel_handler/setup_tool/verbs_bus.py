@@ -6,11 +6,13 @@ import time
 
 from ..bus import DynamixelBus
 from ..bus.ops import FactoryReset, Ping, Reboot
+from ..protocol.protocol1 import ERR_INSTRUCTION
 from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .find import Placed
-from .safety import JOURNAL, TorqueOn, held, stopped
+from .reset1 import reset_all_then_keep
+from .safety import JOURNAL, TorqueOn, Touched, held, stopped
 from .scan import COLUMNS, Found, scan_bus, scan_steps
 from .servo import SEARCH_ORDER, Servo, connect
 from .values import servo_doc
@@ -30,7 +32,7 @@ def _rates(args: argparse.Namespace) -> list[int]:
 
 def scan(ctx: Context, args: argparse.Namespace) -> None:
     rates = _rates(args)
-    protocols = {"2": [2], "1": [1], "both": [2, 1]}[args.protocol]
+    protocols = {"2": [2], "1": [1], "both": [2, 1]}[args.protocol or "both"]
     started = time.monotonic()
     with ctx.out.progress(scan_steps(rates, args.ids, protocols, ctx.bus.latency_timer_ms), "scanning") as tick:
         result = scan_bus(ctx.bus, rates, args.ids, protocols, tick)
@@ -50,12 +52,12 @@ def scan(ctx: Context, args: argparse.Namespace) -> None:
     ctx.out.document.update(result.as_dict(), seconds=round(took, 2))
 
 
-def _wait_back(bus: DynamixelBus, dxl_id: int) -> int | None:
+def _wait_back(bus: DynamixelBus, dxl_id: int, protocol: int = 2) -> int | None:
     """The model number once ``dxl_id`` answers again (after a reboot or reset), None if it does not."""
     deadline = time.monotonic() + _BACK_WITHIN_S
     while time.monotonic() < deadline:
         time.sleep(0.1)
-        number: int | None = bus.execute(Ping(dxl_id, retries=0)).value
+        number: int | None = bus.execute(Ping(dxl_id, retries=0, protocol=protocol)).value
         if number is not None:
             return number
     return None
@@ -93,10 +95,10 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
     failed ("" when it answers again)."""
     with held():
         entry = JOURNAL.touch(servo.dxl_id, servo.model.name, baudrate, "on" if torque else "off")
-        done = ctx.bus.execute(Reboot(servo.dxl_id))
+        done = ctx.bus.execute(Reboot(servo.dxl_id, servo.protocol))
         if not done:
-            return done.why or "no reply"
-        if _wait_back(ctx.bus, servo.dxl_id) is None:
+            return _no_reboot(ctx, servo, entry, torque) or done.why or "no reply"
+        if _wait_back(ctx.bus, servo.dxl_id, servo.protocol) is None:
             entry.torque = "unknown (it does not answer)"
             return f"it does not answer within {_BACK_WITHIN_S:.0f} s"
         entry.torque, entry.done = "off (rebooted)" if torque else "off", entry.done + ["rebooted"]
@@ -104,6 +106,16 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
             servo.torque_on_in_place()
             entry.torque = "on (as before)"
     return ""
+
+
+def _no_reboot(ctx: Context, servo: Servo, entry: Touched, torque: bool) -> str:
+    """Why a Protocol 1.0 servo did not reboot when it answered the Reboot instruction with the
+    Instruction Error bit (AX, RX and the other models without it): "" for any other failure."""
+    if servo.protocol != 1 or not ctx.bus.last_error_bytes.get(servo.dxl_id, 0) & ERR_INSTRUCTION:
+        return ""
+    entry.torque = "on (as before: not rebooted)" if torque else "off"
+    return (f"the {servo.model.name} has no reboot instruction (Protocol 1.0: it answers Instruction Error); "
+            "power-cycle it (an overload or overheating shutdown also clears when Torque Limit is written again)")
 
 
 def _holding(ctx: Context, placed: list[Placed]) -> set[int]:
@@ -160,6 +172,9 @@ def _reset(ctx: Context, servo: Servo, level: str, torque: bool, where: tuple[in
 def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
     level = "all" if args.all else args.keep
     servo = ctx.servo(args.id)
+    if servo.protocol == 1:  # no option in Protocol 1.0: everything is reset, ID and baud rate too
+        reset_all_then_keep(ctx, servo, level, _wait_back)
+        return
     keeps = {"all": "nothing: it comes back as ID 1 at 57600 bps", "id": "its ID (baud rate back to 57600)",
              "id,baud": "its ID and baud rate"}[level]
     guard.only_one(ctx, servo)

@@ -1,14 +1,16 @@
 """The verbs that read and set one servo: info, get, set, set-id, set-baud, set-mode.
 
 Values are by item name and in physical units, range checked against the model's control table
-before anything is sent; EEPROM items are written with torque off and torque restored, read back
-and verified, and only when they differ (EEPROM wear)."""
+before anything is sent; EEPROM items are written with torque off and torque restored (a Protocol
+1.0 model takes them with torque on: only its Angle Limits, which switch its mode, need torque
+off), read back and verified, and only when they differ (EEPROM wear). ``set ID protocol_type``
+switches an X or MX(2.0) servo between Protocol 2.0 and 1.0 and finds it in the other one."""
 from __future__ import annotations
 
 import argparse
 from typing import Any
 
-from ..bus import BusError
+from ..bus import DYNAMIXEL_BAUDRATES, BusError
 from ..bus.ops import Ping
 from ..control_table import Item
 from ..units import decode
@@ -16,6 +18,7 @@ from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
+from .mode1 import set_mode1, state_line, summary
 from .safety import held
 from .servo import Servo, connect
 from .values import named, number
@@ -67,12 +70,15 @@ def info(ctx: Context, args: argparse.Namespace) -> None:
                           "address": item.address, "factory": factory, "differs_from_factory": differs}
     head = f"ID {servo.dxl_id}: {model.name} (model {model.number}) at {ctx.bus.baudrate} bps"
     ctx.out.say(head)
+    state = summary(servo, values)
+    ctx.out.say(state_line(state))
     columns = ["addr", "item", "value", "unit", "raw", "factory", "differs"]
-    ctx.out.table("EEPROM (written with torque off)", columns, rows[True], styles[True])
+    ctx.out.table("EEPROM (written with torque off)" if model.protocol == 2 else
+                  "EEPROM (a Protocol 1.0 model takes it with torque on)", columns, rows[True], styles[True])
     ctx.out.table("RAM", columns, rows[False], styles[False])
     ctx.out.say("* differs from the factory value of the model (ROBOTIS e-Manual)")
     ctx.out.document.update(id=servo.dxl_id, model=model.name, model_number=model.number,
-                            baudrate=ctx.bus.baudrate, items=doc)
+                            baudrate=ctx.bus.baudrate, **state, items=doc)
 
 
 def get(ctx: Context, args: argparse.Namespace) -> None:
@@ -119,11 +125,40 @@ def set_item(ctx: Context, args: argparse.Namespace) -> None:
     raw = parse_value(servo.model, item, args.value, servo.who, raw=ctx.raw)
     guard.check_values(ctx, servo, {item.name: raw})
     guard.only_one(ctx, servo)
+    if item.name == "protocol_type":
+        _switch_protocol(ctx, servo, item, raw)
+        return
     _apply(ctx, servo, item, raw)
+
+
+def _switch_protocol(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
+    """Protocol Type written (EEPROM), and the servo found again in the protocol it now answers."""
+    new = 1 if raw == 1 else 2
+    ctx.out.document.update(protocol=servo.protocol)
+    if servo.read(item.name) == raw:
+        ctx.out.say(f"{servo.who} protocol_type is already {raw}: nothing written")
+        ctx.out.document.update(item=item.name, raw=raw, written=False)
+        return
+    if new == 1:
+        ctx.out.warn(f"{servo.who}: with protocol_type 1 it answers Protocol 1.0 only: the handler and Protocol 2.0 "
+                     "tools no longer find it (Protocol 1.0 has no sync read, and its one-byte address reaches only the "
+                     "first 256 bytes of the table); this tool still reaches it, and "
+                     f"`set {servo.dxl_id} protocol_type 2` brings it back")
+    torque = guard.torque_gate(ctx, servo, [item])
+    ctx.confirm(f"{servo.who}: write protocol_type (EEPROM) {servo.read(item.name)} -> {raw}: it then answers "
+                f"Protocol {new}.0 only?" + guard.torque_question(torque))
+    servo.set_checked(item.name, raw, after=lambda: connect(ctx.bus, servo.dxl_id, new), torque_off=ctx.torque_off)
+    ctx.out.say(f"{servo.who} protocol_type = {raw}: it answers Protocol {new}.0 now (found again and read back "
+                f"in Protocol {new}.0)" + guard.torque_done(torque))
+    ctx.out.document.update(item=item.name, raw=raw, written=True, protocol=new)
 
 
 def set_mode(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
+    if servo.protocol1_model:
+        guard.only_one(ctx, servo)
+        set_mode1(ctx, servo, str(args.mode))
+        return
     text = str(args.mode).strip().lower()
     modes = servo.model.mode_values
     raw = modes.get(text)
@@ -146,14 +181,14 @@ def set_id(ctx: Context, args: argparse.Namespace) -> None:
         ctx.out.say(f"{servo.who} already has ID {new}: nothing written")
         ctx.out.document.update(id=new, written=False)
         return
-    taken = ctx.bus.execute(Ping(new, retries=1)).value
+    taken = ctx.bus.execute(Ping(new, retries=1, protocol=servo.protocol)).value
     if taken is not None:
         raise StepFailed(f"{servo.who}: ID {new} is already in use at {ctx.bus.baudrate} bps (model {taken}): "
                          "two servos at one ID cannot be told apart; choose another")
     guard.only_one(ctx, servo)
     torque = guard.torque_gate(ctx, servo, [item])
     ctx.confirm(f"{servo.who}: change its ID to {new} (EEPROM)?" + guard.torque_question(torque))
-    servo.set_checked("id", new, after=lambda: connect(ctx.bus, new), torque_off=ctx.torque_off)
+    servo.set_checked("id", new, after=lambda: connect(ctx.bus, new, servo.protocol), torque_off=ctx.torque_off)
     ctx.out.say(f"ID {servo.dxl_id} -> {new} ({servo.model.name}): answers at ID {new}, read back"
                 + guard.torque_done(torque))
     ctx.out.document.update(old=servo.dxl_id, id=new, written=True)
@@ -163,14 +198,21 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
     by_bps = {bps: value for value, bps in servo.model.baud_rates.items()}
     if args.bps not in by_bps:
-        raise BadArguments(f"{servo.who} cannot use {args.bps} bps (it takes {', '.join(map(str, sorted(by_bps)))})")
+        takes = _rates(by_bps) if servo.model.protocol == 2 else (
+            f"2,000,000/(n+1) bps at Baud Rate n, {min(by_bps):,} .. {max(by_bps):,} bps; those this tool reaches: "
+            f"{_rates(b for b in by_bps if b in DYNAMIXEL_BAUDRATES)}")
+        raise BadArguments(f"{servo.who} cannot use {args.bps} bps (it takes {takes})")
+    if args.bps not in DYNAMIXEL_BAUDRATES:
+        raise BadArguments(f"{servo.who}: {args.bps} bps (Baud Rate {by_bps[args.bps]}) is in its table but this tool's "
+                           f"bus cannot open that rate, so it could not find the servo there: not written (rates both "
+                           f"can use: {_rates([b for b in by_bps if b in DYNAMIXEL_BAUDRATES])})")
     old = ctx.bus.baudrate
     if old == args.bps:
         ctx.out.say(f"{servo.who} is already at {old} bps: nothing written")
         ctx.out.document.update(id=servo.dxl_id, baudrate=old, written=False)
         return
     ctx.bus.set_baudrate(args.bps)
-    there = ctx.bus.execute(Ping(servo.dxl_id, retries=1)).value
+    there = ctx.bus.execute(Ping(servo.dxl_id, retries=1, protocol=servo.protocol)).value
     ctx.bus.set_baudrate(old)
     if there is not None:
         raise StepFailed(f"{servo.who}: another servo (model {there}) answers at ID {servo.dxl_id} at {args.bps} bps: "
@@ -185,10 +227,14 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
         except BusError as exc:
             raise StepFailed(f"{servo.who} was set to {args.bps} bps but the adapter cannot use it: {exc}") from None
         try:
-            return connect(ctx.bus, servo.dxl_id)
+            return connect(ctx.bus, servo.dxl_id, servo.protocol)
         except StepFailed as exc:
             raise StepFailed(f"{exc}: its Baud Rate was written; it is at {args.bps} bps or still at {old}") from None
 
     servo.set_checked("baud_rate", by_bps[args.bps], after=found_again, torque_off=ctx.torque_off)
     ctx.out.say(f"{servo.who}: {old} -> {args.bps} bps, found again at {args.bps} bps" + guard.torque_done(torque))
     ctx.out.document.update(id=servo.dxl_id, baudrate=args.bps, was=old, written=True)
+
+
+def _rates(rates: Any) -> str:
+    return ", ".join(f"{bps:,}" for bps in sorted(rates))

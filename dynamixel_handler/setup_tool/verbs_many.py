@@ -9,14 +9,15 @@ import argparse
 import time
 from typing import Any, Callable, Iterable
 
-from ..bus.ops import SyncRead
+from ..bus.ops import Read, SyncRead
 from ..control_table import Item
 from ..units import decode, encode
 from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
-from .find import Placed
+from .find import Found, Placed
 from .items import parse_value, show_value, to_unit, unit_of
+from .mode1 import set_mode1
 from .safety import JOURNAL, held
 from .values import servo_doc
 
@@ -38,21 +39,26 @@ def one_or_many(single: Callable[[Context, argparse.Namespace], None],
     return verb
 
 
-def _groups(placed: Iterable[Placed], item_of: Callable[[Placed], Item]) -> dict[tuple[int, int, int], list[Placed]]:
-    """The servos by (rate, address, size) of their item: each group is one sync instruction."""
-    groups: dict[tuple[int, int, int], list[Placed]] = {}
+def _groups(placed: Iterable[Placed], item_of: Callable[[Placed], Item]) -> dict[tuple[int, int, int, int], list[Placed]]:
+    """The servos by (rate, address, size, protocol) of their item: each group is one sync instruction."""
+    groups: dict[tuple[int, int, int, int], list[Placed]] = {}
     for p in placed:
         item = item_of(p)
-        groups.setdefault((p.baudrate, item.address, item.size), []).append(p)
+        groups.setdefault((p.baudrate, item.address, item.size, p.servo.protocol), []).append(p)
     return groups
 
 
 def _read(ctx: Context, placed: list[Placed], item_of: Callable[[Placed], Item]) -> dict[int, int]:
-    """ID -> raw value of its item, one sync read per group (a silent servo is left out)."""
+    """ID -> raw value of its item, one sync read per group (Protocol 1.0 has none: a read per
+    servo there); a silent servo is left out."""
     values: dict[int, int] = {}
-    for (bps, address, size), group in _groups(placed, item_of).items():
+    for (bps, address, size, protocol), group in _groups(placed, item_of).items():
         ctx.at(group[0])
-        got = ctx.bus.execute(SyncRead(address, size, tuple(p.dxl_id for p in group))).value
+        if protocol == 1:
+            got = {p.dxl_id: bytes(r.value) for p in group
+                   if (r := ctx.bus.execute(Read(p.dxl_id, address, size, 1))).value is not None}
+        else:
+            got = ctx.bus.execute(SyncRead(address, size, tuple(p.dxl_id for p in group))).value
         for p in group:
             if p.dxl_id in got:
                 values[p.dxl_id] = int(decode(item_of(p), got[p.dxl_id])[0])
@@ -106,7 +112,7 @@ def _sync_write(ctx: Context, group: list[Want]) -> None:
     p0, item0, _ = group[0]
     ctx.at(p0)
     data = {p.dxl_id: encode(item, raw) for p, item, raw in group}
-    done = ctx.bus.execute(ctx.bus.prepare_sync_write(item0.address, item0.size, data))
+    done = ctx.bus.execute(ctx.bus.prepare_sync_write(item0.address, item0.size, data, p0.servo.protocol))
     if not done:
         raise StepFailed(f"sync write of {item0.name} to ID {', '.join(map(str, data))} failed: "
                          f"{done.why or 'not sent'}")
@@ -135,9 +141,9 @@ def _write(ctx: Context, changing: list[Want], torque: set[int]) -> None:
 
 
 def _groups_of(wants: list[Want]) -> list[list[Want]]:
-    groups: dict[tuple[int, int, int], list[Want]] = {}
+    groups: dict[tuple[int, int, int, int], list[Want]] = {}
     for want in wants:
-        groups.setdefault((want[0].baudrate, want[1].address, want[1].size), []).append(want)
+        groups.setdefault((want[0].baudrate, want[1].address, want[1].size, want[0].servo.protocol), []).append(want)
     return list(groups.values())
 
 
@@ -181,11 +187,12 @@ def _report(ctx: Context, wants: list[Want], result: dict[str, Any]) -> list[str
     return wrong
 
 
-def _set(ctx: Context, args: argparse.Namespace, name: str, value_of: Callable[[Placed, Item], int]) -> None:
-    found = ctx.servos(args.id)
+def _set(ctx: Context, args: argparse.Namespace, name: str, value_of: Callable[[Placed, Item], int],
+         found: Found | None = None) -> None:
+    found = found if found is not None else ctx.servos(args.id)
     _one_each(ctx, found.placed)
     wants = _wants(ctx, found.placed, value_of, name)
-    wrong = _report(ctx, wants, _change(ctx, found.placed, wants))
+    wrong = _report(ctx, wants, _change(ctx, found.placed, wants)) if wants else []
     ctx.out.document.update(missing=found.missing)
     if wrong:
         raise StepFailed("; ".join(wrong))
@@ -197,6 +204,20 @@ def set_many(ctx: Context, args: argparse.Namespace) -> None:
 
 
 def mode_many(ctx: Context, args: argparse.Namespace) -> None:
+    """Several servos' modes: Protocol 2.0 ones in one sync write per group; a Protocol 1.0 model
+    (no Operating Mode: its Angle Limits) one at a time, each as ``set-mode ID``."""
+    found = ctx.servos(args.id)
+    old = [p for p in found.placed if p.servo.protocol1_model]
+    for p in old:
+        ctx.at(p)
+        guard.only_one(ctx, p.servo)
+        set_mode1(ctx, p.servo, str(args.mode))
+    rest = Found([p for p in found.placed if not p.servo.protocol1_model], found.missing, found.rates)
+    _set(ctx, args, "operating_mode", _mode_value(args), rest)
+
+
+def _mode_value(args: argparse.Namespace) -> Callable[[Placed, Item], int]:
+
     def value(p: Placed, item: Item) -> int:
         text = str(args.mode).strip().lower()
         modes = p.servo.model.mode_values
@@ -204,4 +225,4 @@ def mode_many(ctx: Context, args: argparse.Namespace) -> None:
             return modes[text]
         raise BadArguments(f"{p.servo.who}: {p.servo.model.name} has no operating mode '{text[:40]}' "
                            f"(one of {', '.join(modes)})")
-    _set(ctx, args, "operating_mode", value)
+    return value
