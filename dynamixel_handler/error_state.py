@@ -14,6 +14,7 @@ import numpy as np
 
 from . import units
 from .control_table import Model
+from .protocol import protocol1
 from .servos import ServoTable
 
 HARDWARE_ERROR = "hardware_error_status"
@@ -102,6 +103,8 @@ def is_error(model: Model, value: int | None) -> bool:
 def describe(model: Model, value: int) -> str:
     """The value of the model's error item, named: "error code 5 (Overload Error)" or "0x24"."""
     codes = model.family.error_codes
+    if model.family.error_in_status:
+        return protocol1.error_text(value)
     if codes is None:
         return f"0x{value:02X}"
     return f"error code {value} ({codes.name(value)})"

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from dynamixel_handler_msgs.msg import DynamixelGoal, DynamixelStatus
+from dynamixel_handler_msgs.msg import DynamixelGoal, DynamixelShortcut, DynamixelStatus
 
 from support.rig import Rig
 
@@ -25,7 +25,7 @@ CW = 1 << 10
 def rig():
     r = Rig({X: XM430, AX: AX12A, MX: MX28, MX_64: MX64}, "baudrate:=1000000", "init/used_servo_series.AX:=true",
             "init/used_servo_series.MX1:=true", "mode_change_interval_sec:=0.0", "pub_ratio/status:=3",
-            "pub_ratio/goal:=3", "pub_ratio/extra.static_items:=3",
+            "pub_ratio/goal:=3", "pub_ratio/error:=3", "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
             sim_kwargs={"baudrate": 1_000_000})
     yield r
     assert r.close() == 0
@@ -80,3 +80,22 @@ def test_multi_turn_on_the_mx(rig):
     wait_items(rig, MX, {"min_position_limit": 4095, "max_position_limit": 4095})
     rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[MX], position_deg=[540.0]))
     wait_items(rig, MX, {"goal_position": 2048 + round(540.0 / MX_DEG)})
+
+
+def test_overheating_is_published_and_cleared_the_protocol1_way(rig):
+    """The error byte of the statuses reads as the error state; the clear writes Torque Limit back
+    (the servo set it to 0, as its Shutdown bits say) and no reboot is sent."""
+    ax = servo(rig, AX)
+    assert ax.read("torque_limit") > 0
+    ax.pin("present_temperature", ax.read("temperature_limit") + 5)
+    rig.wait(lambda: rig.state_of("error", "overheating", AX) is True, what="error.overheating of the AX")
+    assert rig.state_of("error", "overload", AX) is False and rig.state_of("error", "input_voltage", AX) is False
+    rig.wait(lambda: rig.state_of("status", "error", AX) is True, what="status.error of the AX")
+    assert ax.read("torque_limit") == 0                                     # its output cut
+    ax.pin("present_temperature", None)
+    mark = len(rig.sim.log)
+    rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="CE", id_list=[AX]))
+    wait_items(rig, AX, {"torque_limit": ax.read("pwm_limit"), "torque_enable": 1})
+    rig.wait(lambda: rig.state_of("status", "error", AX) is False, what="status.error of the AX cleared")
+    assert "(Torque Limit written back to 1023: cleared, no reboot)" in rig.output
+    assert not any(e.instruction == 0x08 for e in rig.sim.log[mark:])      # no reboot

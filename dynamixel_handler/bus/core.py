@@ -43,6 +43,7 @@ from .ops import (
     BulkWrite,
     ClearError,
     ClearMultiTurn,
+    ErrorByte,
     FactoryReset,
     Instruction,
     Ping,
@@ -75,6 +76,7 @@ class DynamixelBus:
         #: the part that sends each kind of instruction, in the framing of its protocol
         self._run: dict[type, Callable[[Any], Result[Any]]] = {
             Ping: lambda op: self._reads.ping(op.dxl_id, op.retries, FRAMERS[op.protocol]),
+            ErrorByte: lambda op: one.error_byte(op.dxl_id, FRAMERS[op.protocol]),
             Read: lambda op: one.read(op.dxl_id, op.address, op.size, FRAMERS[op.protocol]),
             Write: lambda op: one.write(op.dxl_id, op.address, op.data, FRAMERS[op.protocol]),
             RegWrite: lambda op: one.reg_write(op.dxl_id, op.address, op.data, FRAMERS[op.protocol]),

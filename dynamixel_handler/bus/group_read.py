@@ -32,6 +32,9 @@ class GroupRead:
         #: why the read failed (None while it has not, or when at least one servo answered)
         self.failure: Failure | None = None
         self.why = ""
+        #: the status error byte of each servo that answered, where the protocol reports the
+        #: servo's state in it (Protocol 1.0 reads); empty otherwise
+        self.errors: dict[int, int] = {}
 
     @classmethod
     def finished(cls, data: dict[int, bytes]) -> GroupRead:

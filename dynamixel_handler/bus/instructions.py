@@ -29,6 +29,17 @@ class Instructions:
             tx.ok(1, 1)
             return Result(status.params)
 
+    def error_byte(self, dxl_id: int, framer: Framer) -> Result[int | None]:
+        """The error byte of the status a ping gets (None and why without one)."""
+        dxl_id = check_id(dxl_id)
+        t = self._t
+        with t.transaction() as tx:
+            status = t.unicast(dxl_id, framer.PING, b"", framer.ping_params(), None, framer)
+            if status is None:
+                return tx.failed(None, f"ping ID {dxl_id}", status, framer)
+            tx.ok(1, 1)
+            return Result(status.error)
+
     def send(self, instruction: int, what: str, dxl_id: int, params: bytes, retries: int | None = None,
              framer: Framer = PROTOCOL2) -> Result[bool]:
         """An instruction whose only answer is an acknowledgement: True when the servo acknowledged

@@ -3,7 +3,7 @@
 range raises ValueError there, not on the wire), can be logged, compared and kept, and says by
 its type what its result holds:
 
-- ``Ping`` -> the model number (int) or None
+- ``Ping`` -> the model number (int) or None; ``ErrorByte`` -> a ping's status error byte or None
 - ``Read`` -> the bytes read or None
 - ``Write``, ``RegWrite``, ``Action``, ``Reboot``, ``ClearMultiTurn``, ``ClearError``,
   ``FactoryReset``, ``BulkWrite`` and a ``PreparedWrite`` (a sync write built ahead) -> True when
@@ -33,6 +33,18 @@ class Ping:
     #: how often it is sent again without an answer (None: the bus's retry count)
     retries: int | None = None
     protocol: int = 2
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "dxl_id", check_id(self.dxl_id))
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorByte:
+    """The error byte of the servo's status to a ping: its state where the protocol reports it
+    there (Protocol 1.0: input voltage, overheating, overload ...). Result: the byte, or None."""
+
+    dxl_id: int
+    protocol: int = 1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", check_id(self.dxl_id))
@@ -175,8 +187,8 @@ class BulkWrite:
 
 
 #: what ``execute`` takes
-Instruction = Union[Ping, Read, Write, RegWrite, Action, Reboot, ClearMultiTurn, ClearError, FactoryReset,
+Instruction = Union[Ping, ErrorByte, Read, Write, RegWrite, Action, Reboot, ClearMultiTurn, ClearError, FactoryReset,
                     SyncRead, BulkRead, BulkWrite, PreparedWrite]
 
-__all__ = ["Action", "BulkRead", "BulkWrite", "ClearError", "ClearMultiTurn", "FactoryReset", "Instruction",
+__all__ = ["Action", "BulkRead", "BulkWrite", "ClearError", "ClearMultiTurn", "ErrorByte", "FactoryReset", "Instruction",
            "Ping", "PreparedWrite", "Read", "Reboot", "RegWrite", "SyncRead", "Write"]

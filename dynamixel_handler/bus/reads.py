@@ -83,17 +83,21 @@ class Reads:
                                         f"{'fast ' if fast else ''}sync read @{address}x{length}")
 
     def _read_each(self, address: int, length: int, ids: Iterable[int], framer: Framer) -> GroupRead:
-        """The same item of each servo, one read instruction each (a protocol without Sync Read):
-        not sent again on silence, as a sync read's silent servo is not."""
+        """The same item of each servo, one read instruction each (a protocol without Sync Read);
+        each sent once more on silence (a late reply is not taken for a silent servo, and a silent
+        one costs two reply waits, not the bus's retry count)."""
         t = self._t
         data: dict[int, bytes] = {}
+        errors: dict[int, int] = {}
         for dxl_id in unique_ids(ids):
             with t.transaction() as tx:
-                status = t.unicast(dxl_id, framer.READ, framer.read_params(address, length), length, 0, framer)
+                status = t.unicast(dxl_id, framer.READ, framer.read_params(address, length), length,
+                                   min(1, t.retry_num), framer)
                 if status is not None and not status.refused:
                     tx.ok(1, 1)
-                    data[dxl_id] = status.params
+                    data[dxl_id], errors[dxl_id] = status.params, status.error
         read = GroupRead.finished(data)
+        read.errors = errors
         if not data and ids:
             read.failure, read.why = Failure.NOBODY_ANSWERED, f"read @{address}x{length}: no servo answered"
         return read

@@ -28,6 +28,7 @@ from .command_types import Control, Extra, Gain, Goal, Limit, Shortcut, Status
 from .extra import apply_extra
 from .fast_path import FastGoals
 from .goal_bounds import TableBounds
+from .moving_speed import goal_item, not_fastest
 from .paths import CommandPaths
 from .rules import Row, Rules, fits
 from .servo_settings import SettingsCommands
@@ -177,7 +178,7 @@ class Commander(SettingsCommands):
             # one vectorised conversion per item, then each servo's limits
             for item, rows in self._goal_rows(what, field, values, targets, item_of, rotation).items():
                 pulses = units.unit_to_pulse([self.h.model(i) for i, _ in rows], item, [v for _, v in rows])
-                clamped = self.rules.clamp_rows(what, field, item, rows, pulses)
+                clamped = not_fastest(self.h, self.warn, what, item, rows, self.rules.clamp_rows(what, field, item, rows, pulses))
                 writes.setdefault(item, {}).update(zip([i for i, _ in rows], clamped))
         if rotation is not None and "position_deg" not in fields:
             self._rotation_alone(what, targets, rotation, writes)
@@ -281,7 +282,7 @@ class Commander(SettingsCommands):
             return
         targets = self.known_ids(ids, what)
         if targets:
-            self._goal_writes(what, targets, fields, lambda f, _i: GOAL_FIELDS.get(f))
+            self._goal_writes(what, targets, fields, lambda field, dxl_id: goal_item(self.h, field, dxl_id))
 
     def change_mode(self, dxl_id: int, mode: str, what: str) -> Answer:
         """The servo to ``mode`` if its model has it: DONE, REFUSED (no such mode), FAILED (the

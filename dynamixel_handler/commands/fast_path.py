@@ -26,6 +26,9 @@ from .paths import CommandPaths
 from .rules import Rules, all_finite, fits
 from .tables import GOAL_FIELDS
 
+#: the goal items that are one register (Moving Speed) on a model without Profile Velocity
+SPEED_ITEMS = ("goal_velocity", "profile_velocity")
+
 #: (field, item, values) of each goal field of a command
 Work = list[tuple[str, str, list[float]]]
 PlanKey = tuple[tuple[int, ...], "ServoFamily | None"]
@@ -129,6 +132,8 @@ def _work(plan: Targets, fields: Mapping[str, Sequence[Any]], family: ServoFamil
         array = np.asarray(values)
         if array.dtype != np.float64 or array.shape != (len(plan.ids),) or not plan.has(item):
             return None
+        if item in SPEED_ITEMS and not plan.has("profile_velocity"):
+            return None  # Moving Speed: the velocity goal or the speed of a move, by each servo's mode
         floats = array.tolist()
         if not all_finite(floats):  # a NaN or an infinity (or a sum too large: checked one by one)
             return None

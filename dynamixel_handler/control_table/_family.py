@@ -68,6 +68,13 @@ class ServoFamily:
     #: Hardware Error Status / Shutdown bits where they differ from the X and P layout: (cause,
     #: bit) pairs; (): that layout
     error_bits: Tuple[Tuple[str, int], ...] = ()
+    #: the servo reports its error state in the error byte of every status (no Hardware Error
+    #: Status item: Protocol 1.0), and an overload or overheating is cleared by writing its Torque
+    #: Limit again (the e-Manual's way; the servo set it to 0), not by a reboot
+    error_in_status: bool = False
+    #: Moving Speed 0 in Joint Mode means "as fast as the motor goes" (Protocol 1.0, XL-320): a
+    #: speed of 0 from a command is written as the slowest the servo takes (1) there, never as 0
+    fastest_at_zero: bool = False
     #: the Dynamixel protocol its servos speak (the framer a bus uses for them): 2, or 1 (AX, RX, DX,
     #: EX, MX with the Protocol 1.0 firmware)
     protocol: int = 2
@@ -141,7 +148,7 @@ XL320 = ServoFamily(
     dummy_model=350, x_table=False, profile_max=None, multi_turn_goal=None,
     move_speed_field="profile_vel_deg_s", move_speed_item="goal_velocity",
     has_protocol_type=False, commanded_as=X,
-    error_bits=(("overload", 0), ("overheating", 1), ("input_voltage", 2)),
+    error_bits=(("overload", 0), ("overheating", 1), ("input_voltage", 2)), fastest_at_zero=True,
 )
 
 # Protocol 1.0 families (``_protocol1``): no Operating Mode register (the Angle Limits select Joint,
@@ -157,7 +164,7 @@ def _protocol1_family(title: str, modes: FrozenSet[str], dummy: int, bulk_read: 
         name=title, title=title, suffix=title.lower(), modes=modes, dummy_model=dummy, x_table=False,
         profile_max=None, multi_turn_goal=multi_turn_goal, move_speed_field="profile_vel_deg_s",
         move_speed_item="goal_velocity", has_protocol_type=False, series_topics=False,
-        error_bits=_P1_BITS, protocol=1, bulk_read=bulk_read,
+        error_bits=_P1_BITS, protocol=1, bulk_read=bulk_read, error_in_status=True, fastest_at_zero=True,
     )
 
 

@@ -8,6 +8,7 @@ import logging
 import time
 
 from .. import error_state
+from ..control_table import Model
 from ..servos import PendingWrites, ServoTable
 from ..settings import LoopSettings
 from .deferred import Deferred
@@ -124,7 +125,7 @@ class Requests:
         error = self.io.read_item(dxl_id, error_state.error_item(model))
         if error is None:
             return answer(False, f"{what}: ID {dxl_id} did not answer the hardware error read: not rebooted")
-        if not error_state.is_error(model, error):
+        if not self._to_clear(dxl_id, model, error):
             self.log.debug(f"{what}: ID {dxl_id} has no hardware error: nothing to clear (not rebooted)")
             return DONE
         refused = self._clear_refused(dxl_id, what)
@@ -133,7 +134,37 @@ class Requests:
         codes = model.family.error_codes
         if codes is not None and codes.clear_params is not None:
             return self._clear_code(dxl_id, error, codes.clear_params, what)
+        if model.family.error_in_status:
+            return self._clear_by_torque_limit(dxl_id, error, what)
         return self._clear_by_reboot(dxl_id, error, request.keep_rotation, what)
+
+    def _to_clear(self, dxl_id: int, model: Model, error: int) -> bool:
+        """Whether there is an error to clear: an error state, or (Protocol 1.0, whose status
+        reports the conditions of the moment) an output its shutdown cut (Torque Limit 0) after
+        the cause went away."""
+        if error_state.is_error(model, error):
+            return True
+        return model.family.error_in_status and self.io.read_item(dxl_id, "torque_limit") == 0
+
+    def _clear_by_torque_limit(self, dxl_id: int, error: int, what: str) -> Answer:
+        """Protocol 1.0 (e-Manual, Alarm Shutdown): an overload or overheating the Shutdown bits
+        cover set Torque Limit to 0; writing it again (to Max Torque, its power-on value) gives the
+        servo its output back once the cause is gone; no reboot. Torque back on as after a reboot."""
+        model = self.table.model(dxl_id)
+        limit = self.io.read_item(dxl_id, "pwm_limit")
+        if limit is None:
+            return answer(False, f"{what}: ID {dxl_id} did not answer the Max Torque read: error not cleared")
+        torque = bool(self.io.value(dxl_id, "torque_enable")) or bool(error)
+        written = self.io.write_item(dxl_id, "torque_limit", limit)
+        if not written:
+            return answer(False, f"{what}: ID {dxl_id} Torque Limit not written back: {written.why}")
+        if torque:
+            self.io.torque_on(dxl_id)
+        still = self.io.read_item(dxl_id, error_state.error_item(model))
+        cause = error_state.describe(model, error) if error else "the shutdown's cause gone"
+        self.log.info(f"ID {dxl_id}: output given back, {cause} (Torque Limit written back to {limit}: cleared, no "
+                      "reboot)" + (f"; the servo still reports {error_state.describe(model, still)}" if still else ""))
+        return DONE
 
     def _clear_by_reboot(self, dxl_id: int, error: int, keep_rotation: bool, what: str) -> Answer:
         torque_was = self.io.value(dxl_id, "torque_enable")

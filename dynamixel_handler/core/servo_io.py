@@ -6,13 +6,19 @@ from typing import Any
 
 from .. import units
 from ..bus import Failure, Result, ServoBus
-from ..bus.ops import Read, Write
+from ..bus.ops import ErrorByte, Read, Write
 from ..control_table import Model
+from ..protocol import protocol1 as p1
 from ..servos import ServoTable
 
 Log = logging.Logger | logging.LoggerAdapter[Any]
 #: the item that holds the mode (Protocol 1.0 servos: the Angle Limits stand for it)
 MODE = "operating_mode"
+#: the item that holds the error state (Protocol 1.0 servos: the error byte of their status)
+HARDWARE_ERROR = "hardware_error_status"
+#: the status error bits that are a servo's state (input voltage, overheating, overload), not an
+#: instruction's fault (angle limit, range, checksum, instruction)
+STATE_BITS = p1.ERR_VOLTAGE | p1.ERR_OVERHEATING | p1.ERR_OVERLOAD
 
 
 class ServoIO:
@@ -29,6 +35,8 @@ class ServoIO:
         model = self.table.model(dxl_id)
         if item == MODE and model.mode_select is not None:
             return self._read_mode(dxl_id, model)
+        if item == HARDWARE_ERROR and model.family.error_in_status:
+            return self._read_status_error(dxl_id, model)
         if not model.has(item):
             return None
         spec = model.item(item)
@@ -53,6 +61,15 @@ class ServoIO:
         if written:
             self.table.set_value(item, dxl_id, pulses)
         return written
+
+    def _read_status_error(self, dxl_id: int, model: Model) -> int | None:
+        """The error state of a servo that reports it in its status (Protocol 1.0): a ping's error
+        byte, its state bits kept in the table as the servo's ``hardware_error_status``."""
+        error: int | None = self.bus.execute(ErrorByte(dxl_id, model.protocol)).value
+        if error is None:
+            return None
+        self.table.set_value(HARDWARE_ERROR, dxl_id, error & STATE_BITS)
+        return error & STATE_BITS
 
     def _read_mode(self, dxl_id: int, model: Model) -> int | None:
         """The mode code of a servo whose mode the Angle Limits select (Protocol 1.0), kept in the

@@ -8,6 +8,7 @@ from typing import Callable, Sequence
 from .. import error_state, units
 from ..bus import ServoBus, dummy_ids
 from ..bus.ops import Ping
+from ..control_table import POSITION_MODES
 from ..errors import Interrupted, StartupError
 from ..servos import ServoTable
 from ..settings import ScanSettings, StartValues
@@ -126,7 +127,7 @@ class Startup:
         start = self.settings.start
         for item, limit, param, value in (
                 ("profile_acceleration", "acceleration_limit", "default/profile_acc", start.profile_acc),
-                ("profile_velocity", "velocity_limit", "default/profile_vel", start.profile_vel)):
+                (self._speed_item(dxl_id), "velocity_limit", "default/profile_vel", start.profile_vel)):
             if model.has(item):
                 pulses = self._within(dxl_id, item, limit, param, value)
                 written = self.io.write_item(dxl_id, item, pulses)
@@ -134,6 +135,15 @@ class Startup:
                     self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
                                      f"({item} {pulses} refused: {written.why})")
         self.watchdog.request_arm(dxl_id)
+
+    def _speed_item(self, dxl_id: int) -> str:
+        """Where default/profile_vel goes: Profile Velocity, or on a model whose Moving Speed 0
+        means "as fast as the motor goes" (Protocol 1.0, XL-320) Moving Speed in Joint Mode (left
+        at 0, the first goal would be reached at full speed)."""
+        model = self.table.model(dxl_id)
+        if model.has("profile_velocity") or not model.family.fastest_at_zero:
+            return "profile_velocity"
+        return model.family.speed_item(False) if self.io.mode(dxl_id) in POSITION_MODES else "profile_velocity"
 
     def _within(self, dxl_id: int, item: str, limit: str, param: str, value: float) -> int:
         """A default profile in pulses, within what this servo takes: its e-Manual range and, where

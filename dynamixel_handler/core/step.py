@@ -18,7 +18,7 @@ from .intake import Intake
 from .pacing import Pacing
 from .read_plan import ReadPlan
 from .recovery import Recovery
-from .servo_io import Log
+from .servo_io import HARDWARE_ERROR, STATE_BITS, Log
 from .startup import Startup
 from .state import RECHECK_LOOPS, StepReport
 from .watchdog import Watchdog
@@ -192,9 +192,12 @@ class Step:
             return
         self.complete_step(report)
         report.phase = 4
-        for read, _, data in report.reads:
+        for read, pending, data in report.reads:
             if data:
                 self.reads.store(read, data, report.stamp, report.seq)
+            for dxl_id, error in pending.errors.items():  # Protocol 1.0: the state in each status
+                if dxl_id in self.table:
+                    self.table.set_value(HARDWARE_ERROR, dxl_id, error & STATE_BITS)
         if len(self.table):
             self._log_reads(report, report.silent)
         if "extra_dynamic" in report.groups:

@@ -7,7 +7,7 @@ import logging
 import re
 from typing import Any, Callable, Mapping
 
-from dynamixel_handler.control_table import OPERATING_MODES, model_by_number
+from dynamixel_handler.control_table import OPERATING_MODES, Model, model_by_number, protocol1_model_by_number
 from dynamixel_handler.core.api import LoopFigures
 from dynamixel_handler.core.request_types import DONE, Answer, ChangeMode, SetGoals
 from dynamixel_handler.core.state import recheck_loops
@@ -25,9 +25,10 @@ class FakeAccess:
         self.settings = Settings()
         self.table = ServoTable()
         for dxl_id, number in sorted(servos.items()):
-            self.table.add(dxl_id, model_by_number(number))
+            self.table.add(dxl_id, _model(number))
         for dxl_id in servos:
-            self.table.set_value("operating_mode", dxl_id, OPERATING_MODES[(modes or {}).get(dxl_id, "position")])
+            mode = (modes or {}).get(dxl_id, "position")
+            self.table.set_value("operating_mode", dxl_id, self.table.model(dxl_id).mode_values.get(mode, OPERATING_MODES[mode]))
         for item, per_id in (values or {}).items():
             for dxl_id, pulses in per_id.items():
                 self.table.set_value(item, dxl_id, pulses)
@@ -54,7 +55,7 @@ class FakeAccess:
 
     def mode(self, dxl_id: int) -> str | None:
         value = self.table.value("operating_mode", dxl_id)
-        return {v: k for k, v in OPERATING_MODES.items()}.get(value) if value is not None else None
+        return self.table.model(dxl_id).mode_name(value) if value is not None else None
 
     def value(self, dxl_id: int, item: str) -> int | None:
         return self.table.value(item, dxl_id)
@@ -86,6 +87,14 @@ class FakeAccess:
 
     def read_item(self, dxl_id: int, item: str) -> int | None:
         return self.table.value(item, dxl_id)
+
+
+def _model(number: int) -> Model:
+    """A Protocol 2.0 model, or a Protocol 1.0 one where the number is none of the 2.0 ones."""
+    try:
+        return model_by_number(number)
+    except KeyError:
+        return protocol1_model_by_number(number)
 
 
 def warnings_of(access: FakeAccess) -> list[str]:
