@@ -10,7 +10,7 @@ from typing import Callable, Sequence
 from ..bus import BusError, DynamixelBus
 from ..bus.census import census
 from ..bus.ops import Read
-from ..control_table import model_by_number
+from ..control_table import FAMILIES, model_by_number, protocol1_model_by_number
 from ..units import decode_hardware_error
 from .errors import StepFailed
 from .protocol1 import model_for, model_name1, ping1, switch_to_2
@@ -166,18 +166,31 @@ def _protocol1_note(number: int, dxl_id: int) -> tuple[str, str]:
     twin = switch_to_2(number)
     if twin is not None:
         return model_name1(number), (
-            f"Protocol 1.0 firmware: {_ALL_VERBS}; to switch it to Protocol 2.0 install its 2.0 firmware (DYNAMIXEL "
-            f"Wizard 2.0, Firmware Recovery, {twin}(2.0))")
+            f"Protocol 1.0 firmware: {_ALL_VERBS}; {_driven(number)}; to switch it to Protocol 2.0 install its 2.0 "
+            f"firmware (DYNAMIXEL Wizard 2.0, Firmware Recovery, {twin}(2.0))")
     try:
         model = model_by_number(number)
     except KeyError:
         if number == 0:
             return "?", "answers a Protocol 1.0 ping only (Status Return Level 0): set it to 1 or 2 with another tool"
-        return model_name1(number), f"Protocol 1.0 only (no Protocol 2.0 firmware exists for it): {_ALL_VERBS}"
+        return model_name1(number), (f"Protocol 1.0 only: {_driven(number)} (no Protocol 2.0 firmware exists for it); "
+                                     f"{_ALL_VERBS}")
     item = model.items.get("protocol_type")
     where = f" (address {item.address})" if item is not None else ""
     return model.name, (f"a Protocol 2.0 model set to Protocol Type 1: `set {dxl_id} protocol_type 2`{where} brings it "
                         "back to Protocol 2.0, where the handler reaches it; every verb of this tool reaches it now")
+
+
+def _driven(number: int) -> str:
+    """Whether the handler drives a Protocol 1.0 model (its family is one of ``FAMILIES``, with an
+    ``init/used_servo_series`` key) or not yet."""
+    try:
+        family = protocol1_model_by_number(number).family
+    except KeyError:
+        return "the handler does not drive it"
+    if family in FAMILIES:
+        return f"the handler drives it with init/used_servo_series.{family.name} on"
+    return "the handler does not drive it"
 
 
 #: what the tool can do with a servo that answers Protocol 1.0

@@ -17,6 +17,7 @@ from ..bus import DynamixelBus
 from ..control_table import Model, model_by_number
 from ..protocol import HEADER, INSTRUCTION_NAMES, FrameReader
 from ..protocol import host as p
+from ..protocol import protocol1 as p1
 from .protocol1 import error_text1, model_name1, statuses1
 
 __all__ = ["install", "Tracer"]
@@ -78,8 +79,10 @@ class Tracer:
         self.answered = False
         if not packet.startswith(HEADER):
             self.protocol1 = True
-            what = {1: "ping", 2: "read", 3: "write"}.get(packet[4] if len(packet) > 4 else 0, "instruction")
+            what = p1.INSTRUCTION_NAMES.get(packet[4] if len(packet) > 4 else 0, "instruction")
             where = f" @{packet[5]} x{packet[6]}" if what == "read" and len(packet) > 7 else ""
+            if what == "write" and len(packet) > 7:  # header 2, ID, length, instruction, address, data, checksum
+                where = f" @{packet[5]} = {int.from_bytes(packet[6:-1], 'little')}"
             self.read1 = (packet[5], packet[6]) if where else None
             self.line(">", packet, f"Protocol 1.0 {what} ID {packet[2] if len(packet) > 2 else '?'}{where}")
             return
