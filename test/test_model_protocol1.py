@@ -99,3 +99,19 @@ def test_overheating_is_published_and_cleared_the_protocol1_way(rig):
     rig.wait(lambda: rig.state_of("status", "error", AX) is False, what="status.error of the AX cleared")
     assert "(Torque Limit written back to 1023: cleared, no reboot)" in rig.output
     assert not any(e.instruction == 0x08 for e in rig.sim.log[mark:])      # no reboot
+
+
+def test_current_control_on_the_mx64(rig):
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[MX_64], mode=["current"]))
+    wait_items(rig, MX_64, {"torque_control_mode_enable": 1})
+    rig.wait(lambda: rig.state_of("status", "mode", MX_64) == "current", what="MX-64 in current control")
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[MX_64], current_ma=[-90.0]))
+    wait_items(rig, MX_64, {"goal_current": -round(90.0 / 4.5)})       # Goal Torque: 4.5 mA a unit, bit 10 the sign
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[MX_64], mode=["position"]))
+    wait_items(rig, MX_64, {"torque_control_mode_enable": 0})
+
+
+def test_a_speed_of_zero_in_joint_mode_is_never_written_as_zero(rig):
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[MX], profile_vel_deg_s=[0.0], position_deg=[10.0]))
+    wait_items(rig, MX, {"goal_velocity": 1, "goal_position": 2048 + round(10.0 / MX_DEG)})
+    rig.wait_log("Moving Speed 0 would move it as fast as the motor goes")

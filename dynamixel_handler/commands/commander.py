@@ -291,7 +291,7 @@ class Commander(SettingsCommands):
         model = self.h.model(dxl_id)
         if mode not in model.modes:
             return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored"))
-        if mode in CURRENT_MODES and not model.has("current_limit"):
+        if mode in CURRENT_MODES and not (model.has("current_limit") or model.has("goal_current")):
             return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no current sensor, "
                                       f"so no '{mode}' mode: ignored"))
         return self.warned(self.h.ask(ChangeMode(dxl_id, mode, what)))
