@@ -33,7 +33,8 @@ from ..config import (
     coerce,
     validate,
 )
-from ..logs import cut
+from ..logs import ECHO_MAX, cut
+from .params_file import read_problem
 
 _ROS_TYPES = {
     BOOL: ParameterType.PARAMETER_BOOL, INT: ParameterType.PARAMETER_INTEGER,
@@ -59,7 +60,7 @@ def declare_and_load(node: Node) -> Config:
     values: dict[str, Any] = {}
     for param in SCHEMA:
         if param.name in given:
-            value = coerce(param, given[param.name])  # ConfigError names the parameter and the type
+            value = _coerced(param, given[param.name])  # ConfigError names the parameter and the type
             if node.has_parameter(param.name):  # not when it came under another spelling (ALIASES)
                 node.undeclare_parameter(param.name)
         else:
@@ -72,14 +73,40 @@ def declare_and_load(node: Node) -> Config:
     return validate(values)
 
 
+#: the 64-bit range of a ROS integer parameter
+_INT64 = range(-(1 << 63), 1 << 63)
+#: unknown names given a line each; the others are counted in one more line
+_UNKNOWN_SHOWN = 20
+
+
+def _coerced(param: Any, value: Any) -> Any:
+    """``value`` in ``param``'s type (config.coerce), an integer also within ROS's 64-bit range
+    (``1e20`` for an int would otherwise fail inside rclpy); ConfigError with the value cut short."""
+    try:
+        got = coerce(param, value)
+    except ConfigError as err:
+        if len(str(err)) <= 2 * ECHO_MAX:
+            raise
+        raise ConfigError(f"parameter '{param.name}' must be {param.type}, got {cut(repr(value))} "
+                          f"({type(value).__name__})") from None
+    for item in got if isinstance(got, list) else [got]:
+        if type(item) is int and item not in _INT64:
+            raise ConfigError(f"parameter '{param.name}' must be {param.type}, got {cut(value)}: beyond the range of a "
+                              "ROS integer (-2^63 .. 2^63-1)")
+    return got
+
+
 def _report_unknown(node: Node, given: dict[str, Any]) -> None:
-    """One error line for each name that is no parameter of the handler (ignored)."""
-    for name in sorted(given):
-        if name in SCHEMA_BY_NAME or name in _ROS_OWN or name.startswith(TOLERATED_PREFIXES):
-            continue
-        hint = difflib.get_close_matches(name, SCHEMA_BY_NAME, n=1)
+    """One error line for each name that is no parameter of the handler (ignored), the first
+    ``_UNKNOWN_SHOWN`` of them; one line counts the rest."""
+    unknown = [name for name in sorted(given) if not (
+        name in SCHEMA_BY_NAME or name in _ROS_OWN or name.startswith(TOLERATED_PREFIXES))]
+    for name in unknown[:_UNKNOWN_SHOWN]:
+        hint = difflib.get_close_matches(name, SCHEMA_BY_NAME, n=1) if len(name) <= ECHO_MAX else []
         node.get_logger().error(
-            f"unknown parameter '{name}' ignored" + (f": did you mean '{hint[0]}'?" if hint else ""))
+            f"unknown parameter '{cut(name)}' ignored" + (f": did you mean '{hint[0]}'?" if hint else ""))
+    if len(unknown) > _UNKNOWN_SHOWN:
+        node.get_logger().error(f"{len(unknown) - _UNKNOWN_SHOWN} more unknown parameters ignored")
 
 
 def _command_line_parameters(argv: list[str]) -> dict[str, str]:
@@ -117,21 +144,27 @@ def check_arguments(argv: list[str]) -> str | None:
 
 
 def _params_file_problem(path: str) -> str | None:
-    """Why a params file cannot be read as YAML (file and line), or None."""
+    """Why a params file is refused: too large, too deep or too many entries (on the text, before
+    any parsing), or not YAML (file and line); None if it is not."""
     import yaml
+    problem, text = read_problem(path)
+    if problem is not None:
+        return problem
     try:
-        with open(path, encoding="utf-8") as f:
-            yaml.safe_load(f)
-    except OSError as err:
-        return f"params file {cut(path)}: cannot read it: {err.strerror}"
-    except UnicodeDecodeError as err:
-        return f"params file {cut(path)}: not text ({err.reason} at byte {err.start})"
+        _load_yaml(text)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
         problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        return f"params file {cut(path)}: not valid YAML: {where}{problem}"
+        return f"params file {cut(path)}: not valid YAML: {where}{cut(problem)}"
     return None
+
+
+def _load_yaml(text: str) -> Any:
+    """``text`` as YAML with the safe loader (libyaml's when there is one: a large file in a
+    fraction of the time)."""
+    import yaml
+    return yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
 
 
 def files_that_set_nothing(argv: list[str]) -> list[tuple[str, str]]:
@@ -144,11 +177,13 @@ def files_that_set_nothing(argv: list[str]) -> list[tuple[str, str]]:
         if arg in ("--ros-args", "--"):
             ros = arg == "--ros-args"
         elif ros and arg == "--params-file" and k + 1 < len(argv):
-            try:
-                with open(argv[k + 1], encoding="utf-8") as f:
-                    data = yaml.safe_load(f)
-            except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            problem, text = read_problem(argv[k + 1])
+            if problem is not None:
                 continue  # check_arguments has stopped start-up for these
+            try:
+                data = _load_yaml(text)
+            except yaml.YAMLError:
+                continue
             why = _why_nothing(data)
             if why is not None:
                 out.append((argv[k + 1], why))

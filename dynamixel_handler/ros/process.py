@@ -16,6 +16,7 @@ from rclpy.node import Node
 
 from ..bus import BusError
 from ..errors import ConfigError, Interrupted, StartupError
+from ..logs import cut
 from ..runner import log_exception
 from . import fastpath
 from .params import check_arguments
@@ -25,6 +26,8 @@ NODE_NAME = "dynamixel_handler"
 SWITCH_INTERVAL_S = 0.0002
 #: executor threads (subscriptions share one mutually exclusive group; services may wait)
 EXECUTOR_THREADS = 6
+#: longest "bad parameter" line [characters] (each value in it is cut shorter where it is made)
+FATAL_LINE_MAX = 500
 
 
 def _logger_of(exc: BaseException, fallback: Any) -> Any:
@@ -86,7 +89,7 @@ def _init_rclpy(args: list[str] | None, log: Any) -> int | None:
 def _exit_code(exc: BaseException, log: Any) -> int:
     """One line for what ended the node before it ran; the exit code."""
     if isinstance(exc, ConfigError):
-        log.fatal(f"bad parameter: {exc}")
+        log.fatal(f"bad parameter: {cut(exc, FATAL_LINE_MAX)}")  # values in it are the user's: never a huge line
         return 2
     if isinstance(exc, Interrupted):  # a signal during start-up: a normal exit
         log.info(f"{exc}: exiting")

@@ -1,0 +1,138 @@
+"""Hostile parameters files: each is one FATAL line and exit code 2, no traceback and no line of
+rcl's own, long before rcl's parser would have finished with it: a file over 1 MiB (a 10 MB
+string), nesting deeper than 32 levels, more than 20,000 keys and list entries (checked on the text
+before any YAML parser reads it), a YAML alias, an integer beyond ROS's 64-bit range; a long value
+is echoed cut short. The node runs as a process with each file, generated here; a file within the
+limits starts as before. The text scan's rules (quotes, comments, block scalars) are checked on
+strings."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from dynamixel_handler.ros.params_file import MAX_BYTES, MAX_DEPTH, MAX_ENTRIES, scan_problem
+
+from support.ros import NodeProcess, node_command
+
+HEAD = "dynamixel_handler:\n  ros__parameters:\n    device_name: /dev/null\n"
+#: the node must have exited by then; a node that does not is killed and the test fails
+EXIT_WAIT_S = 60.0
+#: the longest line any of these runs may log
+LINE_MAX = 600
+
+
+def _refused(path: Path) -> str:
+    """The node's one FATAL line for the params file ``path`` (exit code 2, nothing else said)."""
+    proc = NodeProcess(node_command(params_file=path))
+    code = proc.wait_exit(timeout=EXIT_WAIT_S)
+    out = proc.output
+    assert code == 2, out[:2000]
+    assert "Traceback" not in out and "[rcl]" not in out, out[:2000]
+    assert all(len(line) < LINE_MAX for line in proc.lines), [len(line) for line in proc.lines]
+    fatal = [line for line in proc.lines if line.startswith("[FATAL]")]
+    assert len(fatal) == 1 and len([line for line in proc.lines if line.strip()]) == 1, out[:2000]
+    return fatal[0]
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_a_file_over_the_size_limit_is_refused_before_it_is_read(tmp_path):
+    path = _write(tmp_path, "string.yaml", HEAD + "    loop_rate: '" + "x" * 10_000_000 + "'\n")
+    line = _refused(path)
+    assert str(path) in line and f"more than the {MAX_BYTES:,} a params file may have" in line, line
+    assert f"{path.stat().st_size:,} bytes" in line, line
+    many = _write(tmp_path, "keys.yaml", HEAD + "".join(f"    k{i}: {i}\n" for i in range(330_000)))
+    assert "refused before reading it" in _refused(many)
+
+
+@pytest.mark.parametrize("nest", ["flow", "block"])
+def test_nesting_500_deep_is_one_line_naming_where(tmp_path, nest):
+    if nest == "flow":
+        text = HEAD + "    loop_rate: " + "[" * 500 + "]" * 500 + "\n"
+    else:
+        text = HEAD + "    deep:\n" + "".join("  " * (k + 3) + f"k{k}:\n" for k in range(500)) + "  " * 503 + "1\n"
+    line = _refused(_write(tmp_path, "deep.yaml", text))
+    assert f"nests deeper than {MAX_DEPTH} levels at line" in line and "refused before parsing it" in line, line
+
+
+def test_more_keys_or_list_entries_than_the_limit_are_refused_before_parsing(tmp_path):
+    ints = _write(tmp_path, "ints.yaml", HEAD + "    table: [" + ", ".join("7" for _ in range(300_000)) + "]\n")
+    assert ints.stat().st_size < MAX_BYTES  # the count, not the size, refuses it
+    line = _refused(ints)
+    assert f"more than {MAX_ENTRIES:,} keys and list entries (line 4)" in line, line
+    keys = _write(tmp_path, "keys.yaml", HEAD + "".join(f"    k{i}: 1\n" for i in range(30_000)))
+    assert keys.stat().st_size < MAX_BYTES
+    assert f"more than {MAX_ENTRIES:,} keys and list entries" in _refused(keys)
+    listed = _write(tmp_path, "list.yaml", HEAD + "    table:\n" + "      - 1\n" * 30_000)
+    assert f"more than {MAX_ENTRIES:,} keys and list entries" in _refused(listed)
+
+
+def test_an_alias_bomb_is_refused_before_parsing(tmp_path):
+    lines = ["    a: &a [x, x, x, x, x, x, x, x, x]"] + [
+        f"    {chr(98 + k)}: &{chr(98 + k)} [{', '.join([f'*{chr(97 + k)}'] * 9)}]" for k in range(8)]
+    line = _refused(_write(tmp_path, "bomb.yaml", HEAD + "\n".join(lines) + "\n"))
+    assert "a YAML alias (*name) at line 5: ROS does not read aliases" in line, line
+
+
+@pytest.mark.parametrize("value", ["1e20", "100000000000000000000", "-1e19"])
+def test_an_integer_beyond_64_bits_is_one_line_naming_the_parameter(tmp_path, value):
+    line = _refused(_write(tmp_path, "big.yaml", HEAD + f"    baudrate: {value}\n"))
+    assert "bad parameter: parameter 'baudrate' must be int" in line and "beyond the range of a ROS integer" in line, line
+    assert "SystemError" not in line
+
+
+def test_a_long_value_of_the_wrong_type_is_echoed_cut_short(tmp_path):
+    line = _refused(_write(tmp_path, "long.yaml", HEAD + "    loop_rate: '" + "x" * 900_000 + "'\n"))
+    assert "parameter 'loop_rate' must be int" in line and "(900002 characters)" in line, line
+
+
+def test_many_unknown_names_are_named_twenty_and_counted(tmp_path):
+    path = _write(tmp_path, "unknown.yaml", HEAD + "".join(f"    unknown_{i:04d}: 1\n" for i in range(500))
+                  + "    " + "k" * 1000 + ": 1\n")
+    proc = NodeProcess(node_command(params_file=path))
+    assert proc.wait_exit(timeout=EXIT_WAIT_S) == 1, proc.output  # /dev/null: not a serial port
+    unknown = [line for line in proc.lines if "unknown parameter" in line]
+    assert len(unknown) == 21 and unknown[-1].endswith("481 more unknown parameters ignored"), proc.output[:3000]
+    assert "unknown parameter 'kkkk" in unknown[0] and "(1000 characters)" in unknown[0], unknown[0]
+    assert all(len(line) < LINE_MAX for line in proc.lines)
+
+
+def test_a_large_file_within_the_limits_starts_as_before(tmp_path):
+    """A table of 15,000 numbers for another node and 500 keys: read; the node goes on to its device."""
+    text = (HEAD + "    loop_rate: 50\nother_node:\n  ros__parameters:\n    table: ["
+            + ", ".join("1.5" for _ in range(15_000)) + "]\n" + "".join(f"    k{i}: {i}\n" for i in range(500)))
+    proc = NodeProcess(node_command(params_file=_write(tmp_path, "large.yaml", text)))
+    assert proc.wait_exit(timeout=EXIT_WAIT_S) == 1, proc.output
+    assert "params file" not in proc.output and "loop_rate=50" in proc.output, proc.output
+    assert "/dev/null is not a serial port" in proc.output, proc.output
+
+
+# ---------------------------------------------------------------------- the text scan's rules
+@pytest.mark.parametrize("text", [
+    "a: '[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[['\n",  # brackets in a quoted scalar
+    'a: "\\" [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\n  [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[["\n',  # over two lines
+    "a: 'it''s [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[['\n",
+    "a: it's [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x [x\n",
+    "a: 1  # [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\n",
+    "a: |\n  [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[\n  {{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{{\nb: 2\n",
+    "url: http://x:8080/a\nname: '*star'\nc: x*y\nanchored: &here [1, 2]\n",
+], ids=["quoted", "two-lines", "doubled-quote", "plain", "comment", "block-scalar", "no-alias"])
+def test_the_scan_counts_structure_not_text(text):
+    assert scan_problem(text) is None
+
+
+def test_the_scan_finds_depth_entries_and_aliases_where_they_are():
+    assert scan_problem("a: &x " + "[" * (MAX_DEPTH + 1) + "]" * (MAX_DEPTH + 1)) == \
+        f"nests deeper than {MAX_DEPTH} levels at line 1"
+    assert scan_problem("a: " + "[" * (MAX_DEPTH - 1) + "]" * (MAX_DEPTH - 1)) is None  # the mapping is a level
+    assert scan_problem("".join(" " * k + f"k{k}:\n" for k in range(MAX_DEPTH + 1))) == \
+        f"nests deeper than {MAX_DEPTH} levels at line {MAX_DEPTH + 1}"
+    assert scan_problem("- " * (MAX_DEPTH + 1) + "x") == f"nests deeper than {MAX_DEPTH} levels at line 1"
+    assert scan_problem("t: {" + ", ".join(f"k{i}: 1" for i in range(MAX_ENTRIES)) + "}") is not None
+    assert scan_problem("t: [" + ", ".join("1" for _ in range(MAX_ENTRIES - 10)) + "]") is None
+    assert scan_problem("a: 1\nb: *x\n") == "a YAML alias (*name) at line 2: ROS does not read aliases"
