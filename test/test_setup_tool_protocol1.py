@@ -135,9 +135,10 @@ def test_set_mode_writes_the_angle_limits_and_says_the_joint_limits_it_had(sim_o
     got = doc(tool(sim, "set-mode", "1", "velocity", "--yes", "--baud", "1000000", "--json"))
     assert (got["was"], got["mode"], got["limits_were"], got["limits"]) == ("position", "velocity", [100, 900], [0, 0])
     assert [p1_read(sim.path, 1_000_000, 1, a, 2) for a in (CW_LIMIT, CCW_LIMIT, MOVING_SPEED)] == [0, 0, 0]
+    p1_write(sim.path, 1_000_000, 1, MOVING_SPEED, 1024 + 90, 2)  # turning clockwise (bit 10) in Wheel Mode
     out = tool(sim, "set-mode", "1", "position", "--yes", "--baud", "1000000")
     assert out.returncode == 0 and "factory" in out.stdout, out.text
-    assert [p1_read(sim.path, 1_000_000, 1, a, 2) for a in (CW_LIMIT, CCW_LIMIT)] == [0, 1023]
+    assert [p1_read(sim.path, 1_000_000, 1, a, 2) for a in (CW_LIMIT, CCW_LIMIT, MOVING_SPEED)] == [0, 1023, 90]
     out = tool(sim, "set-mode", "1", "ex_position", "--baud", "1000000")
     assert out.returncode == 2 and "has no mode 'ex_position'" in one_error_line(out), out.text
 

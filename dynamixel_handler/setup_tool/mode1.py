@@ -91,8 +91,11 @@ def _write(ctx: Context, servo: Servo, new: dict[str, int], torque: bool) -> Non
         if torque:
             servo.write("torque_enable", 0)
             entry.torque = "off (it was on; the load is not held)"
-        if new.get("max_position_limit") == 0 and servo.model.has("goal_velocity"):
-            servo.write("goal_velocity", 0)  # Wheel Mode turns at Moving Speed: at rest first
+        if servo.model.has("goal_velocity"):
+            if new.get("max_position_limit") == 0:
+                servo.write("goal_velocity", 0)  # Wheel Mode turns at Moving Speed: at rest first
+            elif (speed := servo.read("goal_velocity")) < 0:
+                servo.write("goal_velocity", -speed)  # out of Wheel Mode: its direction bit means nothing there
         if servo.model.has("goal_current") and "torque_control_mode_enable" in new:
             servo.write("goal_current", 0)
         for name, raw in new.items():
