@@ -13,7 +13,7 @@ from test_setup_tool import Sim, one_error_line, sdk_port, sdk_read, tool
 
 AX12, MX28, MX64, XM430 = 12, 29, 310, 1020
 # Protocol 1.0 control table (ROBOTIS e-Manual, AX-12A / MX-28): one layout for the models here
-ID, BAUD, RETURN_DELAY, CW_LIMIT, CCW_LIMIT, MAX_VOLTAGE = 3, 4, 5, 6, 8, 13
+ID, BAUD, RETURN_DELAY, CW_LIMIT, CCW_LIMIT, MAX_VOLTAGE, STATUS_RETURN_LEVEL = 3, 4, 5, 6, 8, 13, 16
 TORQUE, LED, GOAL_POSITION, MOVING_SPEED, PRESENT_POSITION = 24, 25, 30, 32, 36
 TORQUE_CONTROL = 70  # MX-64: Torque Control Mode Enable
 PROTOCOL_TYPE = 13  # X series
@@ -109,6 +109,17 @@ def test_an_eeprom_item_is_written_with_torque_on_and_the_load_kept(sim_of):
     out = tool(sim, "set", "1", "return_delay_time", "20us", "--yes", "--baud", "1000000")
     assert out.returncode == 0 and "torque was turned off" not in out.stdout, out.text
     assert [p1_read(sim.path, 1_000_000, 1, a, 1) for a in (RETURN_DELAY, TORQUE)] == [10, 1]
+
+
+def test_a_servo_that_answers_reads_only_is_written_and_read_back(sim_of):
+    sim = sim_of("1:AX-12A")
+    with sdk_port(sim.path, 1_000_000) as port:  # Status Return Level 1: no status to a write
+        assert PacketHandler(1.0).write1ByteTxOnly(port, 1, STATUS_RETURN_LEVEL, 1) == COMM_SUCCESS
+    out = tool(sim, "set", "1", "led", "1", "--baud", "1000000")
+    assert out.returncode == 0 and "led = 1 (was 0), read back" in out.stdout, out.text
+    assert p1_read(sim.path, 1_000_000, 1, LED, 1) == 1
+    out = tool(sim, "set", "1", "status_return_level", "2", "--yes", "--baud", "1000000")
+    assert out.returncode == 0 and p1_read(sim.path, 1_000_000, 1, STATUS_RETURN_LEVEL, 1) == 2, out.text
 
 
 # ---------------------------------------------------------------------- set-id, set-baud

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..bus import DynamixelBus
+from ..bus import DynamixelBus, Failure
 from ..bus.ops import Ping, Read, Write
 from ..control_table import Item, Model
 from ..units import decode, encode
@@ -63,9 +63,19 @@ class Servo:
     def write(self, name: str, raw: int) -> None:
         item = self.item(name)
         done = self.bus.execute(Write(self.dxl_id, item.address, encode(item, raw), self.protocol))
-        if not done:
+        if not done and not self._answers_reads_only(done.failure):
             raise StepFailed(f"{self.who}: writing {item.name} = {show_value(self.model, item, raw)} "
                              f"failed: {_cause(done.why)}")
+
+    def _answers_reads_only(self, failure: Failure | None) -> bool:
+        """Whether a write that got no status went to a Protocol 1.0 servo at Status Return Level 1
+        (it answers reads and pings only): then the write is taken as sent; every checked write
+        reads it back."""
+        if self.protocol != 1 or failure is not Failure.NO_REPLY or not self.model.has("status_return_level"):
+            return False
+        item = self.model.item("status_return_level")
+        got = self.bus.execute(Read(self.dxl_id, item.address, item.size, 1))
+        return got.value is not None and got.value[0] < 2
 
     def torque_on(self) -> bool:
         return self.read("torque_enable") == 1
