@@ -211,6 +211,18 @@ def test_backup_and_restore_the_eeprom_items(sim_of, tmp_path):
     assert p1_read(sim.path, 1_000_000, 1, TORQUE, 1) == 1  # a Protocol 1.0 model kept its torque
 
 
+def test_restore_onto_the_same_servo_after_a_full_factory_reset(sim_of, tmp_path):
+    sim = sim_of("3:AX-12A")
+    p1_write(sim.path, 1_000_000, 3, RETURN_DELAY, 10)
+    file = tmp_path / "backup.yaml"
+    assert tool(sim, "backup", str(file), "3", "--baud", "1000000").returncode == 0
+    assert tool(sim, "factory-reset", "3", "--all", "--yes", "--baud", "1000000").returncode == 0
+    # ID 3 answers nowhere: every ID is pinged in Protocol 1.0 for its replacement (a shorter wait per ping)
+    out = tool(sim, "restore", str(file), "--yes", "--baud", "1000000", "--latency", "4")
+    assert out.returncode == 0 and "(replacement): written and read back: id 1 -> 3" in out.stdout, out.text
+    assert p1_read(sim.path, 1_000_000, 3, RETURN_DELAY, 1) == 10 and p1_ping(sim.path, 1_000_000, 1) is None
+
+
 def test_monitor_shows_present_values_in_units(sim_of):
     sim = sim_of("1:AX-12A", "2:MX-28(1.0)")
     p1_write(sim.path, 1_000_000, 1, BAUD, 34)
