@@ -138,14 +138,18 @@ def baud_rows(models: Iterable[Model]) -> List[str]:
     return out
 
 
-PROTOCOL1_HEAD = """## Protocol 1.0 (the virtual bus; not driven by the node yet)
+PROTOCOL1_HEAD = """## Protocol 1.0
 
 The AX, RX, DX, EX and MX (Protocol 1.0 firmware) models, written after each model's e-Manual page
 (`dynamixel_handler/control_table/_protocol1.py`, whose docstring says where the pages disagree:
 MX-12W reports 360 where its page says 104, the EX-106+ position text is the AX's). They are kept
-apart from the models above (`protocol1_models()`, not `known_models()`): the node does not drive them
-yet, `init/used_servo_series` has no key for them; the virtual bus serves every one of them and the
-set-up tool's scan names them. No Operating Mode register: the Angle Limits select the mode (both 0:
+apart from the models above (`protocol1_models()`, not `known_models()`: a Protocol 1.0 model number
+is looked up only for a servo that answered in Protocol 1.0). The node drives them beside Protocol
+2.0 servos on one bus where `init/used_servo_series.AX`, `RX`, `DX`, `EX` or `MX1` is true (off by
+default: the scan then pings each ID in Protocol 1.0 too), through the series-independent topics
+(`/dynamixel/commands/all`, `/dynamixel/command/*`, `/dynamixel/shortcut`, `joint_commands`, the
+services and the trajectory action); they are read servo by servo (Protocol 1.0 has no Sync Read).
+The virtual bus serves every one of them and every verb of the set-up tool takes them. No Operating Mode register: the Angle Limits select the mode (both 0:
 Wheel, `velocity`; both 4095 on MX: multi-turn, `ex_position`; Torque Control Mode Enable on
 MX-64/106: `current`). Positions count from the middle of the range; Moving Speed, Present Speed and
 Present Load carry the direction in bit 10. Bulk Read: MX and EX only.
