@@ -148,8 +148,9 @@ is looked up only for a servo that answered in Protocol 1.0). The node drives th
 2.0 servos on one bus where `init/used_servo_series.AX`, `RX`, `DX`, `EX` or `MX1` is true (off by
 default: the scan then pings each ID in Protocol 1.0 too), through the series-independent topics
 (`/dynamixel/commands/all`, `/dynamixel/command/*`, `/dynamixel/shortcut`, `joint_commands`, the
-services and the trajectory action); they are read servo by servo (Protocol 1.0 has no Sync Read).
-The virtual bus serves every one of them and every verb of the set-up tool takes them. No Operating Mode register: the Angle Limits select the mode (both 0:
+services and the trajectory action); MX and EX are read with one Bulk Read, the others servo by
+servo (Protocol 1.0 has no Sync Read). The virtual bus serves every one of them and every verb of
+the set-up tool takes them. No Operating Mode register: the Angle Limits select the mode (both 0:
 Wheel, `velocity`; both 4095 on MX: multi-turn, `ex_position`; Torque Control Mode Enable on
 MX-64/106: `current`). Positions count from the middle of the range; Moving Speed, Present Speed and
 Present Load carry the direction in bit 10. Bulk Read: MX and EX only.

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from dynamixel_handler.bus import DynamixelBus, Failure
-from dynamixel_handler.bus.ops import ClearError, ClearMultiTurn, Ping, Read, Write
+from dynamixel_handler.bus.ops import ClearError, ClearMultiTurn, Ping, Read, SyncRead, Write
 from dynamixel_handler.bus.writes import Writes
 from dynamixel_handler.protocol import protocol1 as p1
 from dynamixel_handler.protocol.framers import FRAMERS, PROTOCOL1
@@ -102,3 +102,21 @@ def test_instructions_protocol1_lacks_are_refused_without_sending(mixed):
         got = bus.execute(op)
         assert got.value is False and got.failure is Failure.NOT_IN_PROTOCOL and "Protocol 1.0" in got.why
     assert bus.stats.packets_sent == sent
+
+
+def test_mx_servos_are_read_in_one_bulk_read_and_the_ax_one_by_one():
+    MX28 = 29
+    with VirtualBus({7: AX12A, 8: AX12A, 2: MX28, 3: MX28}, baudrate=1_000_000, wire_timing=False) as sim:
+        bus = DynamixelBus(sim.path, baudrate=1_000_000, retry_num=2, retry_interval_ms=1.0)
+        bus.open()
+        try:
+            sent = bus.stats.packets_sent
+            mx = bus.execute(SyncRead(36, 2, (2, 3), fast=True, protocol=1))   # Present Position
+            assert bus.stats.packets_sent == sent + 1                              # one Bulk Read
+            assert set(mx.value) == {2, 3} and all(len(d) == 2 for d in mx.value.values())
+            sent = bus.stats.packets_sent
+            ax = bus.execute(SyncRead(36, 2, (7, 8), protocol=1))
+            assert bus.stats.packets_sent == sent + 2 and set(ax.value) == {7, 8}  # a read each
+            assert int.from_bytes(ax.value[7], "little") == sim.servos_at(7)[0].read("present_position")
+        finally:
+            bus.close()

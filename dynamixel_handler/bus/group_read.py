@@ -7,6 +7,7 @@ import time
 from typing import Callable, Iterable
 
 from ..protocol import host as p
+from ..protocol.framers import PROTOCOL2, Framer
 from .result import Failure
 
 
@@ -35,6 +36,8 @@ class GroupRead:
         #: the status error byte of each servo that answered, where the protocol reports the
         #: servo's state in it (Protocol 1.0 reads); empty otherwise
         self.errors: dict[int, int] = {}
+        #: the framing of its protocol
+        self.framer: Framer = PROTOCOL2
 
     @classmethod
     def finished(cls, data: dict[int, bytes]) -> GroupRead:

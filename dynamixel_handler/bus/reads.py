@@ -8,6 +8,7 @@ from typing import Iterable, Mapping
 import serial
 
 from ..protocol import host as p
+from ..protocol import protocol1 as p1
 from ..protocol.framers import FRAMERS, PROTOCOL2, Framer
 from .group_read import GroupRead, check_id, unique_ids
 from .result import Failure, Result
@@ -62,7 +63,7 @@ class Reads:
         bus; any other transaction first waits for this read to end, so none is ever lost.
         """
         if protocol != 2:
-            return self._read_each(address, length, ids, FRAMERS[protocol])
+            return self._read_protocol1(address, length, ids, fast, FRAMERS[protocol])
         given = ids if isinstance(ids, tuple) else tuple(ids)
         # plain ints only as a key: 1.0 or True would find the entry of 1 and skip the ID check
         key = (address, length, given, fast) if set(map(type, given)) == _INT_ONLY else None
@@ -81,6 +82,13 @@ class Reads:
         packet, expected = cached
         return self._t.start_group_read(packet, list(expected), fast,
                                         f"{'fast ' if fast else ''}sync read @{address}x{length}")
+
+    def _read_protocol1(self, address: int, length: int, ids: Iterable[int], bulk: bool, framer: Framer) -> GroupRead:
+        """A group read of Protocol 1.0 servos: one Bulk Read (``bulk``: MX and EX take it), or
+        one read each (no Sync Read in Protocol 1.0)."""
+        if bulk:
+            return self.bulk_read({i: (address, length) for i in unique_ids(ids)}, framer=framer)
+        return self._read_each(address, length, ids, framer)
 
     def _read_each(self, address: int, length: int, ids: Iterable[int], framer: Framer) -> GroupRead:
         """The same item of each servo, one read instruction each (a protocol without Sync Read);
@@ -102,11 +110,19 @@ class Reads:
             read.failure, read.why = Failure.NOBODY_ANSWERED, f"read @{address}x{length}: no servo answered"
         return read
 
-    def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False) -> GroupRead:
-        """Different ``(address, size)`` per servo (IDs checked) in one instruction, on the wire."""
+    def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False,
+                  framer: Framer = PROTOCOL2) -> GroupRead:
+        """Different ``(address, size)`` per servo (IDs checked) in one instruction, on the wire;
+        in Protocol 1.0 (``framer``) each servo answers with a status of its own, after the one
+        listed before it."""
         order = list(requests)
         if not order:
             return GroupRead.finished({})
+        if framer.version == 1:
+            params = p1.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
+            packet = framer.instruction(framer.broadcast_id, p1.BULK_READ, params)
+            return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], False,
+                                            "bulk read (Protocol 1.0)", framer)
         instruction = p.FAST_BULK_READ if fast else p.BULK_READ
         params = p.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
         packet = p.build_instruction(p.BROADCAST_ID, instruction, params)

@@ -55,6 +55,15 @@ class Outcome:
         return Result(value, kind, self.fail(f"{what}: {reason}"))
 
 
+def _taken(read: GroupRead, replies: dict[int, Any]) -> dict[int, bytes]:
+    """The data of the replies that are answers (not refusals); Protocol 1.0: their error bytes
+    kept on the read (the servo's state is in each status's error byte)."""
+    answered = {i: s for i, s in replies.items() if not s.refused}
+    if read.framer.version == 1:
+        read.errors = {i: s.error for i, s in answered.items()}
+    return {i: s.params for i, s in answered.items()}
+
+
 class Transport:
     """One Protocol 2.0 serial line: the port, one transaction at a time, retries and counters.
 
@@ -192,15 +201,17 @@ class Transport:
 
     # ------------------------------------------------------------ the group read on the wire
     def start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
-                         what: str) -> GroupRead:
-        """Send a group read and leave it on the wire; its ``result()`` gathers the replies."""
+                         what: str, framer: Framer = PROTOCOL2) -> GroupRead:
+        """Send a group read and leave it on the wire; its ``result()`` gathers the replies (one
+        status per servo in ``framer``'s protocol, or one fast-read reply)."""
         with self.lock:
             self._settle()
             read = GroupRead(self._finish_group_read, packet, expected, fast, what)
+            read.framer = framer
             read.sent = self.send(packet)
             if read.sent:
                 rx = self.rx
-                read.reply_bytes = reply_bytes(expected, fast)
+                read.reply_bytes = reply_bytes(expected, fast, framer.status_overhead)
                 read.eta = min(rx.wire_free_at + read.reply_bytes * self.port.tx_ms_per_byte / 1000.0
                                + rx.reply_lag_s,
                                read.started + rx.reply_timeout_ms(len(packet), read.reply_bytes) / 1000.0)
@@ -247,15 +258,17 @@ class Transport:
         """The data of the servos that answered ``read``; the instruction is sent again (up to
         ``retry_num`` times) while nobody answers and the port is usable."""
         waited = read.sent and self.port.waiting() < read.reply_bytes
-        replies = self.rx.gather(read.expected, len(read.packet), read.fast, read.started) if read.sent else None
+        framer = read.framer
+        replies = (self.rx.gather(read.expected, len(read.packet), read.fast, read.started, framer)
+                   if read.sent else None)
         if replies is not None and len(replies) == len(read.expected):
             self._learn_lag(read, waited)
         for _ in range(self.retry_num):
             if replies is None or replies:
                 break
             self.pause_before_retry()
-            replies = self._exchange(read.packet, read.expected, read.fast)
-        return {i: s.params for i, s in (replies or {}).items() if not s.refused}
+            replies = self._exchange(read.packet, read.expected, read.fast, framer)
+        return _taken(read, replies or {})
 
     def _learn_lag(self, read: GroupRead, waited: bool) -> None:
         """Track how much later than their wire time replies arrive (adapter latency, the servos'

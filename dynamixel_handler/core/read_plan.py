@@ -131,7 +131,10 @@ class ReadPlan:
             sig = tuple((i, model.items[i].address, model.items[i].size, model.items[i].signed,
                          model.items[i].direction_bit) for i in items if model.has(i))
             protocol = model.protocol
-            fast = fast_read and protocol == 2 and self.table.ids[pos] not in self.plain_read
+            # the faster group read where the servo takes it: Fast Sync Read (2.0, method/fast_read),
+            # Bulk Read (1.0: MX and EX; the others are read one by one)
+            fast = ((fast_read if protocol == 2 else model.family.bulk_read)
+                    and self.table.ids[pos] not in self.plain_read)
             if sig:
                 layouts.setdefault((protocol, fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
         plan = []
@@ -185,7 +188,7 @@ class ReadPlan:
         P); those after it were only cut off. So only that first one can lack the instruction: if it
         answers the plain read FAST_MISSES_PLAIN times in a row, it is read so from now on."""
         missing = [i for i in read.ids if i not in data]
-        plain = self.bus.execute(SyncRead(read.address, read.length, tuple(missing))).value
+        plain = self.bus.execute(SyncRead(read.address, read.length, tuple(missing), protocol=read.protocol)).value
         first = missing[0]
         if first in plain:
             self._fast_misses[first] = self._fast_misses.get(first, 0) + 1
