@@ -64,7 +64,16 @@ def doc(out) -> dict:
     return json.loads(out.stdout)
 
 
-# ---------------------------------------------------------------------- info, get, set
+# ---------------------------------------------------------------------- scan, info, get, set
+def test_scan_says_what_a_protocol_1_servo_is_and_who_drives_it(sim_of):
+    sim = sim_of("1:AX-12A")
+    p1_write(sim.path, 1_000_000, 1, TORQUE, 1)
+    (ax,) = doc(tool(sim, "scan", "--ids", "0-2", "--baud", "1000000", "--protocol", "1", "--json"))["servos"]
+    assert (ax["model"], ax["protocol"], ax["mode"], ax["torque"], ax["hardware_error"]) == ("AX-12A", 1, "position", True, [])
+    assert "init/used_servo_series.AX" in ax["note"] and "every verb of this tool reads and writes it" in ax["note"]
+
+
+
 def test_info_names_model_firmware_mode_torque_and_the_status_error_bits(sim_of):
     sim = sim_of("1:AX-12A", "2:MX-28(1.0)")
     p1_write(sim.path, 1_000_000, 1, MAX_VOLTAGE, 100, error=1)  # 10.0 V: the 12 V supply is above it

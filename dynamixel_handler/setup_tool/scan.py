@@ -10,7 +10,8 @@ from typing import Callable, Sequence
 from ..bus import BusError, DynamixelBus
 from ..bus.census import census
 from ..bus.ops import Read
-from ..control_table import FAMILIES, model_by_number, protocol1_model_by_number
+from ..config import USED_FAMILIES
+from ..control_table import model_by_number, protocol1_model_by_number
 from ..units import decode_hardware_error
 from .errors import StepFailed
 from .protocol1 import model_for, model_name1, ping1, switch_to_2
@@ -173,7 +174,7 @@ def _protocol1_note(number: int, dxl_id: int) -> tuple[str, str]:
     except KeyError:
         if number == 0:
             return "?", "answers a Protocol 1.0 ping only (Status Return Level 0): set it to 1 or 2 with another tool"
-        return model_name1(number), (f"Protocol 1.0 only: {_driven(number)} (no Protocol 2.0 firmware exists for it); "
+        return model_name1(number), (f"Protocol 1.0 only (no Protocol 2.0 firmware exists for it): {_driven(number)}; "
                                      f"{_ALL_VERBS}")
     item = model.items.get("protocol_type")
     where = f" (address {item.address})" if item is not None else ""
@@ -182,14 +183,14 @@ def _protocol1_note(number: int, dxl_id: int) -> tuple[str, str]:
 
 
 def _driven(number: int) -> str:
-    """Whether the handler drives a Protocol 1.0 model (its family is one of ``FAMILIES``, with an
-    ``init/used_servo_series`` key) or not yet."""
+    """Whether the handler drives a Protocol 1.0 model: its family has an ``init/used_servo_series``
+    key (``config.USED_FAMILIES``, off by default) or not."""
     try:
         family = protocol1_model_by_number(number).family
     except KeyError:
         return "the handler does not drive it"
-    if family in FAMILIES:
-        return f"the handler drives it with init/used_servo_series.{family.name} on"
+    if family in USED_FAMILIES:
+        return f"the handler drives it with init/used_servo_series.{family.title} true (off by default)"
     return "the handler does not drive it"
 
 
