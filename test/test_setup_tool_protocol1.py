@@ -6,10 +6,12 @@ that is about the search for every servo."""
 from __future__ import annotations
 
 import json
+import sys
+import time
 
 import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler
-from test_setup_tool import Sim, one_error_line, sdk_port, sdk_read, tool
+from test_setup_tool import TOOL, Lines, Sim, one_error_line, sdk_port, sdk_read, tool
 
 AX12, MX28, MX64, XM430 = 12, 29, 310, 1020
 # Protocol 1.0 control table (ROBOTIS e-Manual, AX-12A / MX-28): one layout for the models here
@@ -131,7 +133,30 @@ def test_a_servo_that_answers_reads_only_is_written_and_read_back(sim_of):
     assert out.returncode == 0 and p1_read(sim.path, 1_000_000, 1, STATUS_RETURN_LEVEL, 1) == 2, out.text
 
 
-# ---------------------------------------------------------------------- set-id, set-baud
+# ---------------------------------------------------------------------- assign-ids, set-id, set-baud
+def test_assign_ids_gives_unboxed_protocol_1_servos_their_id_and_the_bus_rate(sim_of):
+    sim = sim_of("20:XM430-W350")
+    cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
+    run = Lines([*cmd, "--device", sim.path, "--latency", "10", "assign-ids", "10", "--baud", "57600",
+                 "--ids", "0-3", "--search-baud", "57600,1000000", "--protocol", "both"])
+    try:
+        mark = run.wait_for("0 servo(s) already on the bus")
+        for k, model in enumerate(("AX-12A", "MX-28(1.0)")):  # from the box: ID 1 at 1 Mbps / 57600 bps
+            mark = run.wait_for("Connect one new servo and press Enter", mark)
+            sim.send(f"add 1 {model}")
+            time.sleep(0.3)
+            run.send("")
+            mark = run.wait_for(f"-> ID {10 + k} at 57600 bps, verified", mark) + 1
+        run.wait_for("Connect one new servo", mark)
+        run.send("q")
+        assert run.proc.wait(20) == 0, "\n".join(run.lines)
+    finally:
+        run.stop()
+    assert {i: p1_ping(sim.path, 57600, i) for i in (10, 11)} == {10: AX12, 11: MX28}
+    assert p1_ping(sim.path, 1_000_000, 1) is None and p1_ping(sim.path, 57600, 1) is None
+
+
+
 def test_set_id_and_set_baud_find_it_again_and_the_rates_the_bus_cannot_open_are_refused(sim_of):
     sim = sim_of("1:AX-12A")
     out = tool(sim, "set-id", "1", "7", "--yes", "--baud", "1000000")

@@ -192,8 +192,10 @@ def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
 
 # ------------------------------------------------------------------------------- assign-ids
 def _look(ctx: Context, rates: list[int], ids: list[int]) -> list[Found]:
-    with ctx.out.progress(scan_steps(rates, ids, [2], ctx.bus.latency_timer_ms), "looking for servos") as tick:
-        return scan_bus(ctx.bus, rates, ids, [2], tick).found
+    """The servos at ``rates`` x ``ids``: Protocol 2.0, and 1.0 too with ``--protocol 1`` or ``both``."""
+    protocols = {"1": [1], "both": [2, 1]}.get(ctx.protocols or "", [2])
+    with ctx.out.progress(scan_steps(rates, ids, protocols, ctx.bus.latency_timer_ms), "looking for servos") as tick:
+        return scan_bus(ctx.bus, rates, ids, protocols, tick).found
 
 
 def _next_id(start: int, taken: set[int]) -> int:
@@ -207,14 +209,14 @@ def _next_id(start: int, taken: set[int]) -> int:
 
 def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
     """Move the servo found at ``new`` to ``new_id`` and ``target`` bps; returns it there."""
-    bus = ctx.bus
+    bus, protocol = ctx.bus, new.protocol
     bus.set_baudrate(new.baudrate)
-    servo = connect(bus, new.dxl_id)
+    servo = connect(bus, new.dxl_id, protocol)
     if new_id != servo.dxl_id:
-        if bus.execute(Ping(new_id, retries=1)).value is not None:
+        if bus.execute(Ping(new_id, retries=1, protocol=protocol)).value is not None:
             raise StepFailed(f"{servo.who}: ID {new_id} is in use at {new.baudrate} bps; not changed")
-        servo.set_checked("id", new_id, after=lambda: connect(bus, new_id), torque_off=ctx.torque_off)
-        servo = connect(bus, new_id)
+        servo.set_checked("id", new_id, after=lambda: connect(bus, new_id, protocol), torque_off=ctx.torque_off)
+        servo = connect(bus, new_id, protocol)
     if target != new.baudrate:
         by_bps = {bps: value for value, bps in servo.model.baud_rates.items()}
         if target not in by_bps:
@@ -222,11 +224,11 @@ def _give(ctx: Context, new: Found, new_id: int, target: int) -> Servo:
 
         def there() -> Servo:
             bus.set_baudrate(target)
-            return connect(bus, new_id)
+            return connect(bus, new_id, protocol)
 
         servo.set_checked("baud_rate", by_bps[target], after=there, torque_off=ctx.torque_off)
     bus.set_baudrate(target)
-    return connect(bus, new_id)
+    return connect(bus, new_id, protocol)
 
 
 def _forget(known: set[tuple[int, int]], clash: list[Found]) -> None:
