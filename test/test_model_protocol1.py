@@ -14,8 +14,8 @@ from dynamixel_handler_msgs.msg import DynamixelGoal, DynamixelShortcut, Dynamix
 
 from support.rig import Rig
 
-AX12A, MX28, MX64, XM430 = 12, 29, 310, 1020
-AX, MX, MX_64, X = 4, 5, 6, 1
+AX12A, AX18A, MX28, MX64, EX106, XM430 = 12, 18, 29, 310, 107, 1020
+AX, AX_18, EX, MX, MX_64, X = 4, 2, 3, 5, 6, 1
 AX_DEG, MX_DEG = 300.0 / 1023.0, 360.0 / 4096.0
 AX_DEG_S, MX_DEG_S = 0.111 * 6.0, 0.114 * 6.0
 CW = 1 << 10
@@ -23,8 +23,8 @@ CW = 1 << 10
 
 @pytest.fixture(scope="module")
 def rig():
-    r = Rig({X: XM430, AX: AX12A, MX: MX28, MX_64: MX64}, "baudrate:=1000000", "init/used_servo_series.AX:=true",
-            "init/used_servo_series.MX1:=true", "mode_change_interval_sec:=0.0", "pub_ratio/status:=3",
+    r = Rig({X: XM430, AX: AX12A, AX_18: AX18A, EX: EX106, MX: MX28, MX_64: MX64}, "baudrate:=1000000",
+            "init/used_servo_series.AX:=true", "init/used_servo_series.EX:=true", "init/used_servo_series.MX1:=true", "mode_change_interval_sec:=0.0", "pub_ratio/status:=3",
             "pub_ratio/goal:=3", "pub_ratio/error:=3", "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
             sim_kwargs={"baudrate": 1_000_000})
     yield r
@@ -45,14 +45,15 @@ def wait_items(rig: Rig, dxl_id: int, expected: dict[str, int]) -> None:
 
 
 def test_each_is_handled_beside_the_protocol2_servo(rig):
-    for dxl_id, name in ((AX, "AX-12A"), (MX, "MX-28"), (MX_64, "MX-64")):
+    for dxl_id, name in ((AX, "AX-12A"), (AX_18, "AX-18A"), (EX, "EX-106+"), (MX, "MX-28"), (MX_64, "MX-64")):
         assert f"ID {dxl_id}: {name}" in rig.output and "Protocol 1.0) handled" in rig.output, rig.output
         rig.wait(lambda i=dxl_id: rig.state_of("status", "mode", i) == "position", what=f"status of ID {dxl_id}")
         assert servo(rig, dxl_id).read("torque_enable") == 1          # torque on, as init/torque_auto_enable says
     assert rig.state_of("status", "mode", X) == "position"
 
 
-@pytest.mark.parametrize("dxl_id, deg_per_pulse, zero", [(AX, AX_DEG, 512), (MX, MX_DEG, 2048)])
+@pytest.mark.parametrize("dxl_id, deg_per_pulse, zero", [(AX, AX_DEG, 512), (MX, MX_DEG, 2048),
+                                                         (EX, 250.92 / 4095.0, 2048)])
 def test_a_goal_in_degrees_is_written_and_reached(rig, dxl_id, deg_per_pulse, zero):
     rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[30.0]))
     wait_items(rig, dxl_id, {"goal_position": zero + round(30.0 / deg_per_pulse)})
