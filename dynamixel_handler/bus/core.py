@@ -32,7 +32,7 @@ or leave one on the wire: ``scan``, ``start_sync_read``, ``prepare_sync_write``.
 """
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping, Protocol
 
 from ..protocol.framers import FRAMERS
 from .group_read import GroupRead
@@ -61,8 +61,31 @@ from .transport import Transport
 from .writes import PreparedWrite, Writes
 
 
+class LineSettings(Protocol):
+    """What a bus is built from (``settings.BusSettings`` has these fields)."""
+
+    @property
+    def baudrate(self) -> int: ...
+    @property
+    def latency_ms(self) -> int: ...
+    @property
+    def retries(self) -> int: ...
+    @property
+    def retry_interval_ms(self) -> float: ...
+    @property
+    def verbose(self) -> bool: ...
+
+
 class DynamixelBus:
-    """One Protocol 2.0 serial bus (see ``Transport`` for failures and retries)."""
+    """One serial bus of Dynamixel servos, Protocol 2.0 and 1.0 (see ``Transport`` for failures
+    and retries)."""
+
+    @classmethod
+    def of(cls, device: str, settings: LineSettings, logger: object = None) -> DynamixelBus:
+        """The bus on ``device`` as typed settings say (``settings.BusSettings``: the node's
+        ``baudrate``, ``latency_timer`` (at least 1 ms), ``dyn_comm/*``)."""
+        return cls(device, settings.baudrate, max(1.0, float(settings.latency_ms)), settings.retries,
+                   settings.retry_interval_ms, verbose=settings.verbose, logger=logger)
 
     def __init__(self, device: str, baudrate: int = 57600, latency_timer_ms: float = 16.0,
                  retry_num: int = 5, retry_interval_ms: float = 4.0, verbose: bool = False,

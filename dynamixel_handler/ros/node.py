@@ -85,8 +85,7 @@ class DynamixelHandlerNode(Node):
         device, chosen = self._device()  # serial:<USB serial number> -> the adapter
         if chosen is not None:
             log.info(chosen)
-        self.wire = DynamixelBus(device, cfg.bus.baudrate, max(1.0, float(cfg.bus.latency_ms)), cfg.bus.retries,
-                                 cfg.bus.retry_interval_ms, verbose=cfg.bus.verbose, logger=self.adapter)
+        self.wire = DynamixelBus.of(device, cfg.bus, logger=self.adapter)
         if cfg.scan.ignored_dummy_ids:
             log.warning(f"init/dummy_servo_list: IDs {list(cfg.scan.ignored_dummy_ids)} are outside 0..252: ignored")
         self.bus = BusWithDummies(self.wire, make_dummies(list(cfg.scan.dummy_ids), list(cfg.scan.dummy_series)))
