@@ -25,7 +25,8 @@ CW = 1 << 10
 def rig():
     r = Rig({X: XM430, AX: AX12A, AX_18: AX18A, EX: EX106, MX: MX28, MX_64: MX64}, "baudrate:=1000000",
             "init/used_servo_series.AX:=true", "init/used_servo_series.EX:=true", "init/used_servo_series.MX1:=true",
-            "mode_change_interval_sec:=0.0", "pub_ratio/status:=3", "pub_ratio/goal:=3", "pub_ratio/error:=3", "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
+            "mode_change_interval_sec:=0.0", "pub_ratio/status:=3", "pub_ratio/goal:=3", "pub_ratio/error:=3",
+            "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
             sim_kwargs={"baudrate": 1_000_000})
     yield r
     assert r.close() == 0
