@@ -161,9 +161,8 @@ def main(argv: list[str] | None = None) -> int:
     t = PartTimer()
     t.patch(handler.intake, "run_queued", "commands: queued requests (validate, units -> pulses, pending)")
     t.patch(handler.writes, "_encode_pending", "goal write: encode")
-    t.patch(handler.bus, "sync_write_result", "goal write: sync write (packet, write syscall)")
     t.patch(handler.bus, "prepare_sync_write", "goal write: sync write packet")
-    t.patch(handler.bus, "send_prepared_result", "goal write: sync write send (write syscall)")
+    t.patch(handler.bus, "execute", "goal write: sync write send (write syscall)")  # the loop's one instruction
     t.patch(handler.bus, "start_sync_read", "sync read: packet, send")
     t.patch(GroupRead, "result", WAIT)
     t.patch(handler.reads, "store", "decode + store in the servo table")
