@@ -18,6 +18,7 @@ AX12, MX28, MX64, XM430 = 12, 29, 310, 1020
 ID, BAUD, RETURN_DELAY, CW_LIMIT, CCW_LIMIT, MAX_VOLTAGE, STATUS_RETURN_LEVEL = 3, 4, 5, 6, 8, 13, 16
 TORQUE, LED, GOAL_POSITION, MOVING_SPEED, PRESENT_POSITION = 24, 25, 30, 32, 36
 TORQUE_CONTROL = 70  # MX-64: Torque Control Mode Enable
+ALARM_LED = 17
 PROTOCOL_TYPE = 13  # X series
 
 
@@ -87,6 +88,10 @@ def test_info_names_model_firmware_mode_torque_and_the_status_error_bits(sim_of)
     items = got["items"]
     assert items["max_position_limit"]["raw"] == p1_read(sim.path, 1_000_000, 1, CCW_LIMIT, 2) == 1023
     assert items["baud_rate"]["text"] == "1,000,000 bps (1)" and items["max_voltage_limit"]["value"] == pytest.approx(10.0)
+    assert items["shutdown"]["text"] == "overload, overheating (0x24)"  # the Protocol 1.0 error bits, by name
+    p1_write(sim.path, 57600, 2, ALARM_LED, 0x4A)
+    out = tool(sim, "get", "2", "alarm_led", "--baud", "57600")
+    assert "alarm_led = instruction, range, angle_limit (0x4A)" in out.stdout, out.text
     text = tool(sim, "info", "2", "--baud", "57600").stdout
     assert "ID 2: MX-28 (model 29) at 57600 bps" in text and "protocol 1.0" in text and "mode position" in text
     assert "errors none" in text, text

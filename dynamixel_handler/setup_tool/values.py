@@ -8,6 +8,7 @@ import math
 from typing import Any
 
 from ..control_table import Item, Model
+from ..protocol import protocol1 as p1
 
 __all__ = ["number", "coded", "named", "servo_doc"]
 
@@ -51,9 +52,24 @@ def coded(model: Model, item: Item, raw: int) -> str | None:
         return f"{bps:,} bps ({raw})" if bps is not None else f"{raw} (no baud rate of {model.name})"
     if item.name == "operating_mode" and model.mode_name(raw):
         return f"{model.mode_name(raw)} ({raw})"
+    if model.protocol == 1 and item.name in _BIT_ITEMS_1:
+        return bits1(raw)
     if item.name in _BIT_ITEMS:
         return bits(raw)
     return None
+
+
+#: a Protocol 1.0 model's items whose bits are the status error bits (Alarm LED, Shutdown)
+_BIT_ITEMS_1 = ("shutdown", "alarm_led")
+
+
+def bits1(raw: int) -> str:
+    """Protocol 1.0 error bits by name, the highest first: ``overload, overheating (0x24)``."""
+    names = [name.replace(" ", "_") for bit, name in reversed(list(enumerate(p1.ERROR_BITS))) if raw >> bit & 1]
+    other = raw & ~((1 << len(p1.ERROR_BITS)) - 1)
+    if other:
+        names.append(f"other bits 0x{other:02X}")
+    return f"{', '.join(names) or 'none'} (0x{raw:02X})"
 
 
 def named(model: Model, item: Item, raw: int) -> str:
