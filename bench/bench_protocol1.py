@@ -155,6 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     from sim_process import BusProcess
 
     bus = BusProcess(servos={i: AX12A for i in range(1, a.n + 1)}, baudrate=BAUD, wire_timing=True)
+    for i in range(1, a.n + 1):  # as the node sets it (default/return_delay_time 0): the same wire for both
+        bus.write(i, "return_delay_time", 0)
     rows = []
     try:
         for _ in range(a.repeat):

@@ -29,7 +29,7 @@ def _serve(conn, kwargs: dict[str, Any], exact_physics: bool) -> None:
             what, args = conn.recv()
             if what == "write":
                 dxl_id, item, value = args
-                sim.servo(dxl_id).write(item, value)
+                sim.servos_at(dxl_id)[0].write(item, value)  # a Protocol 1.0 servo too
                 conn.send(None)
             elif what == "clear_log":
                 sim.clear_log()
