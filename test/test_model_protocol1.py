@@ -11,6 +11,7 @@ from __future__ import annotations
 import pytest
 
 from dynamixel_handler_msgs.msg import DynamixelGoal, DynamixelShortcut, DynamixelStatus
+from dynamixel_handler_msgs.srv import MoveTo, SetTorque
 
 from support.rig import Rig
 
@@ -117,3 +118,28 @@ def test_a_speed_of_zero_in_joint_mode_is_never_written_as_zero(rig):
     rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[MX], profile_vel_deg_s=[0.0], position_deg=[10.0]))
     wait_items(rig, MX, {"goal_velocity": 1, "goal_position": 2048 + round(10.0 / MX_DEG)})
     rig.wait_log("Moving Speed 0 would move it as fast as the motor goes")
+
+
+def test_move_to_and_set_torque_services_drive_an_ax(rig):
+    """The services go through the same core: move_to with a speed (Moving Speed in Joint Mode)
+    waits until the AX is there; set_torque turns it off and on without a jump."""
+    def call(srv_type, name, request):
+        with rig._lock:
+            client = rig.node.create_client(srv_type, name)
+        assert client.wait_for_service(timeout_sec=10)
+        future = client.call_async(request)
+        rig.wait(future.done, timeout=30, what=f"the answer of {name}")
+        return future.result()
+
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[AX], mode=["position"]))
+    rig.wait(lambda: rig.state_of("status", "mode", AX) == "position", what="AX in joint mode")
+    res = call(MoveTo, "/dynamixel/move_to", MoveTo.Request(ids=[AX], positions_deg=[-40.0], profile_vel_deg_s=60.0,
+                                                         wait=True, tolerance_deg=1.0, timeout_s=15.0))
+    assert res.success and res.reached, res.message
+    assert abs((servo(rig, AX).read("present_position") - 512) * AX_DEG - -40.0) <= 1.0
+    assert servo(rig, AX).read("goal_velocity") == round(60.0 / AX_DEG_S)   # the speed of the move
+    assert call(SetTorque, "/dynamixel/set_torque", SetTorque.Request(ids=[AX], enable=False)).success
+    wait_items(rig, AX, {"torque_enable": 0})
+    assert call(SetTorque, "/dynamixel/set_torque", SetTorque.Request(ids=[AX], enable=True)).success
+    wait_items(rig, AX, {"torque_enable": 1})
+    assert abs(servo(rig, AX).read("goal_position") - servo(rig, AX).read("present_position")) <= 2  # no jump
