@@ -171,7 +171,7 @@ def test_scan_finds_five_servos_at_three_rates_two_that_collide_and_an_ax12(sim_
     old = [f for f in found if f["protocol"] == 1]  # Protocol 1.0: AX at 1 Mbps, MX-28 at 57600 bps from the box
     assert [(f["id"], f["model"], f["model_number"], f["baudrate"]) for f in old] == [
         (7, "AX-12A", AX12, 1_000_000), (8, "MX-28", 29, 57600)]
-    assert "the handler does not drive it" in old[0]["note"]
+    assert "init/used_servo_series.AX" in old[0]["note"]   # the handler drives its family with that key
     assert "Firmware Recovery, MX-28(2.0)" in old[1]["note"]
     x = next(f for f in found if f["id"] == 1)
     assert (x["model"], x["mode"], x["torque"], x["hardware_error"]) == ("XM430-W350", "position", False, [])

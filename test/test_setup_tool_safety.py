@@ -342,7 +342,7 @@ def test_ranges_and_limit_pairs_are_checked_before_anything_is_sent(sim_of):
 
 
 # ---------------------------------------------------------------------- items 3, 6: dangerous values
-def test_protection_lowering_values_need_force_and_protocol_type_1_is_refused(sim_of):
+def test_protection_lowering_values_need_force_and_protocol_type_1_warns_what_it_means(sim_of):
     sim = sim_of("1:XM430-W350", "2:XM430-W350")
     for item, value in (("shutdown", "0"), ("drive_mode", "1"), ("secondary_id", "2"), ("temperature_limit", "90degC")):
         out = tool(sim, "set", "1", item, value, "--yes", "--baud", "57600")
@@ -354,8 +354,10 @@ def test_protection_lowering_values_need_force_and_protocol_type_1_is_refused(si
     assert out.returncode == 0 and sdk_read(sim.path, 57600, 1, SHUTDOWN, 1) == 0, out.text
 
     out = tool(sim, "set", "1", "protocol_type", "1", "--yes", "--force", "--baud", "57600")
-    assert out.returncode == 2 and "Protocol 1.0 only" in one_error_line(out), out.text
-    assert sdk_read(sim.path, 57600, 1, PROTOCOL, 1) == 2
+    assert out.returncode == 0 and "it answers Protocol 1.0 only" in out.stderr, out.text  # allowed, with what it means
+    assert "`set 1 protocol_type 2` brings it back" in out.stderr, out.text
+    out = tool(sim, "set", "1", "protocol_type", "2", "--yes", "--baud", "57600")   # through Protocol 1.0, back to 2.0
+    assert out.returncode == 0 and sdk_read(sim.path, 57600, 1, PROTOCOL, 1) == 2, out.text
 
 
 def test_a_protocol_1_servo_is_listed_with_what_the_tool_can_do_with_it(sim_of):
@@ -364,11 +366,10 @@ def test_a_protocol_1_servo_is_listed_with_what_the_tool_can_do_with_it(sim_of):
     out = tool(sim, "scan", "--ids", "0-9", "--baud", "57600", "--json")
     assert out.returncode == 0, out.text
     notes = {s["id"]: s["note"] for s in json.loads(out.stdout)["servos"]}
-    assert all("cannot yet read or write it" in notes[i] for i in (1, 8)), notes
-    out = tool(sim, "get", "1", "id", "--baud", "57600")  # every other verb: not "no servo", but what it is and why not
-    assert out.returncode == 1, out.text
-    line = one_error_line(out)
-    assert "it answers Protocol 1.0 at 57600 bps (XM430-W350 set to Protocol Type 1)" in line, line
+    assert "`set 1 protocol_type 2`" in notes[1] and "every verb of this tool reaches it" in notes[1], notes
+    assert "Firmware Recovery, MX-28(2.0)" in notes[8], notes
+    out = tool(sim, "get", "1", "id", "--baud", "57600")  # every other verb reaches it in Protocol 1.0
+    assert out.returncode == 0 and "ID 1 (XM430-W350) id = 1" in out.stdout, out.text
 
 
 # ---------------------------------------------------------------------- item 10: collisions

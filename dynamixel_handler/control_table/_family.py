@@ -180,8 +180,9 @@ MX1 = _protocol1_family("MX1", frozenset({"position", "velocity", "ex_position",
 
 #: every family, in the order parameters, topics and logs list them
 FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO, Y, XL320)
-#: the Protocol 1.0 families: known by name (``family_named``) and to ``protocol1_models()``, but
-#: not (yet) in ``FAMILIES``: no ``init/used_servo_series`` key, so the node does not drive them
+#: the Protocol 1.0 families: known by name (``family_named``) and to ``protocol1_models()``, kept out
+#: of ``FAMILIES`` (whose models the Protocol 2.0 scan looks up); ``config.USED_FAMILIES`` gives them
+#: their ``init/used_servo_series`` keys, and the node drives them
 PROTOCOL1_FAMILIES: Tuple[ServoFamily, ...] = (AX, RX, DX, EX, MX1)
 _BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES + PROTOCOL1_FAMILIES}
 _BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
