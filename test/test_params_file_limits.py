@@ -136,3 +136,5 @@ def test_the_scan_finds_depth_entries_and_aliases_where_they_are():
     assert scan_problem("t: {" + ", ".join(f"k{i}: 1" for i in range(MAX_ENTRIES)) + "}") is not None
     assert scan_problem("t: [" + ", ".join("1" for _ in range(MAX_ENTRIES - 10)) + "]") is None
     assert scan_problem("a: 1\nb: *x\n") == "a YAML alias (*name) at line 2: ROS does not read aliases"
+    crlf = "".join(f"k{i}:\r\n  v: 1\r\n" for i in range(MAX_ENTRIES // 2 + 1))  # Windows line ends
+    assert scan_problem(crlf) == f"more than {MAX_ENTRIES:,} keys and list entries (line {MAX_ENTRIES + 1})"

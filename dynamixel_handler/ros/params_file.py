@@ -188,7 +188,7 @@ def scan_problem(text: str) -> str | None:
     """Why ``text`` is refused before it is parsed (too deep, too many entries, an alias), or None."""
     scan = _Scan()
     for number, line in enumerate(text.split("\n"), 1):
-        scan.line(line, number)
+        scan.line(line.rstrip("\r"), number)  # CRLF line ends too
         if scan.problem:
             return scan.problem
     return None
