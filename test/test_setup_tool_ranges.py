@@ -33,7 +33,8 @@ CASES = [
 
 
 def tool(sim, *args: str):
-    return test_setup_tool.tool(sim, *args, "--latency", "100")
+    """The tool at the servo's rate (57600 bps, as it comes): the ranges, not the search, are this file's."""
+    return test_setup_tool.tool(sim, *args, "--latency", "100", "--baud", "57600")
 
 
 @pytest.mark.parametrize("name,number,items,beyond", CASES, ids=[c[0] for c in CASES])
