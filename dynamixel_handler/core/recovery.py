@@ -53,6 +53,8 @@ class Recovery:
         #: silent after a reconnect: set up as at start-up once they answer
         self._not_set_up: set[int] = set()
         self._last_reboot: dict[int, float] = {}  # ID -> time.monotonic() of its last reboot
+        #: (ID, why): the servos block's RAM items written again after a reboot (``KeptSettings``)
+        self.put_back: Callable[[int, str], None] = lambda dxl_id, why: None
 
     def reboot(self, dxl_id: int) -> Result[bool]:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
@@ -77,6 +79,7 @@ class Recovery:
             for item, value in kept.items():
                 if value is not None:
                     self.io.write_item(dxl_id, item, value)
+            self.put_back(dxl_id, "a reboot")
             if dxl_id in self.table:
                 self.watchdog.arm_watchdog(dxl_id)
         return rebooted
