@@ -196,3 +196,28 @@ def test_a_command_line_entry_is_applied_as_one_from_a_file(tmp_path):
         assert "servos.id_1 set: position_p_gain_pulse 640, profile_acc_deg_ss 1000.0" in r.wait_log("servos.id_1 set")
     finally:
         assert r.close() == 0
+
+
+def test_the_block_comes_back_after_a_reconnect_and_for_a_servo_added_again(tmp_path):
+    r = Rig({1: XM430}, sim_kwargs={"link": str(tmp_path / "ttyDXL")}, start_node=False)
+    try:
+        start(r, params_file(tmp_path, "servos:\n  id_1: {position_p_gain_pulse: 640, profile_vel_deg_s: 60.0}\n"))
+        servo = r.sim.servo(1)
+        assert servo.read("position_p_gain") == 640
+        mark = r.mark()
+        r.sim.vanish()
+        r.node_proc.wait_for("is gone (the port hung up", timeout=10)
+        servo.write("position_p_gain", 800)  # the servo lost power with the adapter: RAM at its defaults
+        servo.write("profile_velocity", 0)
+        r.sim.reappear()
+        r.wait_log("ID 1 (XM430-W350): servos.id_1 set:", since=mark, timeout=15)
+        assert servo.read("position_p_gain") == 640 and servo.read("profile_velocity") == round(60.0 / DEG_S)
+        r.publish("/dynamixel/shortcut", DynamixelShortcut(command="remove_id", id_list=[1]))
+        r.wait_log("ID 1: removed from the handled servos", since=mark)
+        servo.write("position_p_gain", 800)
+        mark = r.mark()
+        r.publish("/dynamixel/shortcut", DynamixelShortcut(command="add_id", id_list=[1]))
+        r.wait_log("ID 1 (XM430-W350): servos.id_1 set:", since=mark)
+        assert servo.read("position_p_gain") == 640
+    finally:
+        assert r.close() == 0
