@@ -75,7 +75,8 @@ class KeptSettings:
 
     # ---------------------------------------------------------------- set-up
     def prepare(self, dxl_id: int) -> list[str]:
-        """EEPROM items (only those that differ), then the mode: what was done, for ``finish``."""
+        """EEPROM items (only those that differ), then the mode, with torque off once for both (on
+        again after, safely, if it was on): what was done, for ``finish``."""
         self.applied.discard(dxl_id)
         entry = self.entry(dxl_id)
         if entry is None:
@@ -84,23 +85,22 @@ class KeptSettings:
         values = self._values(model, entry)
         eeprom = {item: v for item, v in values.items() if item != "operating_mode" and model.item(item).eeprom}
         before = {item: self.io.read_item(dxl_id, item) for item in eeprom}
+        mode = entry.values.get("mode")
+        change = mode is not None and self.io.mode(dxl_id) != mode
+        torque = self.io.torque_off_for_eeprom(dxl_id) if change or any(before[i] != v for i, v in eeprom.items()) else 0
         written = self.eeprom.write_eeprom_many(dxl_id, eeprom) if eeprom else None
         if written is not None and not written:
             self.say(logging.WARNING, f"ID {dxl_id}: servos.{entry.name}: an EEPROM write failed: {written.why}")
         done = [f"{self._field(entry, item)} ({'EEPROM, written' if before[item] != v else 'EEPROM, already so'})"
                 for item, v in eeprom.items()]
-        mode = entry.values.get("mode")
         if mode is not None:
-            done.append(self._mode(dxl_id, model, mode))
+            done.append(self._mode(dxl_id, model, mode) if change else f"mode {mode} (already so)")
+        if torque:
+            self.io.torque_on(dxl_id)
         return done
 
     def _mode(self, dxl_id: int, model: Model, mode: str) -> str:
-        if self.io.mode(dxl_id) == mode:
-            return f"mode {mode} (already so)"
-        torque = self.io.torque_off_for_eeprom(dxl_id)
         written = self.io.write_item(dxl_id, "operating_mode", model.mode_values[mode])
-        if torque:
-            self.io.torque_on(dxl_id)
         if not written:
             self.say(logging.WARNING, f"ID {dxl_id}: mode {mode} not set: {written.why}")
         return f"mode {mode}"
