@@ -82,22 +82,30 @@ class KeptSettings:
         if entry is None:
             return []
         model = self.table.model(dxl_id)
-        values = self._values(model, entry)
-        eeprom = {item: v for item, v in values.items() if item != "operating_mode" and model.item(item).eeprom}
-        before = {item: self.io.read_item(dxl_id, item) for item in eeprom}
+        eeprom, before = self._eeprom_of(dxl_id, model, entry)
         mode = entry.values.get("mode")
         change = mode is not None and self.io.mode(dxl_id) != mode
-        torque = self.io.torque_off_for_eeprom(dxl_id) if change or any(before[i] != v for i, v in eeprom.items()) else 0
-        written = self.eeprom.write_eeprom_many(dxl_id, eeprom) if eeprom else None
-        if written is not None and not written:
-            self.say(logging.WARNING, f"ID {dxl_id}: servos.{entry.name}: an EEPROM write failed: {written.why}")
-        done = [f"{self._field(entry, item)} ({'EEPROM, written' if before[item] != v else 'EEPROM, already so'})"
-                for item, v in eeprom.items()]
+        torque = self.io.torque_off_for_eeprom(dxl_id) if change or eeprom != before else 0
+        done = self._write_eeprom(dxl_id, entry, eeprom, before)
         if mode is not None:
             done.append(self._mode(dxl_id, model, mode) if change else f"mode {mode} (already so)")
         if torque:
             self.io.torque_on(dxl_id)
         return done
+
+    def _eeprom_of(self, dxl_id: int, model: Model, entry: ServoSetting) -> tuple[dict[str, int], dict[str, int | None]]:
+        """The entry's EEPROM items {item: value} but the mode, and what the servo holds of them."""
+        values = self._values(model, entry)
+        eeprom = {item: v for item, v in values.items() if item != "operating_mode" and model.item(item).eeprom}
+        return eeprom, {item: self.io.read_item(dxl_id, item) for item in eeprom}
+
+    def _write_eeprom(self, dxl_id: int, entry: ServoSetting, eeprom: dict[str, int],
+                      before: dict[str, int | None]) -> list[str]:
+        written = self.eeprom.write_eeprom_many(dxl_id, eeprom) if eeprom else None
+        if written is not None and not written:
+            self.say(logging.WARNING, f"ID {dxl_id}: servos.{entry.name}: an EEPROM write failed: {written.why}")
+        return [f"{self._field(entry, item)} ({'EEPROM, written' if before[item] != v else 'EEPROM, already so'})"
+                for item, v in eeprom.items()]
 
     def _mode(self, dxl_id: int, model: Model, mode: str) -> str:
         written = self.io.write_item(dxl_id, "operating_mode", model.mode_values[mode])
