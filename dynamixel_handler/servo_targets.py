@@ -51,17 +51,30 @@ def value_range(model: Model, item: str) -> tuple[int, int]:
 
 def refusals(model: Model, setting: ServoSetting) -> list[str]:
     """Why the model refuses items of the entry: one line each (empty: it takes them all)."""
-    out = []
+    return list(refused_fields(model, setting).values())
+
+
+def refused_fields(model: Model, setting: ServoSetting) -> dict[str, str]:
+    """{field: why} of the entry's items the model refuses, in the entry's order."""
+    out = {}
     for field, value in setting.values.items():
         where = f"servos.{setting.name}.{field} = {value}"
         item = _item_of(model, field)
         if item is None:
-            out.append(f"{where}: ID {setting.dxl_id} ({model.name}) has no {FIELDS[field].item}")
+            out[field] = f"{where}: ID {setting.dxl_id} ({model.name}) has no {FIELDS[field].item}"
             continue
         why = _refused(model, field, item, value)
         if why:
-            out.append(f"{where}: ID {setting.dxl_id} ({model.name}) {why}")
+            out[field] = f"{where}: ID {setting.dxl_id} ({model.name}) {why}"
     return out
+
+
+def usable(model: Model, setting: ServoSetting) -> ServoSetting:
+    """The entry without the items the model refuses."""
+    refused = refused_fields(model, setting)
+    if not refused:
+        return setting
+    return ServoSetting(setting.dxl_id, {f: v for f, v in setting.values.items() if f not in refused}, setting.name)
 
 
 def _refused(model: Model, field: str, item: str, value: Any) -> str:
@@ -147,4 +160,4 @@ def _merged(model: Model, item: str, given: dict[str, Any], old: int) -> int | N
     return int(percent * 255.0 / 100.0 + 0.5)  # P, PRO: 0..255
 
 
-__all__ = ["led_item", "refusals", "register_values", "to_pulses", "value_range"]
+__all__ = ["led_item", "refusals", "refused_fields", "register_values", "to_pulses", "usable", "value_range"]

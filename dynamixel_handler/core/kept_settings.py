@@ -15,7 +15,7 @@ from typing import Callable, Sequence
 from ..control_table import Model
 from ..errors import ConfigError
 from ..servo_settings import FIELDS, ServoSetting
-from ..servo_targets import refusals, register_values
+from ..servo_targets import refusals, register_values, usable
 from ..servos import ServoTable
 from .deferred import Deferred
 from .servo_io import ServoIO
@@ -37,11 +37,23 @@ class KeptSettings:
         self.say = say
         #: IDs whose entry was applied at their set-up: what resets their RAM puts it back
         self.applied: set[int] = set()
+        #: (ID, model number) whose refused items were reported
+        self.reported: set[tuple[int, int]] = set()
 
     def entry(self, dxl_id: int) -> ServoSetting | None:
+        """The servo's entry, without the items its model refuses (``debug``, or a servo replaced
+        by another model while unplugged: those are left out with one line)."""
         for setting in self.settings():
             if setting.dxl_id == dxl_id:
-                return setting
+                if dxl_id not in self.table:
+                    return setting
+                model = self.table.model(dxl_id)
+                kept = usable(model, setting)
+                if kept is not setting and (dxl_id, model.number) not in self.reported:
+                    self.reported.add((dxl_id, model.number))
+                    for line in refusals(model, setting):
+                        self.say(logging.WARNING, f"{line}: left out")
+                return kept
         return None
 
     def sets(self, dxl_id: int, item: str) -> bool:
@@ -60,12 +72,14 @@ class KeptSettings:
                 lines.append(f"servos.{setting.name}: ID {setting.dxl_id} is not on the bus (handled: "
                              f"{list(self.table.ids)}): check the ID, or take the entry out")
                 continue
-            lines += refusals(self.table.model(setting.dxl_id), setting)
+            model = self.table.model(setting.dxl_id)
+            lines += refusals(model, setting)
+            self.reported.add((setting.dxl_id, model.number))
         if not lines:
             return
         if debug:
             for line in lines:
-                self.say(logging.WARNING, line + " (debug: running on, the entry's other items applied)")
+                self.say(logging.WARNING, line + " (debug: left out, running on)")
             return
         if len(lines) == 1:
             raise ConfigError(f"{lines[0]}: nothing was written")

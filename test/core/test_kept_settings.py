@@ -99,8 +99,11 @@ def test_refusals_are_one_line_each_and_stop_before_any_write():
 
 
 def test_with_debug_a_refusal_is_a_warning_and_the_rest_is_applied():
-    bus, parts, lines = started(entries=(ServoSetting(1, {"position_p_gain_pulse": 640}),
+    bus, parts, lines = started(entries=(ServoSetting(1, {"position_p_gain_pulse": 640, "velocity_limit_deg_s": 5000.0}),
                                          ServoSetting(6, {"position_p_gain_pulse": 640})), debug=True)
+    velocity_limit = bus.get(1, "velocity_limit")
     parts.startup.start()
-    assert any("servos.id_6: ID 6 is not on the bus" in x and "debug: running on" in x for x in lines)
-    assert bus.get(1, "position_p_gain") == 640
+    assert any("servos.id_6: ID 6 is not on the bus" in x and "debug: left out, running on" in x for x in lines)
+    assert any("servos.id_1.velocity_limit_deg_s = 5000.0" in x and "debug: left out" in x for x in lines)
+    assert bus.get(1, "position_p_gain") == 640 and bus.get(1, "velocity_limit") == velocity_limit
+    assert "velocity_limit" not in [w[1] for w in bus.item_writes()]
