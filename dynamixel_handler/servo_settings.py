@@ -48,6 +48,15 @@ class Field:
     meaning: str
 
 
+def _unit(field: str) -> str:
+    """The unit a message field's name ends with."""
+    for suffix, unit in (("_deg_ss", "deg/s^2"), ("_deg_s", "deg/s"), ("_deg", "deg"), ("_degc", "degC"), ("_ma", "mA"),
+                         ("_percent", "%"), ("_v", "V")):
+        if field.endswith(suffix):
+            return unit
+    return "?"
+
+
 _SHUTDOWN = ("overload_error", "electrical_shock_error", "motor_encoder_error", "motor_hall_sensor_error",
              "overheating_error", "input_voltage_error")
 
@@ -55,8 +64,7 @@ _SHUTDOWN = ("overload_error", "electrical_shock_error", "motor_encoder_error", 
 FIELDS: Mapping[str, Field] = {
     "mode": Field("operating_mode", MODE, str, f"operating mode ({', '.join(OPERATING_MODES)})"),
     **{f: Field(i, PULSE, int, f"{i.replace('_', ' ')} [pulse] (DynamixelGain)") for i, f in GAIN.items()},
-    **{f: Field(i, UNIT, float, f"{i.replace('_', ' ')} [{f.rsplit('_', 1)[-1]}] (DynamixelLimit)")
-       for i, f in LIMIT.items()},
+    **{f: Field(i, UNIT, float, f"{i.replace('_', ' ')} [{_unit(f)}] (DynamixelLimit)") for i, f in LIMIT.items()},
     "profile_vel_deg_s": Field("profile_velocity", UNIT, float, "profile velocity [deg/s] (DynamixelGoal)"),
     "profile_acc_deg_ss": Field("profile_acceleration", UNIT, float, "profile acceleration [deg/s^2] (DynamixelGoal)"),
     "homing_offset_deg": Field("homing_offset", UNIT, float, "homing offset [deg] (DynamixelExtra)"),

@@ -221,3 +221,17 @@ def test_the_block_comes_back_after_a_reconnect_and_for_a_servo_added_again(tmp_
         assert servo.read("position_p_gain") == 640
     finally:
         assert r.close() == 0
+
+
+def test_a_launch_file_given_a_file_with_the_block_applies_it(tmp_path):
+    from support.launch_runner import nodes
+    r = Rig({1: XM430}, start_node=False)
+    try:
+        path = params_file(tmp_path, "servos:\n  id_1: {position_p_gain_pulse: 640, drive_mode: {reverse_mode: true}}\n")
+        (spec,) = nodes("dynamixel_handler_launch.py", device_name=r.device, params_file=str(path))
+        r.node_proc = NodeProcess(spec.command(tmp_path) + ["-p", "init/servo_auto_search.retry_times:=20"])
+        r.wait_log("servos.id_1 set: drive_mode.reverse_mode True (EEPROM, written), position_p_gain_pulse 640",
+                   timeout=30)
+        assert reg(r, 1, "position_p_gain") == 640 and reg(r, 1, "drive_mode") & 1
+    finally:
+        assert r.close() == 0
