@@ -57,7 +57,8 @@ def reg(rig: Rig, dxl_id: int, item: str) -> int:
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     r = Rig({1: XM430, 2: XM430}, start_node=False)
-    start(r, params_file(tmp_path_factory.mktemp("servos"), BLOCK))
+    folder = tmp_path_factory.mktemp("servos")
+    start(r, params_file(folder, BLOCK), f"servos_snapshot.path:={folder / 'saved.yaml'}")
     yield r
     assert r.close() == 0
 
@@ -121,6 +122,7 @@ def test_the_snapshot_service_writes_a_block_that_loads_back(rig, tmp_path):
     answer = future.result()
     assert answer.success, answer.message
     path = Path(answer.message.rsplit(" written to ", 1)[1])
+    assert path.name == "saved.yaml" and answer.message.startswith("servos block of IDs [1, 2] written to ")
     block = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]["servos"]
     assert block["id_2"]["position_d_gain_pulse"] == 120 and block["id_2"]["drive_mode"]["reverse_mode"] is True
     assert block["id_1"]["position_p_gain_pulse"] == 640 and block["id_1"]["velocity_limit_deg_s"] == pytest.approx(

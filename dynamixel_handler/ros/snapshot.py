@@ -44,8 +44,14 @@ class ServoSnapshot:
         node.step_hooks.append(self.on_step)
 
     def path(self) -> Path:
+        """servos_snapshot.path, or the default in the ROS log directory (a node in a namespace:
+        ``dynamixel_servos_<namespace>.yaml``, so that the handlers of several buses keep theirs)."""
         given = self.node.settings.ros.snapshot_path
-        return Path(os.path.expanduser(given)) if given else Path(rclpy.logging.get_logging_directory()) / DEFAULT_NAME
+        if given:
+            return Path(os.path.expanduser(given))
+        space = self.node.get_namespace().strip("/").replace("/", "_")
+        name = DEFAULT_NAME if not space else DEFAULT_NAME.replace(".yaml", f"_{space}.yaml")
+        return Path(rclpy.logging.get_logging_directory()) / name
 
     def _on_save(self, _request, response):
         ask = _Ask()
