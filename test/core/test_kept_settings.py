@@ -8,6 +8,7 @@ import logging
 import pytest
 
 from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core.kept_settings import KeptSettings
 from dynamixel_handler.core.request_types import ChangeMode, Outcome
 from dynamixel_handler.errors import ConfigError
 from dynamixel_handler.servo_settings import ServoSetting
@@ -68,6 +69,8 @@ def test_a_second_set_up_writes_no_eeprom_item_that_is_already_so():
 
 def test_the_ram_items_come_back_after_a_mode_change_and_a_reboot_not_the_mode():
     bus, parts, lines = started()
+    assert isinstance(parts.startup.kept, KeptSettings)
+    assert parts.requests.put_back == parts.recovery.put_back == parts.startup.kept.put_back  # wired by build_parts
     parts.startup.start()
     bus.set(1, "position_p_gain", 800)  # what the firmware does on a mode change
     assert parts.requests.change_mode(ChangeMode(1, "position", "test")).outcome is Outcome.DONE
