@@ -146,6 +146,7 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
         table.watch_removals(forget)
     # the servos block's RAM items come back after what resets them
     recovery.put_back = requests.put_back = startup.kept.put_back
+    recovery.file_sets = startup.kept.sets
     for kind, route in core_routes(parts).items():
         intake.register(kind, route)
     return parts
