@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from .config import Config, ConfigError, validate
     from .core.handler import Handler, StepReport
     from .runner import Hooks, Runner
+    from .servo_settings import ServoSetting
     from .settings import (
         BusSettings,
         ExternalPortSettings,
@@ -45,7 +46,7 @@ _LAZY = {
     "Handler": "core.handler", "StepReport": "core.handler", "Runner": "runner", "Hooks": "runner", "Commander": "commands",
     "CommandPaths": "commands",
     "DynamixelBus": "bus", "BusError": "bus", "VirtualBus": "sim",
-    "Config": "config", "ConfigError": "config", "validate": "config",
+    "Config": "config", "ConfigError": "config", "validate": "config", "ServoSetting": "servo_settings",
     **{name: "settings" for name in ("Settings", "BusSettings", "ScanSettings", "StartValues", "TermSettings",
                                      "LoopSettings", "ReadRatios", "Method", "LogSettings", "ExternalPortSettings",
                                      "TrajectorySettings")},
@@ -53,8 +54,8 @@ _LAZY = {
 
 __all__ = [
     "BusError", "BusSettings", "CommandPaths", "Commander", "Config", "ConfigError", "DynamixelBus", "ExternalPortSettings",
-    "Handler", "Hooks", "LogSettings", "LoopSettings", "Method", "ReadRatios", "Runner", "ScanSettings", "Settings",
-    "StartValues", "StepReport", "TermSettings", "TrajectorySettings", "VirtualBus", "validate",
+    "Handler", "Hooks", "LogSettings", "LoopSettings", "Method", "ReadRatios", "Runner", "ScanSettings", "ServoSetting",
+    "Settings", "StartValues", "StepReport", "TermSettings", "TrajectorySettings", "VirtualBus", "validate",
 ]
 
 

@@ -14,6 +14,7 @@ from typing import Any, Callable, Mapping
 from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
 from .joints import JointMap, joint_map
+from .servo_settings import servo_block
 from .settings import (
     GROUP_RATIOS,
     LOGGED_READS,
@@ -40,7 +41,6 @@ STR_ARRAY = "str[]"
 USED_FAMILIES = FAMILIES + PROTOCOL1_FAMILIES
 #: the models of each Protocol 1.0 family, for the parameters' descriptions
 _PROTOCOL1_NAMES = {f.name: [m.name for m in protocol1_models() if m.family is f] for f in PROTOCOL1_FAMILIES}
-#: init/dummy_servo_series spellings -> series ("" : the first used series)
 #: a dummy's series as the parameter may spell it ("x", "Pro", ...) -> its name ("" : the first used)
 DUMMY_SERIES = {"": "", **{f.title.lower(): f.name for f in FAMILIES}}
 
@@ -140,6 +140,8 @@ SCHEMA: tuple[Param, ...] = (
        "joint trajectories: largest distance from the last point at the end, unless the goal gives one [deg] (0: not checked)"),
     _p("trajectory.goal_time_sec", FLOAT, 1.0,
        "joint trajectories: time allowed after the end to come within the goal tolerance, unless the goal gives one [s]"),
+    _p("servos_snapshot.path", STR, "", "file the service dynamixel/save_servo_settings writes the servos block to "
+       "(\"\": dynamixel_servos.yaml in the ROS log directory)"),
 )
 SCHEMA_BY_NAME: dict[str, Param] = {p.name: p for p in SCHEMA}
 
@@ -300,8 +302,8 @@ def settings_of(values: Mapping[str, Any]) -> Settings:
                                       goal_tolerance_deg=float(v["trajectory.goal_tolerance_deg"]),
                                       goal_time_s=float(v["trajectory.goal_time_sec"])),
         ros=RosSettings(command_line=not v["no_use_command_line"], diagnostics_period_s=float(v["diagnostics.period_sec"]),
-                        joint_state_use=v["joint_state.use"], joints=_joints(v)),
-    )
+                        joint_state_use=v["joint_state.use"], joints=_joints(v), snapshot_path=v["servos_snapshot.path"]),
+        servos=servo_block(v, _joints(v)))
 
 
 def _joints(v: Mapping[str, Any]) -> JointMap | None:

@@ -16,6 +16,7 @@ from types import MappingProxyType
 from typing import Mapping
 
 from .joints import JointMap
+from .servo_settings import ServoSetting
 
 #: present item keys (``pub_ratio/present.<key>``) -> default ratio
 PRESENT_RATIOS: Mapping[str, int] = {
@@ -158,6 +159,7 @@ class RosSettings:
     diagnostics_period_s: float = 1.0  #: /diagnostics every this many seconds (0: off)
     joint_state_use: bool = False      #: joint_states and joint_commands for the mapped servos
     joints: JointMap | None = None     #: the joint_state.* mapping (never None with joint_state_use)
+    snapshot_path: str = ""            #: where dynamixel/save_servo_settings writes ("": the ROS log directory)
 
 
 @dataclass(frozen=True)
@@ -175,6 +177,8 @@ class Settings:
     external_port: ExternalPortSettings = ExternalPortSettings()
     trajectory: TrajectorySettings = TrajectorySettings()
     ros: RosSettings = RosSettings()
+    #: the parameters file's ``servos`` block: per-servo mode, gains, limits, profiles...
+    servos: tuple[ServoSetting, ...] = ()
 
     def but(self, **changes: object) -> Settings:
         """A copy with fields of the parts changed, each named ``part__field``::

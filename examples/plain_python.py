@@ -4,12 +4,14 @@
     python examples/plain_python.py                      # its own virtual bus: two XM430 on a pty
     python examples/plain_python.py --device /dev/ttyUSB0 --baudrate 1000000 --ids 1,2
     python examples/plain_python.py --goal 45 --loops 300 --rate 100
+    python examples/plain_python.py --p-gain 640 --profile-vel 60   # per-servo settings, as a servos block
 
 The same parts as the ROS node, all from ``dynamixel_handler``: ``DynamixelBus`` (the serial
 line), ``Settings`` (what the node's parameters say, typed, every field defaulting as the
 parameter does), ``Handler`` (the servos on the bus), ``Commander`` (checked commands in physical
-units) and ``Runner`` (the loop at the loop rate); the node only adds topics and services around
-them. Nothing here imports rclpy: the script says so at the end (``rclpy imported: False``).
+units) and ``Runner`` (the loop at the loop rate); ``ServoSetting`` is one entry of the parameters
+file's ``servos`` block as a typed value (set at start-up, kept through mode changes and reboots).
+The node only adds topics and services around them. Nothing here imports rclpy: the script says so at the end (``rclpy imported: False``).
 
 Output: ``loop N: ID=deg ...`` every ``--print-every`` loops from the loop's states, then
 ``final: ID=deg ...``.
@@ -29,6 +31,7 @@ from dynamixel_handler import (
     LoopSettings,
     Runner,
     ScanSettings,
+    ServoSetting,
     Settings,
     StepReport,
 )
@@ -47,6 +50,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--loops", type=int, default=200)
     ap.add_argument("--rate", type=float, default=50.0, help="loop_rate [Hz]")
     ap.add_argument("--print-every", type=int, default=20)
+    ap.add_argument("--p-gain", type=int, help="position P gain of every servo [pulse] (servos block)")
+    ap.add_argument("--profile-vel", type=float, help="profile velocity of every servo [deg/s] (servos block)")
     a = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="[%(levelname)s] %(message)s")
     log = logging.getLogger("plain_python")
@@ -62,8 +67,11 @@ def main(argv: list[str] | None = None) -> int:
     latency_ms = a.latency_ms if a.latency_ms is not None else 1.0 if sim is not None else 16.0
 
     wire = DynamixelBus(device, a.baudrate, latency_timer_ms=latency_ms, logger=log)
+    given = {"position_p_gain_pulse": a.p_gain, "profile_vel_deg_s": a.profile_vel}
+    entry = {item: value for item, value in given.items() if value is not None}  # as in the parameters file
     settings = Settings(scan=ScanSettings(min_id=min(ids), max_id=max(ids), expected=len(ids), retry_times=5),
-                        loop=LoopSettings(rate_hz=a.rate, verbose_ratio=0))
+                        loop=LoopSettings(rate_hz=a.rate, verbose_ratio=0),
+                        servos=tuple(ServoSetting(i, entry) for i in ids) if entry else ())
     handler = Handler(wire, settings, log)
     commander = Commander(handler)
     wire.open()

@@ -36,7 +36,16 @@ TITLES = {
     "verbose": "Log switches (`verbose/*`)",
     "joint_state": "Joint states (`joint_state.*`)",
     "diagnostics": "Diagnostics (`diagnostics.*`)",
+    "servos_snapshot": "Saving the servos block (`servos_snapshot.*`)",
 }
+#: the heading and the text before the table of the servos block's items (``servo_settings.FIELDS``)
+SERVOS_TITLE = "### Per-servo settings (`servos.<servo>.<item>`)"
+SERVOS_TEXT = (
+    "One entry per servo, `<servo>` being `id_<N>` or a joint name of `joint_state.names`; nested items "
+    "(`drive_mode`, `shutdown`, `led`) may be given as a map (`drive_mode: {reverse_mode: true}`) or dotted "
+    "(`-p servos.id_1.drive_mode.reverse_mode:=true`). No entry has a default: an item not given is left as "
+    "the servo holds it. See [the servos block](#the-servos-block-per-servo-settings) for when each is "
+    "written and how it is checked.")
 
 
 def section_of(name: str) -> str:
@@ -81,7 +90,18 @@ def render(schema: Iterable | None = None) -> str:
                 "| parameter | type | default | meaning |", "|---|---|---|---|"]
         out += [f"| `{p.name}` | {p.type} | `{format_value(p.default)}` | {_cell(p.description)} |" for p in params]
         out.append("")
+    out += render_servos()
     return "\n".join(out).rstrip("\n") + "\n"
+
+
+def render_servos() -> list[str]:
+    """The items a servos block entry may hold, in the order ``servo_settings.FIELDS`` lists them."""
+    sys.path.insert(0, str(ROOT))
+    from dynamixel_handler.servo_settings import FIELDS
+    out = [SERVOS_TITLE, "", SERVOS_TEXT, "", "| item | type | control-table item | meaning |", "|---|---|---|---|"]
+    out += [f"| `servos.<servo>.{name}` | {f.type.__name__} | {f.item if f.kind != 'led' else 'led / led_<colour>'} "
+            f"| {_cell(f.meaning)} |" for name, f in FIELDS.items()]
+    return out + [""]
 
 
 def generated_part(text: str) -> str:

@@ -41,3 +41,29 @@ def test_a_vanished_adapter_removes_no_servo_and_its_servos_are_set_up_again_whe
         rig.wait(lambda: abs(rig.debug_of(2)["position"] - 30.0) < 0.5, timeout=15, what="commands work after it")
     finally:
         assert rig.close() == 0
+
+
+def test_a_reconnect_puts_back_the_profile_the_owner_set_not_the_start_value_and_says_what_changed(tmp_path):
+    from dynamixel_handler_msgs.msg import DynamixelGoal
+    rig = Rig({1: X}, "pub_ratio/goal:=1", "pub_ratio/limit:=1", sim_kwargs={"link": str(tmp_path / "ttyDXL")})
+    try:
+        servo = rig.sim.servo(1)
+        rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[1], profile_vel_deg_s=[20.0]))
+        slow = round(20.0 / (0.229 * 6))
+        rig.wait(lambda: servo.read("profile_velocity") == slow, what="the owner's profile velocity")
+        limit = servo.read("velocity_limit")
+        rig.fresh_states(3)  # the limit group read since
+        mark = rig.mark()
+        rig.sim.vanish()
+        rig.node_proc.wait_for("is gone (the port hung up", timeout=10)
+        servo.write("torque_enable", 0)  # power gone with the adapter, and the servo's limit changed meanwhile
+        servo.write("profile_velocity", 0)
+        servo.write("velocity_limit", limit - 100)
+        rig.sim.reappear()
+        rig.wait_log("ID 1: as before the device went:", since=mark, timeout=15)
+        assert servo.read("profile_velocity") == slow  # not the 1000 deg/s start value
+        rig.wait(lambda: servo.read("torque_enable") == 1, what="torque on again")
+        line = rig.wait_log("EEPROM differs from before the device went", since=mark)
+        assert f"velocity_limit {limit} -> {limit - 100}" in line
+    finally:
+        assert rig.close() == 0

@@ -29,13 +29,19 @@ def test_parameter_tables_match_the_schema():
 
 def test_every_parameter_has_exactly_one_row_with_its_default():
     gen = _generator()
-    rows = [line for line in gen.render().splitlines() if line.startswith("| `")]
+    rows = [line for line in gen.render().splitlines() if line.startswith("| `") and not line.startswith("| `servos.")]
     names = [re.match(r"\| `([^`]+)`", row).group(1) for row in rows]
     assert names.count("device_name") == 1
     assert sorted(names) == sorted(p.name for p in SCHEMA)
     by_name = dict(zip(names, rows))
     for param in SCHEMA:
         assert f"`{gen.format_value(param.default)}`" in by_name[param.name], param.name
+
+
+def test_every_item_of_the_servos_block_has_one_row():
+    from dynamixel_handler.servo_settings import FIELDS
+    rows = [line for line in _generator().render().splitlines() if line.startswith("| `servos.<servo>.")]
+    assert [re.match(r"\| `servos.<servo>.([^`]+)`", row).group(1) for row in rows] == list(FIELDS)
 
 
 def test_yaml_defaults_are_rendered_as_yaml():

@@ -55,3 +55,19 @@ def test_plain_python_runs_its_own_virtual_bus():
     assert "scan" in out.stderr and "2 servo(s) [1, 2]" in out.stderr, out.stderr
     assert re.search(r"^loop \d+: 1=", out.stdout, re.M), out.stdout
     assert "rclpy imported: False" in out.stdout, out.stdout
+
+
+def test_plain_python_takes_per_servo_settings_as_typed_values():
+    sim = VirtualBus(servos={1: XM430, 2: XM430}, baudrate=1_000_000)
+    path = sim.start()
+    try:
+        out = _run("--device", path, "--baudrate", "1000000", "--ids", "1,2", "--loops", "50", "--p-gain", "640",
+                   "--profile-vel", "60")
+        assert out.returncode == 0, out.stdout + out.stderr
+        for i in (1, 2):  # on the servos, not what the script says
+            assert sim.servo(i).read("position_p_gain") == 640
+            assert sim.servo(i).read("profile_velocity") == round(60 / (0.229 * 6))
+    finally:
+        sim.close()
+    assert "ID 1 (XM430-W350): servos.id_1 set: position_p_gain_pulse 640, profile_vel_deg_s 60.0; read back" in out.stderr
+    assert "rclpy imported: False" in out.stdout, out.stdout

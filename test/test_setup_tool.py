@@ -305,6 +305,27 @@ def test_assign_ids_says_so_when_the_new_servo_arrives_where_a_known_one_is(sim_
 
 
 # ---------------------------------------------------------------------- backup / reset / restore
+def test_backup_also_writes_the_handler_s_servos_block(sim_of, tmp_path):
+    import yaml
+
+    from dynamixel_handler.control_table import model_by_number
+    from dynamixel_handler.servo_settings import servo_settings
+    from dynamixel_handler.servo_targets import refusals
+    sim = sim_of("1:XM430-W350", "3:PH54-200-S500-R")
+    for args in (("set-mode", "1", "cur_position"), ("set", "1", "velocity_limit", "120deg/s")):
+        out = tool(sim, *args, "--yes", "--baud", "57600")
+        assert out.returncode == 0, out.text
+    block_file = tmp_path / "servos_block.yaml"
+    out = tool(sim, "backup", str(tmp_path / "backup.yaml"), "--servos-block", str(block_file), "--baud", "57600")
+    assert out.returncode == 0 and f"the servos block of IDs 1, 3 written to {block_file}" in out.stdout, out.text
+    block = yaml.safe_load(block_file.read_text())["/**"]["ros__parameters"]["servos"]
+    entries = servo_settings(block)
+    assert [e.dxl_id for e in entries] == [1, 3]
+    assert block["id_1"]["mode"] == "cur_position" and block["id_1"]["velocity_limit_deg_s"] == pytest.approx(120, abs=1)
+    assert block["id_1"]["position_p_gain_pulse"] == 800 and "drive_mode" in block["id_3"]
+    assert refusals(model_by_number(1020), entries[0]) == [] and refusals(model_by_number(2020), entries[1]) == []
+
+
 def test_backup_factory_reset_restore_gives_back_the_same_eeprom_bytes(sim_of, tmp_path):
     sim = sim_of("1:XM430-W350", "3:PH54-200-S500-R")
     for args in (("set", "1", "max_position_limit", "170deg"), ("set", "1", "return_delay_time", "20us"),

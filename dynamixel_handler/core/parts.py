@@ -71,7 +71,7 @@ def part_settings(s: Settings) -> PartSettings:
         watchdog=WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
                                   s.term.servo_auto_stop),
         loop=s.loop,
-        startup=StartupSettings(s.scan, s.start, s.loop.debug),
+        startup=StartupSettings(s.scan, s.start, s.loop.debug, s.servos),
         step=StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
         term=s.term,
         split_write=s.method.split_write,
@@ -144,6 +144,9 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
     # that keeps something per servo forgets it
     for forget in (pending.forget, work.forget, watchdog.forget, recovery.forget):
         table.watch_removals(forget)
+    # the servos block's RAM items come back after what resets them
+    recovery.put_back = requests.put_back = startup.kept.put_back
+    recovery.file_sets = startup.kept.sets
     for kind, route in core_routes(parts).items():
         intake.register(kind, route)
     return parts

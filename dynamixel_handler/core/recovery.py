@@ -12,6 +12,7 @@ from ..bus.ops import ClearError, Ping, Reboot
 from ..servos import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
+from .reconnect_memory import Remembered, differences, remember, restore
 from .servo_io import Log, ServoIO
 from .state import StepReport
 from .watchdog import Watchdog
@@ -53,6 +54,12 @@ class Recovery:
         #: silent after a reconnect: set up as at start-up once they answer
         self._not_set_up: set[int] = set()
         self._last_reboot: dict[int, float] = {}  # ID -> time.monotonic() of its last reboot
+        #: (ID, why): the servos block's RAM items written again after a reboot (``KeptSettings``)
+        self.put_back: Callable[[int, str], None] = lambda dxl_id, why: None
+        #: (ID, item): whether the servos block sets the item (it then wins over what the servo had)
+        self.file_sets: Callable[[int, str], bool] = lambda dxl_id, item: False
+        #: what was known of each servo when the device went: put back after its set-up
+        self._memory: dict[int, Remembered] = {}
 
     def reboot(self, dxl_id: int) -> Result[bool]:
         """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
@@ -77,6 +84,7 @@ class Recovery:
             for item, value in kept.items():
                 if value is not None:
                     self.io.write_item(dxl_id, item, value)
+            self.put_back(dxl_id, "a reboot")
             if dxl_id in self.table:
                 self.watchdog.arm_watchdog(dxl_id)
         return rebooted
@@ -115,6 +123,7 @@ class Recovery:
             self.device_lost = True
             self.device_lost_since = time.time()
             self._lost_ids = [i for i in self.table.ids if i not in dummies]
+            self._memory = {i: remember(self.table, i) for i in self._lost_ids}
             self.log.error(f"{self.bus.device} is gone (the port hung up: unplugged, or another process reading it?): "
                            f"reconnecting every {RECONNECT_INTERVAL_S:g}s; states keep being published with ping false")
         for pos, dxl_id in enumerate(self.table.ids):
@@ -150,7 +159,7 @@ class Recovery:
             pos = self.table.index[dxl_id]
             self.table.ping[pos] = True
             self.table.no_response[pos] = 0
-            self._set_up(dxl_id)
+            self._set_up_as_before(dxl_id)
             answered.append(dxl_id)
         self.log.info(f"after the reconnect: {len(answered)} servo(s) {answered} answer and are set up as at start-up"
                       + (f"; no answer yet from {silent} (pinged again as silent servos, set up once they answer)"
@@ -171,7 +180,19 @@ class Recovery:
             elif self.table.ping[self.table.index[dxl_id]]:
                 self._not_set_up.discard(dxl_id)
                 self.log.info(f"ID {dxl_id}: answers after the reconnect: set up as at start-up")
-                self._set_up(dxl_id)
+                self._set_up_as_before(dxl_id)
+
+    def _set_up_as_before(self, dxl_id: int) -> None:
+        """Set up as at start-up, then what it had before the device went (``reconnect_memory``):
+        EEPROM items that differ named, its mode and profiles back, a goal not resumed said."""
+        before = self._memory.pop(dxl_id, None)
+        def say(level: int, msg: str) -> None:
+            self.log.log(level, msg)
+        if before is not None:
+            differences(self.io, dxl_id, before, say)
+        self._set_up(dxl_id)
+        if before is not None:
+            restore(self.io, dxl_id, before, lambda item: self.file_sets(dxl_id, item), say, self.put_back)
 
     def update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table

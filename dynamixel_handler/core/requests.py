@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import time
+from typing import Callable
 
 from .. import error_state
 from ..control_table import Model
@@ -43,6 +44,8 @@ class Requests:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         self._last_mode_change: dict[int, float] = {}  # ID -> time.monotonic() of its last mode change
         self._last_clear: dict[int, float] = {}  # ID -> time.monotonic() of its last error clear
+        #: (ID, why): the servos block's RAM items written again after a mode change (``KeptSettings``)
+        self.put_back: Callable[[int, str], None] = lambda dxl_id, why: None
 
     # ---------------------------------------------------------------- goals
     def put_goals(self, request: SetGoals) -> None:
@@ -104,6 +107,8 @@ class Requests:
         for item, value in keep.items():
             if value is not None:
                 self.io.write_item(dxl_id, item, value)
+        if written:
+            self.put_back(dxl_id, f"the mode change to {mode}")
         if torque:
             self.io.torque_on(dxl_id)
         self.watchdog.arm_after_ops(dxl_id)

@@ -10,9 +10,11 @@ from ..bus import ServoBus, dummy_ids
 from ..bus.ops import Ping
 from ..control_table import POSITION_MODES
 from ..errors import Interrupted, StartupError
+from ..servo_settings import ServoSetting
 from ..servos import ServoTable
 from ..settings import ScanSettings, StartValues
 from .deferred import Deferred
+from .kept_settings import KeptSettings
 from .log_limits import LogLimits
 from .recovery import Recovery
 from .scan import UNKNOWN_MODEL_HELP, Scan, Seen, lookup, none_handled
@@ -25,6 +27,7 @@ class StartupSettings:
     scan: ScanSettings = ScanSettings()     # which servos are looked for, how they are set up
     start: StartValues = StartValues()      # the values every servo gets
     debug: bool = False                     # a start-up problem is logged and the node runs on
+    servos: tuple[ServoSetting, ...] = ()   # the parameters file's servos block
 
 
 class Startup:
@@ -47,6 +50,9 @@ class Startup:
         #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
         self.membership: dict[int, bool] | None = None
         self.scanning = Scan(bus, log, settings.scan, self._startup_problem, interrupted)
+        #: the servos block: checked after the scan, applied at each set-up, put back after a reset
+        self.kept = KeptSettings(table, io, eeprom, watchdog, lambda: self.settings.servos,
+                                 lambda level, msg: self.log.log(level, msg))
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
@@ -60,6 +66,7 @@ class Startup:
                        f"init/expected_servo_num is {expected}: check the IDs on the bus, or set "
                        "init/expected_servo_num (0: any number)")
             self._startup_problem(message)
+        self.kept.check(self.settings.debug)  # before anything is written
         for dxl_id in list(self.table.ids):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
@@ -93,14 +100,18 @@ class Startup:
 
     def setup_servo(self, dxl_id: int) -> None:
         """The set-up every servo gets, at start-up and when added later (add_id): hardware error
-        cleared (init/hardware_error_auto_clean), return delay, profile defaults, torque as
-        init/torque_auto_enable says; the bus watchdog when the loop next runs."""
+        cleared (init/hardware_error_auto_clean), the servos block's EEPROM items and mode, return
+        delay, profile defaults, the block's RAM items, torque as init/torque_auto_enable says; the
+        bus watchdog when the loop next runs. The block's items replace the defaults."""
         settings, model = self.settings, self.table.model(dxl_id)
         if settings.scan.hardware_error_auto_clean:
             self._clear_error(dxl_id)
-        delay = int(units.unit_to_pulse([model], "return_delay_time", [settings.start.return_delay_time])[0])
-        self.eeprom.write_eeprom(dxl_id, "return_delay_time", delay)
+        done = self.kept.prepare(dxl_id)
+        if not self.kept.sets(dxl_id, "return_delay_time"):
+            delay = int(units.unit_to_pulse([model], "return_delay_time", [settings.start.return_delay_time])[0])
+            self.eeprom.write_eeprom(dxl_id, "return_delay_time", delay)
         self._setup_ram(dxl_id)
+        self.kept.finish(dxl_id, done)
         if settings.scan.torque_auto_enable:
             self.io.torque_on(dxl_id)
 
@@ -128,7 +139,7 @@ class Startup:
         for item, limit, param, value in (
                 ("profile_acceleration", "acceleration_limit", "default/profile_acc", start.profile_acc),
                 (self._speed_item(dxl_id), "velocity_limit", "default/profile_vel", start.profile_vel)):
-            if model.has(item):
+            if model.has(item) and not self.kept.sets(dxl_id, item):
                 pulses = self._within(dxl_id, item, limit, param, value)
                 written = self.io.write_item(dxl_id, item, pulses)
                 if not written:  # e.g. above a P servo's velocity limit

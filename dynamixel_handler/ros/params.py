@@ -34,7 +34,9 @@ from ..config import (
     validate,
 )
 from ..logs import ECHO_MAX, cut
+from ..servo_settings import is_servo_parameter
 from .params_file import read_problem
+from .servo_params import declare_servo_block
 
 _ROS_TYPES = {
     BOOL: ParameterType.PARAMETER_BOOL, INT: ParameterType.PARAMETER_INTEGER,
@@ -56,6 +58,7 @@ def declare_and_load(node: Node) -> Config:
         node.undeclare_parameter(name)
         for target in ALIASES[name]:
             given.setdefault(target, value)
+    block = {name: given.pop(name) for name in sorted(given) if is_servo_parameter(name)}  # servos.<name>.<item>
     _report_unknown(node, given)
     values: dict[str, Any] = {}
     for param in SCHEMA:
@@ -70,7 +73,9 @@ def declare_and_load(node: Node) -> Config:
                                          description=param.description, read_only=True)
         node.declare_parameter(param.name, list(value) if isinstance(value, list) else value,
                                descriptor, ignore_override=True)
-    return validate(values)
+    config = validate({**values, **block})
+    declare_servo_block(node, block, config.settings.servos)
+    return config
 
 
 #: the 64-bit range of a ROS integer parameter

@@ -1,11 +1,14 @@
 """backup: each servo's model, ID, rate and EEPROM items in a YAML file a person can read and edit
 (raw register values, the physical value beside each as a comment); ``restore`` (:mod:`.restore`)
-writes it back, onto a replacement servo too."""
+writes it back, onto a replacement servo too. ``--servos-block FILE`` also writes the servos' mode,
+gains, limits, profiles and once-set items as the handler's ``servos`` block (a parameters file)."""
 from __future__ import annotations
 
 import argparse
 import datetime
+from typing import Any, Callable
 
+from ..servo_snapshot import entry_of, servos_yaml
 from .context import Context
 from .errors import StepFailed
 from .items import to_unit, unit_of
@@ -32,8 +35,28 @@ def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
     return lines
 
 
+def _reader(servo: Servo) -> Callable[[str], int | None]:
+    """Reads an item of ``servo``; None where the read fails (the item is left out of the block)."""
+    def read(name: str) -> int | None:
+        try:
+            return servo.read(name)
+        except StepFailed:
+            return None
+    return read
+
+
+def _write(path: str, text: str) -> None:
+    try:
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write(text)
+    except OSError as exc:
+        raise StepFailed(f"cannot write {path}: {exc.strerror}") from None
+
+
 def backup(ctx: Context, args: argparse.Namespace) -> None:
     check_writable(args.file, "backup")  # before the search: a path that cannot be written is said at once
+    if getattr(args, "servos_block", None):
+        check_writable(args.servos_block, "backup --servos-block")
     lines = ["# dynamixel_handler_setup backup: each servo by its ID, with its model, baud rate and EEPROM items",
              "# (raw register values; the physical value in the comment). Edit a value to change it: restore",
              "# checks every value first, writes only what differs and reads it back; a servo not found at its",
@@ -41,17 +64,20 @@ def backup(ctx: Context, args: argparse.Namespace) -> None:
              f"# {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
              "servos:"]
     saved = []
+    entries: list[tuple[int, dict[str, Any]]] = []
     found = ctx.servos(args.ids)
     for placed in found.placed:
         servo = ctx.at(placed)
         lines += _servo_yaml(servo, ctx.bus.firmware_versions.get(servo.dxl_id))
         saved.append(servo.dxl_id)
-    try:
-        with open(args.file, "w", encoding="utf-8") as handle:
-            handle.write("\n".join(lines) + "\n")
-    except OSError as exc:
-        raise StepFailed(f"cannot write {args.file}: {exc.strerror}") from None
+        if getattr(args, "servos_block", None):
+            entries.append((servo.dxl_id, entry_of(servo.model, _reader(servo), servo.mode())))
+    _write(args.file, "\n".join(lines) + "\n")
     ctx.out.say(f"{len(saved)} servo(s) saved to {args.file}: IDs {', '.join(map(str, saved))}")
+    if getattr(args, "servos_block", None):
+        _write(args.servos_block, servos_yaml(entries, ctx.bus.device))
+        ctx.out.say(f"the servos block of IDs {', '.join(map(str, saved))} written to {args.servos_block} "
+                    "(a parameters file for the handler)")
     ctx.out.document.update(file=args.file, ids=saved, missing=found.missing,
                             servos=[servo_doc(p.dxl_id, p.servo.model, p.baudrate) for p in found.placed])
     ctx.fail_if_missing(found, f"the others were saved to {args.file}")

@@ -221,6 +221,8 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     keep.add_argument("--all", action="store_true", help="reset everything: the servo comes back as ID 1 at 57600 bps")
     p = verb("backup", backup.backup, "save servos' EEPROM items and model to a YAML file")
     p.add_argument("file")
+    p.add_argument("--servos-block", metavar="FILE",
+                   help="also write mode, gains, limits and profiles as the handler's servos block (a parameters file)")
     p.add_argument("ids", nargs="?", type=parse_ids, help="IDs (default: every servo found, at any rate unless --baud)")
     p = verb("restore", restore.restore, "write a backup back: model checked, only what differs, verified")
     p.add_argument("file")

@@ -1,0 +1,194 @@
+"""The ``servos`` block of the parameters file on the servos: checked after the scan, applied at
+each servo's set-up, put back after what resets the servo's RAM.
+
+Set-up (start-up, ``add_id``, a reconnect), in this order: the EEPROM items with torque off and
+only where they differ from what the servo holds (``Deferred.write_eeprom_many``), then the mode
+(only if it differs), then (after the start values) gains, profiles and the other RAM items;
+each item read back; one line per servo. After a mode change and a reboot (an error clear's too)
+the RAM items (gains, profiles, LED) are written again: the firmware put them back to its defaults.
+"""
+from __future__ import annotations
+
+import logging
+from typing import Callable, Sequence
+
+from ..control_table import Model
+from ..errors import ConfigError
+from ..servo_settings import FIELDS, ServoSetting
+from ..servo_targets import refusals, register_values, usable
+from ..servos import ServoTable
+from .deferred import Deferred
+from .servo_io import ServoIO
+from .watchdog import Watchdog
+
+Say = Callable[[int, str], None]
+
+
+class KeptSettings:
+    """The entries of ``settings()`` (the ``servos`` block) applied to the servos of the table."""
+
+    def __init__(self, table: ServoTable, io: ServoIO, eeprom: Deferred, watchdog: Watchdog,
+                 settings: Callable[[], Sequence[ServoSetting]], say: Say) -> None:
+        self.table = table
+        self.io = io
+        self.eeprom = eeprom
+        self.watchdog = watchdog
+        self.settings = settings
+        self.say = say
+        #: IDs whose entry was applied at their set-up: what resets their RAM puts it back
+        self.applied: set[int] = set()
+        #: (ID, model number) whose refused items were reported
+        self.reported: set[tuple[int, int]] = set()
+
+    def entry(self, dxl_id: int) -> ServoSetting | None:
+        """The servo's entry, without the items its model refuses (``debug``, or a servo replaced
+        by another model while unplugged: those are left out with one line)."""
+        for setting in self.settings():
+            if setting.dxl_id == dxl_id:
+                if dxl_id not in self.table:
+                    return setting
+                model = self.table.model(dxl_id)
+                kept = usable(model, setting)
+                if kept is not setting and (dxl_id, model.number) not in self.reported:
+                    self.reported.add((dxl_id, model.number))
+                    for line in refusals(model, setting):
+                        self.say(logging.WARNING, f"{line}: left out")
+                return kept
+        return None
+
+    def sets(self, dxl_id: int, item: str) -> bool:
+        """Whether the servo's entry sets control-table ``item``."""
+        entry = self.entry(dxl_id)
+        return entry is not None and entry.sets(item)
+
+    # ---------------------------------------------------------------- before anything is written
+    def check(self, debug: bool) -> None:
+        """Every entry against the servos found: an ID not handled, an item its model lacks, a value
+        beyond its e-Manual range, a mode it lacks. One ERROR line each, then ConfigError (nothing
+        is written); with ``debug`` the lines are warnings and the node runs on."""
+        lines = []
+        for setting in self.settings():
+            if setting.dxl_id not in self.table:
+                lines.append(f"servos.{setting.name}: ID {setting.dxl_id} is not on the bus (handled: "
+                             f"{list(self.table.ids)}): check the ID, or take the entry out")
+                continue
+            model = self.table.model(setting.dxl_id)
+            lines += refusals(model, setting)
+            self.reported.add((setting.dxl_id, model.number))
+        if not lines:
+            return
+        if debug:
+            for line in lines:
+                self.say(logging.WARNING, line + " (debug: left out, running on)")
+            return
+        if len(lines) == 1:
+            raise ConfigError(f"{lines[0]}: nothing was written")
+        for line in lines:
+            self.say(logging.ERROR, line)
+        raise ConfigError(f"the servos block has {len(lines)} refused items (the lines above): nothing was written")
+
+    # ---------------------------------------------------------------- set-up
+    def prepare(self, dxl_id: int) -> list[str]:
+        """EEPROM items (only those that differ), then the mode, with torque off once for both (on
+        again after, safely, if it was on): what was done, for ``finish``."""
+        self.applied.discard(dxl_id)
+        entry = self.entry(dxl_id)
+        if entry is None:
+            return []
+        model = self.table.model(dxl_id)
+        eeprom, before = self._eeprom_of(dxl_id, model, entry)
+        mode = entry.values.get("mode")
+        change = mode is not None and self.io.mode(dxl_id) != mode
+        torque = self.io.torque_off_for_eeprom(dxl_id) if change or eeprom != before else 0
+        done = self._write_eeprom(dxl_id, entry, eeprom, before)
+        if mode is not None:
+            done.append(self._mode(dxl_id, model, mode) if change else f"mode {mode} (already so)")
+        if torque:
+            self.io.torque_on(dxl_id)
+        return done
+
+    def _eeprom_of(self, dxl_id: int, model: Model, entry: ServoSetting) -> tuple[dict[str, int], dict[str, int | None]]:
+        """The entry's EEPROM items {item: value} but the mode, and what the servo holds of them."""
+        values = self._values(model, entry)
+        eeprom = {item: v for item, v in values.items() if item != "operating_mode" and model.item(item).eeprom}
+        return eeprom, {item: self.io.read_item(dxl_id, item) for item in eeprom}
+
+    def _write_eeprom(self, dxl_id: int, entry: ServoSetting, eeprom: dict[str, int],
+                      before: dict[str, int | None]) -> list[str]:
+        written = self.eeprom.write_eeprom_many(dxl_id, eeprom) if eeprom else None
+        if written is not None and not written:
+            self.say(logging.WARNING, f"ID {dxl_id}: servos.{entry.name}: an EEPROM write failed: {written.why}")
+        return [f"{self._field(entry, item)} ({'EEPROM, written' if before[item] != v else 'EEPROM, already so'})"
+                for item, v in eeprom.items()]
+
+    def _mode(self, dxl_id: int, model: Model, mode: str) -> str:
+        written = self.io.write_item(dxl_id, "operating_mode", model.mode_values[mode])
+        if not written:
+            self.say(logging.WARNING, f"ID {dxl_id}: mode {mode} not set: {written.why}")
+        return f"mode {mode}"
+
+    def finish(self, dxl_id: int, done: list[str]) -> None:
+        """RAM items (gains, profiles, LED, bus watchdog), everything read back, one line."""
+        entry = self.entry(dxl_id)
+        if entry is None:
+            return
+        model = self.table.model(dxl_id)
+        done = done + self._write_ram(dxl_id, model, entry)
+        wrong = self._read_back(dxl_id, model, entry)
+        self.applied.add(dxl_id)
+        self.say(logging.INFO, f"ID {dxl_id} ({model.name}): servos.{entry.name} set: {', '.join(done)}; "
+                 + ("read back" if not wrong else f"read back differs: {', '.join(wrong)}"))
+
+    def put_back(self, dxl_id: int, why: str) -> None:
+        """After a mode change or a reboot: the entry's RAM items written again, one line."""
+        entry = self.entry(dxl_id)
+        if entry is None or dxl_id not in self.applied or dxl_id not in self.table:
+            return
+        done = self._write_ram(dxl_id, self.table.model(dxl_id), entry, quiet=True)
+        if done:
+            self.say(logging.INFO, f"ID {dxl_id}: servos.{entry.name} put back after {why}: {', '.join(done)}")
+
+    def _write_ram(self, dxl_id: int, model: Model, entry: ServoSetting, quiet: bool = False) -> list[str]:
+        done = []
+        for item, value in self._values(model, entry).items():
+            if item == "operating_mode" or model.item(item).eeprom:
+                continue
+            if item == "bus_watchdog":
+                if not quiet:  # the watchdog part keeps it (armed when the loop starts, again after a reboot)
+                    self.watchdog.user[dxl_id] = value
+                    done.append(self._field(entry, item))
+                continue
+            written = self.io.write_item(dxl_id, item, value)
+            if written:
+                done.append(self._field(entry, item))
+            else:
+                self.say(logging.WARNING, f"ID {dxl_id}: servos.{entry.name}: {item} = {value} not written: "
+                         f"{written.why}")
+        return done
+
+    def _read_back(self, dxl_id: int, model: Model, entry: ServoSetting) -> list[str]:
+        wrong = []
+        for item, value in self._values(model, entry).items():
+            if item == "bus_watchdog":
+                continue  # armed when the loop starts
+            got = self.io.read_item(dxl_id, item) if item != "operating_mode" else \
+                model.mode_values.get(self.io.mode(dxl_id) or "")
+            if got != value:
+                wrong.append(f"{item} {got} (not {value})")
+        return wrong
+
+    def _values(self, model: Model, entry: ServoSetting) -> dict[str, int]:
+        return register_values(model, entry, lambda item: self.io.value(entry.dxl_id, item))
+
+    @staticmethod
+    def _field(entry: ServoSetting, item: str) -> str:
+        """The entry's fields that go to ``item``, with their values, as the file gives them."""
+        names = [f for f in entry.values if FIELDS[f].item == item or _led_of(f, item)]
+        return ", ".join(f"{f} {entry.values[f]}" for f in names) or item
+
+
+def _led_of(field: str, item: str) -> bool:
+    return field.startswith("led.") and item.startswith("led")
+
+
+__all__ = ["KeptSettings"]

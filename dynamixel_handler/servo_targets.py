@@ -1,0 +1,163 @@
+"""A servo's entry of the ``servos`` block against its model: what it refuses, and the register
+values it asks for (ROS-free).
+
+``refusals`` lists, one line each naming servo, item and value, the items the model lacks, the
+values beyond its e-Manual range (``Model.value_range``; the position limits: the model's
+position range) and a mode it lacks. ``register_values`` turns an entry into register values
+(pulses); a bit-field register (Drive Mode, Shutdown, the XL-320's LED colour) takes the bits
+the entry gives and keeps the others of the value the servo holds.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from . import error_state, units
+from .control_table import Model
+from .servo_settings import BITS, FIELDS, LED, MODE, PULSE, UNIT, WATCHDOG, ServoSetting
+
+#: modes that need a current sensor (as ``commands.tables.CURRENT_MODES``)
+CURRENT_MODES = frozenset({"current", "cur_position"})
+
+#: (control-table item) -> the value the servo holds now (None: unknown)
+Current = Callable[[str], "int | None"]
+
+
+def led_item(model: Model, colour: str) -> str | None:
+    """The register an LED colour is written to: P/PRO ``led_<colour>``, X ``led`` (red), XL-320
+    ``led_colour``; None if the model has no LED of that colour."""
+    if model.has(f"led_{colour}"):
+        return f"led_{colour}"
+    if colour == "red" and model.has("led"):
+        return "led"
+    return "led_colour" if model.has("led_colour") else None
+
+
+def _item_of(model: Model, field: str) -> str | None:
+    """The register a field is written to on this model (None: it has none)."""
+    spec = FIELDS[field]
+    if spec.kind == LED:
+        return led_item(model, field.split(".")[1].split("_")[0])
+    if spec.kind == MODE:
+        return spec.item if model.has(spec.item) or model.mode_select is not None else None
+    return spec.item if model.has(spec.item) else None
+
+
+def value_range(model: Model, item: str) -> tuple[int, int]:
+    """The raw values the e-Manual allows (the position limits: the model's position range)."""
+    if item in ("max_position_limit", "min_position_limit") and model.position_max_pulse > model.position_min_pulse:
+        return model.position_min_pulse, model.position_max_pulse
+    return model.value_range(item)
+
+
+def refusals(model: Model, setting: ServoSetting) -> list[str]:
+    """Why the model refuses items of the entry: one line each (empty: it takes them all)."""
+    return list(refused_fields(model, setting).values())
+
+
+def refused_fields(model: Model, setting: ServoSetting) -> dict[str, str]:
+    """{field: why} of the entry's items the model refuses, in the entry's order."""
+    out = {}
+    for field, value in setting.values.items():
+        where = f"servos.{setting.name}.{field} = {value}"
+        item = _item_of(model, field)
+        if item is None:
+            out[field] = f"{where}: ID {setting.dxl_id} ({model.name}) has no {FIELDS[field].item}"
+            continue
+        why = _refused(model, field, item, value)
+        if why:
+            out[field] = f"{where}: ID {setting.dxl_id} ({model.name}) {why}"
+    return out
+
+
+def usable(model: Model, setting: ServoSetting) -> ServoSetting:
+    """The entry without the items the model refuses."""
+    refused = refused_fields(model, setting)
+    if not refused:
+        return setting
+    return ServoSetting(setting.dxl_id, {f: v for f, v in setting.values.items() if f not in refused}, setting.name)
+
+
+def _refused(model: Model, field: str, item: str, value: Any) -> str:
+    kind = FIELDS[field].kind
+    if kind == MODE:
+        if value not in model.modes or value not in model.mode_values:
+            return f"has no '{value}' mode (its modes: {', '.join(sorted(set(model.modes) & set(model.mode_values)))})"
+        if value in CURRENT_MODES and not (model.has("current_limit") or model.has("goal_current")):
+            return f"has no current sensor, so no '{value}' mode"
+        return ""
+    if kind not in (UNIT, PULSE, WATCHDOG):
+        return ""
+    lo, hi = value_range(model, item)
+    pulses = to_pulses(model, field, value)
+    if lo <= pulses <= hi and (kind == PULSE or _exact(model, item, value, pulses)):
+        return ""
+    if kind == PULSE:
+        return f"is outside its e-Manual range {lo}..{hi}"
+    shown = units.pulse_to_unit([model, model], item, [lo, hi])
+    return f"is outside its e-Manual range {float(shown[0]):g}..{float(shown[1]):g}"
+
+
+def _exact(model: Model, item: str, value: float, pulses: int) -> bool:
+    """The pulses stand for the value (not clipped to the register's bytes by the conversion)."""
+    back, step = units.pulse_to_unit([model, model], item, [pulses, pulses + 1])
+    return abs(float(back) - value) <= abs(float(step) - float(back))
+
+
+def to_pulses(model: Model, field: str, value: Any) -> int:
+    """A number of the entry in the register's units."""
+    spec = FIELDS[field]
+    if spec.kind == PULSE:
+        return int(value)
+    pulses = int(units.unit_to_pulse([model], spec.item, [float(value)])[0])
+    if spec.kind == WATCHDOG and value > 0:
+        pulses = max(1, pulses)  # a time under one register unit is one unit, not off
+    return pulses
+
+
+def register_values(model: Model, setting: ServoSetting, current: Current) -> dict[str, int]:
+    """{item: register value} the entry asks for (the mode: its register value); bit fields merged
+    with the servo's bits (``current``)."""
+    out: dict[str, int] = {}
+    bits: dict[str, dict[str, Any]] = {}
+    for field, value in setting.values.items():
+        kind, item = FIELDS[field].kind, _item_of(model, field)
+        if item is None:
+            continue
+        if kind == MODE:
+            out[item] = model.mode_values[value]
+        elif kind in (UNIT, PULSE, WATCHDOG):
+            out[item] = to_pulses(model, field, value)
+        elif kind in (BITS, LED):
+            bits.setdefault(item, {})[field.split(".", 1)[1]] = value
+    for item, given in bits.items():
+        value = _merged(model, item, given, current(item) or 0)
+        if value is not None:
+            out[item] = value
+    return out
+
+
+def _merged(model: Model, item: str, given: dict[str, Any], old: int) -> int | None:
+    if item == "drive_mode":
+        was = units.decode_drive_mode([old])
+        value = units.encode_drive_mode(
+            reverse_mode=bool(given.get("reverse_mode", was["reverse_mode"][0])),
+            profile_configuration=str(given.get("profile_configuration", was["profile_configuration"][0])),
+            torque_on_by_goal_update=bool(given.get("torque_on_by_goal_update", was["torque_on_by_goal_update"][0])))
+        return value | (old & ~0x0D)
+    if item == "shutdown":  # in the X and P bit layout; the XL-320's own order on its register
+        flags = {name: bool(on[0]) for name, on in units.decode_shutdown([error_state.common_bits(model, old)]).items()}
+        flags.update({name: bool(on) for name, on in given.items()})
+        return error_state.own_bits(model, units.encode_shutdown(**flags))
+    percent = float(next(iter(given.values())))
+    if item == "led_colour":  # one bit per colour (0 red, 1 green, 2 blue), on from 50 %
+        value = old
+        for name, pct in given.items():
+            bit = 1 << ("red", "green", "blue").index(name.split("_")[0])
+            value = value | bit if pct >= 50.0 else value & ~bit
+        return value
+    if item == "led":  # X: one LED, on from 50 %
+        return 1 if percent >= 50.0 else 0
+    return int(percent * 255.0 / 100.0 + 0.5)  # P, PRO: 0..255
+
+
+__all__ = ["led_item", "refusals", "refused_fields", "register_values", "to_pulses", "usable", "value_range"]
