@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any, Callable
 
 from . import error_state, units
-from .control_table import Model
+from .control_table import POSITION_MODES, Model
 from .servo_settings import BITS, FIELDS, LED, MODE, PULSE, UNIT, WATCHDOG, ServoSetting
 
 #: modes that need a current sensor (as ``commands.tables.CURRENT_MODES``)
@@ -32,13 +32,18 @@ def led_item(model: Model, colour: str) -> str | None:
     return "led_colour" if model.has("led_colour") else None
 
 
-def _item_of(model: Model, field: str) -> str | None:
-    """The register a field is written to on this model (None: it has none)."""
+def _item_of(model: Model, field: str, mode: Any = None) -> str | None:
+    """The register a field is written to on this model (None: it has none). ``mode``: the
+    entry's mode, which decides where the speed of a move goes on a model without Profile
+    Velocity whose Moving Speed is it in Joint Mode (Protocol 1.0, XL-320): there in a position
+    mode, nowhere else (in Wheel Mode it is the velocity goal: it would turn)."""
     spec = FIELDS[field]
     if spec.kind == LED:
         return led_item(model, field.split(".")[1].split("_")[0])
     if spec.kind == MODE:
         return spec.item if model.has(spec.item) or model.mode_select is not None else None
+    if spec.item == "profile_velocity" and not model.has(spec.item) and model.family.fastest_at_zero:
+        return model.family.speed_item(False) if mode in POSITION_MODES else None
     return spec.item if model.has(spec.item) else None
 
 
@@ -59,9 +64,9 @@ def refused_fields(model: Model, setting: ServoSetting) -> dict[str, str]:
     out = {}
     for field, value in setting.values.items():
         where = f"servos.{setting.name}.{field} = {value}"
-        item = _item_of(model, field)
+        item = _item_of(model, field, setting.values.get("mode"))
         if item is None:
-            out[field] = f"{where}: ID {setting.dxl_id} ({model.name}) has no {FIELDS[field].item}"
+            out[field] = f"{where}: ID {setting.dxl_id} ({model.name}) has no {FIELDS[field].item}" + _speed_hint(model, field)
             continue
         why = _refused(model, field, item, value)
         if why:
@@ -108,10 +113,21 @@ def to_pulses(model: Model, field: str, value: Any) -> int:
     spec = FIELDS[field]
     if spec.kind == PULSE:
         return int(value)
-    pulses = int(units.unit_to_pulse([model], spec.item, [float(value)])[0])
+    item = _item_of(model, field, "position") or spec.item
+    pulses = int(units.unit_to_pulse([model], item, [float(value)])[0])
     if spec.kind == WATCHDOG and value > 0:
         pulses = max(1, pulses)  # a time under one register unit is one unit, not off
+    if item != spec.item and pulses == 0:
+        pulses = 1  # Moving Speed 0 in Joint Mode is full speed: the slowest instead
     return pulses
+
+
+def _speed_hint(model: Model, field: str) -> str:
+    """What to do where the speed of a move is Moving Speed, set in Joint Mode only."""
+    if FIELDS[field].item == "profile_velocity" and model.family.fastest_at_zero:
+        return (": its speed of a move is Moving Speed, which is also the velocity goal in Wheel Mode; give "
+                "'mode: position' (or another position mode) in the entry to set it")
+    return ""
 
 
 def register_values(model: Model, setting: ServoSetting, current: Current) -> dict[str, int]:
@@ -120,7 +136,7 @@ def register_values(model: Model, setting: ServoSetting, current: Current) -> di
     out: dict[str, int] = {}
     bits: dict[str, dict[str, Any]] = {}
     for field, value in setting.values.items():
-        kind, item = FIELDS[field].kind, _item_of(model, field)
+        kind, item = FIELDS[field].kind, _item_of(model, field, setting.values.get("mode"))
         if item is None:
             continue
         if kind == MODE:

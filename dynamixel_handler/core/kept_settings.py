@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 from typing import Callable, Sequence
 
-from ..control_table import Model
+from ..control_table import POSITION_MODES, Model
 from ..errors import ConfigError
 from ..servo_settings import FIELDS, ServoSetting
 from ..servo_targets import refusals, register_values, usable
@@ -151,7 +151,7 @@ class KeptSettings:
     def _write_ram(self, dxl_id: int, model: Model, entry: ServoSetting, quiet: bool = False) -> list[str]:
         done = []
         for item, value in self._values(model, entry).items():
-            if item == "operating_mode" or model.item(item).eeprom:
+            if item == "operating_mode" or model.item(item).eeprom or self._turns(dxl_id, model, item):
                 continue
             if item == "bus_watchdog":
                 if not quiet:  # the watchdog part keeps it (armed when the loop starts, again after a reboot)
@@ -166,11 +166,19 @@ class KeptSettings:
                          f"{written.why}")
         return done
 
+    def _turns(self, dxl_id: int, model: Model, item: str) -> bool:
+        """Whether ``item`` is the Moving Speed that carries the entry's speed of a move (Protocol
+        1.0, XL-320) while the servo is out of the position modes: there it is the velocity goal,
+        and writing the speed would turn the shaft."""
+        family = model.family
+        return (family.fastest_at_zero and not model.has("profile_velocity") and item == family.speed_item(False)
+                and self.io.mode(dxl_id) not in POSITION_MODES)
+
     def _read_back(self, dxl_id: int, model: Model, entry: ServoSetting) -> list[str]:
         wrong = []
         for item, value in self._values(model, entry).items():
-            if item == "bus_watchdog":
-                continue  # armed when the loop starts
+            if item == "bus_watchdog" or self._turns(dxl_id, model, item):
+                continue  # armed when the loop starts; Moving Speed kept for Joint Mode
             got = self.io.read_item(dxl_id, item) if item != "operating_mode" else \
                 model.mode_values.get(self.io.mode(dxl_id) or "")
             if got != value:

@@ -110,3 +110,21 @@ def test_with_debug_a_refusal_is_a_warning_and_the_rest_is_applied():
     assert any("servos.id_1.velocity_limit_deg_s = 5000.0" in x and "debug: left out" in x for x in lines)
     assert bus.get(1, "position_p_gain") == 640 and bus.get(1, "velocity_limit") == velocity_limit
     assert "velocity_limit" not in [w[1] for w in bus.item_writes()]
+
+
+def test_an_ax_entry_s_speed_of_a_move_is_moving_speed_and_never_turns_it_in_wheel_mode():
+    """AX-12A (Protocol 1.0): the entry's profile_vel_deg_s goes to Moving Speed in Joint Mode; after a
+    switch to Wheel Mode (where Moving Speed is the velocity goal) it is not put back, so the shaft
+    stays still."""
+    bus = FakeBus({}, protocol1={4: 12})
+    bus.set(4, "max_position_limit", 1023)
+    log, _ = lines_of("test_kept_settings.ax", logging.INFO)
+    entry = ServoSetting(4, {"mode": "position", "profile_vel_deg_s": 30.0})
+    settings = Settings(scan=ScanSettings(max_id=5, used_series=("AX",)), servos=(entry,),
+                        loop=LoopSettings(mode_change_interval_s=0.0))
+    parts = build(bus, settings, log)
+    parts.startup.start()
+    assert bus.get(4, "goal_velocity") == round(30.0 / (0.111 * 6.0))
+    assert parts.requests.change_mode(ChangeMode(4, "velocity", "test")).outcome is Outcome.DONE
+    assert (bus.get(4, "min_position_limit"), bus.get(4, "max_position_limit")) == (0, 0)
+    assert bus.get(4, "goal_velocity") == 0

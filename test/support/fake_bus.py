@@ -12,7 +12,7 @@ from typing import Any, Iterable, Mapping
 
 from dynamixel_handler import units
 from dynamixel_handler.bus import GroupRead, PreparedWrite
-from dynamixel_handler.bus.ops import Ping, Read, Reboot, SyncRead, Write
+from dynamixel_handler.bus.ops import ErrorByte, Ping, Read, Reboot, SyncRead, Write
 from dynamixel_handler.bus.result import Failure, Result
 from dynamixel_handler.bus.stats import BusStats
 from dynamixel_handler.control_table import Model, model_by_number, protocol1_model_by_number
@@ -51,6 +51,7 @@ class FakeBus:
         self.silent: set[int] = set()          # answer nothing
         self.no_fast: set[int] = set()         # answer Sync Read, not Fast Sync Read (old firmware)
         self.fail_sync_writes = False          # sync writes are not sent ("no adapter")
+        self.errors: dict[int, int] = {}       # Protocol 1.0: the error byte of a servo's statuses
         for i, model in self.models.items():
             self.set(i, "model_number", model.number)
 
@@ -131,6 +132,9 @@ class FakeBus:
                 return _no_reply(False)
             self.memory[dxl_id][op.address:op.address + len(op.data)] = op.data
             return Result(True)
+        if kind is ErrorByte:
+            self.calls.append(("error_byte", dxl_id))
+            return Result(self.errors.get(dxl_id, 0)) if self._answers(dxl_id, op.protocol) else _no_reply(None)
         if kind is Reboot:
             self.calls.append(("reboot", dxl_id))
             return Result(True) if self._answers(dxl_id, op.protocol) else _no_reply(False)
