@@ -143,3 +143,18 @@ def test_move_to_and_set_torque_services_drive_an_ax(rig):
     assert call(SetTorque, "/dynamixel/set_torque", SetTorque.Request(ids=[AX], enable=True)).success
     wait_items(rig, AX, {"torque_enable": 1})
     assert abs(servo(rig, AX).read("goal_position") - servo(rig, AX).read("present_position")) <= 2  # no jump
+
+
+def test_an_overload_is_published_and_cleared_without_a_reboot(rig):
+    """A load beyond the AX-18A's Torque Limit latches the overload bit; its Shutdown bits cut the
+    output; once the load is gone the clear writes Torque Limit back and the error goes."""
+    ax = servo(rig, AX_18)
+    ax.shaft.external_load = 1.5                                            # 150 % of its full output
+    rig.wait(lambda: rig.state_of("error", "overload", AX_18) is True, what="error.overload of the AX-18A")
+    wait_items(rig, AX_18, {"torque_limit": 0})
+    ax.shaft.external_load = 0.0
+    ax.write("led", 1)
+    rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="CE", id_list=[AX_18]))
+    wait_items(rig, AX_18, {"torque_limit": ax.read("pwm_limit"), "torque_enable": 1})
+    rig.wait(lambda: rig.state_of("error", "overload", AX_18) is False, what="error.overload cleared")
+    assert ax.read("led") == 1                                             # no reboot
