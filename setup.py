@@ -26,13 +26,13 @@ setup(
             f"dynamixel_handler = {PACKAGE}.ros.node:main",
             f"dynamixel_handler_lifecycle = {PACKAGE}.ros.lifecycle_node:main",
             f"dynamixel_handler_sim = {PACKAGE}.sim.cli:main",
-            f"dynamixel_unify_baudrate = {PACKAGE}.tools.unify_baudrate:main",
+            f"dynamixel_unify_baudrate = {PACKAGE}.ros.unify_baudrate:main",
             # the terminal set-up tool; `ros2 run dynamixel_handler setup` is the same program
             f"dynamixel_handler_setup = {PACKAGE}.setup_tool:main",
             f"setup = {PACKAGE}.setup_tool:main",
             # the original handler's executable names, for launch files written for it
             f"dynamixel_handler_node = {PACKAGE}.ros.node:main",
-            f"dynamixel_unify_baudrate_node = {PACKAGE}.tools.unify_baudrate:main",
+            f"dynamixel_unify_baudrate_node = {PACKAGE}.ros.unify_baudrate:main",
         ],
     },
 )

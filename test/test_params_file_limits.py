@@ -138,3 +138,14 @@ def test_the_scan_finds_depth_entries_and_aliases_where_they_are():
     assert scan_problem("a: 1\nb: *x\n") == "a YAML alias (*name) at line 2: ROS does not read aliases"
     crlf = "".join(f"k{i}:\r\n  v: 1\r\n" for i in range(MAX_ENTRIES // 2 + 1))  # Windows line ends
     assert scan_problem(crlf) == f"more than {MAX_ENTRIES:,} keys and list entries (line {MAX_ENTRIES + 1})"
+
+
+def test_the_baud_rate_tool_refuses_a_hostile_file_the_same_way(tmp_path):
+    """dynamixel_unify_baudrate reads its parameters through rcl too: the same checks run first."""
+    path = _write(tmp_path, "deep.yaml", "dynamixel_unify_baudrate:\n  ros__parameters:\n    target_baudrate: "
+                  + "[" * 500 + "]" * 500 + "\n")
+    proc = NodeProcess(["dynamixel_unify_baudrate", "--ros-args", "--params-file", str(path)])
+    assert proc.wait_exit(timeout=EXIT_WAIT_S) == 2, proc.output[:2000]
+    fatal = [line for line in proc.lines if line.startswith("[FATAL]")]
+    assert len(fatal) == 1 and f"nests deeper than {MAX_DEPTH} levels" in fatal[0], proc.output[:2000]
+    assert "Traceback" not in proc.output and "[rcl]" not in proc.output

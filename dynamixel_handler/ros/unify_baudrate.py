@@ -8,7 +8,8 @@ Run it once on a robot whose servos were configured at different baud rates::
 Parameters: ``device_name target_baudrate latency_timer min_id max_id min_search_baudrate
 max_search_baudrate``. Exit code 0 when every servo found answers at the target rate, 1 when
 the device cannot be used or a servo could not be moved, 2 for a bad parameter (one line says
-which and why). The work itself is :func:`dynamixel_handler.tools.baudrate.unify_baudrate`.
+which and why). The work itself is :func:`dynamixel_handler.tools.baudrate.unify_baudrate`; this is its ROS face
+(the only module outside the node's that imports rclpy, so it lives in ``ros/``).
 """
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from rclpy.logging import get_logger
 from rclpy.node import Node
 
 from ..bus import BusError, DynamixelBus
-from .baudrate import TOOL_PARAMS, search_rates, unify_baudrate, validate_tool_params
+from ..tools.baudrate import TOOL_PARAMS, search_rates, unify_baudrate, validate_tool_params
+from .params import check_arguments
 
 NODE_NAME = "dynamixel_unify_baudrate"
 EXIT_OK, EXIT_FAILED, EXIT_BAD_PARAMETER, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -89,6 +91,10 @@ class UnifyBaudrateNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console entry point; returns the process exit code."""
+    problem = check_arguments(sys.argv if args is None else args)
+    if problem is not None:  # a hostile or broken params file: one line, before rcl reads it
+        get_logger(NODE_NAME).fatal(f"bad ROS arguments: {problem}")
+        return EXIT_BAD_PARAMETER
     try:
         rclpy.init(args=args)
     except Exception as exc:  # malformed --ros-args: rcl says why
