@@ -12,6 +12,7 @@ import math
 
 from .motion import Command, Motor, profile_kind
 from .registers import Registers
+from .servo_loop import ServoLoop
 
 #: modes whose goal is a position (by name: the Operating Mode values are the model's own)
 POSITION_MODES = ("position", "ex_position", "cur_position")
@@ -154,7 +155,19 @@ class Dynamics:
             vmax = min(span / max((pv - accel_ms) / 1000.0, 1e-3), vlim) or vlim
             amax = vmax / (accel_ms / 1000.0) if accel_ms > 0 else math.inf
         target = (self._r.get("goal_position") - self._r.get("homing_offset")) * self._sign()
-        return Command(torque, 0.0, target, vmax, amax)
+        return Command(torque, 0.0, target, vmax, amax, loop=self._servo_loop(vlim))
+
+    def _servo_loop(self, vlim: float) -> ServoLoop | None:
+        """The position loop from the gains, as multiples of the model's factory Position P Gain
+        (None where the model has no such gain or factory value: the shaft is on the profile)."""
+        factory_p = self._r.model.factory.get("position_p_gain", 0)
+        if factory_p <= 0 or not self._r.has("position_p_gain"):
+            return None
+        full = self._pwm_full_scale()
+        u_max = self._r.get("pwm_limit", full) / full if self._r.has("pwm_limit") else 1.0
+        return ServoLoop.from_gains(self._r.get("position_p_gain") / factory_p,
+                                    self._r.get("position_i_gain") / factory_p,
+                                    self._r.get("position_d_gain") / factory_p, vlim, u_max)
 
     # ------------------------------------------------------------------ time
     def _watchdog_deadline(self) -> float | None:
@@ -202,10 +215,11 @@ class Dynamics:
     def _publish_motion(self) -> None:
         position = self._user_position()
         self._r.poke("present_position", int(round(position)))
-        self._r.poke("position_trajectory", int(round(position)))
         velocity = self._sign() * self.motor.v / self._scale("v")
         self._r.poke("present_velocity", int(round(velocity)))
-        self._r.poke("velocity_trajectory", int(round(velocity)))
+        ref_p, ref_v = self.motor.reference()  # the profile's, during a move
+        self._r.poke("position_trajectory", int(round(self._sign() * ref_p + self._r.get("homing_offset"))))
+        self._r.poke("velocity_trajectory", int(round(self._sign() * ref_v / self._scale("v"))))
 
     def _publish_effort(self, torque: bool) -> None:
         """Current (or load), PWM and the temperature the current heats the servo to."""

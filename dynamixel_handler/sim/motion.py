@@ -3,8 +3,11 @@
 The point is not motor physics but behaviour a controller notices: a position goal is
 approached along a trapezoidal velocity profile capped by the profile velocity and
 acceleration; velocity goals ramp at the profile acceleration; PWM and current goals settle
-with a first-order lag. State is advanced lazily by elapsed time (closed form where possible,
-1 ms sub-steps only while a position move is under way), so an idle bus costs no CPU.
+with a first-order lag. Where the command carries a ``ServoLoop`` (Protocol 2.0 servos), the
+profile is the reference of a position loop that the shaft follows as the Position P, I and D
+Gains say (``servo_loop``); without one (Protocol 1.0 servos) the shaft is on the profile. State
+is advanced lazily by elapsed time (closed form where possible, 1 ms sub-steps only while a
+position move is under way), so an idle bus costs no CPU.
 
 Everything here is in the servo's *raw* frame (encoder pulses, pulses/s, pulses/s^2), before
 homing offset and drive-mode reverse are applied.
@@ -14,6 +17,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from .servo_loop import LoopState, ServoLoop, loop_velocity, settled
 
 POSITION_STEP_S = 0.001
 ARRIVE_TOLERANCE = 0.5  # pulses
@@ -29,6 +34,7 @@ class Command:
     vmax: float = math.inf  # pulses/s, profile velocity cap
     amax: float = math.inf  # pulses/s^2, profile acceleration (inf: instant)
     lag_s: float = 0.0  # > 0: first-order lag instead of a ramp (PWM / current modes)
+    loop: ServoLoop | None = None  # position modes: the servo loop between profile and shaft
 
 
 def profile_kind(distance: float, vmax: float, amax: float) -> int:
@@ -42,17 +48,48 @@ def profile_kind(distance: float, vmax: float, amax: float) -> int:
     return 3
 
 
+def profile_step(p: float, v: float, h: float, cmd: Command) -> tuple[float, float]:
+    """The profile's position and velocity ``h`` seconds on, towards ``cmd.target_p``: the
+    velocity ramps at the profile acceleration up to the profile velocity and down in time to stop
+    on the target (where it lands exactly)."""
+    target = cmd.target_p
+    assert target is not None
+    d = target - p
+    direction = 1.0 if d > 0 else -1.0
+    v_stop = math.sqrt(2.0 * cmd.amax * abs(d)) if not math.isinf(cmd.amax) else math.inf
+    v_des = direction * min(cmd.vmax, v_stop)
+    if math.isinf(v_des) or math.isinf(cmd.amax):
+        v_new = v_des
+    else:
+        step = cmd.amax * h
+        v_new = v + max(-step, min(step, v_des - v))
+    travel = h * (v_new if math.isinf(v_new) else 0.5 * (v + v_new))
+    if abs(d) <= ARRIVE_TOLERANCE or (travel * direction >= abs(d)):
+        return target, 0.0
+    return p + travel, v_new
+
+
 class Motor:
-    """Shaft state: position (multi-turn, float pulses), velocity and last acceleration."""
+    """Shaft state: position (multi-turn, float pulses), velocity and last acceleration; during a
+    position move under a servo loop, the profile's reference as well."""
 
     def __init__(self, position: float = 0.0) -> None:
         self.p = float(position)
         self.v = 0.0
         self.a = 0.0
+        #: the profile's reference and the loop's integral, while a looped position move is under way
+        self.loop_state: LoopState | None = None
 
     def stop(self) -> None:
         self.v = 0.0
         self.a = 0.0
+        self.loop_state = None
+
+    def reference(self) -> tuple[float, float]:
+        """The profile's position and velocity (the shaft's own when no loop is following one)."""
+        if self.loop_state is None:
+            return self.p, self.v
+        return self.loop_state.r, self.loop_state.rv
 
     def at_target(self, cmd: Command) -> bool:
         return cmd.target_p is not None and self.p == cmd.target_p and self.v == 0.0
@@ -65,15 +102,24 @@ class Motor:
             self.stop()
             return
         if cmd.target_p is None:
+            self.loop_state = None
             self._advance_velocity(dt, cmd)
             return
+        if cmd.loop is None:
+            self.loop_state = None
         remaining = dt
         while remaining > 0.0:
             if self.at_target(cmd):
                 self.a = 0.0
+                self.loop_state = None
                 return
             h = POSITION_STEP_S if remaining > POSITION_STEP_S else remaining
-            self._position_step(h, cmd)
+            v0 = self.v
+            if cmd.loop is None:
+                self.p, self.v = profile_step(self.p, self.v, h, cmd)
+            else:
+                self._loop_step(h, cmd, cmd.loop)
+            self.a = (self.v - v0) / h
             remaining -= h
 
     def _advance_velocity(self, dt: float, cmd: Command) -> None:
@@ -97,28 +143,16 @@ class Motor:
                 self.v = vt
         self.a = (self.v - v0) / dt
 
-    def _position_step(self, h: float, cmd: Command) -> None:
+    def _loop_step(self, h: float, cmd: Command, loop: ServoLoop) -> None:
+        """One sub-step of a looped move: the profile advances, the shaft follows it."""
         target = cmd.target_p
         assert target is not None
-        d = target - self.p
-        v0 = self.v
-        direction = 1.0 if d > 0 else -1.0
-        v_stop = math.sqrt(2.0 * cmd.amax * abs(d)) if not math.isinf(cmd.amax) else math.inf
-        v_des = direction * min(cmd.vmax, v_stop)
-        if math.isinf(v_des):
-            v_new = v_des
-        elif math.isinf(cmd.amax):
-            v_new = v_des
-        else:
-            dv = v_des - v0
-            step = cmd.amax * h
-            v_new = v0 + max(-step, min(step, dv))
-        travel = h * (v_new if math.isinf(v_new) else 0.5 * (v0 + v_new))
-        if abs(d) <= ARRIVE_TOLERANCE or (travel * direction >= abs(d)):
-            self.p = target
-            self.v = 0.0
-            self.a = (0.0 - v0) / h
-            return
-        self.p += travel
-        self.v = v_new
-        self.a = (v_new - v0) / h
+        state = self.loop_state
+        if state is None:  # a move starts: the profile sets out from where the shaft is
+            state = self.loop_state = LoopState(self.p, self.v)
+        state.r, state.rv = profile_step(state.r, state.rv, h, cmd)
+        self.v = loop_velocity(loop, state, self.p, self.v, h)
+        self.p += h * self.v
+        if settled(state, target, self.p, self.v, ARRIVE_TOLERANCE):
+            self.p, self.v = target, 0.0
+            self.loop_state = None
