@@ -12,6 +12,7 @@ host whose port is at their own baud rate, with the wire's time simulated. Every
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
@@ -242,15 +243,24 @@ def _bus_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> VirtualB
     return bus
 
 
+def _list_models() -> None:
+    for model in known_models():
+        print(f"{model.number:6d}  {model.name}  ({model.series})")
+    for old in PROTOCOL1_MODELS.values():  # by the name --servo takes: MX-28(1.0), as MX-28 is the 2.0 one
+        name = old.name if parse_model(old.name) == old.number else f"{old.name}(1.0)"
+        print(f"{old.number:6d}  {name}  (Protocol 1.0: answers only 1.0 packets; the handler drives it with "
+              f"init/used_servo_series.{old.family.title})")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = build_parser()
     args = ap.parse_args(argv)
     if args.list_models:
-        for model in known_models():
-            print(f"{model.number:6d}  {model.name}  ({model.series})")
-        for old in PROTOCOL1_MODELS.values():  # by the name --servo takes: MX-28(1.0), as MX-28 is the 2.0 one
-            name = old.name if parse_model(old.name) == old.number else f"{old.name}(1.0)"
-            print(f"{old.number:6d}  {name}  (Protocol 1.0: answers only 1.0 packets; not driven by the handler)")
+        try:
+            _list_models()
+            sys.stdout.flush()  # here, not at exit: a closed pipe is answered below
+        except BrokenPipeError:  # e.g. `--list-models | head`: the reader has what it wanted
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     bus = _bus_from(args, ap)
     stop = threading.Event()

@@ -162,3 +162,15 @@ def test_model_names_on_the_command_line_prefer_the_protocol_2_firmware():
     assert [parse_model(t) for t in ("MX-28", "mx-28(2.0)", "MX-64", "MX-106", "30")] == [30, 30, 311, 321, 30]
     # the Protocol 1.0 firmware by its own spelling or number; AX names have no 2.0 twin
     assert [parse_model(t) for t in ("MX-28(1.0)", "29", "AX-12A", "12")] == [29, 29, 12, 12]
+
+
+def test_the_model_list_names_the_parameter_that_drives_a_protocol1_model_and_ends_quietly_in_a_pipe():
+    listed = subprocess.run([sys.executable, "-m", "dynamixel_handler.sim", "--list-models"], capture_output=True,
+                            text=True, timeout=60)
+    assert listed.returncode == 0, listed.stderr
+    ax = next(line for line in listed.stdout.splitlines() if "AX-12A" in line)
+    assert "init/used_servo_series.AX" in ax
+    # a reader that closes the pipe before reading (as `| head -1` may, after its line): no traceback
+    piped = subprocess.run(f"{sys.executable} -m dynamixel_handler.sim --list-models | true; exit ${{PIPESTATUS[0]}}",
+                           shell=True, executable="/bin/bash", capture_output=True, text=True, timeout=60)
+    assert piped.returncode == 0 and "Traceback" not in piped.stderr and "BrokenPipe" not in piped.stderr, piped.stderr
