@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
+from .bus.port import LINE_BAUDRATES as BAUDRATES  # the Protocol 2.0 rates and the Protocol 1.0-only ones
 from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
 from .joints import JointMap, joint_map
@@ -157,8 +158,6 @@ ALIASES: dict[str, tuple[str, ...]] = {
     **{f"verbose/read_{g}/{k}": (f"verbose/read_{g}.{k}",) for g in _READ_GROUPS for k in ("raw", "err")},
     **{f"option/external_port.verbose/read/{k}": (f"option/external_port.verbose/read.{k}",) for k in ("raw", "err")},
 }
-
-BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000, 6000000, 10500000)
 
 
 def coerce(param: Param, value: Any) -> Any:

@@ -158,3 +158,17 @@ def test_an_overload_is_published_and_cleared_without_a_reboot(rig):
     wait_items(rig, AX_18, {"torque_limit": ax.read("pwm_limit"), "torque_enable": 1})
     rig.wait(lambda: rig.state_of("error", "overload", AX_18) is False, what="error.overload cleared")
     assert ax.read("led") == 1                                             # no reboot
+
+
+def test_a_bus_of_ax_servos_at_a_protocol1_only_rate_is_driven():
+    """500,000 bps (Baud Rate 3) is a rate no Protocol 2.0 servo takes: the node opens the line at it."""
+    r = Rig({AX: AX12A, AX_18: AX18A}, "baudrate:=500000", "init/used_servo_series.AX:=true",
+            "init/used_servo_series.X:=false", sim_kwargs={"baudrate": 500_000})
+    try:
+        assert r.sim.servos_at(AX)[0].read("baud_rate") == 3
+        assert f"ID {AX}: AX-12A" in r.output and f"ID {AX_18}: AX-18A" in r.output, r.output
+        r.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[AX], position_deg=[20.0]))
+        r.wait(lambda: r.sim.servos_at(AX)[0].read("goal_position") == 512 + round(20.0 / AX_DEG),
+               what="the AX's goal written at 500 kbps")
+    finally:
+        assert r.close() == 0

@@ -12,10 +12,10 @@ from .api import ServoBus, dummy_ids
 from .core import DynamixelBus
 from .errors import BusError
 from .group_read import GroupRead
-from .port import DYNAMIXEL_BAUDRATES
+from .port import DYNAMIXEL_BAUDRATES, LINE_BAUDRATES
 from .result import Failure, Result
 from .stats import BusStats
 from .writes import PreparedWrite
 
-__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "Failure", "GroupRead", "PreparedWrite", "Result",
-           "ServoBus", "dummy_ids", "ops"]
+__all__ = ["BusError", "BusStats", "DynamixelBus", "DYNAMIXEL_BAUDRATES", "Failure", "GroupRead", "LINE_BAUDRATES",
+           "PreparedWrite", "Result", "ServoBus", "dummy_ids", "ops"]

@@ -32,6 +32,11 @@ from .lock_holder import lock_holder
 #: Baud rates Dynamixel servos can be set to (X, P and Pro series together).
 DYNAMIXEL_BAUDRATES = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000,
                        6000000, 10500000)
+#: rates of the Protocol 1.0 baud tables (2,000,000 / (v + 1), MX adds 2.25 and 2.5 Mbps) that no
+#: Protocol 2.0 servo takes: a bus of AX, RX, DX, EX or MX (1.0) servos may run at them
+PROTOCOL1_BAUDRATES = (200000, 250000, 400000, 500000, 2250000, 2500000)
+#: every rate the bus opens a line at
+LINE_BAUDRATES = tuple(sorted(DYNAMIXEL_BAUDRATES + PROTOCOL1_BAUDRATES))
 
 
 #: a read that sleeps through the wire time of the bytes still expected wakes this much earlier [s]
@@ -57,7 +62,7 @@ class _SdkPort(PortHandler):  # type: ignore[misc]  # dynamixel_sdk has no type 
     tx_time_per_byte: float
 
     def getCFlagBaud(self, baudrate: int) -> int:  # noqa: N802 (SDK name)
-        return baudrate if baudrate in DYNAMIXEL_BAUDRATES else -1
+        return baudrate if baudrate in LINE_BAUDRATES else -1
 
     def setupPort(self, cflag_baud: int) -> bool:  # noqa: N802 (SDK name)
         if self.is_open and self.ser is not None:
@@ -345,6 +350,6 @@ def blind_sleep_s(missing: int, byte_s: float, now: float, due: float | None = N
 
 
 def check_baudrate(baudrate: int) -> None:
-    if baudrate not in DYNAMIXEL_BAUDRATES:
-        supported = ", ".join(str(b) for b in DYNAMIXEL_BAUDRATES)
+    if baudrate not in LINE_BAUDRATES:
+        supported = ", ".join(str(b) for b in LINE_BAUDRATES)
         raise BusError(f"baudrate {baudrate} is not a Dynamixel baud rate: use one of {supported}.")
