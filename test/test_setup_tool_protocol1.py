@@ -10,8 +10,9 @@ import sys
 import time
 
 import pytest
+import test_setup_tool
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler
-from test_setup_tool import TOOL, Lines, Sim, one_error_line, sdk_port, sdk_read, tool
+from test_setup_tool import TOOL, Lines, one_error_line, sdk_port, sdk_read, tool
 
 AX12, MX28, MX64, XM430 = 12, 29, 310, 1020
 # Protocol 1.0 control table (ROBOTIS e-Manual, AX-12A / MX-28): one layout for the models here
@@ -21,19 +22,7 @@ TORQUE_CONTROL = 70  # MX-64: Torque Control Mode Enable
 ALARM_LED = 17
 PROTOCOL_TYPE = 13  # X series
 
-
-@pytest.fixture
-def sim_of(tmp_path):
-    started: list[Sim] = []
-
-    def start(*servos: str) -> Sim:
-        sim = Sim(tmp_path / "bus.json", *servos)
-        started.append(sim)
-        return sim
-
-    yield start
-    for sim in started:
-        sim.stop()
+sim_of = test_setup_tool.sim_of  # the fixture: the virtual bus as a process
 
 
 def p1_read(path: str, bps: int, dxl_id: int, address: int, size: int) -> int | None:
