@@ -7,7 +7,7 @@ PACKAGE = "dynamixel_handler"
 
 setup(
     name=PACKAGE,
-    version="1.1.0",
+    version="1.1.1",
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

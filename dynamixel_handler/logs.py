@@ -14,6 +14,9 @@ from typing import Callable, Iterable
 
 #: longest user value echoed into a log line [characters]
 ECHO_MAX = 80
+#: longest file path echoed whole: a workspace's install path runs past ECHO_MAX, and a path cut
+#: short names no file (PATH_MAX is 4096: a hostile one is still bounded)
+PATH_ECHO_MAX = 240
 #: IDs a line names before it only counts the rest
 IDS_SHOWN = 5
 #: a float, so that "= 12.5" and "= 13.5" count as the same cause (integers, the IDs, are kept)
@@ -26,6 +29,11 @@ def cut(value: object, limit: int = ECHO_MAX) -> str:
     if len(text) <= limit:
         return text
     return f"{text[:limit]}... ({len(text)} characters)"
+
+
+def cut_path(path: object) -> str:
+    """A file path as a line names it: whole up to ``PATH_ECHO_MAX`` characters."""
+    return cut(path, PATH_ECHO_MAX)
 
 
 def some_ids(ids: Iterable[int], shown: int = IDS_SHOWN) -> str:

@@ -28,6 +28,7 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 import rclpy  # noqa: E402
 import yaml  # noqa: E402
+from rclpy.duration import Duration  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -97,6 +98,10 @@ def topic_hz(args) -> None:
     print(f"average rate: {(len(stamps) - 1) / (stamps[-1] - stamps[0]):.1f} Hz over {len(stamps)} messages")
 
 
+#: seconds `topic pub` waits for its subscribers to acknowledge the message
+ACK_TIMEOUT_S = 5.0
+
+
 def topic_pub(args) -> None:
     node = Node("ros_cli_pub")
     typ = _type(args.type)
@@ -107,7 +112,12 @@ def topic_pub(args) -> None:
     msg = _fill(typ(), yaml.safe_load(args.values) or {})
     print(f"publisher: beginning loop\npublishing #1: {msg}\n")
     pub.publish(msg)
-    time.sleep(0.2)
+    # A subscriber this publisher has matched may not yet have matched it back (DDS discovery runs on
+    # each side on its own): its reader drops the first sample and asks for it again once it sees the
+    # writer. Leaving before that loses the message, so wait until every matched reader has acknowledged it.
+    if not pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S)):
+        print(f"warning: not every subscriber of {args.topic} acknowledged the message within {ACK_TIMEOUT_S:.0f} s",
+              file=sys.stderr)
 
 
 def param_get(args) -> None:

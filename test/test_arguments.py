@@ -60,6 +60,17 @@ def test_a_missing_params_file_is_one_fatal_line(tmp_path: Path):
     assert str(missing) in line and "No such file" in line, line
 
 
+def test_a_params_file_deep_in_a_workspace_is_named_whole(tmp_path: Path):
+    """A path cut short names no file: one as long as an install tree's (here 150+ characters)
+    is named whole in the line."""
+    missing = tmp_path / "ros2_ws" / "install" / ("my_robot_bringup_" * 3) / "share" / "config" / "dynamixel.yaml"
+    assert len(str(missing)) > 150
+    proc = NodeProcess(node_command("device_name:=/dev/null", params_file=missing))
+    assert proc.wait_exit(timeout=30) == 2, proc.output
+    line = _fatal_only(proc)
+    assert f"params file {missing}: cannot read it" in line, line
+
+
 def test_a_malformed_params_file_is_one_fatal_line_naming_the_yaml_line(tmp_path: Path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("dynamixel_handler:\n  ros__parameters:\n    loop_rate: [1, 2\n    baudrate: 57600\n")

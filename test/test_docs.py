@@ -44,6 +44,18 @@ def test_every_item_of_the_servos_block_has_one_row():
     assert [re.match(r"\| `servos.<servo>.([^`]+)`", row).group(1) for row in rows] == list(FIELDS)
 
 
+def test_the_range_rules_name_what_the_node_accepts():
+    """The prose rules beside the tables: the baud rates the node takes and the families it can be
+    told to use, as the code has them."""
+    from dynamixel_handler.bus.port import LINE_BAUDRATES
+    from dynamixel_handler.config import USED_FAMILIES
+    text = " ".join((DOCS / "parameters.md").read_text(encoding="utf-8").split())
+    rates = re.search(r"`baudrate` is one of ([\d, ]+)", text).group(1)
+    assert tuple(int(r) for r in rates.replace(",", " ").split()) == LINE_BAUDRATES
+    families = re.search(r"at least one of `init/used_servo_series\.\{([^}]+)\}` is true", text).group(1)
+    assert families.split(",") == [f.title for f in USED_FAMILIES]
+
+
 def test_yaml_defaults_are_rendered_as_yaml():
     gen = _generator()
     assert gen.format_value(True) == "true"

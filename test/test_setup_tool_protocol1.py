@@ -272,7 +272,7 @@ def test_the_search_for_every_servo_looks_in_protocol_1_when_asked(sim_of):
 
 
 # ---------------------------------------------------------------------- Protocol Type
-def test_protocol_type_1_and_back_the_round_trip(sim_of):
+def test_protocol_type_1_and_back_the_round_trip(sim_of, tmp_path):
     sim = sim_of("1:XM430-W350")
     out = tool(sim, "set", "1", "protocol_type", "1", "--yes", "--baud", "57600")
     assert out.returncode == 0 and "it answers Protocol 1.0 now" in out.stdout, out.text
@@ -281,6 +281,10 @@ def test_protocol_type_1_and_back_the_round_trip(sim_of):
     out = tool(sim, "scan", "--ids", "0-2", "--baud", "57600", "--json")
     (found,) = doc(out)["servos"]
     assert (found["protocol"], found["model"]) == (1, "XM430-W350") and "set 1 protocol_type 2" in found["note"]
+    firmware = p1_read(sim.path, 57600, 1, 6, 1)  # Firmware Version is at 6 in the X table, not 2 as on a 1.0 model
+    assert found["firmware"] == firmware > 0, found
+    assert tool(sim, "backup", str(tmp_path / "b.yaml"), "1", "--baud", "57600").returncode == 0
+    assert f"firmware: {firmware}\n" in (tmp_path / "b.yaml").read_text()
     got = doc(tool(sim, "get", "1", "protocol_type", "--baud", "57600", "--json"))
     assert got["raw"] == 1
     out = tool(sim, "set", "1", "protocol_type", "2", "--yes", "--baud", "57600")

@@ -180,8 +180,11 @@ def test_trace_decodes_protocol_1_packets_too(bus):
     lines = out.stderr.splitlines()
     assert any(line.endswith("Protocol 1.0 ping ID 3") and "> FF FF 03 02 01 F9" in line for line in lines), out.stderr
     assert any(line.endswith("Protocol 1.0 status ID 3 no error") for line in lines), out.stderr
-    assert any(line.endswith("Protocol 1.0 status ID 3 no error: model 12 (AX-12A), firmware 24") for line in lines), \
-        out.stderr
+    assert any(line.endswith("Protocol 1.0 status ID 3 no error: model 12 (AX-12A)") for line in lines), out.stderr
+    # the firmware, read as the model's item (address 2 on a Protocol 1.0 model)
+    read_at_2 = next(k for k, line in enumerate(lines) if line.endswith("Protocol 1.0 read ID 3 @2 x1"))
+    assert lines[read_at_2 + 1].endswith("Protocol 1.0 status ID 3 no error: 24 (firmware_version)"), out.stderr
+    assert any(line.endswith("no error: 1023 (max_position_limit)") for line in lines), out.stderr  # by its item
 
 
 # ---------------------------------------------------------------------- --log, --plot, plot

@@ -144,6 +144,9 @@ def test_files_that_are_not_backups_are_refused_before_anything_is_written(bus, 
         out = tool(sim, "restore", str(tmp_path / name), "--yes", timeout=30)
         lines_out = [line for line in out.stderr.splitlines() if line.strip()]
         assert out.returncode == 2 and len(lines_out) == 1 and why in lines_out[0], (name, out.text)
+    deep = tmp_path / ("robot_backups_" * 8) / "missing.yaml"  # named whole, not cut to a stem
+    out = tool(sim, "restore", str(deep), "--yes", timeout=30)
+    assert out.returncode == 2 and f"cannot read {deep}: No such file" in out.stderr, out.text
     fifo = tmp_path / "fifo.yaml"
     os.mkfifo(fifo)
     out = tool(sim, "restore", str(fifo), "--yes", timeout=30)

@@ -99,6 +99,33 @@ def test_target_rate_the_model_cannot_use_is_a_failure_and_the_servo_stays():
         assert any("FAILED" in line for line in report.summary())
 
 
+class _SpoilAfter:
+    """A log that cuts the next reply short once a line containing ``text`` is logged."""
+
+    def __init__(self, sim: VirtualBus, text: str) -> None:
+        self.sim, self.text, self.lines = sim, text, []
+
+    def _line(self, line: str) -> None:
+        self.lines.append(line)
+        if self.text in line:
+            self.sim.truncate_next(1)
+
+    info = warning = error = _line
+
+
+def test_a_servo_that_misses_the_verification_ping_is_asked_again_before_it_is_called_failed():
+    """Noise on the first ping at the target (its reply cut short) is no reason to report a moved
+    servo lost: the tool pings it again."""
+    with VirtualBus({1: X}, check_baudrate=True) as sim:
+        log = _SpoilAfter(sim, "Baud Rate 57600 -> 1000000")  # the move's last transaction
+        with DynamixelBus(sim.path, 57600, latency_timer_ms=LATENCY_MS, retry_num=1) as bus:
+            report = unify_baudrate(bus, 1_000_000, range(0, 3), [57600], log=log)
+        assert sim.stats["truncated"] == 1  # the verification scan's ping went unanswered
+        assert report.ok, report.summary()
+        assert report.moved == [1] and report.verified == {1: X}
+        assert "verification at 1000000 bps: 1 of 1 answer" in log.lines
+
+
 def test_two_servos_sharing_an_id_at_different_rates_are_not_merged():
     with VirtualBus({1: X, 2: X}, check_baudrate=True) as sim:
         at_rates(sim, {2: 115200})

@@ -5,8 +5,9 @@ Two servos at one ID both answer every packet addressed to it; on the half-duple
 replies collide. That shows as CRC errors, as bytes read that made no valid reply (overlapping
 replies), or as a second complete reply after an answered ping. A scan whose reply train was
 clean found one servo at each ID; a garbled one is followed by a few pings of each ID found (and
-of each ID that gave noise instead of an answer) to tell which IDs are shared. A reply that is
-merely late (a loaded host) is none of these.
+of each ID that gave noise instead of an answer) to tell which IDs are shared, in rounds that
+must all say so. A reply that is merely late (a loaded host) is none of these: it can make one
+round look shared (its bytes come in a later ping's time, or in another ID's), not every round.
 """
 from __future__ import annotations
 
@@ -20,6 +21,11 @@ from .reads import BROADCAST_SCAN_MIN_IDS
 
 #: pings that tell a shared ID from a clean one
 CLEAN_PINGS = 3
+#: rounds of those pings that must all look shared: two servos at one ID garble every round, a
+#: late reply (a loaded host, or another ID's reply arriving in this ID's pings) only the odd one
+SHARED_ROUNDS = 3
+#: quiet time before each further round, for late replies to arrive and be dropped [s]
+SETTLE_S = 0.03
 #: bytes of a Protocol 2.0 ping's status
 PING_REPLY_BYTES = 14
 
@@ -74,14 +80,27 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
         return out
     for dxl_id in wanted:
         if dxl_id in answered or (garbled and _noisy(bus, dxl_id)):
-            # the last ping's input flush is the next one's: one more than needed counts doubled replies
-            probed, shared = probe(bus, dxl_id, CLEAN_PINGS + 2)
+            probed, shared = _rounds(bus, dxl_id)
             number = answered.get(dxl_id, probed)
             if shared:
                 out.shared[dxl_id] = number
             elif number is not None:
                 out.found[dxl_id] = number
     return out
+
+
+def _rounds(bus: ServoBus, dxl_id: int) -> tuple[int | None, bool]:
+    """``probe`` in up to ``SHARED_ROUNDS`` rounds: (a model number it gave, whether every round
+    looked shared)."""
+    # the last ping's input flush is the next one's: one more than needed counts doubled replies
+    probed, shared = probe(bus, dxl_id, CLEAN_PINGS + 2)
+    for _ in range(SHARED_ROUNDS - 1):
+        if not shared:
+            break
+        time.sleep(SETTLE_S)
+        again, shared = probe(bus, dxl_id, CLEAN_PINGS + 2)
+        probed = probed if probed is not None else again
+    return probed, shared
 
 
 def _noisy(bus: ServoBus, dxl_id: int) -> bool:

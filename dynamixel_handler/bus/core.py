@@ -167,7 +167,7 @@ class DynamixelBus:
 
     @property
     def firmware_versions(self) -> dict[int, int]:
-        """Firmware version seen in ping replies."""
+        """Firmware version seen in Protocol 2.0 ping replies (a Protocol 1.0 status has none)."""
         return self._reads.firmware_versions
 
     @property

@@ -29,14 +29,16 @@ class Reads:
 
     def __init__(self, transport: Transport) -> None:
         self._t = transport
-        #: firmware version seen in ping replies
+        #: firmware version seen in Protocol 2.0 ping replies
         self.firmware_versions: dict[int, int] = {}
         # sync read packets and their (id, size) list by (address, length, ids as given, fast)
         self._packets: dict[tuple[int, int, tuple[int, ...], bool], tuple[bytes, tuple[tuple[int, int], ...]]] = {}
 
     def ping(self, dxl_id: int, retries: int | None = None, framer: Framer = PROTOCOL2) -> Result[int | None]:
         """Model number of ``dxl_id`` (None and why if it does not answer). A Protocol 1.0 ping's
-        status carries nothing: the model number and firmware are read at address 0 after it."""
+        status carries nothing: the model number is read at address 0 after it. Its firmware is not
+        recorded: where it lives depends on the model (address 2 on the Protocol 1.0 models, 6 on an
+        X set to Protocol Type 1), so it is read as the model's ``firmware_version`` item."""
         dxl_id = check_id(dxl_id)
         t = self._t
         with t.transaction() as tx:
@@ -47,13 +49,12 @@ class Reads:
                 tx.ok(1, 1)
                 self.firmware_versions[dxl_id] = status.params[2]
                 return Result(status.params[0] | (status.params[1] << 8))
-            status = t.unicast(dxl_id, framer.READ, framer.read_params(0, 3), 3, retries, framer)
+            status = t.unicast(dxl_id, framer.READ, framer.read_params(0, 2), 2, retries, framer)
             if status is None or status.refused:
                 return Result(None, Failure.ANSWERS_PING_ONLY, tx.fail(
                     f"ping ID {dxl_id}: answers a Protocol 1.0 ping but not a read of its model number "
                     "(Status Return Level 0?)"))
             tx.ok(1, 1)
-            self.firmware_versions[dxl_id] = status.params[2]
             return Result(status.params[0] | (status.params[1] << 8))
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,

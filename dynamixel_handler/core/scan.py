@@ -2,6 +2,7 @@
 about IDs two servos share and Protocol 1.0 servos whose family is off."""
 from __future__ import annotations
 
+import time
 from typing import Callable, Sequence
 
 from ..bus import ServoBus
@@ -11,6 +12,11 @@ from ..control_table import Model, family_named, model_by_number, protocol1_mode
 from ..errors import Interrupted, StartupError
 from ..settings import ScanSettings
 from .servo_io import Log
+
+#: pause before each further scan: servos powered up with the computer get time to boot [s]
+RETRY_PAUSE_S = 0.1
+#: the pause is slept in steps of this, so that a signal ends the start-up at once [s]
+_PAUSE_STEP_S = 0.02
 
 #: what a user can do about a model number the control table does not know
 UNKNOWN_MODEL_HELP = ("this version does not know that model (docs/models.md lists those it does); a newer "
@@ -76,6 +82,8 @@ class Scan:
         found: dict[int, Seen] = {}
         protocol1 = self.protocol1()
         for attempt in range(attempts):
+            if attempt:
+                self._pause()
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted during the scan (attempt {attempt + 1}/{attempts})")
             self._scan_once(dummies, protocol1, found)
@@ -88,6 +96,12 @@ class Scan:
         if not self._enough(found, dummies, expected):
             self._too_few(found, expected, protocol1)
         return found
+
+    def _pause(self) -> None:
+        """``RETRY_PAUSE_S`` between two scans, cut short by a signal."""
+        end = time.monotonic() + RETRY_PAUSE_S
+        while not self.interrupted() and (left := end - time.monotonic()) > 0:
+            time.sleep(min(left, _PAUSE_STEP_S))
 
     def _scan_once(self, dummies: Sequence[int], protocol1: bool, found: dict[int, Seen]) -> None:
         """One scan of the IDs (Protocol 2.0, then Protocol 1.0 where used) into ``found``."""

@@ -33,7 +33,7 @@ from ..config import (
     coerce,
     validate,
 )
-from ..logs import ECHO_MAX, cut
+from ..logs import ECHO_MAX, cut, cut_path
 from ..servo_settings import is_servo_parameter
 from .params_file import read_problem
 from .servo_params import declare_servo_block
@@ -51,7 +51,7 @@ def declare_and_load(node: Node) -> Config:
     """Declare every parameter of SCHEMA on ``node`` and return the validated values."""
     given: dict[str, Any] = {name: cast(Parameter, p).value for name, p in node.get_parameters_by_prefix("").items()}
     for path, why in files_that_set_nothing(sys.argv):
-        node.get_logger().warning(f"params file {cut(path)} sets nothing: {why}")
+        node.get_logger().warning(f"params file {cut_path(path)} sets nothing: {why}")
     _apply_command_line(node, given)
     for name in sorted(set(given) & set(ALIASES)):  # the original handler's other spellings
         value = given.pop(name)
@@ -161,7 +161,7 @@ def _params_file_problem(path: str) -> str | None:
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
         problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        return f"params file {cut(path)}: not valid YAML: {where}{cut(problem)}"
+        return f"params file {cut_path(path)}: not valid YAML: {where}{cut(problem)}"
     return None
 
 

@@ -14,7 +14,7 @@ import os
 import re
 import stat
 
-from ..logs import cut
+from ..logs import cut_path
 
 #: largest params file read [bytes]
 MAX_BYTES = 1 << 20
@@ -196,7 +196,7 @@ def scan_problem(text: str) -> str | None:
 
 def read_problem(path: str) -> tuple[str | None, str]:
     """(why the file is refused before any parsing, or None; its text)."""
-    name = f"params file {cut(path)}"
+    name = f"params file {cut_path(path)}"
     try:
         info = os.stat(path)
         if stat.S_ISDIR(info.st_mode):

@@ -20,7 +20,16 @@ from .values import number, servo_doc
 __all__ = ["backup"]
 
 
-def _servo_yaml(servo: Servo, firmware: int | None) -> list[str]:
+def _firmware(servo: Servo) -> int | None:
+    """Its firmware: from the Protocol 2.0 ping, else its model's item (a Protocol 1.0 status has
+    none, and the item's address depends on the model)."""
+    if servo.protocol == 2 and servo.dxl_id in servo.bus.firmware_versions:
+        return servo.bus.firmware_versions[servo.dxl_id]
+    return servo.read("firmware_version") if servo.model.has("firmware_version") else None
+
+
+def _servo_yaml(servo: Servo) -> list[str]:
+    firmware = _firmware(servo)
     model = servo.model
     lines = [f"  {servo.dxl_id}:", f"    model: {model.name}", f"    model_number: {model.number}",
              f"    baudrate: {servo.bus.baudrate}", f"    protocol: {servo.protocol}"]
@@ -68,7 +77,7 @@ def backup(ctx: Context, args: argparse.Namespace) -> None:
     found = ctx.servos(args.ids)
     for placed in found.placed:
         servo = ctx.at(placed)
-        lines += _servo_yaml(servo, ctx.bus.firmware_versions.get(servo.dxl_id))
+        lines += _servo_yaml(servo)
         saved.append(servo.dxl_id)
         if getattr(args, "servos_block", None):
             entries.append((servo.dxl_id, entry_of(servo.model, _reader(servo), servo.mode())))

@@ -97,7 +97,7 @@ class Search:
             for dxl_id in (i for i in ids if i not in answered):
                 got = ping1(self.bus, dxl_id, retries=0 if len(ids) >= _BROADCAST_FROM else 1)
                 if got is not None:
-                    answered[dxl_id] = (got[0], 1)
+                    answered[dxl_id] = (got, 1)
         return answered
 
     def _answering2(self, ids: Sequence[int]) -> dict[int, int]:

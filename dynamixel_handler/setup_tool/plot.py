@@ -9,7 +9,7 @@ import os
 import stat
 from typing import Any, Sequence
 
-from .errors import BadArguments, StepFailed, cut
+from .errors import BadArguments, StepFailed, cut_path
 from .samples import FIELDS, CsvLog
 
 __all__ = ["ITEMS", "parse_items", "check_writable", "draw", "plot", "series_of"]
@@ -44,12 +44,12 @@ def check_writable(path: str, option: str) -> None:
     not there is not left behind)."""
     existed = os.path.lexists(path)
     if existed and os.path.exists(path) and not stat.S_ISREG(os.stat(path).st_mode):
-        raise StepFailed(f"{option} {cut(path)}: not a regular file (a FIFO, a device or a folder): refused")
+        raise StepFailed(f"{option} {cut_path(path)}: not a regular file (a FIFO, a device or a folder): refused")
     try:
         with open(path, "a", encoding="utf-8"):
             pass
     except OSError as exc:
-        raise StepFailed(f"{option} {cut(path)}: cannot write it: {exc.strerror}") from None
+        raise StepFailed(f"{option} {cut_path(path)}: cannot write it: {exc.strerror}") from None
     if not existed:
         os.unlink(path)
 
@@ -76,15 +76,15 @@ def read_csv(path: str) -> Series:
     """The series of a ``monitor --log`` file; BadArguments when it is not one."""
     try:
         if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would wait for a writer
-            raise BadArguments(f"{cut(path)} is not a regular file (a FIFO, a device or a folder): refused")
+            raise BadArguments(f"{cut_path(path)} is not a regular file (a FIFO, a device or a folder): refused")
         with open(path, newline="", encoding="utf-8") as handle:
             rows = list(csv.DictReader(handle))
     except OSError as exc:
-        raise BadArguments(f"cannot read {cut(path)}: {exc.strerror}") from None
+        raise BadArguments(f"cannot read {cut_path(path)}: {exc.strerror}") from None
     except (UnicodeDecodeError, csv.Error) as exc:
-        raise BadArguments(f"{cut(path)} is not a monitor --log file: {str(exc)[:80]}") from None
+        raise BadArguments(f"{cut_path(path)} is not a monitor --log file: {str(exc)[:80]}") from None
     if not rows or "time_s" not in rows[0] or "id" not in rows[0]:
-        raise BadArguments(f"{cut(path)} is not a monitor --log file (no time_s and id columns)")
+        raise BadArguments(f"{cut_path(path)} is not a monitor --log file (no time_s and id columns)")
     columns = {key: col for (key, _, _), col in zip(FIELDS, CsvLog.COLUMNS[8:])}
     samples = []
     for row in rows:
@@ -107,7 +107,7 @@ def draw(series: Series, items: Sequence[str], path: str, title: str) -> None:
 
     ids = sorted({dxl_id for dxl_id, _ in series})
     if not ids:
-        raise StepFailed(f"nothing to plot in {cut(path)}: no servo answered")
+        raise StepFailed(f"nothing to plot in {cut_path(path)}: no servo answered")
     figure, axes = pyplot.subplots(len(items), 1, figsize=(9, 2.4 * len(items) + 0.6), sharex=True, squeeze=False)
     colours = pyplot.rcParams["axes.prop_cycle"].by_key()["color"]
     for axis, name in zip(axes[:, 0], items):
@@ -128,7 +128,7 @@ def draw(series: Series, items: Sequence[str], path: str, title: str) -> None:
     try:
         figure.savefig(path, format="svg")
     except OSError as exc:
-        raise StepFailed(f"cannot write {cut(path)}: {exc.strerror}") from None
+        raise StepFailed(f"cannot write {cut_path(path)}: {exc.strerror}") from None
     finally:
         pyplot.close(figure)
 

@@ -1,9 +1,9 @@
-"""Protocol 1.0 servos for the set-up tool: ping an ID and read its model number and firmware
-through the bus (the Protocol 1.0 framer, ``protocol.protocol1``), name the model and know what it
-is from the control table (``control_table.protocol1_models()``: the AX, RX, DX, EX and MX (1.0)
-models, and the MX models whose Protocol 2.0 firmware exists). A broadcast ping gets no status in
-Protocol 1.0, so every ID is pinged on its own. Also the rates a Protocol 1.0 servo can be reached
-at (its baud table, as far as the bus opens them) and its mode, which the Angle Limits select."""
+"""Protocol 1.0 servos for the set-up tool: ping an ID and read its model number through the bus
+(the Protocol 1.0 framer, ``protocol.protocol1``), name the model and know what it is from the
+control table (``control_table.protocol1_models()``: the AX, RX, DX, EX and MX (1.0) models, and
+the MX models whose Protocol 2.0 firmware exists). A broadcast ping gets no status in Protocol 1.0,
+so every ID is pinged on its own. Also the rates a Protocol 1.0 servo can be reached at (its baud
+table, as far as the bus opens them) and its mode, which the Angle Limits select."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -88,10 +88,11 @@ def statuses1(data: bytes) -> list[tuple[int, int, bytes]]:
     return [(s.dxl_id, s.error, s.params) for s in p1.statuses(data)]
 
 
-def ping1(bus: DynamixelBus, dxl_id: int, retries: int = 0) -> tuple[int, int] | None:
-    """(model number, firmware) of a Protocol 1.0 servo at ``dxl_id``; None when none answers,
-    (0, 0) when it answers the ping but not the read of its model number (Status Return Level 0)."""
+def ping1(bus: DynamixelBus, dxl_id: int, retries: int = 0) -> int | None:
+    """The model number of a Protocol 1.0 servo at ``dxl_id``; None when none answers, 0 when it
+    answers the ping but not the read of its model number (Status Return Level 0). Its firmware is
+    an item of its model (``Servo.read("firmware_version")``): the ping cannot know where."""
     got = bus.execute(Ping(dxl_id, retries=retries, protocol=1))
     if got.value is not None:
-        return got.value, bus.firmware_versions.get(dxl_id, 0)
-    return (0, 0) if got.failure is Failure.ANSWERS_PING_ONLY else None
+        return int(got.value)
+    return 0 if got.failure is Failure.ANSWERS_PING_ONLY else None

@@ -15,7 +15,7 @@ import yaml
 
 from ..control_table import Item, Model
 from .checks import problems
-from .errors import BadArguments, cut
+from .errors import BadArguments, cut, cut_path
 from .items import check_raw
 from .protocol1 import any_model
 from .servo import Servo
@@ -76,25 +76,25 @@ def _text(path: str) -> str:
     try:
         info = os.stat(path)
     except OSError as exc:
-        raise BadArguments(f"cannot read {cut(path)}: {exc.strerror}") from None
+        raise BadArguments(f"cannot read {cut_path(path)}: {exc.strerror}") from None
     if not stat.S_ISREG(info.st_mode):
-        raise BadArguments(f"{cut(path)} is a {_kind(info.st_mode)}, not a backup file: refused, nothing read")
+        raise BadArguments(f"{cut_path(path)} is a {_kind(info.st_mode)}, not a backup file: refused, nothing read")
     if info.st_size > MAX_BYTES:
-        raise BadArguments(f"{cut(path)} has {info.st_size} bytes, more than a backup ({MAX_BYTES} at most): refused")
+        raise BadArguments(f"{cut_path(path)} has {info.st_size} bytes, more than a backup ({MAX_BYTES} at most): refused")
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # never waits for a writer (a FIFO swapped in)
         with os.fdopen(fd, "rb") as handle:
             if not stat.S_ISREG(os.fstat(handle.fileno()).st_mode):
-                raise BadArguments(f"{cut(path)} is not a regular file: refused, nothing read")
+                raise BadArguments(f"{cut_path(path)} is not a regular file: refused, nothing read")
             data = handle.read(MAX_BYTES + 1)
     except OSError as exc:
-        raise BadArguments(f"cannot read {cut(path)}: {exc.strerror}") from None
+        raise BadArguments(f"cannot read {cut_path(path)}: {exc.strerror}") from None
     if len(data) > MAX_BYTES:
-        raise BadArguments(f"{cut(path)} is longer than a backup ({MAX_BYTES} bytes at most): refused")
+        raise BadArguments(f"{cut_path(path)} is longer than a backup ({MAX_BYTES} bytes at most): refused")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError:
-        raise BadArguments(f"{cut(path)} is not text (UTF-8): not a backup of this tool") from None
+        raise BadArguments(f"{cut_path(path)} is not text (UTF-8): not a backup of this tool") from None
 
 
 def _screen(text: str, path: str, loader: Any) -> None:
@@ -103,15 +103,15 @@ def _screen(text: str, path: str, loader: Any) -> None:
     for event in yaml.parse(text, Loader=loader):
         events += 1
         if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
-            raise BadArguments(f"{cut(path)} uses YAML anchors or aliases (& *), which a backup never has: refused")
+            raise BadArguments(f"{cut_path(path)} uses YAML anchors or aliases (& *), which a backup never has: refused")
         if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
             depth += 1
             if depth > _MAX_DEPTH:
-                raise BadArguments(f"{cut(path)} nests deeper than a backup ({_MAX_DEPTH} levels): refused")
+                raise BadArguments(f"{cut_path(path)} nests deeper than a backup ({_MAX_DEPTH} levels): refused")
         elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
             depth -= 1
         if events > _MAX_EVENTS:
-            raise BadArguments(f"{cut(path)} has more entries than a backup of 253 servos: refused")
+            raise BadArguments(f"{cut_path(path)} has more entries than a backup of 253 servos: refused")
 
 
 def _yaml(path: str) -> Any:
@@ -121,9 +121,9 @@ def _yaml(path: str) -> Any:
         _screen(text, path, loader)
         return yaml.load(text, Loader=loader)  # noqa: S506 (the safe loader: plain data only)
     except yaml.YAMLError as exc:
-        raise BadArguments(f"{cut(path)} is not YAML: {cut(str(exc).splitlines()[0], 120)}") from None
+        raise BadArguments(f"{cut_path(path)} is not YAML: {cut(str(exc).splitlines()[0], 120)}") from None
     except (ValueError, RecursionError) as exc:  # a number too long to be one, ...
-        raise BadArguments(f"{cut(path)} is not a backup of this tool: {cut(exc, 80)}") from None
+        raise BadArguments(f"{cut_path(path)} is not a backup of this tool: {cut(exc, 80)}") from None
 
 
 def _values(model: Model, values: dict[Any, Any], where: str) -> tuple[dict[str, int], list[str]]:
@@ -146,7 +146,7 @@ def _values(model: Model, values: dict[Any, Any], where: str) -> tuple[dict[str,
 
 def _entry(path: str, dxl_id: Any, body: Any) -> tuple[Entry | None, list[str]]:
     """The servo of one ``servos:`` entry and every problem of it ([] when none)."""
-    where = f"{cut(path)}: ID {cut(dxl_id)}"
+    where = f"{cut_path(path)}: ID {cut(dxl_id)}"
     if not isinstance(dxl_id, int) or isinstance(dxl_id, bool) or not 0 <= dxl_id <= 252 or not isinstance(body, dict):
         return None, [f"{where}: not a servo ID 0..252 with its items"]
     try:
@@ -167,7 +167,7 @@ def load(path: str) -> dict[int, Entry]:
     data = _yaml(path)
     servos = data.get("servos") if isinstance(data, dict) else None
     if not isinstance(servos, dict) or not servos:
-        raise BadArguments(f"{cut(path)} is not a backup of this tool (no 'servos:' map of IDs)")
+        raise BadArguments(f"{cut_path(path)} is not a backup of this tool (no 'servos:' map of IDs)")
     entries: dict[int, Entry] = {}
     found: list[str] = []
     for dxl_id, body in servos.items():

@@ -135,12 +135,11 @@ def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -
 def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, tick: Callable[[], None]) -> None:
     for dxl_id in ids:  # a Protocol 2.0 servo at the same ID ignores these packets
         tick()
-        got = ping1(bus, dxl_id)
-        if got is None:
+        number = ping1(bus, dxl_id)  # 0: it answers pings only
+        if number is None:
             continue
-        number, firmware = got
         name, note = _protocol1_note(number, dxl_id)
-        found = Found(dxl_id, bus.baudrate, 1, number, name, firmware, note=note)
+        found = Found(dxl_id, bus.baudrate, 1, number, name, note=note)
         if number:
             _details1(bus, found)
         result.found.append(found)
@@ -153,7 +152,7 @@ def _details1(bus: DynamixelBus, found: Found) -> None:
     except KeyError:
         return
     try:
-        if servo.model.has("firmware_version"):  # a 2.0 model set to Protocol Type 1 has it elsewhere
+        if servo.model.has("firmware_version"):  # at 2 on a 1.0 model, at 6 on an X set to Protocol Type 1
             found.firmware = servo.read("firmware_version")
         found.mode = servo.mode() or ""
         found.torque = servo.torque_on() if servo.model.has("torque_enable") else None

@@ -18,7 +18,7 @@ from ..control_table import Model, model_by_number
 from ..protocol import HEADER, INSTRUCTION_NAMES, FrameReader
 from ..protocol import host as p
 from ..protocol import protocol1 as p1
-from .protocol1 import error_text1, model_name1, statuses1
+from .protocol1 import error_text1, model_for, statuses1
 
 __all__ = ["install", "Tracer"]
 
@@ -53,6 +53,8 @@ class Tracer:
         self.pending1 = b""
         #: (address, size) of the last Protocol 1.0 read
         self.read1: tuple[int, int] | None = None
+        #: models of the servos that answered Protocol 1.0 (an X set to Protocol Type 1 has its own table)
+        self.models1: dict[int, Model] = {}
 
     def line(self, arrow: str, data: bytes, meaning: str) -> None:
         print(f"{self.clock() - self.start:9.4f} {arrow} {_hex(data):<50} {meaning}", file=self.stream, flush=True)
@@ -60,8 +62,8 @@ class Tracer:
     def note(self, text: str) -> None:
         print(f"{self.clock() - self.start:9.4f}   {text}", file=self.stream, flush=True)
 
-    def _item(self, dxl_id: int, address: int, size: int) -> str:
-        model = self.models.get(dxl_id)
+    def _item(self, dxl_id: int, address: int, size: int, protocol: int = 2) -> str:
+        model = (self.models1 if protocol == 1 else self.models).get(dxl_id)
         if model is None:
             return ""
         names = [i.name for i in model.items.values() if i.address == address and (i.size == size or not size)]
@@ -83,7 +85,7 @@ class Tracer:
             where = f" @{packet[5]} x{packet[6]}" if what == "read" and len(packet) > 7 else ""
             if what == "write" and len(packet) > 7:  # header 2, ID, length, instruction, address, data, checksum
                 where = f" @{packet[5]} = {int.from_bytes(packet[6:-1], 'little')}"
-            self.read1 = (packet[5], packet[6]) if where else None
+            self.read1 = (packet[5], packet[6]) if what == "read" and where else None
             self.line(">", packet, f"Protocol 1.0 {what} ID {packet[2] if len(packet) > 2 else '?'}{where}")
             return
         self.protocol1 = False
@@ -139,7 +141,8 @@ class Tracer:
             self.pending1 += data
             found = statuses1(self.pending1)
             for dxl_id, error, params in found:
-                self.line("<", self.pending1, f"Protocol 1.0 status ID {dxl_id} {error_text1(error)}{self._value1(params)}")
+                self.line("<", self.pending1,
+                          f"Protocol 1.0 status ID {dxl_id} {error_text1(error)}{self._value1(dxl_id, params)}")
             if found:
                 self.pending1 = b""
             return
@@ -148,13 +151,19 @@ class Tracer:
                 frame = p.build_status(dxl_id, body[1], body[2:])
                 self.line("<", frame, self._status(dxl_id, body[1], body[2:]))
 
-    def _value1(self, params: bytes) -> str:
-        """A Protocol 1.0 read's parameters: the model number and firmware (address 0 in every
-        Protocol 1.0 table), else the value."""
-        if self.read1 == (0, 3) and len(params) == 3:
+    def _value1(self, dxl_id: int, params: bytes) -> str:
+        """A Protocol 1.0 read's parameters: the model number (address 0 in every table a servo
+        answering Protocol 1.0 has), else the value and the item, once the model is known."""
+        if self.read1 == (0, 2) and len(params) == 2:
             number = _u16(params, 0)
-            return f": model {number} ({model_name1(number)}), firmware {params[2]}"
-        return f": {int.from_bytes(params, 'little')}" if 0 < len(params) <= 4 else ""
+            try:
+                self.models1[dxl_id] = model = model_for(number, 1)
+            except KeyError:
+                return f": model {number} (not in the control table)"
+            return f": model {number} ({model.name})"
+        if self.read1 is None or not 0 < len(params) <= 4:
+            return ""
+        return f": {int.from_bytes(params, 'little')}{self._item(dxl_id, *self.read1, protocol=1)}"
 
     def _status(self, dxl_id: int, error: int, params: bytes) -> str:
         text = f"status ID {dxl_id} {p.error_text(error)}"

@@ -18,8 +18,11 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, BusError, DynamixelBus
-from ..bus.ops import Read, Write
+from ..bus.ops import Ping, Read, Write
 from ..control_table import Model, model_by_number
+
+#: pings of a servo that the verification scan at the target missed, before it is called failed
+VERIFY_PINGS = 3
 
 #: Scan order: the usual rates first, 9600 (slow and rare) last.
 SEARCH_ORDER = (57600, 115200, 1_000_000, 2_000_000, 3_000_000, 4_000_000, 4_500_000, 6_000_000,
@@ -190,6 +193,12 @@ def _verify(bus: DynamixelBus, report: UnifyReport, log: Any) -> None:
     if not expected:
         return
     report.verified = bus.scan(sorted(expected))
+    # a scan pings each ID once; a servo expected here is asked again before it is called failed
+    for dxl_id in sorted(set(expected) - set(report.verified)):
+        number = bus.execute(Ping(dxl_id, retries=VERIFY_PINGS - 1)).value
+        if number is not None:
+            report.verified[dxl_id] = number
+    report.verified = dict(sorted(report.verified.items()))
     for dxl_id, s in expected.items():
         number = report.verified.get(dxl_id)
         if number is None:

@@ -47,6 +47,16 @@ def test_two_replies_to_one_ping_are_a_shared_id(line):
     assert set(seen.shared) == {2} and seen.found == {1: XM430}
 
 
+def test_late_replies_are_no_shared_id(line):
+    """Replies 50 ms late (a loaded host, a slow adapter) land in later pings' time, some in the
+    pings of an ID where nobody is: that once looked like a second servo there. Only an ID that
+    looks shared in every round is."""
+    sim, bus = line([(1, XM430), (2, XM430), (2, XM540), (5, XL330)])
+    sim.latency_s = 0.05
+    seen = census(bus, range(0, 10))
+    assert set(seen.shared) == {2} and seen.found == {1: XM430, 5: XL330}
+
+
 def test_a_clean_bus_costs_one_scan(line):
     _, bus = line([(1, XM430), (2, XM540), (7, XL330)])
     seen = census(bus, range(0, 10))

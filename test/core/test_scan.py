@@ -4,6 +4,7 @@ answer, the Protocol 1.0 servos that do answer named with the parameter that dri
 from __future__ import annotations
 
 import logging
+import threading
 
 import pytest
 
@@ -52,3 +53,19 @@ def test_too_few_servos_names_the_protocol1_ones_and_their_parameter():
     assert ("ID 4 AX-12A, ID 5 AX-12A: answer(s) Protocol 1.0, family AX, which init/used_servo_series does not "
             "enable: set init/used_servo_series.AX true to drive them") in lines
     assert any("ID 6 MX-28" in line and "init/used_servo_series.MX1 true" in line for line in lines)
+
+
+def test_a_servo_that_boots_after_the_first_scan_is_found_by_a_later_one():
+    """Scans are 100 ms apart (as the C++ handler's): a servo powered up with the computer, still
+    booting at the first scan, is found by a later one instead of failing the start-up within a
+    few milliseconds of retries."""
+    bus = FakeBus({1: XM430, 2: XM430})
+    bus.silent = {2}
+    booted = threading.Timer(0.15, bus.silent.clear)
+    booted.start()
+    try:
+        part, lines = scan(bus, "boot", retry_times=10)
+        assert part.scan([], expected=2) == {1: (2, XM430), 2: (2, XM430)}
+    finally:
+        booted.cancel()
+    assert 2 <= len(bus.of("scan")) < 11 and "scan 1/11 of IDs 1..6 on fake at 57600 bps: 1 servo(s) [1]" in lines

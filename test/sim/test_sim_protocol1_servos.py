@@ -63,29 +63,38 @@ def test_status_return_levels_and_what_the_sdk_makes_of_level_0(make_bus, sdk1, 
     assert raw.exchange(build_instruction1(2, 0x01), 6) == build_status1(2, 0)  # the PING itself is answered
 
 
-def _ping_times(port, ph1, sid: int, n: int = 30) -> list[float]:
-    times = []
+def _ping_times(port, ph1, ids: tuple[int, ...], n: int = 30) -> dict[int, list[float]]:
+    """``n`` answered pings of each of ``ids``, taken in turn (so a load spike falls on all alike)."""
+    times: dict[int, list[float]] = {sid: [] for sid in ids}
     for _ in range(3 * n):
-        start = time.perf_counter()
-        if ph1.ping(port, sid)[1] == COMM_SUCCESS:
-            times.append(time.perf_counter() - start)
-        if len(times) == n:
+        for sid in ids:
+            start = time.perf_counter()
+            if ph1.ping(port, sid)[1] == COMM_SUCCESS:
+                times[sid].append(time.perf_counter() - start)
+        if all(len(t) >= n for t in times.values()):
             return times
-    raise AssertionError(f"only {len(times)} of {3 * n} pings answered")
+    raise AssertionError(f"only {[len(t) for t in times.values()]} of {3 * n} pings answered")
 
 
 def test_replies_wait_for_return_delay_time_and_the_wire(make_bus, sdk1):
     """A ping of the SDK is PING + READ of 2 bytes: (6 + 6) + (8 + 8) bytes; at 57600 bps that is
     4.9 ms of wire, plus 2 x 500 us of Return Delay Time (250, factory). Lower bounds only: a loaded
-    machine can only add time."""
+    machine can only add time; the fastest of each servo's pings are compared, over up to three
+    rounds (a host overloaded fourfold has held every one of 30 pings of one servo back 0.3 ms)."""
     bus = make_bus({1: AX12A, 2: AX12A}, baudrate=57600, wire_timing=True)
     port, ph1 = sdk1(bus.path, 57600)
     assert ph1.read1ByteTxRx(port, 1, RETURN_DELAY)[:2] == (250, COMM_SUCCESS)
     assert ph1.write1ByteTxRx(port, 2, RETURN_DELAY, 0) == (COMM_SUCCESS, 0)
-    slow, fast = _ping_times(port, ph1, 1), _ping_times(port, ph1, 2)
     wire = 28 * 10 / 57600
-    assert min(slow) >= wire + 2 * 500e-6 and min(fast) >= wire
-    assert min(slow) - min(fast) >= 700e-6
+    gaps = []
+    for _ in range(3):
+        times = _ping_times(port, ph1, (1, 2))
+        slow, fast = min(times[1]), min(times[2])
+        assert slow >= wire + 2 * 500e-6 and fast >= wire
+        gaps.append(slow - fast)
+        if gaps[-1] >= 700e-6:
+            break
+    assert max(gaps) >= 700e-6, f"Return Delay Time 250 against 0 added {[round(g * 1e6) for g in gaps]} us"
 
 
 def test_reg_write_waits_for_action_and_action_alone_is_an_instruction_error(make_bus, sdk1, manual_clock):
