@@ -14,4 +14,11 @@ paths=(test)
 for arg in "$@"; do
   case "$arg" in -*) ;; *) [ -e "${arg%%::*}" ] && paths=() ;; esac  # a file, folder or file::test
 done
-exec python -m pytest -q -p no:cacheprovider "$@" "${paths[@]}"
+# the whole folder on one worker per core (at most 2: the tests' nodes and virtual buses need the
+# rest), a file's tests together on one worker; DXL_TEST_WORKERS=1 runs them one after another
+workers=()
+if [ ${#paths[@]} -gt 0 ]; then
+  n="${DXL_TEST_WORKERS:-$(python -c 'import os; print(min(2, len(os.sched_getaffinity(0))))')}"
+  [ "$n" -gt 1 ] && workers=(-n "$n" --dist loadfile)
+fi
+exec python -m pytest -q -p no:cacheprovider "${workers[@]}" "$@" "${paths[@]}"

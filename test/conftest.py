@@ -2,6 +2,7 @@
 import atexit
 import fcntl
 import os
+import sys
 import tempfile
 
 # Before anything imports rclpy: loopback-only discovery and a domain no other run shares.
@@ -26,6 +27,12 @@ def _claim_domain() -> str:
 
 
 os.environ["ROS_DOMAIN_ID"] = _claim_domain()
+
+# The virtual bus answers from a thread of this process, within a 1 ms adapter's reply wait (about
+# 4 ms at 2 Mbps) while the rig's listener decodes the node's messages in another. Python lets a
+# thread that wants the interpreter lock wait 5 ms for a busy one by default: the node process
+# shortens it (ros/process.py), and so does the test process.
+sys.setswitchinterval(0.0002)
 
 
 # ---------------------------------------------------------------- markers

@@ -55,7 +55,19 @@ def at_1000_deg(rig):
     for i in ids:
         wait_reg(rig, i, "goal_position", x_pos(1000.0))
         rig.wait(lambda i=i: abs(rig.debug_of(i)["position"] - 1000.0) < 0.1, timeout=20, what=f"ID {i} at 1000 deg")
+    for i in ids:  # and settled there: the shaft follows its position loop, which passes the goal once
+        rig.wait(lambda i=i: _settled(rig, i, x_pos(1000.0)), timeout=20, what=f"ID {i} at rest at 1000 deg")
     return ids
+
+
+def _settled(rig: Rig, dxl_id: int, position: int) -> bool:
+    """At ``position`` with no speed, over three reads 50 ms apart."""
+    for k in range(3):
+        if reg(rig, dxl_id, "present_position") != position or reg(rig, dxl_id, "present_velocity") != 0:
+            return False
+        if k < 2:
+            time.sleep(0.05)
+    return True
 
 
 def reg(rig: Rig, dxl_id: int, item: str) -> int:

@@ -16,7 +16,7 @@ from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DynamixelExtra
 
 from support.rig import PRO, P, Rig, X
-from support.ros import NodeProcess, node_command, spin_until
+from support.ros import PATIENT_SCAN, NodeProcess, node_command, spin_until
 
 DATA = Path(__file__).resolve().parent / "data"
 XL330 = 1200  # XL330-M288: the X with a PWM slope register
@@ -55,7 +55,7 @@ def test_original_handler_yaml_loads_without_unknown_parameter_lines(name, expec
         # the device, its baud rate and the scan are this bus's; everything else is the file's
         cmd = node_command(f"device_name:={sim.path}", "baudrate:=57600", "latency_timer:=1",
                            "init/baudrate_auto_set:=false", "init/servo_auto_search.max_id:=1",
-                           "init/servo_auto_search.retry_times:=5",  # a busy host: scan until one answers
+                           PATIENT_SCAN,  # a busy host: scan until one answers
                            "verbose_ratio:=0", "loop_rate:=100", params_file=DATA / name)
         proc = NodeProcess(cmd)
         try:

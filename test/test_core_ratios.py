@@ -48,22 +48,38 @@ def ratio_params(outdated: bool) -> list[str]:
             + ["method/split_read:=true", f"pub_outdated_present_value:={'true' if outdated else 'false'}"])
 
 
+def _drained(bench: Rig, quiet_s: float = 0.3, timeout: float = 10.0) -> dict[str, list]:
+    """Every message of each topic once none has come for ``quiet_s`` (the node has stopped)."""
+    end = time.monotonic() + timeout
+    counts = None
+    while time.monotonic() < end:
+        now = {name: len(rec) for name, rec in bench.topics.items()}
+        if now == counts:
+            break
+        counts = now
+        time.sleep(quiet_s)
+    return {name: rec.all() for name, rec in bench.topics.items()}
+
+
 def run(outdated: bool, loops: int = 150) -> dict:
-    """Run the node for about ``loops`` loops after warm-up, stop it, and return what was seen."""
-    bench = Rig(FOUR_SERVOS, *ratio_params(outdated), base=BASE_PARAMS, state_topics=True)
+    """Run the node for about ``loops`` loops after warm-up, stop it, and return every message it
+    published (all of them arrived: the test waits until none is still coming) and its reads."""
+    # a 16 ms latency timer (the replies of the virtual bus come at once, so the loop keeps its pace): with
+    # 1 ms a starved virtual bus on a loaded host misses the ~4 ms reply wait now and then
+    bench = Rig(FOUR_SERVOS, *ratio_params(outdated), "latency_timer:=16", base=BASE_PARAMS, state_topics=True)
     try:
         start_count = len(bench.topics["states"])
         bench.wait(lambda: len(bench.topics["states"]) >= max(start_count, WARM_UP) + loops, timeout=30,
                    what=f"{loops} loops")
-        time.sleep(0.2)  # let in-flight messages of other topics arrive
-        states = bench.topics["states"].stamped()
-        window_start, window_end = states[WARM_UP][0], states[-1][0]
+        # counted once the node has stopped and every message has arrived: a loaded test process takes
+        # the topics' messages late and not in loop order, so a window by arrival time cuts each topic
+        # at a different loop
         code = bench.stop_node()
+        topics = _drained(bench)
         seen = {
             "code": code,
-            "states": bench.topics["states"].all()[WARM_UP:],
-            "topics": {name: [m for t, m in rec.stamped() if window_start <= t <= window_end]
-                       for name, rec in bench.topics.items()},
+            "states": topics["states"][WARM_UP:],
+            "topics": topics,
             "log_reads": {a: len(bench.sync_reads(a, 1)) for a in
                           set(PRESENT_ADDRESS.values()) | set(GROUP_ADDRESS.values()) | {HARDWARE_ERROR_STATUS}},
         }
@@ -131,15 +147,21 @@ def test_dxl_states_carries_each_group_every_ratio_loops(outdated_on, group):
 
 @pytest.mark.parametrize("group", list(STATES_GROUP_RATIO))
 def test_state_topics_are_published_every_ratio_loops(outdated_on, group):
-    n = len(outdated_on["topics"]["states"])
+    # in the loops where /dynamixel/states carries the group (its ratio: the test above), and no other
+    states = outdated_on["topics"]["states"]
     published = len(outdated_on["topics"][f"state/{group}"])
-    want = sum(n / r for r in STATES_GROUP_RATIO[group] if r > 0)
-    assert abs(published - want) <= 2, f"/dynamixel/state/{group}: {published} in {n} loops, want {want:.1f}"
+    carried = sum(1 for m in states if len(getattr(m, group).id_list))
+    # one off at most: each state topic starts once the node has seen its subscriber (checked every
+    # 0.1 s per topic), so the first loop's group message can come without its /dynamixel/states
+    assert abs(published - carried) <= 1, f"/dynamixel/state/{group}: {published} messages, {carried} states carry it"
+    want = due_loops(len(states), *STATES_GROUP_RATIO[group])
+    assert abs(published - want) <= 2, f"/dynamixel/state/{group}: {published} in {len(states)} loops, want {want}"
 
 
 def test_present_and_debug_are_published_every_loop(outdated_on):
     n = len(outdated_on["topics"]["states"])
     assert all(len(m.present.id_list) == 4 for m in outdated_on["states"])
+    # a few off at most: each topic starts once the node has seen its subscriber (checked every 0.1 s)
     assert abs(len(outdated_on["topics"]["state/present"]) - n) <= 2
     assert abs(len(outdated_on["topics"]["debug"]) - n) <= 2
 
@@ -155,7 +177,7 @@ def test_outdated_present_values_are_published_when_asked(outdated_on):
 
 def test_present_items_not_read_this_loop_are_empty_without_outdated_values(outdated_off):
     assert outdated_off["code"] == 0
-    for source, messages in (("/dynamixel/state/present", outdated_off["topics"]["state/present"]),
+    for source, messages in (("/dynamixel/state/present", outdated_off["topics"]["state/present"][WARM_UP:]),
                              ("/dynamixel/states", [s.present for s in outdated_off["states"]])):
         n = len(messages)
         assert n >= 50

@@ -122,10 +122,13 @@ def test_two_servos_at_one_id_are_named_and_left_alone(servos, shared_model):
     line with what to do, and handles the others; nothing is written to the shared ID."""
     sim = VirtualBus(servos=servos)
     path = sim.start()
-    node = NodeProcess(node_command(f"device_name:={path}", *BASE_PARAMS))
+    # an FTDI's default latency (a reply wait of ~38 ms, not ~8): every round of the pings that
+    # tell a shared ID must see the collision, and a virtual bus held back on a loaded host answers late
+    node = NodeProcess(node_command(f"device_name:={path}", *BASE_PARAMS, "latency_timer:=16"))
     try:
         node.wait_for("loop running", timeout=30)
         output = node.output
+        assert "latency_timer=16," in output
         shared = [line for line in output.splitlines() if "two or more servos answer at this ID" in line]
         if shared_model is None:
             assert not shared and "ID 2: XM430-W350" in output

@@ -11,7 +11,9 @@ from support.rig import X540, Rig, X
 
 
 def test_a_vanished_adapter_removes_no_servo_and_its_servos_are_set_up_again_when_it_is_back(tmp_path):
-    rig = Rig({1: X, 2: X540}, "no_response_id_auto_remove_count:=3", "pub_ratio/status:=1",
+    # a 16 ms latency timer: three replies the virtual bus, starved on a loaded host, sends later than
+    # a 1 ms timer's ~4 ms wait would remove a servo the test expects kept
+    rig = Rig({1: X, 2: X540}, "no_response_id_auto_remove_count:=3", "pub_ratio/status:=1", "latency_timer:=16",
               sim_kwargs={"link": str(tmp_path / "ttyDXL")})
     try:
         servos = [rig.sim.servo(i) for i in (1, 2)]

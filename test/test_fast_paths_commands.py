@@ -31,6 +31,7 @@ from dynamixel_handler.sim import VirtualBus
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import PRO, X540, P, X
+from support.ros import SCAN_RETRIES
 
 XL430 = 1060
 SERVOS = {1: X, 2: X540, 3: P, 4: PRO, 5: XL430}
@@ -93,7 +94,7 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     answered each time it was asked."""
     config = {"mode_change_interval_sec": 0.0, "pub_ratio/limit": 1, "pub_ratio/status": 1,
               "init/used_servo_series.P": True, "init/used_servo_series.Pro": True,
-              "init/servo_auto_search.retry_times": 5, "init/expected_servo_num": 5}
+              "init/servo_auto_search.retry_times": SCAN_RETRIES, "init/expected_servo_num": 5}
     with handler_on_virtual_bus(SERVOS, config, baudrate=1_000_000, patient=True, tripped_once=fast) as (sim, handler):
         lines = capture_log(handler, f"fast_commands_{fast}_{small}", lambda r: f"{r.levelname} {r.getMessage()}")
         handler.log.setLevel(logging.INFO)
@@ -204,7 +205,7 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
     from dynamixel_handler.ros.cdr import Codec
     from dynamixel_handler.ros.intake import CommandIntake
 
-    config = {"init/servo_auto_search.retry_times": 5,  # a reply lost on a loaded machine
+    config = {"init/servo_auto_search.retry_times": SCAN_RETRIES,  # a reply lost on a loaded machine
               "mode_change_interval_sec": 0.0, "init/expected_servo_num": 2}
     context = rclpy.Context()
     node = None

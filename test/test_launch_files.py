@@ -169,12 +169,12 @@ def test_launched_handler_publishes_under_the_namespace_given(name, arguments, t
     from dynamixel_handler_msgs.msg import DxlStates
 
     from support.launch_runner import nodes
-    from support.ros import NodeProcess, spin_until
+    from support.ros import PATIENT_SCAN, NodeProcess, spin_until
 
     with VirtualBus({1: 1020}) as sim:
         (spec,) = nodes(name, device_name=sim.path, **arguments)
         # the shipped file scans once; on a loaded machine one lost ping would end the start-up
-        proc = NodeProcess(spec.command(tmp_path) + ["-p", "init/servo_auto_search.retry_times:=20"])
+        proc = NodeProcess(spec.command(tmp_path) + ["-p", PATIENT_SCAN])
         rclpy.init()
         try:
             node = RosNode("launch_test")

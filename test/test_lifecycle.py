@@ -17,7 +17,7 @@ from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelDebug, DynamixelShortcut
 from dynamixel_handler_msgs.srv import SetTorque
 
-from support.ros import CONFIG, NodeProcess
+from support.ros import CONFIG, PATIENT_SCAN, NodeProcess
 
 X = 1020  # XM430-W350
 
@@ -29,7 +29,7 @@ def _command(device: str, *params: str) -> list[str]:
     # both servos required and the scan repeated until they answered: on a loaded machine one scan can
     # miss a reply of the simulator, and configure would then handle one servo
     for p in (f"device_name:={device}", "latency_timer:=1", "verbose_ratio:=0", "init/servo_auto_search.min_id:=1",
-              "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", "init/servo_auto_search.retry_times:=5",
+              "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", PATIENT_SCAN,
               *params):
         args += ["-p", p]
     return exe + args

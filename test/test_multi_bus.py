@@ -14,7 +14,7 @@ from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelDebug
 from dynamixel_handler_msgs.srv import SetTorque
 
-from support.ros import NodeProcess, node_command
+from support.ros import SCAN_RETRIES, NodeProcess, node_command
 
 X = 1020  # XM430-W350
 
@@ -25,7 +25,7 @@ ROBOT_YAML = """\
     device_name: {left}
     latency_timer: 1
     verbose_ratio: 0
-    init/servo_auto_search: {{min_id: 1, max_id: 3, retry_times: 5}}
+    init/servo_auto_search: {{min_id: 1, max_id: 3, retry_times: {retries}}}
     init/expected_servo_num: 2
     joint_state: {{use: true, names: [left_shoulder, left_elbow], ids: [1, 2]}}
     diagnostics: {{period_sec: 0.3}}
@@ -34,7 +34,7 @@ ROBOT_YAML = """\
     device_name: {right}
     latency_timer: 1
     verbose_ratio: 0
-    init/servo_auto_search: {{min_id: 1, max_id: 3, retry_times: 5}}
+    init/servo_auto_search: {{min_id: 1, max_id: 3, retry_times: {retries}}}
     init/expected_servo_num: 1
     joint_state: {{use: true, names: [right_shoulder], ids: [1]}}
     diagnostics: {{period_sec: 0.3}}
@@ -90,7 +90,7 @@ def _present(msg: DynamixelDebug, dxl_id: int) -> float:
 def test_two_namespaced_handlers_on_two_buses_do_not_interfere(tmp_path):
     left_bus, right_bus = VirtualBus(servos={1: X, 2: X}), VirtualBus(servos={1: X})
     robot = tmp_path / "robot.yaml"
-    robot.write_text(ROBOT_YAML.format(left=left_bus.start(), right=right_bus.start()))
+    robot.write_text(ROBOT_YAML.format(left=left_bus.start(), right=right_bus.start(), retries=SCAN_RETRIES))
     procs = {ns: NodeProcess(node_command() + ["--params-file", str(robot), "-r", f"__ns:=/{ns}"])
              for ns in ("left", "right")}
     ros = Listener()

@@ -16,7 +16,7 @@ import pytest
 
 from dynamixel_handler.sim import VirtualBus
 
-from support.ros import CONFIG, NodeProcess
+from support.ros import CONFIG, PATIENT_SCAN, NodeProcess
 
 X = 1020
 
@@ -54,7 +54,7 @@ def test_starting_and_stopping_the_node_leaves_its_environment_untouched():
     env["ROS_STATIC_PEERS"] = ""  # as a robot's shell may have it: set, empty
     cmd = prefix + [sys.executable, "-c", WRAPPER, "--ros-args", "--params-file", str(CONFIG),
                     "-p", f"device_name:={path}", "-p", "latency_timer:=1", "-p", "init/servo_auto_search.max_id:=1",
-                    "-p", "init/servo_auto_search.retry_times:=5", "-p", "verbose_ratio:=0"]
+                    "-p", PATIENT_SCAN, "-p", "verbose_ratio:=0"]
     proc = _start(cmd, env)
     try:
         proc.wait_for("handled", timeout=30)

@@ -15,9 +15,10 @@ from support.rig import X540, Rig, X
 
 @pytest.fixture(scope="module")
 def rig():
-    # pan = ID 1 as is; tilt = ID 2 mounted the other way round, zero at servo angle 10 deg
+    # pan = ID 1 as is; tilt = ID 2 mounted the other way round, zero at servo angle 10 deg; a 16 ms
+    # latency timer, so a servo that answers again is heard within a move's grace on a loaded host too
     r = Rig({1: X, 2: X540}, "joint_state.names:=[pan, tilt]", "joint_state.ids:=[1, 2]",
-            "joint_state.directions:=[1, -1]", "joint_state.offsets_deg:=[0.0, 10.0]")
+            "joint_state.directions:=[1, -1]", "joint_state.offsets_deg:=[0.0, 10.0]", "latency_timer:=16")
     yield r
     assert r.close() == 0
 

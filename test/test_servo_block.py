@@ -19,7 +19,7 @@ from dynamixel_handler.protocol import REBOOT, WRITE
 from dynamixel_handler_msgs.msg import DynamixelGain, DynamixelShortcut, DynamixelStatus
 
 from support.rig import Rig, scan_params
-from support.ros import NodeProcess, node_command
+from support.ros import PATIENT_SCAN, NodeProcess, node_command
 
 XM430, PH54 = 1020, 2020
 DEG_S = 0.229 * 6.0  # deg/s per velocity unit
@@ -54,40 +54,52 @@ def reg(rig: Rig, dxl_id: int, item: str) -> int:
     return rig.sim.servo(dxl_id).registers.peek(item)
 
 
+AT_START = ("operating_mode", "position_p_gain", "velocity_limit", "profile_velocity", "return_delay_time",
+            "drive_mode", "shutdown")
+
+
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     r = Rig({1: XM430, 2: XM430}, start_node=False)
     folder = tmp_path_factory.mktemp("servos")
     start(r, params_file(folder, BLOCK), f"servos_snapshot.path:={folder / 'saved.yaml'}")
+    # the registers as the start-up left them, before any test's command changes them (any order)
+    r.at_start = {(i, item): reg(r, i, item) for i in (1, 2) for item in AT_START}
+    r.torque_at_start = {i: (r.debug_of(i)["torque"], r.debug_of(i)["goal_position"], r.debug_of(i)["position"])
+                         for i in (1, 2)}
     yield r
     assert r.close() == 0
 
 
 def test_the_block_is_applied_at_start_up_read_back_and_said_in_one_line_per_servo(rig):
-    assert reg(rig, 1, "operating_mode") == 5
-    assert reg(rig, 1, "position_p_gain") == 640
-    assert reg(rig, 1, "velocity_limit") == round(120.0 / DEG_S)
-    assert reg(rig, 1, "profile_velocity") == round(60.0 / DEG_S)
-    assert reg(rig, 1, "return_delay_time") == 10
-    assert reg(rig, 2, "position_p_gain") == 700  # named by its joint
-    assert reg(rig, 2, "drive_mode") & 1 == 1
-    assert reg(rig, 2, "shutdown") & 0x20 == 0
-    assert reg(rig, 2, "profile_velocity") == round(1000.0 / DEG_S)  # not in the block: the default
+    def at_start(dxl_id: int, item: str) -> int:
+        return rig.at_start[(dxl_id, item)]
+    assert at_start(1, "operating_mode") == 5
+    assert at_start(1, "position_p_gain") == 640
+    assert at_start(1, "velocity_limit") == round(120.0 / DEG_S)
+    assert at_start(1, "profile_velocity") == round(60.0 / DEG_S)
+    assert at_start(1, "return_delay_time") == 10
+    assert at_start(2, "position_p_gain") == 700  # named by its joint
+    assert at_start(2, "drive_mode") & 1 == 1
+    assert at_start(2, "shutdown") & 0x20 == 0
+    assert at_start(2, "profile_velocity") == round(1000.0 / DEG_S)  # not in the block: the default
     line = rig.wait_log("ID 1 (XM430-W350): servos.id_1 set:")
     assert "mode cur_position" in line and "position_p_gain_pulse 640" in line and line.endswith("read back")
     assert "velocity_limit_deg_s 120.0 (EEPROM, written)" in line
     assert "servos.wrist set:" in rig.wait_log("ID 2 (XM430-W350)")
     for dxl_id in (1, 2):  # torque on, nothing moved
-        state = rig.debug_of(dxl_id)
-        assert state["torque"] and abs(state["goal_position"] - state["position"]) < 1.0
+        torque, goal, position = rig.torque_at_start[dxl_id]
+        assert torque and abs(goal - position) < 1.0
     assert "Traceback" not in rig.output and "unknown parameter" not in rig.output
 
 
 def test_the_gains_come_back_after_a_mode_change(rig):
+    mode = "position" if reg(rig, 1, "operating_mode") != 3 else "cur_position"  # a change, whatever ran before
     mark = rig.mark()
-    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[1], mode=["position"]))
-    rig.wait_log("servos.id_1 put back after the mode change to position", since=mark)
-    assert reg(rig, 1, "operating_mode") == 3  # the command's mode holds until the next set-up
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[1], mode=[mode]))
+    rig.wait_log(f"servos.id_1 put back after the mode change to {mode}", since=mark)
+    # the command's mode holds until the next set-up
+    assert reg(rig, 1, "operating_mode") == {"position": 3, "cur_position": 5}[mode]
     assert reg(rig, 1, "position_p_gain") == 640 and reg(rig, 1, "profile_velocity") == round(60.0 / DEG_S)
 
 
@@ -136,8 +148,9 @@ def eeprom_writes(rig: Rig) -> list[tuple]:
 
 def test_a_restart_writes_only_what_differs_from_the_file_and_then_no_eeprom(rig, tmp_path):
     assert rig.stop_node() == 0
+    rig.sim.servo(1).registers.poke("operating_mode", 3)  # as a mode command leaves it: the file's comes back
     rig.sim.clear_log()
-    start(rig, params_file(tmp_path, BLOCK))  # the mode command above changed ID 1's mode: the file's comes back
+    start(rig, params_file(tmp_path, BLOCK))
     line = rig.wait_log("ID 1 (XM430-W350): servos.id_1 set:")
     assert "velocity_limit_deg_s 120.0 (EEPROM, already so)" in line and "mode cur_position," in line
     assert eeprom_writes(rig) == [((1,), 11, b"\x0b\x00\x05")]  # Operating Mode := 5, nothing else
@@ -231,7 +244,7 @@ def test_a_launch_file_given_a_file_with_the_block_applies_it(tmp_path):
     try:
         path = params_file(tmp_path, "servos:\n  id_1: {position_p_gain_pulse: 640, drive_mode: {reverse_mode: true}}\n")
         (spec,) = nodes("dynamixel_handler_launch.py", device_name=r.device, params_file=str(path))
-        r.node_proc = NodeProcess(spec.command(tmp_path) + ["-p", "init/servo_auto_search.retry_times:=20"])
+        r.node_proc = NodeProcess(spec.command(tmp_path) + ["-p", PATIENT_SCAN])
         r.wait_log("servos.id_1 set: drive_mode.reverse_mode True (EEPROM, written), position_p_gain_pulse 640",
                    timeout=30)
         assert reg(r, 1, "position_p_gain") == 640 and reg(r, 1, "drive_mode") & 1

@@ -19,7 +19,7 @@ from typing import Iterator
 import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler
 
-from support.ros import NodeProcess, node_command
+from support.ros import PATIENT_SCAN, NodeProcess, node_command
 from support.sdk import PatientPort
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -412,7 +412,7 @@ def test_bad_arguments_exit_2_with_one_line(sim_of):
 def test_refused_while_a_handler_holds_the_port_and_a_second_handler_fails_at_start(sim_of):
     sim = sim_of("1:XM430-W350")
     params = ("latency_timer:=1", f"device_name:={sim.path}", "baudrate:=57600", "init/servo_auto_search.max_id:=2",
-              "init/expected_servo_num:=1", "init/servo_auto_search.retry_times:=5")  # a busy host: scan again
+              "init/expected_servo_num:=1", PATIENT_SCAN)  # a busy host: scan again
     node = NodeProcess(node_command(*params))
     try:
         node.wait_for("loop running", timeout=60)

@@ -8,7 +8,7 @@ import pytest
 
 from dynamixel_handler.sim import VirtualBus
 
-from support.ros import NodeProcess, node_command
+from support.ros import PATIENT_SCAN, NodeProcess, node_command
 
 X = 1020
 
@@ -37,7 +37,7 @@ def test_a_signal_ends_a_long_start_up_scan(sig):
 def test_a_signal_ends_the_set_up_of_the_servos_and_leaves_them_safe():
     sim = VirtualBus(servos={1: X, 2: X, 3: X}, wire_timing=True, baudrate=9600)
     # at 9600 bps each servo's set-up takes a while: the signal comes in the middle of it
-    proc = _node(sim, "baudrate:=9600", "init/expected_servo_num:=3", "init/servo_auto_search.retry_times:=5")
+    proc = _node(sim, "baudrate:=9600", "init/expected_servo_num:=3", PATIENT_SCAN)
     try:
         proc.wait_for("ID 3: XM430-W350")
         code = proc.stop(signal.SIGINT, timeout=10.0)
@@ -53,7 +53,7 @@ def test_a_signal_ends_the_loop_at_any_rate(rate):
     sim = VirtualBus(servos={1: X, 2: X}, wire_timing=False)
     # both servos required, the scan repeated until they answered: on a loaded machine a single scan
     # can miss a reply of the simulator and the start-up would end before the loop
-    proc = _node(sim, f"loop_rate:={rate}", "init/expected_servo_num:=2", "init/servo_auto_search.retry_times:=5")
+    proc = _node(sim, f"loop_rate:={rate}", "init/expected_servo_num:=2", PATIENT_SCAN)
     try:
         proc.wait_for("loop running")  # the set-up is over: the signal comes in the loop
         code = proc.stop(signal.SIGINT, timeout=10.0)

@@ -11,6 +11,8 @@ from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.loop import Handler
 from dynamixel_handler.sim import VirtualBus
 
+from .ros import SCAN_RETRIES
+
 
 @contextmanager
 def handler_on_virtual_bus(servos: Mapping[int, int], config: Mapping[str, Any] | None = None, *,
@@ -30,7 +32,7 @@ def handler_on_virtual_bus(servos: Mapping[int, int], config: Mapping[str, Any] 
         handler = Handler(bus, validate({**defaults(), "device_name": sim.path,
                                          "init/servo_auto_search.max_id": max(servos),
                                          "init/expected_servo_num": len(servos),
-                                         "init/servo_auto_search.retry_times": 5, **(config or {})}),
+                                         "init/servo_auto_search.retry_times": SCAN_RETRIES, **(config or {})}),
                           tripped_once=tripped_once)
         handler.start()
         yield sim, handler

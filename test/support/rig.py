@@ -6,6 +6,8 @@ the virtual bus, and the messages travel through real DDS on this test run's own
 """
 from __future__ import annotations
 
+import shutil
+import tempfile
 import threading
 import time
 from typing import Callable, Iterable, Iterator, Sequence
@@ -29,7 +31,7 @@ from dynamixel_handler_msgs.msg import (
     DynamixelStatus,
 )
 
-from .ros import NodeProcess, TopicClient, node_command
+from .ros import PATIENT_SCAN, NodeProcess, TopicClient, node_command
 
 __all__ = ["BASE_PARAMS", "FAST_SYNC_READ", "FOUR_SERVOS", "H54", "P", "PH54", "PING", "PRO", "READ", "Received",
            "Rig", "STATE_TOPICS", "SYNC_READ", "SYNC_WRITE", "WRITE", "X", "X540", "XM430", "XM540"]
@@ -54,11 +56,11 @@ BASE_PARAMS = ("latency_timer:=1", "loop_rate:=100", "verbose_ratio:=0", "init/u
 def scan_params(servos: Iterable[int], expect: int) -> tuple[str, ...]:
     """The default parameters: a fast adapter, P and Pro on, exactly the IDs of ``servos`` searched,
     ``expect`` of them required, quiet. A loaded machine can delay the simulator's reply past a 1 ms
-    adapter's timeout: the scan retries until every servo was seen."""
+    adapter's timeout: the scan retries until every servo was seen (``PATIENT_SCAN``)."""
     ids = sorted(servos)
     return ("latency_timer:=1", "init/used_servo_series.P:=true", "init/used_servo_series.Pro:=true",
             f"init/servo_auto_search.min_id:={ids[0]}", f"init/servo_auto_search.max_id:={ids[-1]}",
-            "init/servo_auto_search.retry_times:=5", f"init/expected_servo_num:={expect}", "verbose_ratio:=0")
+            PATIENT_SCAN, f"init/expected_servo_num:={expect}", "verbose_ratio:=0")
 
 
 class Received:
@@ -117,6 +119,10 @@ class Rig(TopicClient):
     ``before_start``: called with the bus before the node starts; ``env``: extra environment of the
     node process; ``state_topics``: also keep ``/dynamixel/state/<group>`` (``topics["state/..."]``);
     ``start_node``: False to start the node later with :meth:`start_node`.
+
+    The node opens the bus through a link in a folder of the rig's own (unless ``sim_kwargs`` names
+    one): a node that lost a bare ``/dev/pts/N`` (``sim.vanish()``) opens it again as soon as the
+    number is free, and with tests running side by side another test's bus may be given that number.
     """
 
     def __init__(self, servos: dict[int, int] | None = None, *params: str, base: Sequence[str] | None = None,
@@ -128,7 +134,9 @@ class Rig(TopicClient):
         # untimed replies: wire timing is opted into per test (``sim_kwargs``)
         servos = dict(FOUR_SERVOS if servos is None else servos)
         self.servo_ids = sorted(servos)
-        self.sim = VirtualBus(servos=servos, **{"wire_timing": False, **(sim_kwargs or {})})
+        self._link_dir = None if "link" in (sim_kwargs or {}) else tempfile.mkdtemp(prefix="dxl-rig-")
+        link = {} if self._link_dir is None else {"link": f"{self._link_dir}/ttyDXL"}
+        self.sim = VirtualBus(servos=servos, **{"wire_timing": False, **link, **(sim_kwargs or {})})
         self.device = self.sim.start()
         self._base = base
         self.node_proc: NodeProcess | None = None
@@ -292,4 +300,6 @@ class Rig(TopicClient):
             self.node.destroy_node()
             rclpy.shutdown(context=self.context)
             self.sim.close()
+            if self._link_dir is not None:
+                shutil.rmtree(self._link_dir, ignore_errors=True)
         return code

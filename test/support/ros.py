@@ -13,6 +13,11 @@ from typing import Callable
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "config" / "config_dynamixel_handler.yaml"
+#: start-up scans of a test node (init/servo_auto_search.retry_times), 100 ms apart: on a host overloaded
+#: fourfold six scans in a row have missed the virtual bus's reply to a 1 ms adapter's wait; the
+#: retries cost nothing once every servo answers
+SCAN_RETRIES = 20
+PATIENT_SCAN = f"init/servo_auto_search.retry_times:={SCAN_RETRIES}"
 
 
 def node_command(*ros_args: str, params_file: Path | None = CONFIG) -> list[str]:

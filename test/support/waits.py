@@ -17,7 +17,9 @@ def wait_regs(rig: Rig, dxl_id: int, expected: dict[str, int], timeout: float = 
     try:
         rig.wait(lambda: regs(rig, dxl_id, *expected) == expected, timeout=timeout, what=f"ID {dxl_id} registers")
     except AssertionError:
-        assert regs(rig, dxl_id, *expected) == expected
+        held = regs(rig, dxl_id, *expected, "operating_mode", "torque_enable")
+        assert {k: held[k] for k in expected} == expected, (
+            f"ID {dxl_id} registers after {timeout:g} s: {held}, want {expected}\nnode output:\n{rig.output[-3000:]}")
 
 
 def _matches(value: object, target: object, tol: float) -> bool:
