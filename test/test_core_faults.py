@@ -255,3 +255,51 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
             assert servo.read(register) == value, lines
             assert servo.read("torque_enable") == 1
             assert not [line for line in lines if "failed" in line], lines
+
+
+def test_a_mode_change_the_bus_misses_is_read_back_or_tried_again_and_its_goals_are_written():
+    """A mode change whose replies are lost (the write landed: read back, taken) or whose servo does
+    not hear the bus for a while (tried again every MODE_RETRY_S with the goals that came with it)
+    ends with the servo in the new mode and the command's goal written, not dropped."""
+    import time
+
+    from dynamixel_handler.commands import Commander
+    from dynamixel_handler.core.requests import MODE_RETRY_S
+
+    goal = round(30.0 / (0.229 * 6.0))  # 30 deg/s in X velocity units
+    config = {"dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}
+    with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
+        handler.step()
+        servo = sim.servo(1)
+        lines = capture_log(handler, "mode_write_reply_lost")
+        commander = Commander(handler)
+        commander.warn = lines.append
+        # the torque read's, the torque off's and the mode write's replies cut in half: all three landed
+        sim.truncate_next(3)
+        commander.control("X", "velocity_control", [1], {"velocity_deg_s": [30.0]})
+        handler.step()
+        handler.step()
+        assert servo.read("operating_mode") == 1, lines
+        assert servo.read("goal_velocity") == goal, lines
+        assert servo.read("torque_enable") == 1
+        assert not [line for line in lines if "failed" in line], lines
+
+    with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
+        handler.step()
+        servo = sim.servo(1)
+        lines = capture_log(handler, "mode_change_unheard")
+        commander = Commander(handler)
+        commander.warn = lines.append
+        sim.set_silent(1, True)
+        commander.control("X", "velocity_control", [1], {"velocity_deg_s": [30.0]})
+        handler.step()
+        assert servo.read("operating_mode") == 3  # not heard: still in position mode
+        assert any("mode change to 'velocity' failed" in line and "tried again" in line for line in lines), lines
+        sim.set_silent(1, False)
+        end = time.monotonic() + 5.0
+        while time.monotonic() < end and servo.read("goal_velocity") != goal:
+            time.sleep(MODE_RETRY_S / 5)
+            handler.step()
+        assert servo.read("operating_mode") == 1, lines
+        assert servo.read("goal_velocity") == goal, lines
+        assert servo.read("torque_enable") == 1

@@ -29,6 +29,7 @@ class Later(enum.Enum):
     INTERVAL = "interval"      # the last change was less than mode_change_interval_sec ago
     BUS_TIME = "bus time"      # this loop's mode changes used their bus time (``Pacing.ops_wait``)
     STOPPING = "stopping"      # the node is stopping: the request is dropped
+    RETRY = "retry"            # the bus did not take the change (no reply, refused): tried again soon
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,6 +9,7 @@ import time
 from typing import Callable
 
 from .. import error_state
+from ..bus import Failure, Result
 from ..control_table import Model
 from ..servos import PendingWrites, ServoTable
 from ..settings import LoopSettings
@@ -24,6 +25,12 @@ from .watchdog import Watchdog
 MODE_RESET_ITEMS = ("goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration")
 #: a mode's own goal: left out when the mode changes (it would mean something else in the new one)
 OWN_GOAL = {"pwm": "goal_pwm", "current": "goal_current", "velocity": "goal_velocity"}
+#: tries of the mode write within one mode change (a lost reply, a torque off that did not land)
+MODE_WRITE_TRIES = 2
+#: mode changes of one request before it is given up (the bus silent or refusing for a while)
+MODE_ATTEMPTS = 8
+#: pause before a mode change that failed is tried again, with the goals that came with it [s]
+MODE_RETRY_S = 0.25
 
 
 class Requests:
@@ -44,6 +51,7 @@ class Requests:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         self._last_mode_change: dict[int, float] = {}  # ID -> time.monotonic() of its last mode change
         self._last_clear: dict[int, float] = {}  # ID -> time.monotonic() of its last error clear
+        self._mode_failures: dict[int, tuple[str, int]] = {}  # ID -> (mode asked, failed attempts)
         #: (ID, why): the servos block's RAM items written again after a mode change (``KeptSettings``)
         self.put_back: Callable[[int, str], None] = lambda dxl_id, why: None
 
@@ -77,6 +85,9 @@ class Requests:
             self.log.debug(f"{what}: waits for the next loop (this loop's mode changes used their bus time)")
             self.work.defer(dxl_id, time.monotonic(), what, request.then)
             return
+        if request.why is Later.RETRY:
+            self.work.defer(dxl_id, time.monotonic() + MODE_RETRY_S, what, request.then)
+            return
         left = self.mode_change_wait(dxl_id)
         if dxl_id not in self.work.deferred:
             self.limited(logging.INFO, f"{what}: the last mode change was less than mode_change_interval_sec="
@@ -90,20 +101,22 @@ class Requests:
     def change_mode(self, request: ChangeMode) -> Answer:
         """Torque off -> operating mode -> goals and profiles written back -> torque back as it
         was (safely: goal := present state) -> bus watchdog as the new mode needs. The caller has
-        checked that the servo has ``mode``. DONE, FAILED (the bus; ``failure`` is the warning),
-        or LATER: the last change was less than mode_change_interval_sec ago, or this loop's mode
-        changes used their bus time, or the node is stopping (``later`` says which; the caller
-        defers the request: ``DeferModeChange``)."""
+        checked that the servo has ``mode``. DONE, FAILED (the bus, after ``MODE_ATTEMPTS``;
+        ``failure`` is the warning), or LATER: the last change was less than
+        mode_change_interval_sec ago, or this loop's mode changes used their bus time, or the
+        node is stopping, or the bus did not take it and it is tried again in ``MODE_RETRY_S``
+        (``later`` says which; the caller defers the request: ``DeferModeChange``)."""
         dxl_id, mode, what = request.dxl_id, request.mode, request.what
         wait = later("interval" if self.mode_change_wait(dxl_id) > 0 else self.pacing.ops_wait())
         if wait is not None:
             return wait
+        previous = self._last_mode_change.get(dxl_id)
         self._last_mode_change[dxl_id] = time.monotonic()
         model = self.table.model(dxl_id)
         own = OWN_GOAL.get(self.io.mode(dxl_id) or "")
         keep = {item: self.io.value(dxl_id, item) for item in MODE_RESET_ITEMS if model.has(item) and item != own}
         torque = self.io.torque_off_for_eeprom(dxl_id)
-        written = self.io.write_item(dxl_id, "operating_mode", model.mode_values[mode])
+        written = self._write_mode(dxl_id, model.mode_values[mode])
         for item, value in keep.items():
             if value is not None:
                 self.io.write_item(dxl_id, item, value)
@@ -113,9 +126,45 @@ class Requests:
             self.io.torque_on(dxl_id)
         self.watchdog.arm_after_ops(dxl_id)
         if not written:
-            return Answer(Outcome.FAILED, f"{what}: ID {dxl_id} mode change to '{mode}' failed: {written.why}")
+            return self._mode_failed(dxl_id, mode, what, written, previous)
+        self._mode_failures.pop(dxl_id, None)
         self.limited(logging.INFO, f"ID {dxl_id}: operating mode -> {mode}", f"mode {dxl_id}")
         return DONE
+
+    def _write_mode(self, dxl_id: int, code: int) -> Result[bool]:
+        """The mode write, read back when it got no good reply: a reply lost on the way is a mode
+        taken; a refusal (torque still on: its torque off was lost) is tried once more."""
+        written: Result[bool] = Result(False)
+        for attempt in range(MODE_WRITE_TRIES):
+            written = self.io.write_item(dxl_id, "operating_mode", code)
+            if written or written.failure is Failure.NO_SUCH_ITEM:
+                return written
+            if self.io.read_item(dxl_id, "operating_mode") == code:
+                self.log.debug(f"ID {dxl_id}: the mode write's reply was lost ({written.why}); read back: taken")
+                return Result(True)
+            if attempt + 1 < MODE_WRITE_TRIES:
+                self.io.torque_off(dxl_id)
+        return written
+
+    def _mode_failed(self, dxl_id: int, mode: str, what: str, written: Result[bool], previous: float | None) -> Answer:
+        """A mode change the bus did not take: LATER (tried again, with its goals, in
+        ``MODE_RETRY_S``) up to ``MODE_ATTEMPTS`` times, then FAILED. The servo kept its mode, so
+        the change does not count for mode_change_interval_sec."""
+        if previous is None:
+            self._last_mode_change.pop(dxl_id, None)
+        else:
+            self._last_mode_change[dxl_id] = previous
+        asked, failed = self._mode_failures.get(dxl_id, (mode, 0))
+        failed = failed + 1 if asked == mode else 1
+        if failed < MODE_ATTEMPTS and written.failure is not Failure.NO_SUCH_ITEM:
+            self._mode_failures[dxl_id] = (mode, failed)
+            self.limited(logging.WARNING, f"{what}: ID {dxl_id} mode change to '{mode}' failed ({written.why}): "
+                         f"tried again in {MODE_RETRY_S:g}s with its goals (attempt {failed + 1} of {MODE_ATTEMPTS})",
+                         f"mode retry {dxl_id}")
+            return Answer(Outcome.LATER, later=Later.RETRY)
+        self._mode_failures.pop(dxl_id, None)
+        return Answer(Outcome.FAILED, f"{what}: ID {dxl_id} mode change to '{mode}' failed after {failed} "
+                      f"attempt(s): {written.why}; the goals that came with it are not written")
 
     # ---------------------------------------------------------------- error clear
     def clear_error(self, request: ClearError) -> Answer:
