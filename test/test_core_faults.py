@@ -111,8 +111,9 @@ def test_a_short_silence_is_survived_without_removal():
 def test_fast_read_reads_every_servo_and_the_old_pro_with_plain_sync_read():
     # method/fast_read: X and P answer Fast Sync Read; the old Pro "-R" firmware has no such
     # instruction, so it must be read with a plain Sync Read instead of going ping false
+    # a 16 ms adapter: a reply a loaded host delays is still heard (this test is not about silences)
     b = Rig(FOUR_SERVOS, "method/fast_read:=true", "pub_ratio/status:=1", "pub_ratio/present.position:=1",
-            base=BASE_PARAMS, state_topics=True)
+            "latency_timer:=16", base=BASE_PARAMS, state_topics=True)
     try:
         pins = {1: 1000, 2: 3000, 3: -250000, 4: 123456}
         for dxl_id, pulses in pins.items():
@@ -128,7 +129,13 @@ def test_fast_read_reads_every_servo_and_the_old_pro_with_plain_sync_read():
         assert "no response" not in b.output
         b.node_proc.wait_for("ID 4: no answer to Fast Sync Read, read with Sync Read from now on")
         reads = [e for e in b.transactions()[-200:] if e.instruction in (FAST_SYNC_READ, SYNC_READ)]
-        assert {e.instruction for e in reads if 1 in e.ids or 3 in e.ids} == {FAST_SYNC_READ}
+        # IDs 1 and 3 stay on the fast read: a plain one only completes a fast read that a late reply
+        # (a loaded host) cut short, now and then, never from now on
+        fast = [e for e in reads if (1 in e.ids or 3 in e.ids) and e.instruction == FAST_SYNC_READ]
+        plain = [e for e in reads if (1 in e.ids or 3 in e.ids) and e.instruction == SYNC_READ]
+        assert fast and len(plain) <= len(fast) // 10, (len(fast), len(plain))
+        for dxl_id in (1, 2, 3):
+            assert f"ID {dxl_id}: no answer to Fast Sync Read" not in b.output
         assert {e.instruction for e in reads if 4 in e.ids} == {SYNC_READ}
     finally:
         b.close()

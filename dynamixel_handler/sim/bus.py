@@ -129,6 +129,7 @@ class VirtualBus(WireSettings):
         both answer it and their replies collide, as on hardware."""
         with self._lock:
             servo = new_servo(int(model_number), int(servo_id), self.clock)
+            servo.lock = self._lock  # a test's read does not advance the shaft beside the serving thread
             if self._servo_bps is not None:
                 set_bps(servo, self._servo_bps)
             pair(servo, self._servos)
@@ -157,6 +158,8 @@ class VirtualBus(WireSettings):
         """Replace the servos by those saved in ``path`` (model, EEPROM, backup), powered up."""
         servos = read_state(path, self.clock)
         with self._lock:
+            for servo in servos:
+                servo.lock = self._lock
             self._servos[:] = servos
 
     @property

@@ -20,6 +20,7 @@ What a write does (ROBOTIS e-Manual, the AX-12A / MX-28 / MX-64 pages and "Proto
 
 from __future__ import annotations
 
+import threading
 import time
 from typing import Callable
 
@@ -52,6 +53,9 @@ class Protocol1Servo:
 
     speaks_protocol_2 = False
     partner = None
+
+    #: held while the shaft advances; a bus gives its servos its own lock (``VirtualBus.add_servo``)
+    lock: threading.RLock = threading.RLock()
 
     def __init__(self, model: Model | int, servo_id: int, clock: Callable[[], float] = time.monotonic) -> None:
         self.model: Model = protocol1_model_by_number(model) if isinstance(model, int) else model
@@ -96,8 +100,9 @@ class Protocol1Servo:
         self.shaft.hold()
 
     def refresh(self) -> None:
-        self.shaft.refresh(self._clock())
-        self._check_conditions()
+        with self.lock:  # a test's read beside the serving thread must not advance the shaft twice
+            self.shaft.refresh(self._clock())
+            self._check_conditions()
 
     def read(self, name: str) -> int:
         """An item's value (signed where the item is), the shaft brought up to date first."""

@@ -9,6 +9,7 @@ range error, goals beyond their limits a limit error, and nothing is written on 
 
 from __future__ import annotations
 
+import threading
 from typing import Callable
 
 from dynamixel_handler.control_table import Item, Model, model_by_number
@@ -32,6 +33,9 @@ class VirtualServo:
     bytes by item name), ``Dynamics`` (the shaft behind the registers and the present values it
     writes), ``Memory`` (power cycles, factory reset, backup, the EEPROM a state file keeps);
     ``write_rules`` decides which written values a servo refuses."""
+
+    #: held while the shaft advances; a bus gives its servos its own lock (``VirtualBus.add_servo``)
+    lock: threading.RLock = threading.RLock()
 
     def __init__(self, model: Model | int, servo_id: int, clock: Callable[[], float]) -> None:
         self.model: Model = model_by_number(model) if isinstance(model, int) else model
@@ -70,7 +74,8 @@ class VirtualServo:
 
     def refresh(self, now: float) -> None:
         """Advance motion to ``now`` and rewrite every present-value register."""
-        self._dynamics.refresh(now)
+        with self.lock:  # a test's read beside the serving thread must not advance the shaft twice
+            self._dynamics.refresh(now)
 
     def read(self, name: str) -> int:
         """Current value of an item (signed per item), physics brought up to date first."""
@@ -105,12 +110,8 @@ class VirtualServo:
 
     @property
     def supports_fast_read(self) -> bool:
-        fw = self.registers.peek("firmware_version")
-        if not self.family.fast_read:
-            return False
-        if self.registers.x:
-            return fw >= (46 if self.layout == "X330" else 45)
-        return fw >= 12
+        least = (46 if self.layout == "X330" else 45) if self.registers.x else 12  # firmware with it
+        return self.family.fast_read and self.registers.peek("firmware_version") >= least
 
     @property
     def return_delay_s(self) -> float:
