@@ -111,6 +111,15 @@ def _near(got, want: float, tolerance: float) -> bool:
 
 
 def test_goals_beyond_the_new_limits_are_clamped_to_them(rig):
+    # the position and current limits of the test above (the same values: whichever runs first writes them)
+    k_max, k_min, k_cur = ITEMS.index("max_position_limit"), ITEMS.index("min_position_limit"), ITEMS.index("current_limit")
+    rig.publish("/dynamixel/command/limit", DynamixelLimit(
+        id_list=[2, 3], max_position_limit_deg=[VALUES[i][k_max] for i in (2, 3)],
+        min_position_limit_deg=[VALUES[i][k_min] for i in (2, 3)], current_limit_ma=[VALUES[i][k_cur] for i in (2, 3)]))
+    for i in (2, 3):
+        for k in (k_max, k_min, k_cur):
+            wait_reg(rig, i, ITEMS[k], PULSES[i][k])
+        wait_reg(rig, i, "torque_enable", 1)
     mark = rig.mark()
     rig.publish("/dynamixel/command/x/position_control",
                 DynamixelControlXPosition(id_list=[2], position_deg=[179.0], profile_vel_deg_s=[500.0]))

@@ -39,7 +39,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from support.rig import PRO, X540, P, Rig, X
-from support.waits import wait_regs, wait_state
+from support.waits import shown, wait_regs, wait_state
 
 # ---- e-Manual units per LSB ------------------------------------------------------------------
 # X (XM430-W350, XM540-W270): 4096 pulses a turn, 0 deg at 2048; 0.229 rpm; 214.577 rev/min^2;
@@ -91,8 +91,11 @@ def near(value, target: float, tol: float) -> bool:
 
 
 def wait_debug(rig: Rig, dxl_id: int, key: str, target: float, tol: float, timeout: float = 15.0) -> None:
-    rig.wait(lambda: near(rig.debug_of(dxl_id)[key], target, tol), timeout=timeout,
-             what=f"ID {dxl_id} {key} -> {target} (last {rig.debug_of(dxl_id)[key]})")
+    try:
+        rig.wait(lambda: near(rig.debug_of(dxl_id)[key], target, tol), timeout=timeout,
+                 what=f"ID {dxl_id} {key} -> {target} (last {rig.debug_of(dxl_id)[key]})")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\n{shown(rig, dxl_id)}") from None
 
 
 def wait_mode(rig: Rig, dxl_id: int, mode: str) -> None:
@@ -302,7 +305,11 @@ def test_commands_x_p_pro_bundles(rig):
 
 
 def test_commands_all_writes_goals_without_changing_modes(rig):
-    # modes now: 1 position, 2 velocity, 3 current, 4 position (the previous test)
+    # the modes first (whatever ran before): 1 position, 2 velocity, 3 current, 4 position
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[1, 2, 3, 4],
+                                                              mode=["position", "velocity", "current", "position"]))
+    for dxl_id, mode in ((1, "position"), (2, "velocity"), (3, "current"), (4, "position")):
+        wait_mode(rig, dxl_id, mode)
     before = {i: rig.sim.servo(i).read("operating_mode") for i in (1, 2, 3, 4)}
     assert before == {1: MODE["position"], 2: MODE["velocity"], 3: MODE["current"], 4: MODE["position"]}
     msg = DxlCommandsAll()
@@ -329,6 +336,8 @@ def test_command_goal_every_field(rig):
     rig.publish("/dynamixel/command/p/position_control", DynamixelControlPPosition(id_list=[3], position_deg=[0.0]))
     wait_mode(rig, 2, "position")
     wait_mode(rig, 3, "position")
+    wait_regs(rig, 2, {"goal_position": x_pos(0.0)})  # taken: the goal below comes after it
+    wait_regs(rig, 3, {"goal_position": 0})
     rig.publish("/dynamixel/command/goal",
                 DynamixelGoal(id_list=[2, 3], pwm_percent=[45.0, 60.0], current_ma=[400.0, 700.0],
                               velocity_deg_s=[20.0, 40.0], position_deg=[-30.0, 12.0], profile_vel_deg_s=[100.0, 80.0],
@@ -357,6 +366,8 @@ GAINS = ("velocity_i_gain", "velocity_p_gain", "position_d_gain", "position_i_ga
 
 def test_command_gain_every_field(rig):
     values = {2: [1000, 200, 10, 20, 1200, 30, 40], 3: [20, 650, 1, 2, 40, 3, 4]}
+    before = {i: [rig.sim.servo(i).read(g) for g in GAINS] for i in (2, 3)}
+    pro = {g: rig.sim.servo(4).read(g) for g in ("velocity_i_gain", "velocity_p_gain", "position_p_gain")}
     msg = DynamixelGain(id_list=[2, 3])
     for k, gain in enumerate(GAINS):
         setattr(msg, f"{gain}_pulse", [values[2][k], values[3][k]])
@@ -372,6 +383,15 @@ def test_command_gain_every_field(rig):
     wait_regs(rig, 4, {"velocity_i_gain": 45, "velocity_p_gain": 66, "position_p_gain": 77})
     rig.wait_log("ID 4", "position_d_gain", since=mark)
     wait_state(rig, "gain", "position_p_gain_pulse", 4, 77)
+    # the gains as they were, for the tests after this one (a low P gain makes a slow servo)
+    restore = DynamixelGain(id_list=[2, 3])
+    for k, gain in enumerate(GAINS):
+        setattr(restore, f"{gain}_pulse", [before[2][k], before[3][k]])
+    rig.publish("/dynamixel/command/gain", restore)
+    rig.publish("/dynamixel/command/gain", DynamixelGain(id_list=[4], **{f"{g}_pulse": [v] for g, v in pro.items()}))
+    for dxl_id in (2, 3):
+        wait_regs(rig, dxl_id, dict(zip(GAINS, before[dxl_id])))
+    wait_regs(rig, 4, pro)
 
 
 def test_command_status_torque_mode_and_ping(rig):

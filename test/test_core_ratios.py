@@ -151,9 +151,15 @@ def test_state_topics_are_published_every_ratio_loops(outdated_on, group):
     states = outdated_on["topics"]["states"]
     published = len(outdated_on["topics"][f"state/{group}"])
     carried = sum(1 for m in states if len(getattr(m, group).id_list))
-    # one off at most: each state topic starts once the node has seen its subscriber (checked every
-    # 0.1 s per topic), so the first loop's group message can come without its /dynamixel/states
-    assert abs(published - carried) <= 1, f"/dynamixel/state/{group}: {published} messages, {carried} states carry it"
+    # a few off at most, all at the start: each state topic starts once the node has seen its
+    # subscriber (checked every 0.1 s per topic: 10 loops), and /dynamixel/states messages published
+    # before this test's reader matched the node's writer are not received (the loops the bus ran
+    # against the states received); a group published in other loops is off by most of its messages
+    lost = max(0, outdated_on["log_reads"][PRESENT_ADDRESS["position"]] - len(states))
+    ratio = min(r for r in STATES_GROUP_RATIO[group] if r > 0) if any(STATES_GROUP_RATIO[group]) else 1
+    skew = 1 + math.ceil(max(lost, 10) / ratio)
+    assert abs(published - carried) <= skew, (
+        f"/dynamixel/state/{group}: {published} messages, {carried} states carry it ({lost} states not received)")
     want = due_loops(len(states), *STATES_GROUP_RATIO[group])
     assert abs(published - want) <= 2, f"/dynamixel/state/{group}: {published} in {len(states)} loops, want {want}"
 

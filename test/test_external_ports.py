@@ -46,7 +46,9 @@ def test_modes_and_digital_output_reach_the_servo_and_are_read_back(rig):
 
 
 def test_only_named_ports_are_read_and_unset_stops_reading(rig):
-    rig.wait(lambda: rig.reads, what="a reading")
+    # ports named in a write (here, whatever ran before): only they are read
+    rig.publish("/dynamixel/external_port/write", DxlExternalPort(id_list=[2, 3], port=[1, 2], mode=["d_out", "a_in"]))
+    rig.wait(lambda: _last_for(rig, 2, 1) is not None and _last_for(rig, 3, 2) is not None, what="the named ports read")
     named = {(i, p) for m in rig.reads[-5:] for i, p in zip(m.id_list, m.port)}
     assert (2, 2) not in named and (2, 3) not in named  # never named in a write
     rig.publish("/dynamixel/external_port/write", DxlExternalPort(id_list=[3], port=[2], mode=["unset"]))

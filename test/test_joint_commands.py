@@ -17,6 +17,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from dynamixel_handler.commands.trajectory import Trajectory, make_points
+from dynamixel_handler_msgs.msg import DynamixelStatus
 
 from support.rig import SYNC_WRITE, X540, Rig, X
 
@@ -96,6 +97,12 @@ def result_of(rig: Rig, handle, timeout: float = 20.0):
     return fut.result().status, fut.result().result
 
 
+def position_mode(rig: Rig, *ids: int) -> None:
+    """The servos in position mode (Operating Mode 3), whatever an earlier test left them in."""
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=list(ids), mode=["position"] * len(ids)))
+    rig.wait(lambda: all(rig.sim.servo(i).read("operating_mode") == 3 for i in ids), timeout=15, what="position mode")
+
+
 def settle(rig: Rig, positions: dict[str, float]) -> None:
     """Put the joints at ``positions`` [rad] with joint_commands and wait until they are there."""
     rig.publish("/joint_commands", JointState(name=list(positions), position=list(positions.values())))
@@ -162,6 +169,7 @@ def test_a_three_point_trajectory_is_followed_with_the_timing_of_time_from_start
             time.sleep(0.005)
     sampler = threading.Thread(target=sample, daemon=True)
     since = time.monotonic()
+    origin = np.array([joint_rad(rig, "pan"), joint_rad(rig, "tilt")])  # where the path starts (settle: within 0.01)
     sampler.start()
     try:
         handle = send(rig, FollowJointTrajectory.Goal(trajectory=traj), feedback)
@@ -175,7 +183,7 @@ def test_a_three_point_trajectory_is_followed_with_the_timing_of_time_from_start
     # the interpolated path (cubic: positions and velocities given), from where the joints were
     pts = make_points(2, [0.5, 1.0, 1.5], [[0.4, -0.2], [0.8, 0.1], [0.6, 0.3]],
                       [[0.6, -0.3], [0.2, 0.3], [0.0, 0.0]], [[], [], []])
-    path = Trajectory(pts, np.zeros(2))
+    path = Trajectory(pts, origin)
     # the goals the node wrote, against the path at the moment the bus got them: the timing is the
     # node's own (a loop held back on a busy machine writes the path's point of when it runs, so the
     # servo lags then, not the goal; the registers sampled below would count that lag as an error)
@@ -304,6 +312,7 @@ def test_a_goal_with_more_points_than_the_maximum_is_refused_at_once(rig):
 
 
 def test_a_point_beyond_the_position_limits_is_refused_naming_joint_and_point(rig):
+    position_mode(rig, 1, 2)  # the limits of position mode (another test may leave tilt in cur_position)
     settle(rig, {"pan": 0.0, "tilt": 0.0})
     before = {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)}
     # pan (position mode, limits 0..4095 pulses: -pi..pi rad) at 1e308 rad in point 1

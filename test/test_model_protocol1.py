@@ -29,6 +29,11 @@ def rig():
             "mode_change_interval_sec:=0.0", "pub_ratio/status:=3", "pub_ratio/goal:=3", "pub_ratio/error:=3",
             "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
             sim_kwargs={"baudrate": 1_000_000})
+    # what the start-up found, before any test's command changes it (any order)
+    ids = (AX, AX_18, EX, MX, MX_64, X)
+    for dxl_id in ids:
+        r.wait(lambda i=dxl_id: r.state_of("status", "mode", i) is not None, what=f"status of ID {dxl_id}")
+    r.at_start = {i: (r.state_of("status", "mode", i), servo(r, i).read("torque_enable")) for i in ids}
     yield r
     assert r.close() == 0
 
@@ -49,15 +54,18 @@ def wait_items(rig: Rig, dxl_id: int, expected: dict[str, int]) -> None:
 def test_each_is_handled_beside_the_protocol2_servo(rig):
     for dxl_id, name in ((AX, "AX-12A"), (AX_18, "AX-18A"), (EX, "EX-106+"), (MX, "MX-28"), (MX_64, "MX-64")):
         assert f"ID {dxl_id}: {name}" in rig.output and "Protocol 1.0) handled" in rig.output, rig.output
-        rig.wait(lambda i=dxl_id: rig.state_of("status", "mode", i) == "position", what=f"status of ID {dxl_id}")
-        assert servo(rig, dxl_id).read("torque_enable") == 1          # torque on, as init/torque_auto_enable says
-    assert rig.state_of("status", "mode", X) == "position"
+        # joint mode, torque on (as init/torque_auto_enable says)
+        assert rig.at_start[dxl_id] == ("position", 1), dxl_id
+    assert rig.at_start[X][0] == "position"
 
 
 @pytest.mark.parametrize("dxl_id, deg_per_pulse, zero", [(AX, AX_DEG, 512), (MX, MX_DEG, 2048),
                                                          (EX, 250.92 / 4095.0, 2048)])
 def test_a_goal_in_degrees_is_written_and_reached(rig, dxl_id, deg_per_pulse, zero):
-    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[30.0]))
+    rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[dxl_id], mode=["position"], torque=[True]))
+    rig.wait(lambda: rig.state_of("status", "mode", dxl_id) == "position", what=f"ID {dxl_id} in joint mode")
+    # a speed of its own: another test may leave Moving Speed at its slowest
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[dxl_id], position_deg=[30.0], profile_vel_deg_s=[200.0]))
     wait_items(rig, dxl_id, {"goal_position": zero + round(30.0 / deg_per_pulse)})
     rig.wait(lambda: abs((rig.state_of("present", "position_deg", dxl_id) or 0.0) - 30.0) < 2.0,
              what=f"ID {dxl_id} at 30 deg", timeout=15.0)

@@ -44,6 +44,10 @@ def rig():
             "pub_ratio/limit:=3", "pub_ratio/error:=3", "pub_ratio/extra.dynamic_items:=3",
             "pub_ratio/extra.static_items:=3", "clear_error_interval_sec:=0.0",
             sim_kwargs={"baudrate": 1_000_000})
+    # the modes the start-up found, before any test's command changes them (any order)
+    for dxl_id in IDS:
+        r.wait(lambda i=dxl_id: r.state_of("status", "mode", i) is not None, what=f"status of ID {dxl_id}")
+    r.modes_at_start = {i: r.state_of("status", "mode", i) for i in IDS}
     yield r
     assert r.close() == 0
 
@@ -77,7 +81,7 @@ def test_recognised_at_start_up_with_its_name(rig):
         assert f"ID {dxl_id}: XL-320" in rig.output, rig.output
         rig.wait(lambda i=dxl_id: rig.state_of("extra", "model_number", i) == XL320, what=f"extra of ID {dxl_id}")
         assert rig.state_of("extra", "model", dxl_id) == "XL320"
-        assert rig.state_of("status", "mode", dxl_id) == "position"  # factory Control Mode 2: joint
+        assert rig.modes_at_start[dxl_id] == "position"  # factory Control Mode 2: joint
 
 
 def test_x_position_command_in_degrees_lands_as_the_raw_goal(rig):
@@ -163,8 +167,15 @@ def test_limit_write_lands_in_eeprom_units(rig):
     wait_state(rig, "limit", "max_position_limit_deg", 1, 341 * DEG)
     wait_state(rig, "limit", "pwm_limit_percent", 1, 512 * PERCENT)
     # a goal beyond the new limit is held to it
-    rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[1], position_deg=[140.0]))
-    wait_raw(rig, 1, {GOAL_POSITION: ZERO + 341})
+    try:
+        rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[1], position_deg=[140.0]))
+        wait_raw(rig, 1, {GOAL_POSITION: ZERO + 341})
+    finally:  # the factory's limits again, for the tests that run after this one
+        servo = rig.sim.servo(1)
+        for name, value in (("min_position_limit", 0), ("max_position_limit", 1023), ("pwm_limit", 1023),
+                            ("torque_limit", 1023), ("temperature_limit", 65)):
+            servo.write(name, value)
+        rig.wait(lambda: rig.state_of("limit", "max_position_limit_deg", 1) > 149.0, what="ID 1's limits read again")
 
 
 def test_what_it_lacks_reads_back_as_the_spec_says(rig):

@@ -62,11 +62,14 @@ AT_START = ("operating_mode", "position_p_gain", "velocity_limit", "profile_velo
 def rig(tmp_path_factory):
     r = Rig({1: XM430, 2: XM430}, start_node=False)
     folder = tmp_path_factory.mktemp("servos")
-    start(r, params_file(folder, BLOCK), f"servos_snapshot.path:={folder / 'saved.yaml'}")
+    r.snapshot = f"servos_snapshot.path:={folder / 'saved.yaml'}"  # each start of the node's
+    start(r, params_file(folder, BLOCK), r.snapshot)
     # the registers as the start-up left them, before any test's command changes them (any order)
     r.at_start = {(i, item): reg(r, i, item) for i in (1, 2) for item in AT_START}
     r.torque_at_start = {i: (r.debug_of(i)["torque"], r.debug_of(i)["goal_position"], r.debug_of(i)["position"])
                          for i in (1, 2)}
+    r.lines_at_start = {i: r.wait_log(f"ID {i} (XM430-W350): servos.") for i in (1, 2)}
+    r.output_at_start = r.output
     yield r
     assert r.close() == 0
 
@@ -83,14 +86,15 @@ def test_the_block_is_applied_at_start_up_read_back_and_said_in_one_line_per_ser
     assert at_start(2, "drive_mode") & 1 == 1
     assert at_start(2, "shutdown") & 0x20 == 0
     assert at_start(2, "profile_velocity") == round(1000.0 / DEG_S)  # not in the block: the default
-    line = rig.wait_log("ID 1 (XM430-W350): servos.id_1 set:")
+    line = rig.lines_at_start[1]
+    assert "servos.id_1 set:" in line
     assert "mode cur_position" in line and "position_p_gain_pulse 640" in line and line.endswith("read back")
     assert "velocity_limit_deg_s 120.0 (EEPROM, written)" in line
-    assert "servos.wrist set:" in rig.wait_log("ID 2 (XM430-W350)")
+    assert "servos.wrist set:" in rig.lines_at_start[2]
     for dxl_id in (1, 2):  # torque on, nothing moved
         torque, goal, position = rig.torque_at_start[dxl_id]
         assert torque and abs(goal - position) < 1.0
-    assert "Traceback" not in rig.output and "unknown parameter" not in rig.output
+    assert "Traceback" not in rig.output_at_start and "unknown parameter" not in rig.output_at_start
 
 
 def test_the_gains_come_back_after_a_mode_change(rig):
@@ -150,14 +154,14 @@ def test_a_restart_writes_only_what_differs_from_the_file_and_then_no_eeprom(rig
     assert rig.stop_node() == 0
     rig.sim.servo(1).registers.poke("operating_mode", 3)  # as a mode command leaves it: the file's comes back
     rig.sim.clear_log()
-    start(rig, params_file(tmp_path, BLOCK))
+    start(rig, params_file(tmp_path, BLOCK), rig.snapshot)
     line = rig.wait_log("ID 1 (XM430-W350): servos.id_1 set:")
     assert "velocity_limit_deg_s 120.0 (EEPROM, already so)" in line and "mode cur_position," in line
     assert eeprom_writes(rig) == [((1,), 11, b"\x0b\x00\x05")]  # Operating Mode := 5, nothing else
     assert reg(rig, 1, "operating_mode") == 5
     assert rig.stop_node() == 0
     rig.sim.clear_log()
-    start(rig, params_file(tmp_path, BLOCK))
+    start(rig, params_file(tmp_path, BLOCK), rig.snapshot)
     line = rig.wait_log("ID 1 (XM430-W350): servos.id_1 set:")
     assert eeprom_writes(rig) == []
     assert "mode cur_position (already so)" in line

@@ -123,6 +123,7 @@ class TopicClient:
 
     def _start_spinning(self) -> None:
         self._pubs: dict[tuple, object] = {}
+        self._acked: dict[tuple, object] = {}  # (topic, type) -> the node process that acknowledged it
         self._lock = threading.Lock()
         self._spinning = True
         self._thread = threading.Thread(target=self._spin, daemon=True)
@@ -146,13 +147,26 @@ class TopicClient:
             return fn(*args, **kwargs)
 
     def publish(self, topic: str, msg) -> None:
-        """Publish once the handler's subscription is matched (so the message is not lost)."""
+        """Publish once the handler's subscription is matched (so the message is not lost). The
+        first message of a publisher to a node (a new publisher, or the node started again) is
+        waited for until the node has acknowledged it: the node matches the publisher on its own
+        side, maybe after the publisher matched it, and a message sent before that came late or not
+        at all (after a later one on another topic)."""
         key = (topic, type(msg))
         if key not in self._pubs:
             with self._lock:
                 self._pubs[key] = self.node.create_publisher(type(msg), topic, 10)
-            self.wait(lambda: self._pubs[key].get_subscription_count() > 0, timeout=10, what=f"a subscriber of {topic}")
-        self._pubs[key].publish(msg)
+        publisher = self._pubs[key]
+        node = getattr(self, "node_proc", None)
+        first = key not in self._acked or self._acked[key] is not node
+        if first:
+            self.wait(lambda: publisher.get_subscription_count() > 0, timeout=10, what=f"a subscriber of {topic}")
+        publisher.publish(msg)
+        if first:  # polled: a blocking wait in rmw may keep the interpreter lock from the virtual bus
+            from rclpy.duration import Duration
+            self.wait(lambda: publisher.wait_for_all_acked(Duration(nanoseconds=0)), timeout=5,
+                      what=f"the first message on {topic} acknowledged")
+            self._acked[key] = node
 
     def wait(self, predicate: Callable[[], object], timeout: float = 10.0, what: str = "condition") -> None:
         end = time.monotonic() + timeout

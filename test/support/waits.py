@@ -12,6 +12,18 @@ def regs(rig: Rig, dxl_id: int, *items: str) -> dict[str, int]:
     return {item: servo.read(item) for item in items}
 
 
+#: registers a failed wait shows, where the servo has them: what keeps a shaft from moving, mostly
+SHOWN = ("torque_enable", "operating_mode", "goal_position", "present_position", "goal_velocity", "present_velocity",
+         "profile_velocity", "profile_acceleration", "velocity_limit", "min_position_limit", "max_position_limit",
+         "homing_offset", "goal_current", "hardware_error_status", "bus_watchdog")
+
+
+def shown(rig: Rig, dxl_id: int) -> str:
+    """The servo's ``SHOWN`` registers as a line of a failure message."""
+    servo = rig.sim.servo(dxl_id)
+    return f"ID {dxl_id} holds " + ", ".join(f"{k} {servo.read(k)}" for k in SHOWN if servo.model.has(k))
+
+
 def wait_regs(rig: Rig, dxl_id: int, expected: dict[str, int], timeout: float = 10.0) -> None:
     """Wait until the servo's registers hold ``expected``; fail showing what they hold."""
     try:
@@ -41,4 +53,4 @@ def wait_state(rig: Rig, group: str, field: str, dxl_id: int, target: object, to
         rig.wait(lambda: _matches(rig.state_of(group, field, dxl_id), target, tol), timeout=timeout,
                  what=f"ID {dxl_id} {group}.{field} -> {target}")
     except AssertionError as exc:
-        raise AssertionError(f"{exc} (last {rig.state_of(group, field, dxl_id)})") from None
+        raise AssertionError(f"{exc} (last {rig.state_of(group, field, dxl_id)}); {shown(rig, dxl_id)}") from None
