@@ -17,6 +17,7 @@ and Profile Acceleration as milliseconds; these functions always use the velocit
 from __future__ import annotations
 
 import functools
+import math
 from typing import Dict, List, Mapping, Sequence, Tuple, Union
 
 import numpy as np
@@ -24,7 +25,8 @@ import numpy as np
 from .control_table import Item, Model
 
 __all__ = [
-    "QUANTITY_OF_ITEM", "UNIT_OF_QUANTITY", "quantity_of", "pulse_to_unit", "unit_to_pulse",
+    "QUANTITY_OF_ITEM", "UNIT_OF_QUANTITY", "ZERO_IS_UNLIMITED", "quantity_of", "pulse_to_unit", "under_one_step",
+    "unit_to_pulse",
     "encode", "decode", "from_sign_magnitude", "decode_hardware_error", "decode_shutdown", "encode_shutdown",
     "decode_moving_status", "decode_drive_mode", "encode_drive_mode",
     "decode_startup_configuration", "encode_startup_configuration",
@@ -146,6 +148,21 @@ def pulse_to_unit(models: Sequence[Model], item: str, pulses: ArrayLike) -> np.n
     return out
 
 
+#: items whose register value 0 a servo takes for "no limit" (Profile Velocity and Acceleration: an
+#: infinite profile; the old Pro's and the MX's Goal Acceleration, here ``profile_acceleration``: no
+#: acceleration control): a value above 0 that would round to 0 is written as 1, the smallest step
+ZERO_IS_UNLIMITED = frozenset({"profile_velocity", "profile_acceleration"})
+
+
+def under_one_step(model: Model, item: str, value: float) -> bool:
+    """Whether ``value`` (> 0) of a ``ZERO_IS_UNLIMITED`` item is too small to be one register step,
+    so ``unit_to_pulse`` writes 1 where rounding gave the "no limit" 0 (the caller says so)."""
+    if item not in ZERO_IS_UNLIMITED or not value > 0 or not model.has(item):
+        return False
+    offset, scale = conversion([model], item)
+    return math.isfinite(float(scale[0])) and value / float(scale[0]) + float(offset[0]) < 0.5
+
+
 def unit_to_pulse(models: Sequence[Model], item: str, values: ArrayLike) -> np.ndarray:
     """Physical units (one per model) -> pulses as int64.
 
@@ -167,6 +184,8 @@ def unit_to_pulse(models: Sequence[Model], item: str, values: ArrayLike) -> np.n
         scaled = vals / plan.scale + plan.offset
     rounded = np.trunc(scaled + np.copysign(0.5, scaled))
     out: np.ndarray = np.clip(rounded, plan.lo, plan.hi).astype(np.int64)
+    if item in ZERO_IS_UNLIMITED:
+        out[(out == 0) & (vals > 0)] = 1  # a slow profile, never "no limit"
     return out
 
 

@@ -16,7 +16,7 @@ from rcl_interfaces.srv import DescribeParameters
 from std_srvs.srv import Trigger
 
 from dynamixel_handler.protocol import REBOOT, WRITE
-from dynamixel_handler_msgs.msg import DynamixelGain, DynamixelShortcut, DynamixelStatus
+from dynamixel_handler_msgs.msg import DynamixelControlXPosition, DynamixelGain, DynamixelShortcut, DynamixelStatus
 
 from support.rig import Rig, scan_params
 from support.ros import PATIENT_SCAN, NodeProcess, node_command
@@ -213,6 +213,29 @@ def test_a_command_line_entry_is_applied_as_one_from_a_file(tmp_path):
     try:
         assert reg(r, 1, "position_p_gain") == 640
         assert "servos.id_1 set: position_p_gain_pulse 640, profile_acc_deg_ss 1000.0" in r.wait_log("servos.id_1 set")
+    finally:
+        assert r.close() == 0
+
+
+def test_a_slow_profile_is_the_smallest_step_never_no_limit_from_the_block_and_from_a_command():
+    """Profile Velocity and Acceleration 0 are "no limit" to the firmware: 0.5 deg/s and 10 deg/s^2,
+    less than one step each (1.374 deg/s, 21.5 deg/s^2), are written as one step, and said so."""
+    r = Rig({1: XM430}, "servos.id_1.profile_vel_deg_s:=0.5", "servos.id_1.profile_acc_deg_ss:=10.0")
+    try:
+        assert reg(r, 1, "profile_velocity") == 1 and reg(r, 1, "profile_acceleration") == 1
+        line = r.wait_log("servos.id_1 set")
+        assert "profile_vel_deg_s 0.5 (less than one step: written as 1.374, not as 0, which the servo takes " \
+               "for no limit)" in line, line
+        mark = r.mark()
+        r.publish("/dynamixel/command/x/position_control",
+                  DynamixelControlXPosition(id_list=[1], position_deg=[90.0], profile_vel_deg_s=[0.3]))
+        r.wait(lambda: reg(r, 1, "goal_position") == 2048 + 1024, what="the goal written")
+        assert reg(r, 1, "profile_velocity") == 1
+        r.wait_log("ID 1 (XM430-W350) 'profile_vel_deg_s' = 0.3 is less than one step of profile_velocity (1.374): "
+                   "written as 1.374", since=mark)
+        # on its way at the slowest profile, not at full speed
+        r.wait(lambda: r.debug_of(1)["position"] > 0.5, what="ID 1 moving")
+        assert r.debug_of(1)["velocity"] == pytest.approx(DEG_S, abs=0.01)
     finally:
         assert r.close() == 0
 

@@ -73,6 +73,11 @@ class Rules:
             shown = float(units.pulse_to_unit([model], item, [clamped])[0])
             self.warn(f"ID {dxl_id} ({model.name}) '{field}' = {value:g} is beyond the servo's limit: clamped to {shown:g}")
             pulses = clamped
+        if units.under_one_step(model, item, value):
+            pulses = max(pulses, 1)
+            step = float(units.pulse_to_unit([model], item, [1])[0])
+            self.warn(f"ID {dxl_id} ({model.name}) '{field}' = {value:g} is less than one step of {item} "
+                      f"({step:g}): written as {step:g}, not as 0, which the servo takes for no limit")
         return pulses
 
     def clamp_rows(self, what: str, field: str, item: str, rows: list[Row], pulses: np.ndarray) -> list[int]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 from typing import Callable, Sequence
 
+from .. import units
 from ..control_table import POSITION_MODES, Model
 from ..errors import ConfigError
 from ..servo_settings import FIELDS, ServoSetting
@@ -160,7 +161,7 @@ class KeptSettings:
                 continue
             written = self.io.write_item(dxl_id, item, value)
             if written:
-                done.append(self._field(entry, item))
+                done.append(self._field(entry, item) + _step_note(model, entry, item))
             else:
                 self.say(logging.WARNING, f"ID {dxl_id}: servos.{entry.name}: {item} = {value} not written: "
                          f"{written.why}")
@@ -193,6 +194,15 @@ class KeptSettings:
         """The entry's fields that go to ``item``, with their values, as the file gives them."""
         names = [f for f in entry.values if FIELDS[f].item == item or _led_of(f, item)]
         return ", ".join(f"{f} {entry.values[f]}" for f in names) or item
+
+
+def _step_note(model: Model, entry: ServoSetting, item: str) -> str:
+    """What a value less than one step of a profile item was written as (never 0: no limit)."""
+    for field, value in entry.values.items():
+        if FIELDS[field].item == item and isinstance(value, (int, float)) and units.under_one_step(model, item, value):
+            step = float(units.pulse_to_unit([model], item, [1])[0])
+            return f" (less than one step: written as {step:g}, not as 0, which the servo takes for no limit)"
+    return ""
 
 
 def _led_of(field: str, item: str) -> bool:

@@ -7,7 +7,7 @@ import math
 import re
 
 from ..control_table import Item, Model
-from ..units import UNIT_OF_QUANTITY, conversion, quantity_of
+from ..units import UNIT_OF_QUANTITY, conversion, quantity_of, under_one_step
 from .errors import BadArguments, cut
 from .values import coded, number
 
@@ -133,6 +133,8 @@ def _converted(model: Model, item: Item, number: float, unit: str, who: str) -> 
         raise BadArguments(f"{who}: {item.name} is in {own}, not '{unit}' (write one of {', '.join(factors)})")
     offset, scale = conversion([model], item.name)
     pulses = number * factor / float(scale[0]) + float(offset[0])
+    if under_one_step(model, item.name, number * factor):
+        return 1  # a slow profile is the smallest step, never 0: the servo takes 0 for no limit
     return int(math.floor(pulses + 0.5)) if pulses >= 0 else -int(math.floor(-pulses + 0.5))
 
 
