@@ -415,7 +415,8 @@ def test_command_status_torque_mode_and_ping(rig):
     rig.wait(lambda: list(rig.debug[-1].status.id_list) == [1, 3, 4], what="ID 2 removed")
     rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[2], ping=[True]))
     rig.wait(lambda: list(rig.debug[-1].status.id_list) == [1, 2, 3, 4], what="ID 2 added back")
-    rig.wait(lambda: rig.debug_of(2)["ping"] and rig.debug_of(2)["mode"] == "position", what="ID 2 read again")
+    mode = next(name for name, value in MODE.items() if value == rig.sim.servo(2).read("operating_mode"))
+    rig.wait(lambda: rig.debug_of(2)["ping"] and rig.debug_of(2)["mode"] == mode, what=f"ID 2 read again ({mode})")
     rig.wait_log("ID 2: removed", since=mark)
     rig.wait_log("ID 2: XM540-W270 added", since=mark)
     assert rig.warnings_since(mark, about=[2]) == []
