@@ -275,12 +275,17 @@ def test_a_mode_change_the_bus_misses_is_read_back_or_tried_again_and_its_goals_
 
     goal = round(30.0 / (0.229 * 6.0))  # 30 deg/s in X velocity units
     config = {"dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}
-    with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
+    def commander_of(handler, name: str) -> tuple[Commander, list[str]]:
+        """A commander whose warnings, and the handler's log lines, go to a list."""
         handler.step()
-        servo = sim.servo(1)
-        lines = capture_log(handler, "mode_write_reply_lost")
+        lines = capture_log(handler, name)
         commander = Commander(handler)
         commander.warn = lines.append
+        return commander, lines
+
+    with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
+        servo = sim.servo(1)
+        commander, lines = commander_of(handler, "mode_write_reply_lost")
         # the torque read's, the torque off's and the mode write's replies cut in half: all three landed
         sim.truncate_next(3)
         commander.control("X", "velocity_control", [1], {"velocity_deg_s": [30.0]})
@@ -292,11 +297,8 @@ def test_a_mode_change_the_bus_misses_is_read_back_or_tried_again_and_its_goals_
         assert not [line for line in lines if "failed" in line], lines
 
     with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
-        handler.step()
         servo = sim.servo(1)
-        lines = capture_log(handler, "mode_change_unheard")
-        commander = Commander(handler)
-        commander.warn = lines.append
+        commander, lines = commander_of(handler, "mode_change_unheard")
         sim.set_silent(1, True)
         commander.control("X", "velocity_control", [1], {"velocity_deg_s": [30.0]})
         handler.step()
