@@ -274,14 +274,20 @@ def test_empty_id_list_and_254_mean_every_handled_id(rig):
 def test_mode_change_is_rate_limited(rig):
     """A change asked for too soon waits until mode_change_interval_sec has passed, then goes
     through with the goal that came with it."""
+    n = len(rig.sim.log)
     rig.publish("/dynamixel/command/status", DynamixelStatus(id_list=[4], mode=["velocity"]))
-    wait_reg(rig, 4, "operating_mode", 1)
+    wait_reg(rig, 4, "operating_mode", 1, timeout=15)  # (an earlier test's change may make it wait too)
     mark = rig.mark()
     rig.publish("/dynamixel/command/p/position_control", DynamixelControlPPosition(id_list=[4], position_deg=[30.0]))
     rig.wait_log("ID 4", "mode_change_interval_sec=2s ago: applied in", since=mark)
-    rig.fresh_states()
-    assert reg(rig, 4, "operating_mode") == 1  # not yet
     wait_reg(rig, 4, "operating_mode", 3, timeout=5)
+    # on the wire: the position mode written the interval after the velocity mode, not at once
+    mode_address = rig.sim.servo(4).model.item("operating_mode").address
+    writes = [(e.time, e.params[-1]) for e in rig.sim.log[n:]
+              if e.instruction == 0x03 and e.ids == (4,) and e.address == mode_address]
+    velocity_at = max(t for t, v in writes if v == 1)
+    position_at = min(t for t, v in writes if v == 3 and t > velocity_at)
+    assert position_at - velocity_at >= 2.0 - 0.05, writes
     wait_reg(rig, 4, "goal_position", round(30.0 / P_DEG))
     rig.wait(lambda: abs(rig.debug_of(4)["position"] - 30.0) < 0.01, timeout=15, what="ID 4 at 30 deg")
 

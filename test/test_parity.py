@@ -156,6 +156,10 @@ def test_an_eeprom_write_brings_torque_back_safely_and_spares_the_eeprom():
     try:
         velocity(rig, 1, 60.0)
         rig.wait(lambda: reg(rig, 1, "present_velocity") > 0, what="ID 1 turning")
+        # the limit topic's first message (its value already so: nothing written), acknowledged, so
+        # that the burst below reaches the node within one EEPROM write interval
+        rig.publish("/dynamixel/command/limit", DynamixelLimit(id_list=[1], temperature_limit_degc=[
+            float(reg(rig, 1, "temperature_limit"))]))
         rig.sim.clear_log()
         for degc in (70.0, 71.0, 70.0, 71.0, 72.0):  # a burst of alternating values
             rig.publish("/dynamixel/command/limit", DynamixelLimit(id_list=[1], temperature_limit_degc=[degc]))

@@ -161,14 +161,16 @@ class Targets:
             steps = self._steps[item] = list(zip(plan.scale.tolist(), plan.offset.tolist(),
                                                  [int(v) for v in plan.lo.tolist()], [int(v) for v in plan.hi.tolist()]))
         out = []
+        floor = 1 if item in units.ZERO_IS_UNLIMITED else 0  # a slow profile, never "no limit"
         for value, (scale, offset, lo, hi) in zip(values, steps):
             scaled = value / scale + offset
             if scaled >= hi:  # rounding keeps it there (and an infinity has no integer)
-                out.append(hi)
+                raw = hi
             elif scaled <= lo:
-                out.append(lo)
+                raw = lo
             else:
-                out.append(math.trunc(scaled + math.copysign(0.5, scaled)))  # half away from zero
+                raw = math.trunc(scaled + math.copysign(0.5, scaled))  # half away from zero
+            out.append(floor if raw == 0 and value > 0 else raw)
         if bounds is None:
             return out, False
         return out, all(map(operator.le, bounds[0], out)) and all(map(operator.le, out, bounds[1]))

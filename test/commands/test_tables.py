@@ -40,7 +40,7 @@ def test_a_control_topic_switches_the_servo_to_its_mode(control):
 @pytest.mark.parametrize("field", sorted(GOAL_FIELDS))
 def test_a_goal_field_is_written_to_its_item(field):
     c, access, lines = _commander()
-    c.goal([1], {field: [1.0]})
+    c.goal([1], {field: [100.0]})  # (1 deg/s^2 is under one profile step: written as one, with a line)
     assert [set(goals) for goals in access.goals] == [{GOAL_FIELDS[field]}] and not lines
 
 

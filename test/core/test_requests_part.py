@@ -5,7 +5,10 @@ why, and the turns it keeps. (test_requests.py asks the same through the Handler
 from __future__ import annotations
 
 import logging
+import time
 from typing import Any
+
+import pytest
 
 from dynamixel_handler.bus.ops import Reboot
 from dynamixel_handler.bus.result import Result
@@ -19,7 +22,7 @@ from dynamixel_handler.core.request_types import (
     Outcome,
     SetGoals,
 )
-from dynamixel_handler.core.requests import MODE_RESET_ITEMS, Requests
+from dynamixel_handler.core.requests import MODE_ATTEMPTS, MODE_RESET_ITEMS, MODE_RETRY_S, Requests
 from dynamixel_handler.settings import Settings
 
 from support.fake_bus import XM430, FakeBus
@@ -63,12 +66,23 @@ def test_a_mode_change_leaves_out_the_old_modes_own_goal():
     assert written[:2] == ["torque_enable", "operating_mode"]
 
 
-def test_a_mode_change_the_servo_does_not_answer_fails_with_the_reason():
-    bus, _, requests, lines = started("silent", loop__mode_change_interval_s=0.0)
+def test_a_mode_change_the_servo_does_not_answer_is_tried_again_then_fails_with_the_reason():
+    bus, parts, requests, lines = started("silent", loop__mode_change_interval_s=60.0)
     bus.silent.add(2)
+    for attempt in range(1, MODE_ATTEMPTS):  # answered LATER: the caller defers it MODE_RETRY_S
+        again = requests.change_mode(ChangeMode(2, "velocity", "x/velocity_control"))
+        assert again.outcome is Outcome.LATER and again.later is Later.RETRY, attempt
+        assert requests.mode_change_wait(2) == 0.0  # a change not made does not hold the next one back
+    retries = [line for line in lines if "tried again in" in line]
+    assert len(retries) == 1  # one line a second
+    assert retries[0] == (f"x/velocity_control: ID 2 mode change to 'velocity' failed (no reply): tried again in "
+                          f"{MODE_RETRY_S:g}s with its goals (attempt 2 of {MODE_ATTEMPTS})")
+    requests.defer_mode_change(DeferModeChange(2, Later.RETRY, ChangeMode(2, "velocity", "x"), "x"))
+    assert parts.work.deferred[2][0] == pytest.approx(time.monotonic() + MODE_RETRY_S, abs=0.05)
     failed = requests.change_mode(ChangeMode(2, "velocity", "x/velocity_control"))
     assert failed.outcome is Outcome.FAILED
-    assert failed.failure == "x/velocity_control: ID 2 mode change to 'velocity' failed: no reply"
+    assert failed.failure == (f"x/velocity_control: ID 2 mode change to 'velocity' failed after {MODE_ATTEMPTS} "
+                              "attempt(s): no reply; the goals that came with it are not written")
     assert not any("operating mode ->" in line for line in lines)  # no line that it changed
 
 
