@@ -61,7 +61,19 @@ SIM_MODULES = frozenset({"test_bus_sim", "test_bus_wire", "test_bus_protocol"})
 _ROS_NAMES = ("rclpy", "Rig", "NodeProcess", "TopicClient")
 
 
+#: the modules that take longest (a minute or more of a worker's time): collected first, so that the
+#: two workers (a file each at a time, ``--dist loadfile``) do not end with one of them alone on one
+LONG_FIRST = ("test_setup_tool_restore", "test_setup_tool_reach", "test_setup_tool_safety", "test_docs_run",
+              "test_loop_report", "test_watchdog_pacing", "test_setup_tool", "test_load", "test_pipeline")
+
+
+def _first(item) -> int:
+    name = item.path.stem
+    return LONG_FIRST.index(name) if name in LONG_FIRST else len(LONG_FIRST)
+
+
 def pytest_collection_modifyitems(config, items):
+    items.sort(key=_first)  # stable: each module's tests keep their order
     for item in items:
         module = getattr(item, "module", None)
         name = module.__name__.rsplit(".", 1)[-1] if module else ""
