@@ -133,18 +133,21 @@ def test_the_bus_watchdog_is_armed_only_in_velocity_current_and_pwm_modes():
 def test_shutdown_without_torque_off_stops_a_moving_position_servo_where_it_is():
     rig = Rig({1: X, 2: X540}, "term/torque_auto_disable:=false", "mode_change_interval_sec:=0.0")
     try:
+        velocity(rig, 2, 40.0)
         rig.publish("/dynamixel/command/x/position_control",
                     DynamixelControlXPosition(id_list=[1], position_deg=[170.0], profile_vel_deg_s=[10.0]))
-        velocity(rig, 2, 40.0)
         rig.wait(lambda: reg(rig, 1, "present_position") > x_pos(3.0), what="ID 1 on its way")
     finally:
+        at_term = reg(rig, 1, "present_position")
         code = rig.node_proc.stop(signal.SIGTERM)
         rig.close()
     assert code == 0
     stopped = [reg(rig, i, "present_position") for i in (1, 2)]
     time.sleep(0.5)
     assert [reg(rig, i, "present_position") for i in (1, 2)] == stopped  # both hold where they stopped
-    assert stopped[0] < x_pos(30.0)  # far from the goal it was heading for
+    # far from the goal it was heading for: stopped within the shutdown's time (at 10 deg/s, 2 s at most
+    # on a loaded host) of where it was when the signal came
+    assert stopped[0] < min(at_term + round(20.0 / X_DEG), x_pos(90.0)), (at_term, stopped[0])
     assert [reg(rig, i, "torque_enable") for i in (1, 2)] == [1, 1]  # and keep holding
     assert reg(rig, 1, "goal_position") == stopped[0]
     assert reg(rig, 2, "goal_velocity") == 0
