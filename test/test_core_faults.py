@@ -245,7 +245,8 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
     ]
     for lost, command, register, value in cases:
         config = {"dyn_comm/retry_num": 0, "mode_change_interval_sec": 0.0}
-        with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
+        # a 16 ms adapter: only the cut replies are lost, not one a loaded host delays
+        with handler_on_virtual_bus({1: XM430}, config, retry_num=0, latency_timer_ms=16.0) as (sim, handler):
             handler.step()
             servo = sim.servo(1)
             assert servo.read("torque_enable") == 1 and servo.read(register) != value
@@ -283,7 +284,7 @@ def test_a_mode_change_the_bus_misses_is_read_back_or_tried_again_and_its_goals_
         commander.warn = lines.append
         return commander, lines
 
-    with handler_on_virtual_bus({1: XM430}, config, retry_num=0) as (sim, handler):
+    with handler_on_virtual_bus({1: XM430}, config, retry_num=0, latency_timer_ms=16.0) as (sim, handler):
         servo = sim.servo(1)
         commander, lines = commander_of(handler, "mode_write_reply_lost")
         # the torque read's, the torque off's and the mode write's replies cut in half: all three landed

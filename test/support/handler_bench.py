@@ -17,15 +17,19 @@ from .ros import SCAN_RETRIES
 @contextmanager
 def handler_on_virtual_bus(servos: Mapping[int, int], config: Mapping[str, Any] | None = None, *,
                            baudrate: int | None = None, patient: bool = False,
-                           retry_num: int = 1, tripped_once: bool = True) -> Iterator[tuple[VirtualBus, Handler]]:
+                           retry_num: int = 1, tripped_once: bool = True,
+                           latency_timer_ms: float | None = None) -> Iterator[tuple[VirtualBus, Handler]]:
     """A started ``Handler`` for ``servos`` (ID -> model number) with ``config`` over the defaults;
     ``(sim, handler)``. ``baudrate`` None: the servos' factory 57600 bps. ``patient``: a reply
     timeout and retries that a busy host cannot exhaust, for tests comparing two runs reply for
     reply (a lost reply would part them). ``tripped_once`` False: goals look for tripped bus
-    watchdogs servo by servo (``Handler``). The start-up scan expects every servo of ``servos`` and
+    watchdogs servo by servo (``Handler``). ``latency_timer_ms``: the adapter's reply wait (a test
+    that loses replies on purpose with no retries, and must not lose others to a loaded host). The
+    start-up scan expects every servo of ``servos`` and
     retries until it saw them all: a busy host can delay a reply past a 1 ms adapter's timeout."""
     sim = VirtualBus(servos, baudrate=baudrate)
-    bus = DynamixelBus(sim.start(), baudrate or 57600, latency_timer_ms=16.0 if patient else 1.0,
+    latency = latency_timer_ms if latency_timer_ms is not None else 16.0 if patient else 1.0
+    bus = DynamixelBus(sim.start(), baudrate or 57600, latency_timer_ms=latency,
                        retry_num=3 if patient else retry_num)
     bus.open()
     try:
