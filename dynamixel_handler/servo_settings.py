@@ -31,6 +31,10 @@ from .logs import cut
 
 #: the parameter names of the block start so
 PREFIX = "servos."
+#: the key of an entry that lets it lower a protection (not an item)
+FORCE = "force"
+#: the largest whole number an item takes (a register holds at most 4 bytes; a ROS integer 8)
+_INT_MAX = 2**31
 
 #: how an item is applied: the mode; an item of the servo's control table in message units
 #: (EEPROM or RAM, as the model says); a gain in register units; bits of a bit-field register;
@@ -92,6 +96,9 @@ class ServoSetting:
     dxl_id: int
     values: Mapping[str, Any] = field(default_factory=dict)
     name: str = ""
+    #: write values that lower a protection (Shutdown bits off, a temperature or voltage limit
+    #: beyond its factory value, the turning direction reversed); in a file: ``force: true``
+    force: bool = False
 
     def __post_init__(self) -> None:
         if not self.name:
@@ -99,6 +106,11 @@ class ServoSetting:
         if type(self.dxl_id) is not int or not 0 <= self.dxl_id <= 252:
             raise ConfigError(f"servos.{self.name}: servo ID {cut(self.dxl_id)} is not within 0..252")
         flat = dict(_flat(self.values))
+        force = flat.pop(FORCE, self.force)
+        if type(force) is not bool:
+            raise ConfigError(f"servos.{self.name}.{FORCE} = {cut(repr(force))}: must be true or false (true: write "
+                              "values that lower a protection)")
+        object.__setattr__(self, "force", force)
         checked = tuple((item, _checked(self.name, item, value)) for item, value in flat.items())
         object.__setattr__(self, "values", _Frozen(checked))
 
@@ -137,6 +149,10 @@ def _checked(servo: str, item: str, value: Any) -> Any:
         raise ConfigError(f"{where} = {cut(value)}: unknown item" + (f": did you mean '{hint[0]}'?" if hint else
                           f" (known: {', '.join(FIELDS)})"))
     got = _typed(spec.type, value)
+    if got is None and spec.type is int and isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and abs(value) >= _INT_MAX:
+        raise ConfigError(f"{where} = {cut(repr(value))}: beyond any register (a whole number within "
+                          f"-{_INT_MAX}..{_INT_MAX - 1}; {spec.meaning})")
     if got is None:
         raise ConfigError(f"{where} = {cut(repr(value))}: must be {spec.type.__name__} ({spec.meaning})")
     why = _wrong_value(item, spec, got)
@@ -168,14 +184,15 @@ def _typed(kind: type, value: Any) -> Any:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         return None
     if kind is int:
-        return int(value) if float(value).is_integer() else None
+        return int(value) if float(value).is_integer() and abs(value) < _INT_MAX else None
     return float(value)
 
 
 def servo_key(name: str, joints: JointMap | None) -> int:
     """The servo ID an entry's name stands for: ``id_<N>``, or a joint of ``joint_state.names``."""
-    if name.startswith("id_") and name[3:].isdigit():
-        return int(name[3:])
+    digits = name[3:]
+    if name.startswith("id_") and digits.isascii() and digits.isdigit():  # not "id_²" nor "id_٢"
+        return int(digits)
     if joints is not None and name in joints.names:
         return joints.id_of(name)
     known = f"the joints are {', '.join(joints.names)}" if joints is not None else "joint_state.names maps none"
@@ -218,4 +235,4 @@ def is_servo_parameter(name: str) -> bool:
     return name.startswith(PREFIX) or name == PREFIX[:-1]
 
 
-__all__ = ["FIELDS", "PREFIX", "Field", "ServoSetting", "is_servo_parameter", "servo_block", "servo_settings"]
+__all__ = ["FIELDS", "FORCE", "PREFIX", "Field", "ServoSetting", "is_servo_parameter", "servo_block", "servo_settings"]

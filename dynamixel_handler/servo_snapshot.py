@@ -5,6 +5,7 @@ Each handled servo gets an entry ``id_<N>`` with its mode, the gains and limits 
 profiles, homing offset and return delay, and its Drive Mode and Shutdown bits, read from the servo
 and written in the units of the command messages (the names and units of ``servo_settings.FIELDS``),
 so that the file loads back as it was saved (``--params-file``, after the robot's own file).
+``items_of`` names what an entry reads, so that all of it is read at once (a sync read per layout).
 """
 from __future__ import annotations
 
@@ -17,6 +18,12 @@ from .servo_settings import BITS, FIELDS, LED, MODE, WATCHDOG
 
 #: decimals kept of a value in physical units: far finer than a register unit of any item
 DECIMALS = 4
+
+
+def items_of(model: Model) -> list[str]:
+    """The items :func:`entry_of` reads of ``model`` (to read them all at once first)."""
+    own = [spec.item for spec in FIELDS.values() if spec.kind not in (MODE, LED, WATCHDOG, BITS)]
+    return [item for item in dict.fromkeys(own + ["drive_mode", "shutdown"]) if model.has(item)]
 
 
 def entry_of(model: Model, read: Callable[[str], "int | None"], mode: str | None) -> dict[str, Any]:
@@ -62,4 +69,4 @@ def servos_yaml(entries: Iterable[tuple[int, dict[str, Any]]], source: str) -> s
             "# load it after the robot's own parameters file: --params-file robot.yaml --params-file this.yaml\n" + text)
 
 
-__all__ = ["DECIMALS", "entry_of", "servos_yaml"]
+__all__ = ["DECIMALS", "entry_of", "items_of", "servos_yaml"]

@@ -3,17 +3,19 @@ values it asks for (ROS-free).
 
 ``refusals`` lists, one line each naming servo, item and value, the items the model lacks, the
 values beyond its e-Manual range (``Model.value_range``; the position limits: the model's
-position range) and a mode it lacks. ``register_values`` turns an entry into register values
+position range) and a mode it lacks; ``dangers`` runs the set-up tool's checks on what the entry
+would change (min below max; a protection lowered only with ``force: true``). ``register_values`` turns an entry into register values
 (pulses); a bit-field register (Drive Mode, Shutdown, the XL-320's LED colour) takes the bits
 the entry gives and keeps the others of the value the servo holds.
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from . import error_state, units
 from .control_table import POSITION_MODES, Model
-from .servo_settings import BITS, FIELDS, LED, MODE, PULSE, UNIT, WATCHDOG, ServoSetting
+from .servo_settings import BITS, FIELDS, FORCE, LED, MODE, PULSE, UNIT, WATCHDOG, ServoSetting
+from .setup_tool.checks import needed, problems
 
 #: modes that need a current sensor (as ``commands.tables.CURRENT_MODES``)
 CURRENT_MODES = frozenset({"current", "cur_position"})
@@ -74,14 +76,6 @@ def refused_fields(model: Model, setting: ServoSetting) -> dict[str, str]:
     return out
 
 
-def usable(model: Model, setting: ServoSetting) -> ServoSetting:
-    """The entry without the items the model refuses."""
-    refused = refused_fields(model, setting)
-    if not refused:
-        return setting
-    return ServoSetting(setting.dxl_id, {f: v for f, v in setting.values.items() if f not in refused}, setting.name)
-
-
 def _refused(model: Model, field: str, item: str, value: Any) -> str:
     kind = FIELDS[field].kind
     if kind == MODE:
@@ -130,6 +124,30 @@ def _speed_hint(model: Model, field: str) -> str:
     return ""
 
 
+def dangers(model: Model, setting: ServoSetting, current: Current,
+            others: Iterable[int] = ()) -> tuple[dict[str, str], list[str]]:
+    """The set-up tool's checks (``setup_tool.checks.problems``) on the values the entry would
+    change: min below max across a limit pair (refused), and what lowers a protection: Shutdown
+    bits cleared, a temperature or voltage limit beyond its factory value, the direction reversed
+    (refused unless the entry says ``force: true``). ``current``: what the servo holds (read before
+    anything is written); ``others``: the other servos' IDs. ({item: why refused}, lines of what
+    ``force: true`` lets through)."""
+    new = register_values(model, setting, current)
+    new.pop("operating_mode", None)
+    now = {item: value for item in set(new) | set(needed(model, new)) if (value := current(item)) is not None}
+    changed = {item: value for item, value in new.items() if now.get(item) != value}
+    refused: dict[str, str] = {}
+    forced = []
+    for problem in problems(model, changed, now, setting.dxl_id, others):
+        where = f"servos.{setting.name}: ID {setting.dxl_id} ({model.name}) {problem.text}"
+        if problem.forcible and setting.force:
+            forced.append(f"{where}: written ({FORCE}: true)")
+            continue
+        why = where + (f": give '{FORCE}: true' in the entry to write it anyway" if problem.forcible else "")
+        refused[problem.item] = f"{refused[problem.item]}; {why}" if problem.item in refused else why
+    return refused, forced
+
+
 def register_values(model: Model, setting: ServoSetting, current: Current) -> dict[str, int]:
     """{item: register value} the entry asks for (the mode: its register value); bit fields merged
     with the servo's bits (``current``)."""
@@ -176,4 +194,4 @@ def _merged(model: Model, item: str, given: dict[str, Any], old: int) -> int | N
     return int(percent * 255.0 / 100.0 + 0.5)  # P, PRO: 0..255
 
 
-__all__ = ["led_item", "refusals", "refused_fields", "register_values", "to_pulses", "usable", "value_range"]
+__all__ = ["dangers", "led_item", "refusals", "refused_fields", "register_values", "to_pulses", "value_range"]

@@ -30,7 +30,8 @@ joint_state: {names: [base, wrist], ids: [1, 2]}
 servos:
   id_1: {mode: cur_position, position_p_gain_pulse: 640, velocity_limit_deg_s: 120.0, profile_vel_deg_s: 60.0,
          return_delay_time_us: 20.0}
-  wrist: {position_p_gain_pulse: 700, drive_mode: {reverse_mode: true}, shutdown: {overload_error: false}}
+  wrist: {position_p_gain_pulse: 700, drive_mode: {reverse_mode: true}, shutdown: {overload_error: false},
+          force: true}
 """
 
 
@@ -269,7 +270,7 @@ def test_a_launch_file_given_a_file_with_the_block_applies_it(tmp_path):
     from support.launch_runner import nodes
     r = Rig({1: XM430}, start_node=False)
     try:
-        path = params_file(tmp_path, "servos:\n  id_1: {position_p_gain_pulse: 640, drive_mode: {reverse_mode: true}}\n")
+        path = params_file(tmp_path, "servos:\n  id_1: {position_p_gain_pulse: 640, drive_mode: {reverse_mode: true}, force: true}\n")
         (spec,) = nodes("dynamixel_handler_launch.py", device_name=r.device, params_file=str(path))
         r.node_proc = NodeProcess(spec.command(tmp_path) + ["-p", PATIENT_SCAN])
         r.wait_log("servos.id_1 set: drive_mode.reverse_mode True (EEPROM, written), position_p_gain_pulse 640",

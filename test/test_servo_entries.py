@@ -13,7 +13,7 @@ from dynamixel_handler.errors import ConfigError
 from dynamixel_handler.joints import joint_map
 from dynamixel_handler.servo_settings import ServoSetting, servo_block, servo_settings
 from dynamixel_handler.servo_snapshot import entry_of, servos_yaml
-from dynamixel_handler.servo_targets import refusals, register_values
+from dynamixel_handler.servo_targets import dangers, refusals, register_values
 from dynamixel_handler.settings import Settings
 
 XM430, PH54, XL320 = model_by_number(1020), model_by_number(2020), model_by_number(350)
@@ -127,3 +127,33 @@ def test_a_snapshot_entry_loads_back_as_the_entry_the_servo_holds():
     assert {k: again[k] for k in held} == held
     text = servos_yaml([(1, entry)], "/dev/ttyUSB0")
     assert text.startswith("# the servos' settings as read from /dev/ttyUSB0") and "id_1:" in text
+
+
+def test_the_set_up_tools_checks_judge_what_an_entry_would_change():
+    held = {"shutdown": 52, "drive_mode": 0, "temperature_limit": 80, "min_position_limit": 0, "max_position_limit": 4095}
+    lowered = ServoSetting(1, {"shutdown": {"overload_error": False}, "temperature_limit_degc": 90.0})
+    refused, forced = dangers(XM430, lowered, held.get, [1, 2])
+    assert sorted(refused) == ["shutdown", "temperature_limit"] and not forced
+    assert "clears protection bits 0x20" in refused["shutdown"] and "give 'force: true'" in refused["shutdown"]
+    refused, forced = dangers(XM430, ServoSetting(1, lowered.values, force=True), held.get, [1, 2])
+    assert not refused and len(forced) == 2 and all(line.endswith("written (force: true)") for line in forced)
+    # what the servo already holds is no change: no force needed (a snapshot loads back)
+    assert dangers(XM430, lowered, {**held, "shutdown": 52 & ~0x20, "temperature_limit": 90}.get) == ({}, [])
+    # min not below max: refused even with force
+    inverted = ServoSetting(1, {"min_position_limit_deg": 90.0, "max_position_limit_deg": -90.0}, force=True)
+    refused, _ = dangers(XM430, inverted, held.get)
+    assert list(refused) == ["min_position_limit"] and "would not be below max_position_limit" in refused["min_position_limit"]
+
+
+@pytest.mark.parametrize("name", ["id_\u00b2", "id_\u0662", "id_1.5", "id_-1"])
+def test_an_entry_name_is_id_and_ascii_digits_only(name):
+    with pytest.raises(ConfigError, match="neither id_<N> nor a joint name"):
+        servo_settings({name: {"position_p_gain_pulse": 640}})
+
+
+def test_a_number_beyond_any_register_and_a_force_that_is_no_bool_are_refused():
+    with pytest.raises(ConfigError, match=r"position_p_gain_pulse = 1e\+308: beyond any register"):
+        ServoSetting(1, {"position_p_gain_pulse": 1e308})
+    with pytest.raises(ConfigError, match="servos.id_1.force = 'yes': must be true or false"):
+        ServoSetting(1, {"force": "yes"})
+    assert ServoSetting(1, {"force": True, "position_p_gain_pulse": 640}).force is True

@@ -3,13 +3,17 @@ over all of them instead of one transaction per servo (on a slow bus, 20 servos 
 difference between the wire time of one packet and of twenty)."""
 from __future__ import annotations
 
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 from .. import units
 from ..bus import ServoBus
 from ..bus.ops import SyncRead
+from ..control_table import Item, Model
 from ..servos import ServoTable
 from .servo_io import Log
+
+#: items farther apart than this many bytes are read in separate sync reads (not one long span)
+SPAN_GAP = 32
 
 
 class GroupIO:
@@ -51,3 +55,41 @@ class GroupIO:
                     self.table.set_value(item, dxl_id, values[dxl_id])
             else:
                 self.log.warning(f"{what}: writing {item} to IDs {members} failed: {written.why}")
+
+    def read_items(self, items: Sequence[str], ids: Iterable[int]) -> dict[int, dict[str, int]]:
+        """{ID: {item: value}} of the ``items`` each servo of ``ids`` has, for a snapshot (not kept
+        in the table): one sync read per control-table layout over each span of them (items less
+        than ``SPAN_GAP`` bytes apart share one), not a read per item; a servo that did not answer
+        a span lacks its items."""
+        spans: dict[tuple[int, int, int, tuple[tuple[str, int, int], ...]], list[int]] = {}
+        for dxl_id in ids:
+            model = self.table.model(dxl_id)
+            for start, length, layout in _spans(model, items):
+                spans.setdefault((start, length, model.protocol, layout), []).append(dxl_id)
+        out: dict[int, dict[str, int]] = {}
+        for (start, length, protocol, layout), members in spans.items():
+            replies = self.bus.execute(SyncRead(start, length, tuple(members), protocol=protocol)).value
+            for dxl_id, data in replies.items():
+                model = self.table.model(dxl_id)
+                out.setdefault(dxl_id, {}).update(
+                    {name: int(units.decode(model.item(name), data[a - start:a - start + n])[0]) for name, a, n in layout})
+        return out
+
+
+def _spans(model: Model, items: Sequence[str]) -> list[tuple[int, int, tuple[tuple[str, int, int], ...]]]:
+    """The model's ``items`` as (start address, length, ((item, address, size), ...)) spans."""
+    specs = sorted((model.item(n) for n in set(items) if model.has(n)), key=lambda spec: spec.address)
+    out: list[tuple[int, int, tuple[tuple[str, int, int], ...]]] = []
+    group: list[Item] = []
+    for spec in specs:
+        if group and spec.address - max(g.address + g.size for g in group) > SPAN_GAP:
+            out.append(_span(group))
+            group = []
+        group.append(spec)
+    return out + ([_span(group)] if group else [])
+
+
+def _span(group: list[Item]) -> tuple[int, int, tuple[tuple[str, int, int], ...]]:
+    start = group[0].address
+    end = max(g.address + g.size for g in group)
+    return start, end - start, tuple((g.name, g.address, g.size) for g in group)

@@ -106,7 +106,13 @@ class Handler:
         self.startup.start()
 
     def shutdown(self) -> None:
-        """Leave the servos as term/* say (``core.shutdown``)."""
+        """Leave the servos as term/* say (``core.shutdown``); a start-up refused before its first
+        write (a servos block refused, too few servos found) writes nothing here either: every
+        servo is left as it was found (torque included)."""
+        if not self.startup.wrote:
+            if len(self.table):
+                self.log.info("start-up wrote nothing: the servos are left as they were found (torque unchanged)")
+            return
         dropped = self.pacing.dropped_mode_changes | set(self.work.deferred)
         self.ending.shutdown(dropped, set(self.watchdog.user))
 

@@ -16,7 +16,7 @@ from .. import units
 from ..control_table import POSITION_MODES, Model
 from ..errors import ConfigError
 from ..servo_settings import FIELDS, ServoSetting
-from ..servo_targets import refusals, register_values, usable
+from ..servo_targets import dangers, refused_fields, register_values
 from ..servos import ServoTable
 from .deferred import Deferred
 from .servo_io import ServoIO
@@ -38,24 +38,27 @@ class KeptSettings:
         self.say = say
         #: IDs whose entry was applied at their set-up: what resets their RAM puts it back
         self.applied: set[int] = set()
-        #: (ID, model number) whose refused items were reported
-        self.reported: set[tuple[int, int]] = set()
+        #: (ID, model number) -> the entry's fields left out on that model (reported once)
+        self.withheld: dict[tuple[int, int], frozenset[str]] = {}
 
     def entry(self, dxl_id: int) -> ServoSetting | None:
-        """The servo's entry, without the items its model refuses (``debug``, or a servo replaced
-        by another model while unplugged: those are left out with one line)."""
-        for setting in self.settings():
-            if setting.dxl_id == dxl_id:
-                if dxl_id not in self.table:
-                    return setting
-                model = self.table.model(dxl_id)
-                kept = usable(model, setting)
-                if kept is not setting and (dxl_id, model.number) not in self.reported:
-                    self.reported.add((dxl_id, model.number))
-                    for line in refusals(model, setting):
-                        self.say(logging.WARNING, f"{line}: left out")
-                return kept
-        return None
+        """The servo's entry, without the items its model refuses or that would lower a protection
+        unasked (``debug``, or a servo replaced by another model while unplugged: those are left
+        out with one line)."""
+        setting = next((s for s in self.settings() if s.dxl_id == dxl_id), None)
+        if setting is None or dxl_id not in self.table:
+            return setting
+        model = self.table.model(dxl_id)
+        key = (dxl_id, model.number)
+        if key not in self.withheld:
+            refused = self._refused(model, setting)
+            for line in dict.fromkeys(refused.values()):  # a line for several fields of one item: once
+                self.say(logging.WARNING, f"{line}: left out")
+        left_out = self.withheld[key]
+        if not left_out:
+            return setting
+        return ServoSetting(dxl_id, {f: v for f, v in setting.values.items() if f not in left_out}, setting.name,
+                            setting.force)
 
     def sets(self, dxl_id: int, item: str) -> bool:
         """Whether the servo's entry sets control-table ``item``."""
@@ -65,17 +68,17 @@ class KeptSettings:
     # ---------------------------------------------------------------- before anything is written
     def check(self, debug: bool) -> None:
         """Every entry against the servos found: an ID not handled, an item its model lacks, a value
-        beyond its e-Manual range, a mode it lacks. One ERROR line each, then ConfigError (nothing
-        is written); with ``debug`` the lines are warnings and the node runs on."""
+        beyond its e-Manual range, a mode it lacks; then the set-up tool's checks on what it would
+        change (``servo_targets.dangers``: min below max, no protection lowered without ``force:
+        true``). One ERROR line each, then ConfigError (nothing is written); with ``debug`` the
+        lines are warnings, those items are left out and the node runs on."""
         lines = []
         for setting in self.settings():
             if setting.dxl_id not in self.table:
                 lines.append(f"servos.{setting.name}: ID {setting.dxl_id} is not on the bus (handled: "
                              f"{list(self.table.ids)}): check the ID, or take the entry out")
                 continue
-            model = self.table.model(setting.dxl_id)
-            lines += refusals(model, setting)
-            self.reported.add((setting.dxl_id, model.number))
+            lines += dict.fromkeys(self._refused(self.table.model(setting.dxl_id), setting).values())
         if not lines:
             return
         if debug:
@@ -87,6 +90,27 @@ class KeptSettings:
         for line in lines:
             self.say(logging.ERROR, line)
         raise ConfigError(f"the servos block has {len(lines)} refused items (the lines above): nothing was written")
+
+    def _refused(self, model: Model, setting: ServoSetting) -> dict[str, str]:
+        """{field: why} the entry's items refused on this servo (kept in ``withheld``): what its
+        model lacks or holds beyond its e-Manual range, else the set-up tool's checks on what the
+        entry would change, read from the servo first (a line for each protection lowered with
+        ``force: true``)."""
+        refused = refused_fields(model, setting)
+        if not refused:
+            held: dict[str, int | None] = {}
+
+            def current(item: str) -> int | None:
+                if item not in held:
+                    held[item] = self.io.read_item(setting.dxl_id, item) if model.has(item) else None
+                return held[item]
+
+            items, forced = dangers(model, setting, current, self.table.ids)
+            for line in forced:
+                self.say(logging.WARNING, line)
+            refused = {f: why for item, why in items.items() for f in setting.values if FIELDS[f].item == item}
+        self.withheld[(setting.dxl_id, model.number)] = frozenset(refused)
+        return refused
 
     # ---------------------------------------------------------------- set-up
     def prepare(self, dxl_id: int) -> list[str]:

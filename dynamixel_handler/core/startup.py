@@ -49,6 +49,8 @@ class Startup:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         #: ID -> handled or not, as commands asked in this loop (``want_handled``); None: nothing asked
         self.membership: dict[int, bool] | None = None
+        #: whether start-up reached its first write (a refusal before it leaves every servo as found)
+        self.wrote = False
         self.scanning = Scan(bus, log, settings.scan, self._startup_problem, interrupted)
         #: the servos block: checked after the scan, applied at each set-up, put back after a reset
         self.kept = KeptSettings(table, io, eeprom, watchdog, lambda: self.settings.servos,
@@ -56,6 +58,7 @@ class Startup:
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
+        self.wrote = False
         dummies = dummy_ids(self.bus)
         expected = self.settings.scan.expected
         self.scanning.settings = self.settings.scan
@@ -67,6 +70,7 @@ class Startup:
                        "init/expected_servo_num (0: any number)")
             self._startup_problem(message)
         self.kept.check(self.settings.debug)  # before anything is written
+        self.wrote = True
         for dxl_id in list(self.table.ids):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import signal
 import sys
 import threading
+import traceback
 from typing import Any, Callable
 
 import rclpy
@@ -16,7 +17,7 @@ from rclpy.node import Node
 
 from ..bus import BusError
 from ..errors import ConfigError, Interrupted, StartupError
-from ..logs import cut
+from ..logs import Throttle, cut
 from ..runner import log_exception
 from . import fastpath
 from .params import check_arguments
@@ -46,23 +47,43 @@ def _logger_of(exc: BaseException, fallback: Any) -> Any:
 
 
 class _Spinner:
-    """The executor spun on its own thread until ``stopping``; an exception from a callback is
-    raised again on the main thread by ``join`` (as if the main thread had spun)."""
+    """The executor spun on its own thread until ``stopping``. An exception from a callback (a
+    defect in one door) is one ERROR line a second per cause, its traceback at DEBUG, and the node
+    goes on: the loop, the servos and every other door keep working. What ends the spinning
+    (rclpy shut down from outside) is raised again on the main thread by ``join``."""
 
-    def __init__(self, executor: MultiThreadedExecutor, stopping: threading.Event, wake: Callable[[], None]) -> None:
+    def __init__(self, executor: MultiThreadedExecutor, stopping: threading.Event, wake: Callable[[], None],
+                 log: Any = None) -> None:
         self.executor, self.stopping, self.wake = executor, stopping, wake
         self.error: BaseException | None = None
+        self.log = log
+        self._said = Throttle(lambda _msg: None)  # which causes were said this second
         self.thread = threading.Thread(target=self._spin, name="executor", daemon=True)
         self.thread.start()
 
     def _spin(self) -> None:
         try:
             while not self.stopping.is_set() and rclpy.ok():
-                self.executor.spin_once(timeout_sec=0.5)
+                try:
+                    self.executor.spin_once(timeout_sec=0.5)
+                except ExternalShutdownException:
+                    raise
+                except Exception as exc:
+                    if self.log is None:
+                        raise
+                    if self.stopping.is_set() or not rclpy.ok():
+                        break  # ending anyway
+                    self._survived(exc)
         except BaseException as exc:
             self.error = exc
         finally:
             self.stopping.set()
+
+    def _survived(self, exc: Exception) -> None:
+        frames = traceback.extract_tb(exc.__traceback__)
+        where = f"{frames[-1].filename}:{frames[-1].lineno}" if frames else ""
+        if self._said("", key=f"{type(exc).__name__} {where}"):
+            log_exception(self.log, "a callback failed (the node goes on)", exc)
 
     def join(self) -> None:
         self.wake()
@@ -130,7 +151,7 @@ class _Process:
         self.executor.add_node(node)
         # the executor spins on a thread of its own, so that the main thread sees a signal at once
         # (a signal handler only runs on the main thread, between two Python steps)
-        self.spinner = _Spinner(self.executor, self.stopping, self.on_signal)
+        self.spinner = _Spinner(self.executor, self.stopping, self.on_signal, log)
         while not self.stopping.wait(0.05) and rclpy.ok():
             pass
         self.spinner.join()

@@ -3,44 +3,100 @@ a ``servos`` block to ``servos_snapshot.path`` (default: ``dynamixel_servos.yaml
 directory), so that what an owner tuned live (``/dynamixel/command/gain`` ...) loads at the next
 start.
 
-The callback (an executor thread) only asks; the loop thread reads the servos after its next step
-(the bus is the loop's) and writes the file; the answer names the file and the servos saved.
+One save at a time: a call while one runs is answered at once, "busy". The path is checked before
+anything is read: a regular file or a new one in an existing folder; a symbolic link (not
+followed), a FIFO, a device (the bus's own included), a folder are refused. The loop thread only
+reads the values, after its next step, one sync read per control-table layout (the bus is the
+loop's); the service's thread turns them into the file, written to a temporary file in the same
+folder and renamed over the old one (a reader never sees half a file). The answer names the file
+and the servos saved.
 """
 from __future__ import annotations
 
-import functools
 import os
+import stat
+import tempfile
 import threading
 from pathlib import Path
+from typing import Any
 
 import rclpy.logging
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.callback_groups import ReentrantCallbackGroup
 
-from ..servo_snapshot import entry_of, servos_yaml
+from ..logs import cut_path
+from ..servo_snapshot import entry_of, items_of, servos_yaml
+from .services import QOS
 
 #: the file's name in the ROS log directory when servos_snapshot.path is ""
 DEFAULT_NAME = "dynamixel_servos.yaml"
 #: longest wait for the loop to take the request [s]
 WAIT_S = 10.0
+#: what a file of a kind other than a regular one is called in a refusal
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
 class _Ask:
+    """One save: taken by the loop (``values`` filled), answered by the service's thread."""
+
     def __init__(self) -> None:
-        self.done = threading.Event()
-        self.ok = False
-        self.message = ""
+        self.taken = threading.Event()
+        self.values: dict[int, tuple[Any, str | None, dict[str, int]]] = {}
+        #: handled servos that did not answer (left out of the file)
+        self.missing: list[int] = []
+        self.error = ""
+
+
+def refusal(path: Path, device: str) -> str:
+    """Why ``path`` is no file to write the snapshot to ("" when it is: a regular file, or none yet
+    in an existing folder). Symbolic links are not followed."""
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        return "" if path.parent.is_dir() else f"its folder {cut_path(path.parent)} does not exist"
+    except OSError as exc:
+        return f"cannot be looked at ({exc.strerror})"
+    if stat.S_ISLNK(info.st_mode):
+        return "is a symbolic link, which is not followed: give the path of the file itself"
+    if device and os.path.realpath(path) == os.path.realpath(device):
+        return "is the bus's own device"
+    for test, kind in _KINDS:
+        if test(info.st_mode):
+            return f"is {kind}, not a regular file"
+    return "" if stat.S_ISREG(info.st_mode) else "is not a regular file"
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """``text`` to a temporary file next to ``path``, then renamed over it (the old file's
+    permissions kept; a new one 0644)."""
+    try:
+        mode = stat.S_IMODE(os.lstat(path).st_mode)
+    except FileNotFoundError:
+        mode = 0o644
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name[:64]}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as out:
+            out.write(text)
+            out.flush()
+            os.fsync(out.fileno())
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)  # replaces a link or file of that name, never writes through a link
+    except BaseException:
+        os.unlink(tmp)
+        raise
 
 
 class ServoSnapshot:
-    """The service, and the step hook that answers it on the loop thread."""
+    """The service, and the step hook that reads the values on the loop thread."""
 
     def __init__(self, node) -> None:
         from std_srvs.srv import Trigger
         self.node = node
-        self._asked: list[_Ask] = []
+        self._asked: _Ask | None = None
         self._lock = threading.Lock()
-        node.create_service(Trigger, "dynamixel/save_servo_settings", self._on_save,
-                            callback_group=MutuallyExclusiveCallbackGroup())
+        self._saving = threading.Lock()  # one save at a time
+        node.create_service(Trigger, "dynamixel/save_servo_settings", self._on_save, qos_profile=QOS,
+                            callback_group=ReentrantCallbackGroup())  # a burst of calls answered, busy or not
         node.step_hooks.append(self.on_step)
 
     def path(self) -> Path:
@@ -54,37 +110,72 @@ class ServoSnapshot:
         return Path(rclpy.logging.get_logging_directory()) / name
 
     def _on_save(self, _request, response):
-        ask = _Ask()
-        with self._lock:
-            self._asked.append(ask)
-        if not ask.done.wait(WAIT_S):
-            ask.message = f"not saved: the bus loop did not take the request within {WAIT_S:g}s (is it running?)"
-        response.success, response.message = ask.ok, ask.message
-        (self.node.get_logger().info if ask.ok else self.node.get_logger().warning)(f"save_servo_settings: {ask.message}")
+        if not self._saving.acquire(blocking=False):
+            response.success = False
+            response.message = "busy: a save is in progress (one at a time); call again when it has answered"
+            return response
+        try:
+            response.success, response.message = self._save()
+        except Exception as exc:  # a file that cannot be written is an answer, not a dead service
+            response.success, response.message = False, f"not saved: {type(exc).__name__}: {cut_path(exc)}"
+        finally:
+            self._saving.release()
+        # one call site per severity: rclpy refuses a call site whose severity changes between calls
+        if response.success:
+            self.node.get_logger().info(f"save_servo_settings: {response.message}")
+        else:
+            self.node.get_logger().warning(f"save_servo_settings: {response.message}")
         return response
 
-    def on_step(self, _report: object = None) -> None:
-        """On the loop thread: each waiting request answered."""
-        with self._lock:
-            asked, self._asked = self._asked, []
-        for ask in asked:
-            try:
-                ask.ok, ask.message = self.save()
-            except Exception as exc:  # a file that cannot be written must not stop the loop
-                ask.ok, ask.message = False, f"not saved: {type(exc).__name__}: {exc}"
-            ask.done.set()
-
-    def save(self) -> tuple[bool, str]:
-        handler = self.node.handler
-        ids = list(handler.handled_ids)
-        if not ids:
-            return False, "not saved: no servo is handled"
-        entries = [(i, entry_of(handler.model(i), functools.partial(handler.read_item, i), handler.mode(i)))
-                   for i in ids]
+    def _save(self) -> tuple[bool, str]:
         path = self.path()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(servos_yaml(entries, handler.bus.device), encoding="utf-8")
-        return True, f"servos block of IDs {ids} written to {path}"
+        if not self.node.settings.ros.snapshot_path:
+            path.parent.mkdir(parents=True, exist_ok=True)  # the ROS log directory: ours to make
+        device = self.node.handler.bus.device
+        why = refusal(path, device)
+        if why:
+            return False, f"not saved: servos_snapshot.path {cut_path(path)} {why}"
+        ask = _Ask()
+        with self._lock:
+            self._asked = ask
+        if not ask.taken.wait(WAIT_S):
+            with self._lock:
+                untaken = self._asked is ask
+                self._asked = None
+            if untaken:
+                return False, f"not saved: the bus loop did not take the request within {WAIT_S:g}s (is it running?)"
+            ask.taken.wait()
+        if ask.error or not ask.values:
+            return False, f"not saved: {ask.error or 'no servo answered'}"
+        ids = sorted(ask.values)
+        entries = [(i, entry_of(model, values.get, mode)) for i, (model, mode, values) in sorted(ask.values.items())]
+        why = refusal(path, device)  # again: the file may have been replaced meanwhile
+        if why:
+            return False, f"not saved: servos_snapshot.path {cut_path(path)} {why}"
+        write_atomically(path, servos_yaml(entries, device))
+        missing = f" (IDs {ask.missing} did not answer: left out)" if ask.missing else ""
+        return True, f"servos block of IDs {ids} written to {cut_path(path)}{missing}"
+
+    def on_step(self, _report: object = None) -> None:
+        """On the loop thread: the values of a waiting save, read at once."""
+        with self._lock:
+            ask, self._asked = self._asked, None
+        if ask is None:
+            return
+        try:
+            handler = self.node.handler
+            ids = list(handler.handled_ids)
+            models = {i: handler.model(i) for i in ids}
+            wanted = sorted({item for model in models.values() for item in items_of(model)})
+            read = handler.group.read_items(wanted, ids)  # one sync read per layout and span
+            ask.values = {i: (models[i], handler.mode(i), read[i]) for i in ids if i in read}
+            ask.missing = [i for i in ids if i not in read]
+            if not ids:
+                ask.error = "no servo is handled"
+        except Exception as exc:  # the loop goes on whatever a save meets
+            ask.error = f"{type(exc).__name__}: {exc}"
+        finally:
+            ask.taken.set()
 
 
 def attach(node) -> ServoSnapshot | None:
@@ -97,4 +188,4 @@ def attach(node) -> ServoSnapshot | None:
     return ServoSnapshot(node)
 
 
-__all__ = ["DEFAULT_NAME", "ServoSnapshot", "attach"]
+__all__ = ["DEFAULT_NAME", "ServoSnapshot", "attach", "refusal", "write_atomically"]

@@ -19,7 +19,7 @@ from support.parts import build, lines_of
 
 DEG_S = 0.229 * 6.0
 ENTRY = ServoSetting(1, {"mode": "cur_position", "position_p_gain_pulse": 640, "velocity_limit_deg_s": 120.0,
-                         "profile_vel_deg_s": 60.0, "drive_mode": {"reverse_mode": True}})
+                         "profile_vel_deg_s": 60.0, "drive_mode": {"reverse_mode": True}}, force=True)
 
 
 def started(servos=None, entries=(ENTRY,), debug=False, name="test_kept_settings"):
