@@ -45,16 +45,25 @@ gc.set_threshold(gc.get_threshold()[0], gc.get_threshold()[1], 1_000_000_000)
 
 
 # ---------------------------------------------------------------- markers
-# `scripts/test.sh -m "not slow"` is the inner loop (about half the suite's time); `-m sim` the
+# `scripts/test.sh -m "not slow"` is the inner loop (under two minutes); `-m sim` the
 # ROS-free virtual-bus and bus-layer tests; `-m ros` everything that runs a node or rclpy.
 import pytest  # noqa: E402
 
-#: modules whose tests start node processes many times or run for seconds each
+#: modules whose tests start node or tool processes many times or run for seconds each: about
+#: 8 s or more of a worker's time in all (``--durations``); the rest is the two-minute inner loop
 SLOW_MODULES = frozenset({
     "test_loop_report", "test_load", "test_pipeline", "test_ros_cli", "test_examples", "test_fuzz_commands",
     "test_wire_faults", "test_multi_bus", "test_signals", "test_hostile_input", "test_diagnostics",
     "test_launch_files", "test_services", "test_lifecycle", "test_safety", "test_unify_baudrate",
     "test_node_params", "test_core_startup", "test_compat_params",
+    # the set-up tool's process runs, the docs run as written
+    "test_setup_tool", "test_setup_tool_safety", "test_setup_tool_restore", "test_setup_tool_reach",
+    "test_setup_tool_protocol1", "test_docs_run",
+    # node suites of many starts or many seconds
+    "test_parity", "test_watchdog_pacing", "test_floods", "test_model_y", "test_servo_block",
+    "test_servo_block_checks", "test_snapshot_service", "test_snapshot_paths", "test_fast_paths_publish",
+    "test_fast_paths_commands", "test_commands_topics", "test_commands_bad_input", "test_commands_status",
+    "test_core_faults", "test_joint_commands", "test_core_ratios", "test_services_load", "test_params_file_limits",
 })
 #: ROS-free modules outside test/sim that drive the bus layer or the virtual bus
 SIM_MODULES = frozenset({"test_bus_sim", "test_bus_wire", "test_bus_protocol"})

@@ -19,8 +19,8 @@ EEPROM = (0, 64)  # X series EEPROM area
 
 
 def tool(sim: Sim, *args: str, stdin: str = "", timeout: float = 60.0):
-    """The tool as a process, with reply timeouts and retries for a loaded host (a 30 ms latency timer, 5 retries)."""
-    return _tool(sim, *args, "--latency", "30", "--retries", "5", stdin=stdin, timeout=timeout)
+    """The tool as a process, with reply timeouts and retries for a loaded host (a 30 ms latency timer, 2 retries)."""
+    return _tool(sim, *args, "--latency", "30", "--retries", "2", stdin=stdin, timeout=timeout)
 
 
 @pytest.fixture
