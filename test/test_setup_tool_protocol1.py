@@ -21,6 +21,7 @@ TORQUE, LED, GOAL_POSITION, MOVING_SPEED, PRESENT_POSITION = 24, 25, 30, 32, 36
 TORQUE_CONTROL = 70  # MX-64: Torque Control Mode Enable
 ALARM_LED = 17
 PROTOCOL_TYPE = 13  # X series
+X_RETURN_DELAY, X_TORQUE = 9, 64  # X series
 
 sim_of = test_setup_tool.sim_of  # the fixture: the virtual bus as a process
 
@@ -237,6 +238,30 @@ def test_backup_and_restore_the_eeprom_items(sim_of, tmp_path):
     assert out.returncode == 0 and "2 item(s) written and read back" in out.stdout, out.text
     assert p1_read(sim.path, 1_000_000, 1, RETURN_DELAY, 1) == 10 and p1_read(sim.path, 57600, 2, CCW_LIMIT, 2) == 4095
     assert p1_read(sim.path, 1_000_000, 1, TORQUE, 1) == 1  # a Protocol 1.0 model kept its torque
+
+
+def test_a_restore_file_with_protocol_type_1_needs_force_and_then_finds_the_servo_again(sim_of, tmp_path):
+    sim = sim_of("1:XM430-W350")
+    file = tmp_path / "backup.yaml"
+    assert tool(sim, "backup", str(file), "1", "--baud", "57600").returncode == 0
+    text = file.read_text()
+    assert "protocol_type: 2\n" in text
+    assert "return_delay_time: 250  # 500 us\n" in text
+    file.write_text(text.replace("protocol_type: 2\n", "protocol_type: 1\n").replace("return_delay_time: 250 ",
+                                                                                    "return_delay_time: 100 "))
+    test_setup_tool.sdk_write1(sim.path, 57600, 1, X_TORQUE, 1)  # holding its load
+    out = tool(sim, "restore", str(file), "--yes", "--torque-off", "--baud", "57600")
+    assert out.returncode == 2 and "answers Protocol 1.0 only" in out.stderr, out.text
+    assert "--force writes it anyway" in out.stderr and "refused, nothing written" in out.stderr, out.text
+    assert sdk_read(sim.path, 57600, 1, PROTOCOL_TYPE, 1) == 2 and sdk_read(sim.path, 57600, 1, X_RETURN_DELAY, 1) == 250
+
+    out = tool(sim, "restore", str(file), "--yes", "--torque-off", "--force", "--baud", "57600")
+    assert out.returncode == 0, out.text
+    assert "warning:" in out.stderr and "`set 1 protocol_type 2` brings it back" in out.stderr, out.text
+    assert "return_delay_time" in out.stdout and "protocol_type 2 -> 1" in out.stdout, out.text
+    # the other item written first, Protocol Type last; found again in Protocol 1.0, torque back on
+    assert p2_ping(sim.path, 57600, 1) is None and p1_read(sim.path, 57600, 1, PROTOCOL_TYPE, 1) == 1
+    assert p1_read(sim.path, 57600, 1, X_RETURN_DELAY, 1) == 100 and p1_read(sim.path, 57600, 1, X_TORQUE, 1) == 1
 
 
 def test_restore_onto_the_same_servo_after_a_full_factory_reset(sim_of, tmp_path):

@@ -14,8 +14,20 @@ from ..control_table import Model, known_models, model_by_number, protocol1_mode
 from ..control_table._protocol1 import MODE_CODES, mode_of
 from ..protocol import protocol1 as p1
 
-__all__ = ["ping1", "model_name1", "switch_to_2", "statuses1", "error_text1", "model_for", "rates1",
+__all__ = ["ping1", "model_name1", "switch_to_2", "protocol_of_type", "type_1_warning", "statuses1", "error_text1", "model_for", "rates1",
            "mode1", "MODE_CODES", "error_names1"]
+
+
+def protocol_of_type(raw: int) -> int:
+    """The protocol a servo answers with Protocol Type ``raw`` (1: Protocol 1.0, else 2.0)."""
+    return 1 if raw == 1 else 2
+
+
+def type_1_warning(who: str, dxl_id: int) -> str:
+    """What Protocol Type 1 means for a Protocol 2.0 servo (``set`` and ``restore`` warn the same)."""
+    return (f"{who}: with protocol_type 1 it answers Protocol 1.0 only: the handler and Protocol 2.0 tools no "
+            "longer find it (Protocol 1.0 has no sync read, and its one-byte address reaches only the first 256 "
+            f"bytes of the table); this tool still reaches it, and `set {dxl_id} protocol_type 2` brings it back")
 
 
 def model_name1(number: int) -> str:

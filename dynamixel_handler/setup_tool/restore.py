@@ -13,6 +13,7 @@ from .context import Context
 from .errors import StepFailed
 from .find import Placed
 from .items import show_value
+from .protocol1 import protocol_of_type
 from .restore_file import load
 from .restore_plan import Plan, plan_all, plan_doc
 from .safety import JOURNAL, Interrupted, Touched, held
@@ -83,6 +84,8 @@ def _apply(ctx: Context, plan: Plan, done: list[str]) -> None:
             servo = _move(ctx, plan, servo, touched, done)
             for item, now, raw in plan.changes:
                 servo.write(item.name, raw)
+                if item.name == "protocol_type":  # the last write: found again in the protocol it answers now
+                    servo = connect(ctx.bus, servo.dxl_id, protocol_of_type(raw))
                 _verify(servo, item.name, raw)
                 done.append(_written(servo, touched, item.name, show_value(servo.model, item, now), raw))
         finally:

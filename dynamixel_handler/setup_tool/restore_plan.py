@@ -15,6 +15,7 @@ from .checks import problems
 from .context import Context
 from .errors import BadArguments
 from .items import show_value
+from .protocol1 import protocol_of_type, type_1_warning
 from .restore_file import Entry, present
 from .safety import needs_torque_off, refuse_torque
 from .servo import Servo, connect
@@ -154,7 +155,8 @@ def _changes(ctx: Context, plan: Plan, seen: Iterable[tuple[int, int, int]]) -> 
                 _baud_move(ctx, plan, raw, seen)
         elif now.get(name) != raw:
             plan.changes.append((item, now[name], raw))
-    plan.changes.sort(key=lambda c: c[0].address)
+    # by address; a Protocol Type last: after it the servo answers the other protocol only
+    plan.changes.sort(key=lambda c: (c[0].name == "protocol_type", c[0].address))
     return now
 
 
@@ -179,12 +181,26 @@ def _check(ctx: Context, plan: Plan, now: dict[str, int], ids: set[int]) -> list
     found = [f"{plan.entry.who}: {p.text}" + ("; --force writes it anyway" if p.forcible else "")
              for p in problems(plan.entry.model, new, now, plan.entry.dxl_id, ids - {plan.entry.dxl_id})
              if not (p.forcible and ctx.force)]
+    found += _protocol_switch(ctx, plan)
     model = plan.entry.model
     off = [model.item(name) for name, _, _ in plan.writes() if needs_torque_off(model.item(name), model)]
     plan.torque = plan.torque and bool(off)  # a Protocol 1.0 model keeps its torque for all but its Angle Limits
     if plan.torque and not ctx.torque_off:
         found.append(str(refuse_torque(plan.servo, off[0])))
     return found
+
+
+def _protocol_switch(ctx: Context, plan: Plan) -> list[str]:
+    """A Protocol Type of 1 in the file for a servo that answers Protocol 2.0: refused without
+    --force (with it, the same warning as ``set``)."""
+    assert plan.servo is not None
+    for item, now, raw in plan.changes:
+        if item.name == "protocol_type" and protocol_of_type(raw) == 1 != plan.servo.protocol:
+            warning = type_1_warning(plan.entry.who, plan.entry.dxl_id)
+            if not ctx.force:
+                return [f"{warning} (protocol_type {now} -> {raw} in the file); --force writes it anyway"]
+            ctx.out.warn(warning)
+    return []
 
 
 def plan_all(ctx: Context, entries: dict[int, Entry], path: str) -> list[Plan]:

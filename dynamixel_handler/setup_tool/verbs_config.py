@@ -19,6 +19,7 @@ from .context import Context
 from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
 from .mode1 import set_mode1, state_line, summary
+from .protocol1 import protocol_of_type, type_1_warning
 from .safety import held
 from .servo import Servo, connect
 from .values import named, number
@@ -133,17 +134,14 @@ def set_item(ctx: Context, args: argparse.Namespace) -> None:
 
 def _switch_protocol(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
     """Protocol Type written (EEPROM), and the servo found again in the protocol it now answers."""
-    new = 1 if raw == 1 else 2
+    new = protocol_of_type(raw)
     ctx.out.document.update(protocol=servo.protocol)
     if servo.read(item.name) == raw:
         ctx.out.say(f"{servo.who} protocol_type is already {raw}: nothing written")
         ctx.out.document.update(item=item.name, raw=raw, written=False)
         return
     if new == 1:
-        ctx.out.warn(f"{servo.who}: with protocol_type 1 it answers Protocol 1.0 only: the handler and Protocol 2.0 "
-                     "tools no longer find it (Protocol 1.0 has no sync read, and its one-byte address reaches only the "
-                     "first 256 bytes of the table); this tool still reaches it, and "
-                     f"`set {servo.dxl_id} protocol_type 2` brings it back")
+        ctx.out.warn(type_1_warning(servo.who, servo.dxl_id))
     torque = guard.torque_gate(ctx, servo, [item])
     ctx.confirm(f"{servo.who}: write protocol_type (EEPROM) {servo.read(item.name)} -> {raw}: it then answers "
                 f"Protocol {new}.0 only?" + guard.torque_question(torque))
