@@ -7,11 +7,14 @@ limits starts as before. The text scan's rules (quotes, comments, block scalars)
 strings."""
 from __future__ import annotations
 
+import os
+import signal
+import time
 from pathlib import Path
 
 import pytest
 
-from dynamixel_handler.ros.params_file import MAX_BYTES, MAX_DEPTH, MAX_ENTRIES, scan_problem
+from dynamixel_handler.ros.params_file import MAX_BYTES, MAX_DEPTH, MAX_ENTRIES, MAX_TOTAL_ENTRIES, scan_problem
 
 from support.ros import NodeProcess, node_command
 
@@ -110,6 +113,48 @@ def test_a_large_file_within_the_limits_starts_as_before(tmp_path):
     assert proc.wait_exit(timeout=EXIT_WAIT_S) == 1, proc.output
     assert "params file" not in proc.output and "loop_rate=50" in proc.output, proc.output
     assert "/dev/null is not a serial port" in proc.output, proc.output
+
+
+def _many_keys(tmp_path: Path, name: str, keys: int) -> Path:
+    return _write(tmp_path, name, HEAD + "".join(f"    k{i}: {i}\n" for i in range(keys)))
+
+
+@pytest.mark.parametrize("same", [False, True], ids=["three files", "one file three times"])
+def test_files_within_the_limits_one_by_one_are_refused_when_their_sum_is_not(tmp_path, same):
+    files = [_many_keys(tmp_path, f"part{k}.yaml", 15_000) for k in range(1 if same else 3)] * (3 if same else 1)
+    proc = NodeProcess(node_command(params_file=None) + [a for f in files for a in ("--params-file", str(f))])
+    assert proc.wait_exit(timeout=EXIT_WAIT_S) == 2, proc.output[:2000]
+    fatal = [line for line in proc.lines if line.startswith("[FATAL]")]
+    assert len(fatal) == 1 and "the 3 params files given add up to" in fatal[0], proc.output[:2000]
+    assert f"more than the 2,097,152 bytes and {MAX_TOTAL_ENTRIES:,} entries" in fatal[0], fatal[0]
+    assert "Traceback" not in proc.output and "[rcl]" not in proc.output
+
+
+def _open_in(pid: int, path: Path) -> bool:
+    """Whether process ``pid`` has ``path`` open now."""
+    try:
+        return any(os.readlink(f"/proc/{pid}/fd/{fd}") == str(path) for fd in os.listdir(f"/proc/{pid}/fd"))
+    except OSError:
+        return False
+
+
+def test_sigint_while_rcl_reads_the_params_files_ends_the_node_with_one_line(tmp_path):
+    """Two files of 19,000 keys (within every limit): rcl reads them for a second or so, with
+    SIGINT held until it returns; the node then exits (code 0) in one line, no traceback."""
+    files = [_many_keys(tmp_path, f"part{k}.yaml", 19_000) for k in range(2)]
+    proc = NodeProcess(node_command(params_file=None) + [a for f in files for a in ("--params-file", str(f))])
+    pid = proc.proc.pid
+    deadline = time.monotonic() + EXIT_WAIT_S
+    while proc.proc.poll() is None and time.monotonic() < deadline:
+        if _open_in(pid, files[0]) or _open_in(pid, files[1]):
+            time.sleep(0.05)  # rcl's parser holds a file open while it reads it (Python's own reads are quick)
+            if _open_in(pid, files[0]) or _open_in(pid, files[1]):
+                break
+        time.sleep(0.005)
+    proc.proc.send_signal(signal.SIGINT)
+    assert proc.wait_exit(timeout=15) == 0, proc.output[:2000]
+    assert "Traceback" not in proc.output, proc.output[:3000]
+    assert "interrupted while reading the parameters: exiting" in proc.output, proc.output[:2000]
 
 
 # ---------------------------------------------------------------------- the text scan's rules

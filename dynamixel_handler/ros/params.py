@@ -35,7 +35,7 @@ from ..config import (
 )
 from ..logs import ECHO_MAX, cut, cut_path
 from ..servo_settings import is_servo_parameter
-from .params_file import read_problem
+from .params_file import Totals, read_problem
 from .servo_params import declare_servo_block
 
 _ROS_TYPES = {
@@ -131,16 +131,18 @@ def _command_line_parameters(argv: list[str]) -> dict[str, str]:
 
 def check_arguments(argv: list[str]) -> str | None:
     """What is wrong with the ROS arguments before rcl reads them (rcl says only "Couldn't parse"
-    and logs a line of its own): a params file that is missing or is not YAML (file and line), a
-    ``-p name:=`` without a value. None if nothing is found."""
+    and logs a line of its own): a params file that is missing or is not YAML (file and line), the
+    files given together over the limits of their sum, a ``-p name:=`` without a value. None if
+    nothing is found."""
     ros = False
+    totals = Totals()
     for k, arg in enumerate(argv):
         if arg in ("--ros-args", "--"):
             ros = arg == "--ros-args"
             continue
         problem = None
         if ros and arg == "--params-file" and k + 1 < len(argv):
-            problem = _params_file_problem(argv[k + 1])
+            problem = _params_file_problem(argv[k + 1], totals)
         elif ros and arg in ("-p", "--param") and k + 1 < len(argv):
             problem = _rule_problem(arg, argv[k + 1])
         if problem is not None:
@@ -148,11 +150,14 @@ def check_arguments(argv: list[str]) -> str | None:
     return None
 
 
-def _params_file_problem(path: str) -> str | None:
+def _params_file_problem(path: str, totals: Totals) -> str | None:
     """Why a params file is refused: too large, too deep or too many entries (on the text, before
-    any parsing), or not YAML (file and line); None if it is not."""
+    any parsing), alone or added to the files before it (``totals``), or not YAML (file and line);
+    None if it is not."""
     import yaml
     problem, text = read_problem(path)
+    if problem is None:
+        problem = totals.add(text)
     if problem is not None:
         return problem
     try:

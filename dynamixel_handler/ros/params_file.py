@@ -22,6 +22,10 @@ MAX_BYTES = 1 << 20
 MAX_DEPTH = 32
 #: most keys, list entries and flow entries in one file
 MAX_ENTRIES = 20_000
+#: the most over all the files given (rcl reads each file given, the same one twice too): a set of
+#: files within these starts in a second or two, and SIGINT is never held off longer than that
+MAX_TOTAL_BYTES = 2 * MAX_BYTES
+MAX_TOTAL_ENTRIES = 2 * MAX_ENTRIES
 
 #: the characters that may start or end a YAML structure (everything else is scalar text)
 _SPECIAL = re.compile(r"""[\[\]{},:#'"|>*&!\-?]""")
@@ -194,6 +198,28 @@ def scan_problem(text: str) -> str | None:
     return None
 
 
+class Totals:
+    """What the params files given so far add up to; ``add`` says when the sum passes a limit."""
+
+    def __init__(self) -> None:
+        self.files = 0
+        self.bytes = 0
+        self.entries = 0
+
+    def add(self, text: str) -> str | None:
+        self.files += 1
+        self.bytes += len(text.encode("utf-8"))
+        scan = _Scan()
+        for number, line in enumerate(text.split("\n"), 1):
+            scan.line(line.rstrip("\r"), number)
+        self.entries += scan.entries
+        if self.bytes > MAX_TOTAL_BYTES or self.entries > MAX_TOTAL_ENTRIES:
+            return (f"the {self.files} params files given add up to {self.bytes:,} bytes and {self.entries:,} keys and "
+                    f"list entries, more than the {MAX_TOTAL_BYTES:,} bytes and {MAX_TOTAL_ENTRIES:,} entries all files "
+                    "together may have (rcl reads each file given, the same one twice too): refused before parsing them")
+        return None
+
+
 def read_problem(path: str) -> tuple[str | None, str]:
     """(why the file is refused before any parsing, or None; its text)."""
     name = f"params file {cut_path(path)}"
@@ -222,4 +248,5 @@ def read_problem(path: str) -> tuple[str | None, str]:
     return None, text
 
 
-__all__ = ["MAX_BYTES", "MAX_DEPTH", "MAX_ENTRIES", "read_problem", "scan_problem"]
+__all__ = ["MAX_BYTES", "MAX_DEPTH", "MAX_ENTRIES", "MAX_TOTAL_BYTES", "MAX_TOTAL_ENTRIES", "Totals", "read_problem",
+           "scan_problem"]

@@ -94,16 +94,22 @@ class _Spinner:
 
 
 def _init_rclpy(args: list[str] | None, log: Any) -> int | None:
-    """rclpy.init, with bad arguments as one line; an exit code if it cannot start."""
-    problem = check_arguments(sys.argv if args is None else args)
-    if problem is not None:  # one line naming the file and the line, before rcl says less
-        log.fatal(f"bad ROS arguments: {problem}")
-        return 2
+    """rclpy.init, with bad arguments as one line; an exit code if it cannot start. SIGINT while
+    the arguments and params files are read ends it (exit 0, one line) as soon as rcl's parser
+    returns (within a second or two: the files' limits see to that)."""
     try:
+        problem = check_arguments(sys.argv if args is None else args)
+        if problem is not None:  # one line naming the file and the line, before rcl says less
+            log.fatal(f"bad ROS arguments: {problem}")
+            return 2
         rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     except fastpath.RCLError as err:  # e.g. "-p name:=" with no value: one line, not a traceback
         log.fatal(f"bad ROS arguments: {str(err).split(', at ')[0]}")
         return 2
+    except KeyboardInterrupt:
+        log.info("interrupted while reading the parameters: exiting")
+        rclpy.try_shutdown()
+        return 0
     return None
 
 
