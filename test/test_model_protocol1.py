@@ -180,3 +180,24 @@ def test_a_bus_of_ax_servos_at_a_protocol1_only_rate_is_driven():
                what="the AX's goal written at 500 kbps")
     finally:
         assert r.close() == 0
+
+
+def test_two_servos_at_one_id_are_named_in_protocol_1_and_across_the_protocols():
+    """Two AX-12A at ID 3 (their replies collide): named and not handled; an MX-28 (1.0) at the ID
+    of an XM430 (2.0): named, the XM430 handled (the protocols do not collide)."""
+    def crowd(sim) -> None:
+        sim.add_servo(3, AX12A)
+        sim.add_servo(4, XM430)
+
+    r = Rig({1: AX12A, 3: AX12A, 4: MX28}, "baudrate:=1000000", "init/used_servo_series.AX:=true",
+            "init/used_servo_series.MX1:=true", sim_kwargs={"baudrate": 1_000_000}, before_start=crowd,
+            expect=2, wait_ids=[1, 4])
+    try:
+        shared = r.wait_log("ID 3: two or more servos answer at this ID")
+        assert "not handled" in shared
+        across = r.wait_log("ID 4: a MX-28 answers Protocol 1.0 at the ID of the XM430-W350 (Protocol 2.0)")
+        assert "the XM430-W350 is handled, the Protocol 1.0 servo is not" in across
+        assert "ID 1: AX-12A" in r.output and "ID 4: XM430-W350" in r.output and "ID 3: AX-12A" not in r.output
+        assert r.output.count("two or more servos answer at this ID") == 1  # once, whatever the scans
+    finally:
+        assert r.close() == 0

@@ -296,6 +296,16 @@ def test_the_search_for_every_servo_looks_in_protocol_1_when_asked(sim_of):
     assert [s["model"] for s in got["refreshes"][0]] == ["AX-12A"]
 
 
+def test_scan_names_two_protocol_1_servos_at_one_id(sim_of):
+    """Two AX-12A at ID 3 garble every reply: the scan names the ID shared (it listed neither)."""
+    sim = sim_of("1:AX-12A", "3:AX-12A", "3:AX-12A")
+    out = tool(sim, "scan", "--ids", "0-4", "--baud", "1000000", "--protocol", "1", "--json")
+    assert out.returncode == 0, out.text
+    found = {f["id"]: f for f in doc(out)["servos"]}
+    assert sorted(found) == [1, 3] and found[3]["collision"] and not found[1]["collision"], out.text
+    assert found[3]["protocol"] == 1 and "two or more servos answer at this ID" in found[3]["note"]
+
+
 # ---------------------------------------------------------------------- Protocol Type
 def test_protocol_type_1_and_back_the_round_trip(sim_of, tmp_path):
     sim = sim_of("1:XM430-W350")

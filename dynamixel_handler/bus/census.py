@@ -39,24 +39,25 @@ class Census:
     shared: dict[int, int | None] = field(default_factory=dict)
 
 
-def _ping(bus: ServoBus, dxl_id: int, pause_s: float) -> int | None:
-    model: int | None = bus.execute(Ping(dxl_id, retries=0)).value
+def _ping(bus: ServoBus, dxl_id: int, pause_s: float, protocol: int = 2) -> int | None:
+    model: int | None = bus.execute(Ping(dxl_id, retries=0, protocol=protocol)).value
     if pause_s:
         time.sleep(pause_s)
     return model
 
 
-def probe(bus: ServoBus, dxl_id: int, pings: int) -> tuple[int | None, bool]:
+def probe(bus: ServoBus, dxl_id: int, pings: int, protocol: int = 2) -> tuple[int | None, bool]:
     """Ping ``dxl_id`` ``pings`` times: (its model number or None, whether two servos seem to answer).
     A second complete reply is counted when the next ping flushes the input, so with ``pings`` > 1
-    the first ping only flushes what came before."""
+    the first ping only flushes what came before. A Protocol 1.0 ping is a ping and a read of the
+    model number: 6 + 8 bytes of replies, as many as a Protocol 2.0 ping's status."""
     # a second servo's reply may come up to a Return Delay Time (508 us at most) after the first one:
     # each ping waits for it, so the next ping's input flush counts it instead of taking it as its answer
     pause_s = (0.0015 + 2 * PING_REPLY_BYTES * 10.0 / bus.baudrate) if pings > 1 else 0.0
-    first = _ping(bus, dxl_id, pause_s) if pings > 1 else None
+    first = _ping(bus, dxl_id, pause_s, protocol) if pings > 1 else None
     stats = bus.stats
     crc, rx, discarded = stats.crc_errors, stats.bytes_rx, stats.discarded_bytes
-    models = [_ping(bus, dxl_id, pause_s) for _ in range(max(1, pings - 1))]
+    models = [_ping(bus, dxl_id, pause_s, protocol) for _ in range(max(1, pings - 1))]
     answered = [m for m in models if m is not None]
     garbled = stats.crc_errors != crc or stats.bytes_rx - rx > len(answered) * PING_REPLY_BYTES
     if pings > 1 and len(answered) == len(models):
@@ -64,23 +65,29 @@ def probe(bus: ServoBus, dxl_id: int, pings: int) -> tuple[int | None, bool]:
     return (answered[0] if answered else first), garbled
 
 
-def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, thorough: bool = False) -> Census:
+def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, thorough: bool = False,
+           protocol: int = 2) -> Census:
     """Scan ``ids`` (see ``DynamixelBus.scan``) and tell the shared IDs: each ID found is pinged a
     few times more when the reply train was garbled, when the scan pinged ID by ID (a second
-    reply to a unicast ping is seen only by the next transaction), or when ``thorough``."""
+    reply to a unicast ping is seen only by the next transaction), or when ``thorough``.
+    ``protocol`` 1: Protocol 1.0 servos, which have no broadcast ping: pinged ID by ID."""
     wanted = sorted(set(ids))
-    before = bus.stats.crc_errors + bus.stats.discarded_bytes
-    if broadcast is None:
-        broadcast = len(wanted) >= BROADCAST_SCAN_MIN_IDS
-    answered = bus.scan(wanted, broadcast)
+    before = noise(bus)
+    if protocol == 1:
+        broadcast = False
+        answered = {i: n for i in wanted if (n := _ping(bus, i, 0.0, 1)) is not None}
+    else:
+        if broadcast is None:
+            broadcast = len(wanted) >= BROADCAST_SCAN_MIN_IDS
+        answered = bus.scan(wanted, broadcast)
     out = Census()
-    garbled = bus.stats.crc_errors + bus.stats.discarded_bytes != before
+    garbled = noise(bus) != before
     if not (garbled or thorough or not broadcast):
         out.found = answered
         return out
     for dxl_id in wanted:
-        if dxl_id in answered or (garbled and _noisy(bus, dxl_id)):
-            probed, shared = _rounds(bus, dxl_id)
+        if dxl_id in answered or (garbled and _noisy(bus, dxl_id, protocol)):
+            probed, shared = rounds(bus, dxl_id, protocol)
             number = answered.get(dxl_id, probed)
             if shared:
                 out.shared[dxl_id] = number
@@ -89,21 +96,27 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
     return out
 
 
-def _rounds(bus: ServoBus, dxl_id: int) -> tuple[int | None, bool]:
+def rounds(bus: ServoBus, dxl_id: int, protocol: int = 2) -> tuple[int | None, bool]:
     """``probe`` in up to ``SHARED_ROUNDS`` rounds: (a model number it gave, whether every round
     looked shared)."""
     # the last ping's input flush is the next one's: one more than needed counts doubled replies
-    probed, shared = probe(bus, dxl_id, CLEAN_PINGS + 2)
+    probed, shared = probe(bus, dxl_id, CLEAN_PINGS + 2, protocol)
     for _ in range(SHARED_ROUNDS - 1):
         if not shared:
             break
         time.sleep(SETTLE_S)
-        again, shared = probe(bus, dxl_id, CLEAN_PINGS + 2)
+        again, shared = probe(bus, dxl_id, CLEAN_PINGS + 2, protocol)
         probed = probed if probed is not None else again
     return probed, shared
 
 
-def _noisy(bus: ServoBus, dxl_id: int) -> bool:
+def noise(bus: ServoBus) -> int:
+    """The bus's count of bytes that made no valid reply and of CRC errors (it grows when replies
+    collide)."""
+    return bus.stats.crc_errors + bus.stats.discarded_bytes
+
+
+def _noisy(bus: ServoBus, dxl_id: int, protocol: int = 2) -> bool:
     """Whether an ID the garbled scan did not find answers a ping, or gives noise."""
-    quick, noisy = probe(bus, dxl_id, 1)
+    quick, noisy = probe(bus, dxl_id, 1, protocol)
     return quick is not None or noisy

@@ -109,8 +109,12 @@ class Scan:
         seen = census(self.bus, set(ids) | set(dummies))
         found.update({i: (2, n) for i, n in seen.found.items()})
         self._shared(seen.shared, found)
-        if protocol1:
-            found.update(self.ping1([i for i in ids if i not in found and i not in seen.shared]))
+        if protocol1:  # a Protocol 2.0 servo ignores Protocol 1.0 packets: each ID is pinged in 1.0 too
+            seen1 = census(self.bus, [i for i in ids if i not in seen.shared], protocol=1)
+            found.update({i: (1, n) for i, n in seen1.found.items() if i not in found or found[i][0] == 1})
+            self._shared({i: None for i in seen1.shared}, found)
+            for dxl_id in sorted(set(seen1.found) & set(seen.found)):
+                self._across(dxl_id, seen.found[dxl_id], seen1.found[dxl_id])
 
     def _too_few(self, found: dict[int, Seen], expected: int, protocol1: bool) -> None:
         lo, hi = self.settings.min_id, self.settings.max_id
@@ -154,6 +158,18 @@ class Scan:
             self.log.error(f"ID {dxl_id}: two or more servos answer at this ID{which}, their replies collide: not "
                            "handled. Give each its own ID: connect them one at a time and run "
                            "`dynamixel_handler_setup assign-ids` (docs/setup_tool.md)")
+
+    def _across(self, dxl_id: int, number2: int, number1: int) -> None:
+        """A Protocol 1.0 servo at the ID of a Protocol 2.0 one: one line (once); the 2.0 servo is
+        handled (the protocols do not collide), the 1.0 one is not."""
+        if dxl_id in self._told_shared:
+            return
+        self._told_shared.add(dxl_id)
+        one = lookup((1, number1))
+        self.log.error(f"ID {dxl_id}: a {one.name if one else f'model {number1}'} answers Protocol 1.0 at the ID of "
+                       f"the {name_of(number2)} (Protocol 2.0): two servos at one ID; the {name_of(number2)} is "
+                       "handled, the Protocol 1.0 servo is not. Give each its own ID: connect them one at a time and "
+                       "run `dynamixel_handler_setup assign-ids` (docs/setup_tool.md)")
 
     def _usable(self, found: dict[int, Seen], dummies: Sequence[int]) -> list[int]:
         """IDs among ``found`` that would be handled: known model of a used series, or a dummy."""

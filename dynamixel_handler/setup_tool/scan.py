@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable, Sequence
 
 from ..bus import BusError, DynamixelBus
-from ..bus.census import census
+from ..bus.census import census, noise, rounds
 from ..bus.ops import Read
 from ..config import USED_FAMILIES
 from ..control_table import model_by_number, protocol1_model_by_number
@@ -120,6 +120,11 @@ def _errors(bits: int) -> list[str]:
     return [name for name, on in decode_hardware_error(bits).items() if bool(on[0])]
 
 
+#: what a scan says of an ID two servos share (Protocol 2.0 or 1.0)
+_SHARED_NOTE = ("two or more servos answer at this ID (garbled or doubled replies; how many, the wire cannot tell): "
+                "connect them one at a time with assign-ids, each gets its own ID")
+
+
 def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -> None:
     seen = census(bus, ids, broadcast=len(ids) >= 5, thorough=True)
     for dxl_id in sorted({*seen.found, *seen.shared}):
@@ -127,15 +132,23 @@ def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -
         found = _details(bus, dxl_id, number) if number is not None else Found(dxl_id, bus.baudrate, 2)
         if dxl_id in seen.shared:
             found.collision = True
-            found.note = ("two or more servos answer at this ID (garbled or doubled replies; how many, the wire "
-                          "cannot tell): connect them one at a time with assign-ids, each gets its own ID")
+            found.note = _SHARED_NOTE
         result.found.append(found)
 
 
 def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, tick: Callable[[], None]) -> None:
     for dxl_id in ids:  # a Protocol 2.0 servo at the same ID ignores these packets
         tick()
+        before = noise(bus)
         number = ping1(bus, dxl_id)  # 0: it answers pings only
+        if number is None and noise(bus) == before:
+            continue
+        probed, shared = rounds(bus, dxl_id, protocol=1)  # two servos at one ID garble or double every reply
+        if shared:
+            result.found.append(Found(dxl_id, bus.baudrate, 1, probed, model_name1(probed) if probed else "?",
+                                      collision=True, note=_SHARED_NOTE))
+            continue
+        number = number if number is not None else probed
         if number is None:
             continue
         name, note = _protocol1_note(number, dxl_id)

@@ -10,6 +10,7 @@ from dynamixel_handler.bus.census import census
 from dynamixel_handler.sim import VirtualBus
 
 XM430, XM540, XL330 = 1020, 1120, 1200
+AX12A, MX28 = 12, 29  # Protocol 1.0
 
 
 @pytest.fixture
@@ -62,3 +63,12 @@ def test_a_clean_bus_costs_one_scan(line):
     seen = census(bus, range(0, 10))
     assert seen.found == {1: XM430, 2: XM540, 7: XL330} and not seen.shared
     assert bus.stats.packets_sent == 1          # the broadcast ping alone
+
+
+def test_two_protocol_1_servos_at_one_id_are_a_shared_id(line):
+    """Protocol 1.0 has no broadcast ping: each ID is pinged, and an answered one a few times more;
+    two AX-12A at ID 3 garble every reply (the node and the set-up tool named neither)."""
+    _, bus = line([(1, AX12A), (3, AX12A), (3, AX12A), (5, MX28)])
+    seen = census(bus, range(0, 8), protocol=1)
+    assert set(seen.shared) == {3} and seen.found == {1: AX12A, 5: MX28}
+    assert census(bus, range(0, 8)).found == {}  # none of them answers Protocol 2.0
