@@ -30,7 +30,7 @@ class Lines:
 
 
 def test_a_callback_that_raises_is_one_line_a_second_and_the_others_go_on():
-    context = rclpy.get_default_context()  # the node's executor thread spins while rclpy.ok()
+    context = rclpy.Context()  # its own: the process's default context is not to be shut down
     rclpy.init(context=context)
     try:
         node = Node("callback_defect", context=context)

@@ -46,42 +46,67 @@ def run_node(bus: Rig, tmp_path: Path, block: str) -> NodeProcess:
                        + ["--params-file", str(path)])
 
 
-REFUSED = [
-    ("id_1: {shutdown: {overload_error: false, electrical_shock_error: false, overheating_error: false}}",
-     "servos.id_1: ID 1 (XM430-W350) shutdown = 0 clears protection bits 0x34"),
-    ("id_3: {shutdown: {overload_error: false, overheating_error: false}}",
-     "servos.id_3: ID 3 (AX-12A) shutdown = 0 clears protection bits 0x24"),
-    ("id_1: {temperature_limit_degc: 100.0}",
-     "servos.id_1: ID 1 (XM430-W350) temperature_limit = 100 degC (raw 100) lowers a protection beyond its factory "
-     "value (80 degC (raw 80))"),
-    ("id_2: {drive_mode: {reverse_mode: true}}",
-     "servos.id_2: ID 2 (XM430-W350) drive_mode bit 0 reverses the direction it turns"),
-    ("id_1: {min_position_limit_deg: 90.0, max_position_limit_deg: -90.0}",
-     "servos.id_1: ID 1 (XM430-W350) min_position_limit"),
-    ("id_3: {min_position_limit_deg: 99.0, max_position_limit_deg: -99.0}",
-     "servos.id_3: ID 3 (AX-12A) min_position_limit"),
+#: (entry, the start of its line) refused when the parameters are read, before the scan
+HOSTILE = [
     ("id_\u00b2: {position_p_gain_pulse: 640}", "servos.id_\u00b2: neither id_<N> nor a joint name"),
     ("id_\u0662: {position_p_gain_pulse: 640}", "servos.id_\u0662: neither id_<N> nor a joint name"),
     ("id_1: {position_p_gain_pulse: 1.0e+308}", "servos.id_1.position_p_gain_pulse = 1e+308: beyond any register"),
 ]
+#: one file whose every entry is refused after the scan: each value's line
+DANGERS = """\
+id_1: {shutdown: {overload_error: false, electrical_shock_error: false, overheating_error: false},
+       temperature_limit_degc: 100.0}
+id_2: {drive_mode: {reverse_mode: true}, min_position_limit_deg: 90.0, max_position_limit_deg: -90.0}
+id_3: {shutdown: {overload_error: false, overheating_error: false}, min_position_limit_deg: 99.0,
+       max_position_limit_deg: -99.0}
+"""
+DANGER_LINES = [
+    "servos.id_1: ID 1 (XM430-W350) shutdown = 0 clears protection bits 0x34",
+    "servos.id_1: ID 1 (XM430-W350) temperature_limit = 100 degC (raw 100) lowers a protection beyond its factory "
+    "value (80 degC (raw 80))",
+    "servos.id_2: ID 2 (XM430-W350) drive_mode bit 0 reverses the direction it turns",
+    "servos.id_2: ID 2 (XM430-W350) min_position_limit",
+    "servos.id_3: ID 3 (AX-12A) shutdown = 0 clears protection bits 0x24",
+    "servos.id_3: ID 3 (AX-12A) min_position_limit",
+]
 
 
-@pytest.mark.parametrize("entry, line", REFUSED, ids=[f"refused{k}" for k in range(len(REFUSED))])
-def test_a_refused_entry_is_one_line_exit_code_2_and_nothing_written_not_even_torque_off(bus, tmp_path, entry, line):
+def refused_run(bus: Rig, tmp_path: Path, block: str) -> NodeProcess:
+    """The node with ``block``, every servo holding its load: exit code 2, no write, torque kept."""
     for dxl_id in (X1, X2, AX):
         servo(bus, dxl_id).write("torque_enable", 1)  # servos holding a load when the node starts
     bus.sim.clear_log()
-    node = run_node(bus, tmp_path, entry + "\n")
+    node = run_node(bus, tmp_path, block)
     assert node.wait_exit(30) == 2, node.output
-    fatal = [x for x in node.output.splitlines() if "bad parameter" in x]
-    assert len(fatal) == 1 and line in fatal[0], node.output
-    if "(XM430-W350)" in line or "(AX-12A)" in line:  # found after the scan: the line says nothing was written
-        assert fatal[0].endswith("nothing was written") or "nothing was written; give" in fatal[0], fatal[0]
-    if "protection" in line or "reverses" in line:
-        assert "give 'force: true' in the entry to write it anyway" in fatal[0]
     assert "Traceback" not in node.output
     assert not [e for e in bus.sim.log if e.instruction in WRITES], [e for e in bus.sim.log if e.instruction in WRITES]
     assert [servo(bus, i).read("torque_enable") for i in (X1, X2, AX)] == [1, 1, 1]
+    return node
+
+
+@pytest.mark.parametrize("entry, line", HOSTILE, ids=["superscript", "arabic-indic", "1e308"])
+def test_a_hostile_name_or_number_is_one_line_and_exit_code_2(bus, tmp_path, entry, line):
+    node = refused_run(bus, tmp_path, entry + "\n")
+    fatal = [x for x in node.output.splitlines() if "bad parameter" in x]
+    assert len(fatal) == 1 and line in fatal[0], node.output
+
+
+def test_one_lowered_protection_is_one_line_that_says_nothing_was_written_not_even_torque_off(bus, tmp_path):
+    node = refused_run(bus, tmp_path, "id_2: {drive_mode: {reverse_mode: true}}\n")
+    fatal = [x for x in node.output.splitlines() if "bad parameter" in x]
+    assert len(fatal) == 1 and DANGER_LINES[2] in fatal[0], node.output
+    assert fatal[0].endswith("give 'force: true' in the entry to write it anyway: nothing was written"), fatal[0]
+
+
+def test_every_lowered_protection_and_inverted_limit_pair_is_a_line_and_nothing_is_written(bus, tmp_path):
+    node = refused_run(bus, tmp_path, DANGERS)
+    errors = [x for x in node.output.splitlines() if "[ERROR]" in x]
+    for line in DANGER_LINES:
+        assert sum(line in x for x in errors) == 1, (line, node.output)
+    assert all("give 'force: true'" in x for x in errors if "protection" in x or "reverses" in x), errors
+    assert not any("give 'force: true'" in x for x in errors if "min_position_limit" in x), errors  # never forcible
+    fatal = [x for x in node.output.splitlines() if "bad parameter" in x]
+    assert len(fatal) == 1 and "the servos block has 6 refused items (the lines above): nothing was written" in fatal[0]
 
 
 def test_force_true_writes_what_lowers_a_protection_and_a_value_already_held_needs_no_force(bus, tmp_path):

@@ -70,10 +70,6 @@ def test_restore_gives_a_factory_reset_replacement_its_id_rate_and_items(bus, tm
     assert [c["item"] for c in planned["changes"]] == [w["item"] for w in three["writes"]]  # nothing else changes
     assert sdk_ping(sim.path, 57600, 1) == XM540  # the dry run wrote nothing
 
-    out = tool(sim, "restore", str(backup), stdin="n\n")
-    assert out.returncode == 1 and "ID 1 at 57600 bps becomes ID 3" in out.stdout, out.text
-    assert sdk_ping(sim.path, 57600, 1) == XM540
-
     out = tool(sim, "restore", str(backup), "--yes", "--json")
     assert out.returncode == 0, out.text
     done = next(s for s in json.loads(out.stdout)["servos"] if s["id"] == 3)
@@ -118,6 +114,10 @@ def test_a_servo_holding_its_load_is_not_let_go_without_torque_off(bus, tmp_path
     out = tool(sim, "restore", str(backup), "--yes")
     assert out.returncode == 2 and "torque is on" in out.stderr and "refused, nothing written" in out.stderr, out.text
     assert sdk_read(sim.path, 57600, 1, TEMPERATURE_LIMIT, 1) == 70  # not even the other servo's item
+    out = tool(sim, "restore", str(backup), "--torque-off", "--baud", "57600", stdin="n\n")  # asked, declined
+    assert out.returncode == 1 and "write these 2 EEPROM item(s)?" in out.stdout, out.text
+    assert "not confirmed: nothing written" in out.stderr, out.text
+    assert [sdk_read(sim.path, 57600, i, TEMPERATURE_LIMIT, 1) for i in (1, 2)] == [70, 70]
     out = tool(sim, "restore", str(backup), "--yes", "--torque-off")
     assert out.returncode == 0, out.text
     assert [sdk_read(sim.path, 57600, i, TEMPERATURE_LIMIT, 1) for i in (1, 2)] == [80, 80]

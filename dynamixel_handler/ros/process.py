@@ -63,7 +63,7 @@ class _Spinner:
 
     def _spin(self) -> None:
         try:
-            while not self.stopping.is_set() and rclpy.ok():
+            while not self.stopping.is_set() and self.executor.context.ok():
                 try:
                     self.executor.spin_once(timeout_sec=0.5)
                 except ExternalShutdownException:
@@ -71,7 +71,7 @@ class _Spinner:
                 except Exception as exc:
                     if self.log is None:
                         raise
-                    if self.stopping.is_set() or not rclpy.ok():
+                    if self.stopping.is_set() or not self.executor.context.ok():
                         break  # ending anyway
                     self._survived(exc)
         except BaseException as exc:
