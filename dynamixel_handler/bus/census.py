@@ -73,13 +73,8 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
     ``protocol`` 1: Protocol 1.0 servos, which have no broadcast ping: pinged ID by ID."""
     wanted = sorted(set(ids))
     before = noise(bus)
-    if protocol == 1:
-        broadcast = False
-        answered = {i: n for i in wanted if (n := _ping(bus, i, 0.0, 1)) is not None}
-    else:
-        if broadcast is None:
-            broadcast = len(wanted) >= BROADCAST_SCAN_MIN_IDS
-        answered = bus.scan(wanted, broadcast)
+    broadcast = protocol == 2 and (len(wanted) >= BROADCAST_SCAN_MIN_IDS if broadcast is None else broadcast)
+    answered = _answered(bus, wanted, broadcast, protocol)
     out = Census()
     garbled = noise(bus) != before
     if not (garbled or thorough or not broadcast):
@@ -94,6 +89,13 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
             elif number is not None:
                 out.found[dxl_id] = number
     return out
+
+
+def _answered(bus: ServoBus, wanted: list[int], broadcast: bool, protocol: int) -> dict[int, int]:
+    """{ID: model number} of the first pings: a Protocol 2.0 scan, or a Protocol 1.0 ping per ID."""
+    if protocol == 1:
+        return {i: n for i in wanted if (n := _ping(bus, i, 0.0, 1)) is not None}
+    return bus.scan(wanted, broadcast)
 
 
 def rounds(bus: ServoBus, dxl_id: int, protocol: int = 2) -> tuple[int | None, bool]:
