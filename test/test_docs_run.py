@@ -12,7 +12,7 @@ blocks run in order, in the repository root, as a reader would type them:
 - A directive in an HTML comment before a block says how it runs:
   ``<!-- doc-run: background until "TEXT" -->`` (started and left running until the page ends or
   ``<!-- doc-run: stop -->``; the test waits for TEXT in its output), ``<!-- doc-run: for 8 s expect
-  "TEXT" -->`` (a command that runs until stopped: stopped after 8 s, TEXT must have been printed),
+  "TEXT" -->`` (a command that runs until stopped: stopped once TEXT is printed, at most 8 s),
   ``<!-- doc-run: expect "TEXT" -->`` (runs to the end; TEXT must be printed). A ``console`` block's
   output lines containing ``...`` match anything in their place; ``<!-- doc-run: output varies -->``
   before a console block runs it without comparing. ``<!-- skip: next "why" -->`` leaves out a block
@@ -88,6 +88,11 @@ class Runner:
             return log.read_text(errors="replace")
         limit = mode.get("seconds", BLOCK_TIMEOUT)
         try:
+            if "seconds" in mode and mode.get("text"):  # a command that runs until stopped: stopped once it said it
+                end = time.monotonic() + limit
+                while proc.poll() is None and time.monotonic() < end and mode["text"] not in log.read_text(errors="replace"):
+                    time.sleep(0.1)
+                limit = 0.0 if mode["text"] in log.read_text(errors="replace") else max(0.0, end - time.monotonic())
             proc.wait(limit)
         except subprocess.TimeoutExpired:
             self._stop(proc)

@@ -393,6 +393,9 @@ def test_three_servos_at_one_id_are_two_or_more(sim_of):
 
 
 def test_one_id_at_two_rates_is_refused_naming_both(sim_of):
+    def tool(sim, *args: str):  # each call searches every rate: a 30 ms latency timer, 2 retries (as the reach tests)
+        return test_setup_tool.tool(sim, *args, "--latency", "30", "--retries", "2")
+
     sim = sim_of("1:XM430-W350", "2:XM430-W350")
     sdk_write1(sim.path, 57600, 2, BAUD, 3)
     sdk_write1(sim.path, 1_000_000, 2, ID_ADDR, 1)  # ID 1 at 57600 and at 1 Mbps

@@ -33,7 +33,10 @@ def test_protocol1_servos_are_pinged_id_by_id_where_their_family_is_used():
     found = part.scan([], expected=3)
     assert found == {1: (2, XM430), 4: (1, AX12A), 5: (1, MX28)}
     assert bus.of("scan") == [("scan", (1, 2, 3, 4, 5, 6))]
-    assert [c[1] for c in bus.of("ping1")] == [2, 3, 4, 5, 6]     # the IDs the broadcast ping left
+    pings = [c[1] for c in bus.of("ping1")]
+    # every ID (a Protocol 2.0 servo ignores Protocol 1.0 packets: a 1.0 servo at its ID is found too), then
+    # the IDs that answered a few times more (two servos at one ID garble or double every reply)
+    assert pings[:6] == [1, 2, 3, 4, 5, 6] and set(pings[6:]) == {4, 5}, pings
     assert lookup(found[4]).name == "AX-12A" and lookup(found[4]).protocol == 1
     assert lookup((2, 9999)) is None
 
