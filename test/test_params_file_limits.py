@@ -138,23 +138,37 @@ def _open_in(pid: int, path: Path) -> bool:
         return False
 
 
-def test_sigint_while_rcl_reads_the_params_files_ends_the_node_with_one_line(tmp_path):
-    """Two files of 19,000 keys (within every limit): rcl reads them for a second or so, with
-    SIGINT held until it returns; the node then exits (code 0) in one line, no traceback."""
-    files = [_many_keys(tmp_path, f"part{k}.yaml", 19_000) for k in range(2)]
+def _sigint_while_reading(files: list[Path]) -> tuple[bool, NodeProcess]:
+    """The node with ``files``, SIGINT as soon as rcl's parser holds one of them open (Python's own
+    reads are quick); (whether the node had said nothing yet when the signal went, the process)."""
     proc = NodeProcess(node_command(params_file=None) + [a for f in files for a in ("--params-file", str(f))])
     pid = proc.proc.pid
     deadline = time.monotonic() + EXIT_WAIT_S
     while proc.proc.poll() is None and time.monotonic() < deadline:
-        if _open_in(pid, files[0]) or _open_in(pid, files[1]):
-            time.sleep(0.05)  # rcl's parser holds a file open while it reads it (Python's own reads are quick)
-            if _open_in(pid, files[0]) or _open_in(pid, files[1]):
+        if any(_open_in(pid, f) for f in files):
+            time.sleep(0.05)
+            if any(_open_in(pid, f) for f in files):
                 break
         time.sleep(0.005)
+    quiet = not proc.lines  # the node's first line comes once rcl has read the files
     proc.proc.send_signal(signal.SIGINT)
-    assert proc.wait_exit(timeout=15) == 0, proc.output[:2000]
-    assert "Traceback" not in proc.output, proc.output[:3000]
-    assert "interrupted while reading the parameters: exiting" in proc.output, proc.output[:2000]
+    return quiet, proc
+
+
+def test_sigint_while_rcl_reads_the_params_files_ends_the_node_with_one_line(tmp_path):
+    """Two files of 19,000 keys (within every limit): rcl reads them for a second or so, with
+    SIGINT held until it returns; the node then exits (code 0) in one line, no traceback. A signal
+    that lands after the files were read (the timing is the machine's) must end the node as cleanly;
+    the test tries up to three times to land one inside the reading."""
+    files = [_many_keys(tmp_path, f"part{k}.yaml", 19_000) for k in range(2)]
+    for _ in range(3):
+        quiet, proc = _sigint_while_reading(files)
+        assert proc.wait_exit(timeout=15) == 0, proc.output[:2000]
+        assert "Traceback" not in proc.output, proc.output[:3000]
+        if quiet:
+            assert proc.output.strip().endswith("interrupted while reading the parameters: exiting"), proc.output[:2000]
+            return
+    pytest.fail("no SIGINT landed while rcl read the files in three tries")
 
 
 # ---------------------------------------------------------------------- the text scan's rules
