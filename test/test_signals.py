@@ -63,15 +63,13 @@ def test_a_signal_ends_the_loop_at_any_rate(rate):
     assert "stopping" in proc.output
 
 
-def test_a_signal_during_a_burst_of_mode_changes_leaves_the_rest_undone_and_the_servos_safe():
-    """A stop does not finish the mode changes still queued (at 9600 bps each takes ~0.35 s): the one
-    in progress ends, the others are dropped, and every servo is left as term/* say (torque off)."""
+def _burst_then_signal(ids: list[int]) -> tuple[list[int], str]:
+    """Mode changes for ``ids`` at 9600 bps, SIGTERM once the first is logged: (the IDs whose mode
+    changed, the node's output); every servo's torque is off afterwards, as term/* says."""
     from dynamixel_handler_msgs.msg import DynamixelControlXVelocity
 
     from support.rig import Rig
-    ids = list(range(1, 13))  # about 4 s of mode changes: the signal comes in the middle, loaded host or not
-    rig = Rig({i: X for i in ids}, "baudrate:=9600", "loop_rate:=20",
-              sim_kwargs={"wire_timing": True, "baudrate": 9600})
+    rig = Rig({i: X for i in ids}, "baudrate:=9600", "loop_rate:=20", sim_kwargs={"wire_timing": True, "baudrate": 9600})
     try:
         mark = rig.mark()
         rig.publish("/dynamixel/command/x/velocity_control",
@@ -83,9 +81,22 @@ def test_a_signal_during_a_burst_of_mode_changes_leaves_the_rest_undone_and_the_
         rig.wait(lambda: all(rig.sim.servo(i).read("torque_enable") == 0 for i in ids), timeout=5,
                  what="every servo's torque off, as term/torque_auto_disable says")
         changed = [i for i in ids if rig.sim.servo(i).read("operating_mode") == 1]
-        # the change in progress when the signal came may end; the queued ones do not start
-        assert changed and len(changed) < len(ids), (changed, rig.log_since(mark))
-        assert "stopping: mode changes not made (dropped) for IDs" in rig.output
         assert all(rig.sim.servo(i).read("goal_velocity") == 0 for i in changed)
+        return changed, rig.output
     finally:
         rig.close()
+
+
+def test_a_signal_during_a_burst_of_mode_changes_leaves_the_rest_undone_and_the_servos_safe():
+    """A stop does not finish the mode changes still queued (at 9600 bps each takes ~0.35 s): the one
+    in progress ends, the others are dropped, and every servo is left as term/* say (torque off).
+    The signal goes when the test sees the first change logged: a loaded host may see it only
+    after the whole burst, so up to three tries land one inside it."""
+    ids = list(range(1, 13))  # about 4 s of mode changes
+    for _ in range(3):
+        changed, output = _burst_then_signal(ids)
+        assert changed, output
+        if len(changed) < len(ids):  # the signal came inside the burst: the rest were dropped, and said so
+            assert "stopping: mode changes not made (dropped) for IDs" in output
+            return
+    pytest.fail("the signal came after the whole burst in three tries")
