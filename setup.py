@@ -7,7 +7,7 @@ PACKAGE = "dynamixel_handler"
 
 setup(
     name=PACKAGE,
-    version="1.1.1",
+    version="1.1.2",
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

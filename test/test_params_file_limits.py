@@ -140,7 +140,8 @@ def _open_in(pid: int, path: Path) -> bool:
 
 def _sigint_while_reading(files: list[Path]) -> tuple[bool, NodeProcess]:
     """The node with ``files``, SIGINT as soon as rcl's parser holds one of them open (Python's own
-    reads are quick); (whether the node had said nothing yet when the signal went, the process)."""
+    reads are quick); (whether the node was alive and had said nothing yet when the signal went, the
+    process)."""
     proc = NodeProcess(node_command(params_file=None) + [a for f in files for a in ("--params-file", str(f))])
     pid = proc.proc.pid
     deadline = time.monotonic() + EXIT_WAIT_S
@@ -150,7 +151,7 @@ def _sigint_while_reading(files: list[Path]) -> tuple[bool, NodeProcess]:
             if any(_open_in(pid, f) for f in files):
                 break
         time.sleep(0.005)
-    quiet = not proc.lines  # the node's first line comes once rcl has read the files
+    quiet = not proc.lines and proc.proc.poll() is None  # its first line comes once rcl has read the files
     proc.proc.send_signal(signal.SIGINT)
     return quiet, proc
 
@@ -158,17 +159,20 @@ def _sigint_while_reading(files: list[Path]) -> tuple[bool, NodeProcess]:
 def test_sigint_while_rcl_reads_the_params_files_ends_the_node_with_one_line(tmp_path):
     """Two files of 19,000 keys (within every limit): rcl reads them for a second or so, with
     SIGINT held until it returns; the node then exits (code 0) in one line, no traceback. A signal
-    that lands after the files were read (the timing is the machine's) must end the node as cleanly;
-    the test tries up to three times to land one inside the reading."""
+    that lands after the files were read (the timing is the machine's) must end the node as cleanly:
+    code 0 (the signal) or 1 (its device, /dev/null, is no serial port, found first); the test tries up
+    to five times to land one inside the reading."""
     files = [_many_keys(tmp_path, f"part{k}.yaml", 19_000) for k in range(2)]
-    for _ in range(3):
+    for _ in range(5):
         quiet, proc = _sigint_while_reading(files)
-        assert proc.wait_exit(timeout=15) == 0, proc.output[:2000]
+        code = proc.wait_exit(timeout=15)
         assert "Traceback" not in proc.output, proc.output[:3000]
         if quiet:
+            assert code == 0, proc.output[:2000]
             assert proc.output.strip().endswith("interrupted while reading the parameters: exiting"), proc.output[:2000]
             return
-    pytest.fail("no SIGINT landed while rcl read the files in three tries")
+        assert code in (0, 1), proc.output[:2000]
+    pytest.fail("no SIGINT landed while rcl read the files in five tries")
 
 
 # ---------------------------------------------------------------------- the text scan's rules

@@ -55,7 +55,9 @@ def _keys(doc: object) -> set[str]:
 
 
 # ---------------------------------------------------------------------- one search, every verb
-def test_monitor_backup_and_reboot_all_find_servos_at_every_rate_without_baud(bus, tmp_path):
+def test_monitor_finds_servos_at_every_rate_without_baud_and_a_baud_list_bounds_every_search(bus, tmp_path):
+    """Without --baud every rate is looked at; with a list (backup, reboot all) those rates only, and
+    a servo at a rate the list leaves out is not found."""
     sim = _three_at_two_rates(bus)
     out = tool(sim, "monitor", "--once", "--json")
     assert out.returncode == 0, out.text
@@ -66,7 +68,7 @@ def test_monitor_backup_and_reboot_all_find_servos_at_every_rate_without_baud(bu
     assert next(r for r in rows if r["id"] == 3)["position"] == pytest.approx((present - 2048) * 360 / 4096, abs=0.1)
 
     backup = tmp_path / "all.yaml"
-    out = tool(sim, "backup", str(backup))
+    out = tool(sim, "backup", str(backup), "--baud", "1M,57600")
     assert out.returncode == 0 and "3 servo(s) saved" in out.stdout, out.text
     text = backup.read_text()
     assert "  3:\n    model: XM540-W270\n    model_number: 1120\n    baudrate: 1000000\n" in text
@@ -74,7 +76,11 @@ def test_monitor_backup_and_reboot_all_find_servos_at_every_rate_without_baud(bu
 
     for dxl_id, bps in ((1, 57600), (3, 1_000_000), (5, 57600)):
         sdk_write1(sim.path, bps, dxl_id, LED, 1)  # LED on (RAM): a reboot clears it
-    out = tool(sim, "reboot", "all", "--json")
+    out = tool(sim, "reboot", "all", "--json", "--baud", "1M,2M")  # only ID 3 is at one of these
+    assert out.returncode == 0, out.text
+    assert sorted(json.loads(out.stdout)["rebooted"]) == [3]
+    assert [sdk_read(sim.path, bps, i, LED, 1) for i, bps in ((1, 57600), (3, 1_000_000), (5, 57600))] == [1, 0, 1]
+    out = tool(sim, "reboot", "all", "--json", "--baud", "57600,1M")
     assert out.returncode == 0, out.text
     assert sorted(json.loads(out.stdout)["rebooted"]) == [1, 3, 5]
     assert [sdk_read(sim.path, bps, i, LED, 1) for i, bps in ((1, 57600), (3, 1_000_000), (5, 57600))] == [0, 0, 0]
@@ -82,11 +88,11 @@ def test_monitor_backup_and_reboot_all_find_servos_at_every_rate_without_baud(bu
 
 def test_a_list_of_ids_names_each_missing_one_and_does_the_others(bus, tmp_path):
     sim = _three_at_two_rates(bus)
-    out = tool(sim, "monitor", "1,3,7", "--once", "--json")
+    out = tool(sim, "monitor", "1,3,7", "--once", "--json", "--baud", "57600,1M")
     assert out.returncode == 1, out.text
     doc = json.loads(out.stdout)
     assert [r["id"] for r in doc["refreshes"][0]] == [1, 3] and doc["missing"] == [7]
-    assert "ID 7: no servo answers at any baud rate" in out.stderr
+    assert "ID 7: no servo answers at any baud rate (57600, 1000000 bps)" in out.stderr, out.text
     assert "1 of 3 servo(s) not found (ID 7)" in out.stderr
 
     sdk_write1(sim.path, 57600, 1, LED, 1)
@@ -229,10 +235,14 @@ def test_messages_name_the_tools_own_option_for_the_device(bus, tmp_path):
 
 
 # ---------------------------------------------------------------------- several servos at once
+#: the servos of these tests are at these rates: a search of every rate would only add time
+TWO_RATES = ("--baud", "57600,1M")
+
+
 def test_set_get_and_set_mode_of_several_servos_in_one_sync_write_and_read(bus):
     sim = bus("1:XM430-W350", "2:XM540-W270", "5:XL330-M288")
     sdk_write1(sim.path, 57600, 5, BAUD_RATE_ADDR, 3)  # ID 5 at 1 Mbps
-    out = tool(sim, "set", "1,2,5", "profile_velocity", "30rpm", "--trace")
+    out = tool(sim, "set", "1,2,5", "profile_velocity", "30rpm", "--trace", *TWO_RATES)
     assert out.returncode == 0, out.text
     writes = [line for line in out.stderr.splitlines() if "sync_write @112 x4 (profile_velocity)" in line]
     assert [w.split("(profile_velocity) ")[1] for w in writes] == ["1=131, 2=131", "5=131"], out.stderr  # one per rate
@@ -242,17 +252,17 @@ def test_set_get_and_set_mode_of_several_servos_in_one_sync_write_and_read(bus):
     assert [line.split(" = ")[0] for line in out.stdout.splitlines()] == [
         "ID 1 (XM430-W350) profile_velocity", "ID 2 (XM540-W270) profile_velocity", "ID 5 (XL330-M288) profile_velocity"]
 
-    out = tool(sim, "get", "1,2,5,9", "profile_velocity", "--json", "--trace")
+    out = tool(sim, "get", "1,2,5,9", "profile_velocity", "--json", "--trace", *TWO_RATES)
     assert out.returncode == 1 and "ID 9: no servo answers" in out.stderr, out.text
     doc = json.loads(out.stdout)
     assert [(s["id"], s["raw"], s["baudrate"]) for s in doc["servos"]] == [(1, raw, 57600), (2, raw, 57600), (5, raw, 1_000_000)]
     assert doc["missing"] == [9] and sum("sync_read @112" in line for line in out.stderr.splitlines()) == 2
 
     sdk_write1(sim.path, 57600, 2, 64, 1)  # ID 2 holds its load
-    out = tool(sim, "set-mode", "1,2", "velocity", "--yes")
+    out = tool(sim, "set-mode", "1,2", "velocity", "--yes", *TWO_RATES)
     assert out.returncode == 2 and "torque is on" in out.stderr, out.text
     assert [sdk_read(sim.path, 57600, i, 11, 1) for i in (1, 2)] == [3, 3]  # nothing written to either
-    out = tool(sim, "set-mode", "1,2", "velocity", "--yes", "--torque-off")
+    out = tool(sim, "set-mode", "1,2", "velocity", "--yes", "--torque-off", *TWO_RATES)
     assert out.returncode == 0, out.text
     assert [sdk_read(sim.path, 57600, i, 11, 1) for i in (1, 2)] == [1, 1]  # Operating Mode 1 = velocity
     assert sdk_read(sim.path, 57600, 2, 64, 1) == 1 and sdk_read(sim.path, 57600, 1, 64, 1) == 0  # torque as before

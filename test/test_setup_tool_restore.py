@@ -57,11 +57,11 @@ def test_restore_gives_a_factory_reset_replacement_its_id_rate_and_items(bus, tm
     out = tool(sim, "backup", str(backup), "1,3,5")  # IDs given: the search ends at the rate of the last
     assert out.returncode == 0 and "3 servo(s) saved" in out.stdout, out.text
 
-    out = tool(sim, "factory-reset", "3", "--all", "--yes")  # the replacement: ID 1 at 57600 bps, factory values
+    out = tool(sim, "factory-reset", "3", "--all", "--yes", "--baud", "57600,1M")  # the replacement: ID 1 at 57600 bps
     assert out.returncode == 0, out.text
     assert sdk_ping(sim.path, 57600, 1) == XM540 and sdk_ping(sim.path, 1_000_000, 3) is None
 
-    out = tool(sim, "restore", str(backup), "--dry-run", "--json")
+    out = tool(sim, "restore", str(backup), "--dry-run", "--json", "--baud", "57600,1M")  # the rates used
     assert out.returncode == 0, out.text
     planned = json.loads(out.stdout)
     three = next(s for s in planned["servos"] if s["id"] == 3)
@@ -70,7 +70,7 @@ def test_restore_gives_a_factory_reset_replacement_its_id_rate_and_items(bus, tm
     assert [c["item"] for c in planned["changes"]] == [w["item"] for w in three["writes"]]  # nothing else changes
     assert sdk_ping(sim.path, 57600, 1) == XM540  # the dry run wrote nothing
 
-    out = tool(sim, "restore", str(backup), "--yes", "--json")
+    out = tool(sim, "restore", str(backup), "--yes", "--json", "--baud", "57600,1M")
     assert out.returncode == 0, out.text
     done = next(s for s in json.loads(out.stdout)["servos"] if s["id"] == 3)
     assert [w.split()[0] for w in done["written"]] == [w["item"] for w in three["writes"]]  # what the dry run said
@@ -89,7 +89,7 @@ def test_one_missing_servo_is_reported_and_the_others_restored_at_their_rates(bu
     sdk_write1(sim.path, 57600, 2, RETURN_DELAY, 0)
     sdk_write1(sim.path, 57600, 2, BAUD_RATE_ADDR, 3)  # ID 2 moved to 1 Mbps since the backup
 
-    out = tool(sim, "restore", str(backup), "--dry-run", "--json")
+    out = tool(sim, "restore", str(backup), "--dry-run", "--json", "--baud", "57600,1M")
     assert out.returncode == 1, out.text  # as the real run will: ID 4 cannot be restored
     assert "the real run would be incomplete" in out.stderr and "ID 4 (XM540-W270) answers at no rate" in out.stderr
     planned = {c["id"]: [] for c in json.loads(out.stdout)["changes"]}
@@ -97,7 +97,7 @@ def test_one_missing_servo_is_reported_and_the_others_restored_at_their_rates(bu
         planned[c["id"]].append(c["item"])
     assert planned == {1: ["temperature_limit"], 2: ["baud_rate", "return_delay_time"]}, out.stdout
 
-    out = tool(sim, "restore", str(backup), "--yes")
+    out = tool(sim, "restore", str(backup), "--yes", "--baud", "57600,1M")
     assert out.returncode == 1, out.text
     assert "ID 4 (XM540-W270) answers at no rate" in out.stderr and "3 item(s) written and read back" in out.stderr
     assert {i: _eeprom(sim, 57600, i) for i in (1, 2)} == before

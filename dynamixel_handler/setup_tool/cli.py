@@ -145,8 +145,8 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                    help="the adapter: a tty, a /dev/serial/by-id link or serial:<USB serial> "
                         "(default: $DXL_DEVICE, else /dev/ttyUSB0)")
     g.add_argument("--baud", default=default(None), metavar="BPS",
-                   help="where the servos are (scan and assign-ids: all|LIST, and they look everywhere when not given; "
-                        "other verbs look for the servo at every rate when not given)")
+                   help="where the servos are: one rate, a LIST (57600,1M: looked at in this order) or all (the "
+                        "default: every rate; assign-ids: the one rate its servos are given)")
     g.add_argument("--yes", "-y", action="store_true", default=default(False), help="no confirmation before EEPROM writes")
     g.add_argument("--torque-off", action="store_true", default=default(False),
                    help="allow turning a servo's torque off for an EEPROM write or a reboot (it is turned back on "
@@ -273,12 +273,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _bus_rate(args: argparse.Namespace) -> tuple[int, bool]:
-    """The rate to open the bus at and whether it was given; scan/assign-ids keep their list."""
+    """The rate to open the bus at and whether one rate was given; scan keeps its list, and the
+    other verbs look for their servos at the rates of a list (``args.rates``)."""
+    args.rates = []
     if args.baud is None:
         return 57600, False
     if args.verb_name == "scan":
         args.rates = parse_rates(args.baud)
         return (args.rates or [57600])[0], True
+    if args.verb_name != "assign-ids" and ("," in args.baud or args.baud.strip().lower() == "all"):
+        args.rates = parse_rates(args.baud)
+        return (args.rates or [57600])[0], False
     return baud(args.baud), True
 
 
@@ -299,7 +304,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             bus = _open(args, rate)
             args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw,
-                              protocols=args.protocol), args)
+                              protocols=args.protocol, rates=args.rates), args)
     except StepFailed as exc:
         out.error(str(exc))
         out.document["error"] = str(exc)

@@ -19,7 +19,8 @@ __all__ = ["Context"]
 class Context:
     bus: DynamixelBus
     out: Output
-    #: ``--baud`` was given (else single-servo verbs look for the servo at every rate)
+    #: one ``--baud`` rate was given (else single-servo verbs look for the servo at every rate, or at
+    #: those of a ``--baud`` list)
     baud_given: bool
     #: ``--yes``: no confirmation asked
     yes: bool
@@ -32,11 +33,13 @@ class Context:
     raw: bool = False
     #: ``--protocol``: "2", "1" or "both" (None: an ID is looked for in both, every servo in 2.0)
     protocols: str | None = None
-    #: the one search every verb uses (``--baud`` given: that rate only; else every rate)
+    #: a ``--baud`` list (``57600,1M``): the rates a search looks at, in this order (empty: every rate)
+    rates: Sequence[int] = ()
+    #: the one search every verb uses (one ``--baud`` rate: that rate only; a list: those; else every rate)
     search: Search = field(init=False)
 
     def __post_init__(self) -> None:
-        self.search = Search(self.bus, self.baud_given, self.protocols)
+        self.search = Search(self.bus, self.baud_given, self.protocols, self.rates)
 
     def servo(self, dxl_id: int) -> Servo:
         """The servo at ``dxl_id`` (at any rate unless ``--baud``), the bus at its rate. The JSON

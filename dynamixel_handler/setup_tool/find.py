@@ -1,5 +1,6 @@
-"""The one search every verb uses to find its servos: at the ``--baud`` rate when it is given, else
-at every rate (the bus's first, then where unboxed and set-up servos usually are). A list of IDs
+"""The one search every verb uses to find its servos: at the ``--baud`` rate when one is given, at the
+rates of a ``--baud`` list in its order, else at every rate (the bus's first, then where unboxed and
+set-up servos usually are). A list of IDs
 comes back as the servos found (each with its rate) and the IDs that answer nowhere, so a verb can
 do its work on the ones there and name each missing one; no list means every servo on the bus.
 
@@ -66,12 +67,15 @@ Where = dict[int, tuple[int, int, int]]
 
 
 class Search:
-    """Finding servos on ``bus``: at its rate only when ``baud_given``, else at every rate;
-    ``protocols``: where the search for every servo looks ("2", "1", "both"; None: Protocol 2.0)."""
+    """Finding servos on ``bus``: at its rate only when ``baud_given``, else at the rates of
+    ``listed`` (a ``--baud`` list; empty: every rate); ``protocols``: where the search for every
+    servo looks ("2", "1", "both"; None: Protocol 2.0)."""
 
-    def __init__(self, bus: DynamixelBus, baud_given: bool, protocols: str | None = None) -> None:
+    def __init__(self, bus: DynamixelBus, baud_given: bool, protocols: str | None = None,
+                 listed: Sequence[int] = ()) -> None:
         self.bus = bus
         self.baud_given = baud_given
+        self.listed = list(listed)
         #: the rate the bus was opened at (``--baud``, or 57600): looked at first
         self.first = bus.baudrate
         #: the protocols an ID asked for is pinged in, and those the search for every servo uses
@@ -81,7 +85,7 @@ class Search:
     def rates(self) -> list[int]:
         if self.baud_given:
             return [self.first]
-        return [self.first] + [bps for bps in SEARCH_ORDER if bps != self.first]
+        return [self.first] + [bps for bps in (self.listed or SEARCH_ORDER) if bps != self.first]
 
     def _at(self, bps: int) -> bool:
         try:

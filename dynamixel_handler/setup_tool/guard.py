@@ -14,7 +14,7 @@ from .context import Context
 from .errors import StepFailed
 from .protocol1 import rates1
 from .safety import TorqueOn, needs_torque_off, refuse_torque
-from .servo import SEARCH_ORDER, Servo
+from .servo import Servo
 
 __all__ = ["check_values", "torque_gate", "torque_for", "torque_question", "torque_done", "only_one"]
 
@@ -62,13 +62,14 @@ def torque_done(on: bool) -> str:
 
 
 def only_one(ctx: Context, servo: Servo) -> None:
-    """StepFailed naming both rates when ``--baud`` was not given and another servo answers at the
-    same ID at another rate (which one is meant cannot be told); the bus is left at the servo's rate."""
+    """StepFailed naming both rates when one ``--baud`` rate was not given and another servo answers
+    at the same ID at another rate looked at (which one is meant cannot be told); the bus is left at
+    the servo's rate."""
     if ctx.baud_given:
         return
     here = ctx.bus.baudrate
     try:
-        for bps in SEARCH_ORDER:
+        for bps in ctx.search.rates():
             if bps == here:
                 continue
             try:
