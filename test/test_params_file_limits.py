@@ -139,18 +139,16 @@ def _open_in(pid: int, path: Path) -> bool:
 
 
 def _sigint_while_reading(files: list[Path]) -> tuple[bool, NodeProcess]:
-    """The node with ``files``, SIGINT as soon as rcl's parser holds one of them open (Python's own
-    reads are quick); (whether the node was alive and had said nothing yet when the signal went, the
-    process)."""
+    """The node with ``files``, SIGINT as soon as one of them is seen open (the node's own check of
+    their sizes, then rcl's parser: a signal in either is one and the same case); (whether the node
+    was alive and had said nothing yet when the signal went, the process)."""
     proc = NodeProcess(node_command(params_file=None) + [a for f in files for a in ("--params-file", str(f))])
     pid = proc.proc.pid
     deadline = time.monotonic() + EXIT_WAIT_S
     while proc.proc.poll() is None and time.monotonic() < deadline:
         if any(_open_in(pid, f) for f in files):
-            time.sleep(0.05)
-            if any(_open_in(pid, f) for f in files):
-                break
-        time.sleep(0.005)
+            break
+        time.sleep(0.002)
     quiet = not proc.lines and proc.proc.poll() is None  # its first line comes once rcl has read the files
     proc.proc.send_signal(signal.SIGINT)
     return quiet, proc

@@ -93,20 +93,25 @@ class _Spinner:
             raise error
 
 
-def _init_rclpy(args: list[str] | None, log: Any) -> int | None:
-    """rclpy.init, with bad arguments as one line; an exit code if it cannot start. SIGINT while
-    the arguments and params files are read ends it (exit 0, one line) as soon as rcl's parser
-    returns (within a second or two: the files' limits see to that)."""
+def _init_rclpy(args: list[str] | None, log: Any, came: threading.Event) -> int | None:
+    """rclpy.init, with bad arguments as one line; an exit code if it cannot start. SIGINT or
+    SIGTERM while the arguments and params files are read ends it (exit 0, one line) as soon as
+    rcl's parser returns (within a second or two: the files' limits see to that). The signals only
+    set a flag meanwhile: a KeyboardInterrupt raised inside rclpy's C code could be lost there (the
+    node then went on starting, the Ctrl-C ignored)."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: came.set())
     try:
         problem = check_arguments(sys.argv if args is None else args)
         if problem is not None:  # one line naming the file and the line, before rcl says less
             log.fatal(f"bad ROS arguments: {problem}")
             return 2
-        rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
+        if not came.is_set():
+            rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     except fastpath.RCLError as err:  # e.g. "-p name:=" with no value: one line, not a traceback
         log.fatal(f"bad ROS arguments: {str(err).split(', at ')[0]}")
         return 2
-    except KeyboardInterrupt:
+    if came.is_set():
         log.info("interrupted while reading the parameters: exiting")
         rclpy.try_shutdown()
         return 0
@@ -190,12 +195,15 @@ def run(make_node: Callable[[], Any], ready: Callable[[Any], None], args: list[s
     # the publishing thread encodes (Python's default lets a waiting thread wait 5 ms)
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     log = rclpy.logging.get_logger(NODE_NAME)  # until the node (and so its namespace) exists
-    code = _init_rclpy(args, log)
+    came = threading.Event()  # a signal before the process's own handlers are in
+    code = _init_rclpy(args, log, came)
     if code is not None:
         return code
     proc = _Process()
     signal.signal(signal.SIGINT, proc.on_signal)
     signal.signal(signal.SIGTERM, proc.on_signal)
+    if came.is_set():
+        proc.stopping.set()
     try:
         try:
             proc.node = make_node()
