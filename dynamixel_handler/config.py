@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
-from .bus.port import LINE_BAUDRATES as BAUDRATES  # the Protocol 2.0 rates and the Protocol 1.0-only ones
+from .config_checks import DUMMY_SERIES, USED_FAMILIES, check_values
 from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
 from .joints import JointMap, joint_map
@@ -28,6 +28,7 @@ from .settings import (
     Method,
     ReadRatios,
     RosSettings,
+    SafetySettings,
     ScanSettings,
     Settings,
     StartValues,
@@ -38,12 +39,8 @@ from .settings import (
 # Parameter types, as ROS knows them.
 BOOL, INT, FLOAT, STR, INT_ARRAY, FLOAT_ARRAY = "bool", "int", "float", "str", "int[]", "float[]"
 STR_ARRAY = "str[]"
-#: the families ``init/used_servo_series`` switches: the Protocol 2.0 ones, then the Protocol 1.0 ones
-USED_FAMILIES = FAMILIES + PROTOCOL1_FAMILIES
 #: the models of each Protocol 1.0 family, for the parameters' descriptions
 _PROTOCOL1_NAMES = {f.name: [m.name for m in protocol1_models() if m.family is f] for f in PROTOCOL1_FAMILIES}
-#: a dummy's series as the parameter may spell it ("x", "Pro", ...) -> its name ("" : the first used)
-DUMMY_SERIES = {"": "", **{f.title.lower(): f.name for f in FAMILIES}}
 
 
 @dataclass(frozen=True)
@@ -85,6 +82,10 @@ SCHEMA: tuple[Param, ...] = (
     _p("init/torque_auto_enable", BOOL, True, "enable torque (safely) at start-up"),
     _p("term/torque_auto_disable", BOOL, True, "disable torque on shutdown"),
     _p("term/servo_auto_stop", BOOL, True, "stop servos in pwm/current/velocity mode on shutdown"),
+    _p("safety/on_hardware_error", STR, "none",
+       "what a hardware error of one servo does to the others: none (they go on) or hold_all (the E-stop engages)"),
+    _p("led_status", BOOL, False, "each servo's LED shows its state: hardware error, E-stop, torque on, torque off "
+       "(RGB: red, yellow, green, blue; one LED: on for an error or the E-stop)"),
     _p("default/profile_acc", FLOAT, 6008.0, "profile acceleration set at start-up [deg/s^2]"),
     _p("default/profile_vel", FLOAT, 1000.0, "profile velocity set at start-up [deg/s]"),
     _p("default/return_delay_time", FLOAT, 0.0, "return delay time set at start-up [us]"),
@@ -279,6 +280,7 @@ def settings_of(values: Mapping[str, Any]) -> Settings:
         start=StartValues(profile_acc=v["default/profile_acc"], profile_vel=v["default/profile_vel"],
                           return_delay_time=v["default/return_delay_time"], bus_watchdog_ms=v["default/bus_watchdog"]),
         term=TermSettings(torque_auto_disable=v["term/torque_auto_disable"], servo_auto_stop=v["term/servo_auto_stop"]),
+        safety=SafetySettings(on_hardware_error=v["safety/on_hardware_error"].strip().lower(), led_status=v["led_status"]),
         loop=LoopSettings(rate_hz=v["loop_rate"], verbose_ratio=v["verbose_ratio"],
                           no_response_auto_remove=v["no_response_id_auto_remove_count"],
                           mode_change_interval_s=float(v["mode_change_interval_sec"]),
@@ -314,85 +316,9 @@ def _joints(v: Mapping[str, Any]) -> JointMap | None:
 def validate(values: Mapping[str, Any]) -> Config:
     """Check ranges and relations; raise ConfigError with one clear line for the first problem."""
     v = dict(values)
-    _check_bus(v)
-    _check_scan(v)
-    _check_dummies_and_series(v)
-    _check_loop(v)
-    _check_start_values(v)
-    _check_logs_and_options(v)
+    check_values(v)
     _joints(v)  # raises ConfigError naming the joint_state parameter at fault
     return Config(v)
-
-
-def _need(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ConfigError(msg)
-
-
-def _check_bus(v: Mapping[str, Any]) -> None:
-    """Device, baud rate, latency timer and retries."""
-    _need(bool(v["device_name"]), "parameter 'device_name' is empty: give the serial device, e.g. /dev/ttyUSB0")
-    _need(v["baudrate"] in BAUDRATES,
-          f"parameter 'baudrate' = {v['baudrate']} is not a Dynamixel baud rate; use one of {', '.join(map(str, BAUDRATES))}")
-    _need(0 <= v["latency_timer"] <= 255, f"parameter 'latency_timer' = {v['latency_timer']} must be 0..255 ms")
-    _need(v["dyn_comm/retry_num"] >= 0, "parameter 'dyn_comm/retry_num' must be >= 0")
-    _need(v["dyn_comm/inerval_msec"] >= 0, "parameter 'dyn_comm/inerval_msec' must be >= 0")
-
-
-def _check_scan(v: Mapping[str, Any]) -> None:
-    """The ID range of the start-up scan, its repetitions and the servos it must find."""
-    lo, hi = v["init/servo_auto_search.min_id"], v["init/servo_auto_search.max_id"]
-    _need(0 <= lo <= 252 and 0 <= hi <= 252,
-          f"parameters 'init/servo_auto_search.min_id/max_id' = {lo}/{hi} must be within 0..252")
-    _need(lo <= hi, f"parameter 'init/servo_auto_search.max_id' ({hi}) is below min_id ({lo})")
-    _need(v["init/servo_auto_search.retry_times"] >= 0, "parameter 'init/servo_auto_search.retry_times' must be >= 0")
-    _need(v["init/expected_servo_num"] >= 0, "parameter 'init/expected_servo_num' must be >= 0")
-
-
-def _check_dummies_and_series(v: Mapping[str, Any]) -> None:
-    """Series names of the dummy servos (one for all or one per ID) and at least one used series."""
-    series = v.get("init/dummy_servo_series", [""])
-    bad = [s for s in series if s.strip().lower() not in DUMMY_SERIES]
-    _need(not bad, f"parameter 'init/dummy_servo_series' has {bad[:3]}: use X, P or Pro")
-    n_dummies = len([i for i in v["init/dummy_servo_list"] if i != -1])
-    _need(len(series) in (1, n_dummies),
-          f"parameter 'init/dummy_servo_series' has {len(series)} entries: give one for all dummies or one per "
-          f"ID of init/dummy_servo_list ({n_dummies})")
-    _need(any(v[f"init/used_servo_series.{f.title}"] for f in USED_FAMILIES),
-          "parameters 'init/used_servo_series.{" + ",".join(f.title for f in USED_FAMILIES)
-          + "}' are all false: enable at least one series")
-
-
-def _check_loop(v: Mapping[str, Any]) -> None:
-    """Loop rate, statistics ratio and every read ratio."""
-    _need(0 < v["loop_rate"] <= 2000, f"parameter 'loop_rate' = {v['loop_rate']} must be 1..2000 Hz")
-    _need(v["verbose_ratio"] >= 0, "parameter 'verbose_ratio' must be >= 0")
-    for name, value in v.items():
-        if name.startswith("pub_ratio/") or ".pub_ratio/" in name:
-            _need(value >= 0, f"parameter '{name}' = {value} must be >= 0 (0 = read once at start)")
-
-
-def _check_start_values(v: Mapping[str, Any]) -> None:
-    """Values written at start-up and the least intervals between mode changes / error clears."""
-    for name in ("default/profile_acc", "default/profile_vel", "default/return_delay_time", "default/bus_watchdog",
-                 "mode_change_interval_sec", "clear_error_interval_sec"):
-        _need_finite_non_negative(v, name)
-    _need(v["default/return_delay_time"] <= 508, "parameter 'default/return_delay_time' must be <= 508 us")
-    _need(v["default/bus_watchdog"] <= 2540, "parameter 'default/bus_watchdog' must be <= 2540 ms (127 x 20 ms)")
-
-
-def _check_logs_and_options(v: Mapping[str, Any]) -> None:
-    """Auto removal, log width, diagnostics period and the trajectory tolerances."""
-    _need(v["no_response_id_auto_remove_count"] >= 0, "parameter 'no_response_id_auto_remove_count' must be >= 0")
-    _need(v["max_log_width"] >= 1, "parameter 'max_log_width' must be >= 1")
-    _need(math.isfinite(v["diagnostics.period_sec"]) and v["diagnostics.period_sec"] >= 0,
-          "parameter 'diagnostics.period_sec' must be a finite value >= 0 (0: off)")
-    for name in ("trajectory.path_tolerance_deg", "trajectory.goal_tolerance_deg", "trajectory.goal_time_sec"):
-        _need_finite_non_negative(v, name)
-
-
-def _need_finite_non_negative(v: Mapping[str, Any], name: str) -> None:
-    _need(math.isfinite(v[name]) and v[name] >= 0, f"parameter '{name}' = {v[name]} must be a finite value >= 0")
 
 
 def defaults() -> dict[str, Any]:

@@ -133,16 +133,20 @@ class BusSample:
     watchdog_trips_new: int
     servos: int
     servos_silent: int
+    #: why the E-stop is engaged (None: released)
+    e_stop: str | None = None
 
 
 def bus_health(s: BusSample, prefix: str = "dynamixel_handler") -> Health:
-    """Success rate, loop rate vs target, reconnects and watchdog trips of one bus."""
+    """Success rate, loop rate vs target, reconnects, watchdog trips and the E-stop of one bus."""
     h = Health(name=f"{prefix}: bus {s.device}", hardware_id=s.device)
     rate = s.loops / s.elapsed_s if s.elapsed_s > 0 else float("nan")
     h.values += [("success rate [%]", f"{100 * s.success_rate:.1f}"), ("transactions", str(s.transactions)),
                  ("loop rate [Hz]", _fmt(rate, 1)), ("target loop rate [Hz]", _fmt(s.target_rate_hz)),
                  ("reconnects", str(s.reconnects_total)), ("watchdog trips", str(s.watchdog_trips_total)),
-                 ("servos", str(s.servos)), ("servos not answering", str(s.servos_silent))]
+                 ("servos", str(s.servos)), ("servos not answering", str(s.servos_silent)),
+                 ("e-stop", "released" if s.e_stop is None else f"engaged: {s.e_stop}")]
+    _check_e_stop(h, s)
     if s.device_lost:
         h.raise_to(ERROR, f"{s.device} is gone: reconnecting")
     if s.transactions and s.success_rate < SUCCESS_ERROR:
@@ -156,6 +160,11 @@ def bus_health(s: BusSample, prefix: str = "dynamixel_handler") -> Health:
     if s.watchdog_trips_new:
         h.raise_to(WARN, f"bus watchdog tripped {s.watchdog_trips_new} time(s) since the last report")
     return h
+
+
+def _check_e_stop(h: Health, s: BusSample) -> None:
+    if s.e_stop is not None:
+        h.raise_to(WARN, f"E-stop engaged ({s.e_stop}): every servo holds, moving commands are refused")
 
 
 def silent_count(table: ServoTable) -> int:

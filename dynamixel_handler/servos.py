@@ -230,6 +230,12 @@ class PendingWrites:
         """Drop what waits for a servo no longer handled."""
         self.drop_ids((dxl_id,))
 
+    def drop_items(self, items: Iterable[str]) -> None:
+        """Forget what waits to be written to ``items`` (an E-stop drops the goals waiting)."""
+        with self._lock:
+            for item in items:
+                self._items.pop(item, None)
+
     def drop_ids(self, ids: Sequence[int]) -> None:
         with self._lock:
             for values in self._items.values():

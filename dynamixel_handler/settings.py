@@ -79,6 +79,20 @@ class TermSettings:
     servo_auto_stop: bool = True
 
 
+#: what a hardware error of one servo does to the others (``safety/on_hardware_error``)
+ON_HARDWARE_ERROR = ("none", "hold_all")
+
+
+@dataclass(frozen=True)
+class SafetySettings:
+    """What a fault of one servo does to the others."""
+
+    #: "none" (the others go on, as the original handler) or "hold_all" (the E-stop engages)
+    on_hardware_error: str = "none"
+    #: each servo's LED shows its state (error, E-stop, torque on, torque off)
+    led_status: bool = False
+
+
 @dataclass(frozen=True)
 class LoopSettings:
     """The loop's rate and its rules over time."""
@@ -170,6 +184,7 @@ class Settings:
     scan: ScanSettings = ScanSettings()
     start: StartValues = StartValues()
     term: TermSettings = TermSettings()
+    safety: SafetySettings = SafetySettings()
     loop: LoopSettings = LoopSettings()
     ratios: ReadRatios = field(default_factory=ReadRatios)
     method: Method = Method()

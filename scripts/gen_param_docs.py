@@ -28,6 +28,7 @@ TITLES = {
     "dyn_comm": "Communication retries (`dyn_comm/*`)",
     "init": "Start-up (`init/*`)",
     "term": "Shutdown (`term/*`)",
+    "safety": "Safety (`safety/*`)",
     "default": "Values written at start-up (`default/*`)",
     "pub_ratio": "Read and publish ratios (`pub_ratio/*`)",
     "method": "Bus methods (`method/*`)",

@@ -51,7 +51,7 @@ FRONTS = {("core.handler", "Handler"): 9, ("bus.core", "DynamixelBus"): 12}
 #: the modules that may look parameters up by name (and the set-up tool, a command line without
 #: node parameters, whose dictionaries share some key names), and how many lookups the others may
 #: make: none, every other part is given typed settings (``Settings``, the tool's ``UnifySettings``)
-PARAM_EXEMPT = ("config", "ros.params", "setup_tool")
+PARAM_EXEMPT = ("config", "config_checks", "ros.params", "setup_tool")
 PARAM_LOOKUPS = 0
 
 

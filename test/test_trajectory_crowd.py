@@ -60,7 +60,7 @@ def test_a_full_queue_rejects_the_next_goal_at_once_with_one_line():
         while not sent.done() and time.monotonic() < end:
             time.sleep(0.01)
         assert sent.done() and not sent.result().accepted
-        assert lines == [f"follow_joint_trajectory: {MAX_JOBS} goals are waiting already: goal rejected "
+        assert lines == [f"follow_joint_trajectory: busy: {MAX_JOBS} goals are waiting already: goal rejected "
                          "(try again later)"]
         assert action.waiting == MAX_JOBS  # a rejected goal takes no place
         action.waiting = MAX_JOBS - 1  # one ended: the next is taken (counted until it ends)

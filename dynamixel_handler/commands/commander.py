@@ -186,7 +186,7 @@ class Commander(SettingsCommands):
 
     def put_writes(self, what: str, writes: dict[str, dict[int, int]]) -> None:
         if writes:
-            self.h.ask(SetGoals(writes))
+            self.h.ask(SetGoals(writes, what))
             if "goal" in self.h.settings.logs.writes:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 

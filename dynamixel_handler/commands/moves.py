@@ -60,8 +60,9 @@ GOAL_NOTE_DEG = 0.2
 LOOP_TIMEOUT_S = 5.0
 #: least time between two wake-ups of the executor for feedback [s]
 FEEDBACK_S = 0.1
-#: requests waiting at once; beyond, a request is refused at once
-MAX_JOBS = 512
+#: requests waiting at once; beyond, a request is answered "busy" at once (each waiting request is
+#: resumed at every wake-up of the executor: a thousand made each wake-up cost milliseconds)
+MAX_JOBS = 64
 #: moves whose goals are written in one loop step (more wait for the next)
 MAX_STARTS = 16
 
@@ -70,6 +71,8 @@ class Job(ABC):
     """A request the loop thread carries out; ended once (``finish``), the first end wins."""
 
     _numbers = itertools.count(1)
+    #: whether it can move a servo (the E-stop ends such jobs; torque off, a reboot go on)
+    moves = True
 
     def __init__(self, what: str, ids: list[int], answer_by: float) -> None:
         self.seq = next(Job._numbers)  # arrival order (atomic: jobs come from several threads)
@@ -97,6 +100,7 @@ class TorqueJob(Job):
     def __init__(self, ids: list[int], enable: bool, answer_by: float) -> None:
         super().__init__(f"torque {'on' if enable else 'off'}", ids, answer_by)
         self.enable = enable
+        self.moves = enable
         self.todo = deque(ids)
         self.failed: list[int] = []
         self.why = ""  # why the last failed servo failed
@@ -233,7 +237,7 @@ class Book(MoveIO):
     def add(self, job: Job) -> None:
         with self.lock:
             if len(self.jobs) >= MAX_JOBS:
-                raise MoveError(f"{len(self.jobs)} requests are waiting already: try again later")
+                raise MoveError(f"busy: {len(self.jobs)} requests are waiting already: try again later")
             self.jobs.append(job)
 
     def finish(self, job: Job, outcome: int, message: str, positions: Sequence[float] = ()) -> bool:
@@ -270,6 +274,7 @@ class Book(MoveIO):
         if self.jobs:
             with self.lock:
                 jobs = list(self.jobs)
+            jobs = self._unstopped(jobs)  # (finish takes the lock)
             for job in jobs:
                 self._advance(job, now)
             self.start_ready([j for j in jobs if isinstance(j, MoveJob) and j.state == "ready" and not j.finished])
@@ -279,6 +284,22 @@ class Book(MoveIO):
         if self._ended:
             self._ended = False
             self.wake()
+
+    def _unstopped(self, jobs: list[Job]) -> list[Job]:
+        """``jobs``, but while the E-stop is engaged those that can move a servo end now (the
+        servos hold where they are)."""
+        stop = self.h.figures().e_stop
+        if stop is None:
+            return jobs
+        self._end_all(jobs, stop)
+        return [j for j in jobs if not j.finished]
+
+    def _end_all(self, jobs: list[Job], why: str) -> None:
+        for job in jobs:
+            if not job.moves:
+                continue  # torque off, a reboot: carried out
+            written = "the servos hold where they are" if job.claimed else "nothing was written"
+            self.finish(job, ERROR, f"ended: the E-stop was engaged ({why}): {written}")
 
     def _advance(self, job: Job, now: float) -> None:
         try:

@@ -109,7 +109,7 @@ class SettingsCommands:
                     value = top
                 writes.setdefault(item, {})[dxl_id] = value
         if writes:
-            self.h.ask(SetGoals(writes))
+            self.h.ask(SetGoals(writes, what))
 
     def _limit(self, ids: list[int], fields: Fields, what: str) -> None:
         for k, dxl_id in self.known_ids(ids, what):

@@ -310,6 +310,11 @@ class Follower:
         if gone:  # nothing can be commanded or judged: the goal ends now, the servos keep their goals
             self._finish(job, ABORTED, gone, hold=False)
             return
+        stop = self.goals.h.figures().e_stop
+        if stop is not None:  # the E-stop holds every servo already
+            self._finish(job, ABORTED, f"ended: the E-stop was engaged ({stop}): the joints hold where they are",
+                         hold=False)
+            return
         now = time.time()
         if "position" in report.present and not self._judge(job, report.stamp):
             return

@@ -33,6 +33,8 @@ class LoopFigures:
     device_lost_since: float | None
     reconnects: int
     watchdog_trips: int
+    #: why the E-stop is engaged (None: released): moving requests are refused meanwhile
+    e_stop: str | None = None
 
 
 @runtime_checkable

@@ -16,6 +16,7 @@ slice of the parameters, the log) and the other parts it calls:
     watchdog     Watchdog: the bus watchdog time from the loop period; arming, clearing, trips
     recovery     Recovery: reboot, a vanished device reopened, silent servos marked and removed
     startup      Startup: scan, expected count, the set-up every servo gets (also add_id)
+    e_stop       EStop: every servo holds, moving requests refused until released; hold_all
     requests     Requests: what commands may ask, checked: goals, a mode change, an error clear
     step         Step: one loop step in four phases (prepare, send, complete, finish), read logs
     shutdown     Shutdown: the servos left as term/* say
@@ -73,6 +74,7 @@ class Handler:
         self.io, self.group, self.pacing, self.reads, self.writes = p.io, p.group, p.pacing, p.reads, p.writes
         self.watchdog, self.work, self.intake, self.recovery = p.watchdog, p.work, p.intake, p.recovery
         self.startup, self.requests, self.steps, self.ending = p.startup, p.requests, p.steps, p.ending
+        self.e_stop, self.leds = p.e_stop, p.leds
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
         self.table.watch_removals(self._say_removed)  # after the parts forgot it: one line says so
 
@@ -125,7 +127,7 @@ class Handler:
         return LoopFigures(loop_count=self.steps.loop_count, loop_period_s=self.watchdog.loop_period_s,
                            recheck_loops=self.steps.settings.recheck_loops, device_lost=recovery.device_lost,
                            device_lost_since=recovery.device_lost_since, reconnects=recovery.reconnects,
-                           watchdog_trips=self.watchdog.trips)
+                           watchdog_trips=self.watchdog.trips, e_stop=self.e_stop.engaged_why())
 
     # ---------------------------------------------------------------- ServoAccess: what is known
     @property

@@ -26,8 +26,10 @@ def label(request: object) -> str:
 class Intake:
     """The queue and the routes. A request type has one handler; registering it again replaces it."""
 
-    def __init__(self, log: Log) -> None:
+    def __init__(self, log: Log, gate: Route = lambda _request: None) -> None:
         self.log = log
+        #: a request's answer before its handler runs (the E-stop refuses moving ones), None: go on
+        self.gate = gate
         self._routes: dict[type, Route] = {}
         self._queue: collections.deque[tuple[object, str]] = collections.deque()
         self._lock = threading.Lock()
@@ -58,6 +60,9 @@ class Intake:
         handler = self._routes.get(type(request))
         if handler is None:
             raise TypeError(f"no part takes a {type(request).__name__} request")
+        refused = self.gate(request)
+        if refused is not None:
+            return refused
         done = handler(request)
         return DONE if done is None else done
 

@@ -12,8 +12,10 @@ from ..bus import ServoBus
 from ..servos import PendingWrites, ServoTable
 from ..settings import LoopSettings, Settings, TermSettings
 from .deferred import Deferred
+from .e_stop import EStop
 from .group_io import GroupIO
 from .intake import Intake
+from .led_status import LedStatus
 from .pacing import Pacing
 from .read_plan import ReadPlan, ReadSettings, every
 from .recovery import Recovery
@@ -24,7 +26,9 @@ from .request_types import (
     ChangeMode,
     ClearError,
     DeferModeChange,
+    EngageStop,
     Reboot,
+    ReleaseStop,
     RemoveServo,
     SetGoals,
     SetUserWatchdog,
@@ -48,7 +52,7 @@ __all__ = ["PART_NAMES", "PartSettings", "Parts", "build_parts", "core_routes", 
 
 #: the parts, by the names the ``Handler`` gives them too
 PART_NAMES = ("bus", "table", "pending", "io", "group", "pacing", "reads", "writes", "watchdog", "work", "intake",
-              "recovery", "startup", "requests", "steps", "ending")
+              "recovery", "startup", "requests", "steps", "ending", "e_stop", "leds")
 
 
 @dataclass(frozen=True)
@@ -62,6 +66,8 @@ class PartSettings:
     step: StepSettings
     term: TermSettings          # Shutdown
     split_write: bool           # WriteBatch
+    on_hardware_error: str      # EStop
+    led_status: bool            # LedStatus
 
 
 def part_settings(s: Settings) -> PartSettings:
@@ -75,6 +81,8 @@ def part_settings(s: Settings) -> PartSettings:
         step=StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
         term=s.term,
         split_write=s.method.split_write,
+        on_hardware_error=s.safety.on_hardware_error,
+        led_status=s.safety.led_status,
     )
 
 
@@ -98,6 +106,8 @@ class Parts:
     requests: Requests
     steps: Step
     ending: Shutdown
+    e_stop: EStop
+    leds: LedStatus
 
     def apply(self, settings: Settings) -> None:
         """New settings (replaced as a whole): each part gets its new slice."""
@@ -106,11 +116,13 @@ class Parts:
         self.recovery.settings = self.requests.settings = s.loop
         self.steps.settings, self.ending.settings = s.step, s.term
         self.writes.split_write = s.split_write
+        self.e_stop.on_hardware_error = s.on_hardware_error
+        self.leds.enabled = s.led_status
 
     def set_log(self, log: Log) -> None:
         """Every part logs to ``log`` from now on."""
         for part in (self.io, self.group, self.reads, self.writes, self.watchdog, self.work, self.intake,
-                     self.recovery, self.startup, self.requests, self.steps, self.ending):
+                     self.recovery, self.startup, self.requests, self.steps, self.ending, self.e_stop):
             part.log = log
 
 
@@ -132,17 +144,20 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
     writes = WriteBatch(bus, table, pending, log, s.split_write)
     watchdog = Watchdog(table, log, io, group, s.watchdog, tripped_once)
     work = Deferred(table, log, io)
-    intake = Intake(log)
+    e_stop = EStop(table, pending, io, group, work, log, s.on_hardware_error)
+    intake = Intake(log, e_stop.refusal)
+    leds = LedStatus(table, pending, e_stop.engaged_why, s.led_status)
     recovery = Recovery(bus, table, log, io, watchdog, s.loop, set_up)
     startup = Startup(bus, table, log, io, work, recovery, watchdog, s.startup, interrupted)
     requests = Requests(table, pending, log, io, watchdog, pacing, work, recovery, s.loop)
-    steps = Step(bus, table, log, Stepped(intake, startup, work, pacing, writes, reads, recovery, watchdog), s.step)
+    steps = Step(bus, table, log, Stepped(intake, startup, work, pacing, writes, reads, recovery, watchdog, e_stop,
+                                          leds), s.step)
     ending = Shutdown(bus, table, log, io, group, s.term)
     parts = Parts(bus, table, pending, io, group, pacing, reads, writes, watchdog, work, intake, recovery, startup,
-                  requests, steps, ending)
+                  requests, steps, ending, e_stop, leds)
     # a servo removed (a remove_id request, silent too long, the lifecycle's cleanup): each part
     # that keeps something per servo forgets it
-    for forget in (pending.forget, work.forget, watchdog.forget, recovery.forget):
+    for forget in (pending.forget, work.forget, watchdog.forget, recovery.forget, e_stop.forget, leds.forget):
         table.watch_removals(forget)
     # the servos block's RAM items come back after what resets them
     recovery.put_back = requests.put_back = startup.kept.put_back
@@ -169,4 +184,6 @@ def core_routes(p: Parts) -> dict[type, Callable[[Any], Answer | None]]:
         RemoveServo: lambda r: p.table.remove(r.dxl_id),
         WantHandled: lambda r: p.startup.want_handled(r.dxl_id, r.handled),
         SetUserWatchdog: lambda r: p.watchdog.set_user(r.dxl_id, r.pulses),
+        EngageStop: p.e_stop.engage,
+        ReleaseStop: p.e_stop.release,
     }

@@ -181,6 +181,23 @@ class SetUserWatchdog:
     what: str = "bus watchdog"
 
 
+@dataclass(frozen=True)
+class EngageStop:
+    """Every servo holds; moving requests are refused until ``ReleaseStop``."""
+
+    why: str
+    what: str = "e-stop"
+
+
+@dataclass(frozen=True)
+class ReleaseStop:
+    """New commands are taken again (nothing moves by itself: the held goals stay)."""
+
+    why: str
+    what: str = "e-stop release"
+
+
 #: the requests the core's parts do themselves (the command side adds its own kinds)
 CORE_REQUESTS = (SetGoals, ChangeMode, DeferModeChange, CancelDeferred, TorqueOn, TorqueOff, WriteItem,
-                 WriteEeprom, Reboot, ClearError, AddServo, RemoveServo, WantHandled, SetUserWatchdog)
+                 WriteEeprom, Reboot, ClearError, AddServo, RemoveServo, WantHandled, SetUserWatchdog, EngageStop,
+                 ReleaseStop)

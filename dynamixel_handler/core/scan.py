@@ -111,6 +111,11 @@ class Scan:
         self._shared(seen.shared, found)
         if protocol1:  # a Protocol 2.0 servo ignores Protocol 1.0 packets: each ID is pinged in 1.0 too
             seen1 = census(self.bus, [i for i in ids if i not in seen.shared], protocol=1)
+            for dxl_id in sorted(set(seen1.found) - set(seen.found)):  # a 2.0 reply late in the census?
+                number = self.bus.execute(Ping(dxl_id, protocol=2)).value
+                if number is not None:
+                    seen.found[dxl_id] = number
+                    found[dxl_id] = (2, number)
             found.update({i: (1, n) for i, n in seen1.found.items() if i not in found or found[i][0] == 1})
             self._shared({i: None for i in seen1.shared}, found)
             for dxl_id in sorted(set(seen1.found) & set(seen.found)):

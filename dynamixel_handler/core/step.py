@@ -14,7 +14,9 @@ from ..groups import GROUP_ITEMS, PRESENT
 from ..servos import ServoTable
 from ..settings import LogSettings
 from .deferred import Deferred
+from .e_stop import EStop
 from .intake import Intake
+from .led_status import LedStatus
 from .pacing import Pacing
 from .read_plan import ReadPlan
 from .recovery import Recovery
@@ -36,7 +38,8 @@ class StepSettings:
 @dataclass(frozen=True)
 class Stepped:
     """The parts a loop step drives, in the order of a step: requests and start-up work first,
-    then pacing, writes, reads, recovery of silent servos, the watchdog."""
+    then pacing, writes, reads, recovery of silent servos, the watchdog, the E-stop's watch of
+    hardware errors, the LEDs."""
 
     intake: Intake
     startup: Startup
@@ -46,6 +49,8 @@ class Stepped:
     reads: ReadPlan
     recovery: Recovery
     watchdog: Watchdog
+    e_stop: EStop
+    leds: LedStatus
 
 
 class Step:
@@ -63,6 +68,8 @@ class Step:
         self.work = parts.work
         self.intake = parts.intake
         self.startup = parts.startup
+        self.e_stop = parts.e_stop
+        self.leds = parts.leds
         self.settings = settings
         self.loop_count = 0
         self._reported_errors: dict[int, tuple[int, str | None]] = {}
@@ -200,6 +207,8 @@ class Step:
                     self.table.set_value(HARDWARE_ERROR, dxl_id, error & STATE_BITS)
         if len(self.table):
             self._log_reads(report, report.silent)
+        self.e_stop.watch()  # hold_all: a new hardware error engages the E-stop
+        self.leds.show()  # led_status: the LEDs of the servos whose state changed
         if "extra_dynamic" in report.groups:
             self.watchdog.check_later()  # at the next step, after this loop's states are out
 

@@ -49,7 +49,8 @@ class DiagnosticsPublisher:
             target_rate_hz=float(self.node.settings.loop.rate_hz), transactions=delta.transactions,
             success_rate=delta.success_rate, device_lost=f.device_lost, reconnects_total=f.reconnects,
             reconnects_new=f.reconnects - self._reconnects, watchdog_trips_total=f.watchdog_trips,
-            watchdog_trips_new=f.watchdog_trips - self._trips, servos=len(table), servos_silent=silent_count(table))
+            watchdog_trips_new=f.watchdog_trips - self._trips, servos=len(table), servos_silent=silent_count(table),
+            e_stop=f.e_stop)
         statuses = [bus_health(sample, self.prefix)] + [servo_health(table, i, self.prefix) for i in table.ids]
         msg = DiagnosticArray()
         msg.header.stamp = self.node.get_clock().now().to_msg()

@@ -122,6 +122,9 @@ class JointCommands:
         gone = self.follower.device_gone()
         if gone:
             raise TrajectoryRefused(BAD_GOAL, f"{gone}: no trajectory until it is back")
+        stop = self.node.handler.figures().e_stop
+        if stop is not None:
+            raise TrajectoryRefused(BAD_GOAL, f"the E-stop is engaged ({stop}): no trajectory until it is released")
         pts = traj.points
         if len(pts) > MAX_POINTS:  # before anything that grows with the points
             raise TrajectoryRefused(BAD_GOAL, f"{len(pts)} points, more than the {MAX_POINTS} a trajectory may have")

@@ -1,7 +1,8 @@
-"""Torque and move services and the MoveJoints action.
+"""Torque, move and reboot services and the MoveJoints action.
 
 ``dynamixel/set_torque`` (SetTorque), ``dynamixel/move_to`` (MoveTo) and ``dynamixel/move_joints``
-(MoveJoints) name servos by ID or by joint name. A request is checked at once (``move_checks``)
+(MoveJoints) name servos by ID or by joint name; ``dynamixel/reboot`` (std_srvs/Trigger) reboots
+the servos in hardware error (``reboot_job``). A request is checked at once (``move_checks``)
 and refused with one line, limited to one a second per cause, when it names a servo twice, more
 servos than the node handles, an unknown joint, or positions that are not numbers. What needs the
 bus is a job the loop thread carries out after its steps (``moves.Book``); moves go through the
@@ -43,6 +44,7 @@ from ..commands.moves import (
     TorqueJob,
     new_move,
 )
+from ..commands.reboot_job import RebootJob
 from ..logs import Throttle
 
 #: requests (and answers) each service keeps queued: a burst of calls is not dropped for want of room
@@ -53,6 +55,8 @@ QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=QUEUE_DEPTH, reliability
 RESULT_KEPT_S = 60
 #: how often the executor is woken while jobs wait, so that overdue ones are answered [s]
 EXPIRE_CHECK_S = 0.2
+#: longest wait of ``dynamixel/reboot`` for the loop: each servo in error boots and is read again [s]
+REBOOT_ANSWER_S = 30.0
 
 #: MoveJoints' status of each end (PREEMPTED: ERROR, the message says so)
 STATUS = {REACHED: MoveJoints.Result.REACHED, TIMED_OUT: MoveJoints.Result.TIMED_OUT,
@@ -84,6 +88,8 @@ class MotionServices:
                             callback_group=group)
         node.create_service(MoveTo, "dynamixel/move_to", self._on_move_to, qos_profile=QOS,
                             callback_group=group)
+        from std_srvs.srv import Trigger
+        node.create_service(Trigger, "dynamixel/reboot", self._on_reboot, qos_profile=QOS, callback_group=group)
         self.action = ActionServer(node, MoveJoints, "dynamixel/move_joints", execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, callback_group=group,
@@ -102,13 +108,22 @@ class MotionServices:
             if not self.book.jobs:
                 self._timer.cancel()
 
-    def _targets(self, ids: Sequence[int], names: Sequence[str]):
+    def _targets(self, ids: Sequence[int], names: Sequence[str], moves: bool = True):
+        """The servos named; MoveError (answered at once) when the node cannot take the request."""
+        self._taken(moves)
+        return targets_of(self.book.mapping, ids, names, len(self.node.handler.table))
+
+    def _taken(self, moves: bool) -> None:
+        """MoveError when the node cannot take a request now: inactive, its loop stopped, or (a
+        request that ``moves``: a move, torque on) the E-stop engaged."""
         refused = self.node.handler.refuse_ops  # e.g. an inactive lifecycle node: answer now
         if refused:
             raise MoveError(f"refused: {refused}")
         if self.node.loop_stopped:
             raise MoveError("refused: the bus loop stopped")
-        return targets_of(self.book.mapping, ids, names, len(self.node.handler.table))
+        stop = self.node.handler.figures().e_stop
+        if moves and stop is not None:
+            raise MoveError(f"refused: the E-stop is engaged ({stop}); release it first")
 
     async def _settle(self, job: Job, on_resume: Callable[[], None] | None = None) -> None:
         """Until ``job`` has ended: the loop ends it, or it is answered when overdue."""
@@ -129,7 +144,7 @@ class MotionServices:
     # ------------------------------------------------------------------ callbacks
     async def _on_set_torque(self, req: SetTorque.Request, res: SetTorque.Response) -> SetTorque.Response:
         try:
-            targets = self._targets(req.ids, req.joint_names)
+            targets = self._targets(req.ids, req.joint_names, moves=bool(req.enable))  # torque off moves nothing
             job = TorqueJob([i for i, _ in targets], bool(req.enable), time.monotonic() + LOOP_TIMEOUT_S)
             await self._settle(job)
             res.success, res.message = job.outcome == DONE, job.message
@@ -137,6 +152,18 @@ class MotionServices:
             res.success, res.message = False, str(err)
         if not res.success:
             self.warn(f"set_torque: {res.message}")
+        return res
+
+    async def _on_reboot(self, _req, res):
+        """The servos in hardware error rebooted, each named with its outcome; the others untouched."""
+        try:
+            self._taken(moves=False)  # the node active, its loop running
+            job = RebootJob(time.monotonic() + REBOOT_ANSWER_S)
+            await self._settle(job)
+            res.success, res.message = job.outcome == DONE, job.message
+        except MoveError as err:
+            res.success, res.message = False, str(err)
+        (self.log.info if res.success else self.warn)(f"reboot: {res.message}")
         return res
 
     async def _on_move_to(self, req: MoveTo.Request, res: MoveTo.Response) -> MoveTo.Response:

@@ -42,7 +42,7 @@ from ..commands.moves import MAX_JOBS
 from ..logs import Throttle
 from .convert import stamp_of
 from .joint_commands import BAD_JOINTS, TrajectoryRefused, duration_s
-from .services import QOS
+from .services import QOS, RESULT_KEPT_S
 
 #: feedback messages per second while a goal runs (at most one per read of the positions)
 FEEDBACK_HZ = 20.0
@@ -72,7 +72,8 @@ class TrajectoryAction:
                                    execute_callback=self._execute, goal_callback=self._accept,
                                    cancel_callback=lambda _g: CancelResponse.ACCEPT,
                                    callback_group=ReentrantCallbackGroup(), goal_service_qos_profile=QOS,
-                                   result_service_qos_profile=QOS, cancel_service_qos_profile=QOS)
+                                   result_service_qos_profile=QOS, cancel_service_qos_profile=QOS,
+                                   result_timeout=RESULT_KEPT_S)
 
     def _accept(self, _goal) -> GoalResponse:
         """A goal is taken while fewer than MAX_JOBS wait (as the services' requests); beyond, it
@@ -83,7 +84,7 @@ class TrajectoryAction:
             else:
                 self.waiting += 1
                 return GoalResponse.ACCEPT
-        self.warn(f"follow_joint_trajectory: {full} goals are waiting already: goal rejected (try again later)",
+        self.warn(f"follow_joint_trajectory: busy: {full} goals are waiting already: goal rejected (try again later)",
                   "trajectory queue full")
         return GoalResponse.REJECT
 
@@ -103,7 +104,7 @@ class TrajectoryAction:
             kind, why = refused
             result.error_code = R.INVALID_JOINTS if kind == BAD_JOINTS else R.INVALID_GOAL
             result.error_string = why
-            self.log.warning(f"follow_joint_trajectory: refused: {why}")
+            self.warn(f"follow_joint_trajectory: refused: {why}")
             goal_handle.abort()
             return result
         self.follower.start(job)

@@ -100,10 +100,11 @@ def statuses1(data: bytes) -> list[tuple[int, int, bytes]]:
     return [(s.dxl_id, s.error, s.params) for s in p1.statuses(data)]
 
 
-def ping1(bus: DynamixelBus, dxl_id: int, retries: int = 0) -> int | None:
+def ping1(bus: DynamixelBus, dxl_id: int, retries: int | None = 0) -> int | None:
     """The model number of a Protocol 1.0 servo at ``dxl_id``; None when none answers, 0 when it
     answers the ping but not the read of its model number (Status Return Level 0). Its firmware is
-    an item of its model (``Servo.read("firmware_version")``): the ping cannot know where."""
+    an item of its model (``Servo.read("firmware_version")``): the ping cannot know where.
+    ``retries`` None: as many as the bus is set to (``--retries``)."""
     got = bus.execute(Ping(dxl_id, retries=retries, protocol=1))
     if got.value is not None:
         return int(got.value)

@@ -136,11 +136,18 @@ def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -
         result.found.append(found)
 
 
+#: up to this many IDs, the Protocol 1.0 scan pings an ID that did not answer again (``--retries``)
+RETRIED_IDS = 16
+
+
 def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, tick: Callable[[], None]) -> None:
+    # a few IDs (assign-ids near the factory ID, --ids): a missed reply is pinged again as --retries
+    # says (a loaded host delays it); all 253: once each, a rate costs seconds already
+    retries = None if len(ids) <= RETRIED_IDS else 0
     for dxl_id in ids:  # a Protocol 2.0 servo at the same ID ignores these packets
         tick()
         before = noise(bus)
-        number = ping1(bus, dxl_id)  # 0: it answers pings only
+        number = ping1(bus, dxl_id, retries)  # 0: it answers pings only
         if number is None and noise(bus) == before:
             continue
         probed, shared = rounds(bus, dxl_id, protocol=1)  # two servos at one ID garble or double every reply
