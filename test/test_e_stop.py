@@ -253,3 +253,35 @@ def test_led_status_shows_torque_the_e_stop_and_an_error_on_an_x_and_a_p_model()
         assert leds()[0] == 0
     finally:
         assert rig.close() == 0
+
+
+def test_the_stop_survives_a_reconnect_of_the_adapter_and_holds_a_servo_added_later(tmp_path):
+    rig = Rig({1: X, 2: X540}, "latency_timer:=16", sim_kwargs={"link": str(tmp_path / "ttyDXL")})
+    try:
+        states = _state_listener(rig)
+        assert _set(rig, True).success
+        rig.wait(lambda: states[-1:] == [True], what="engaged")
+        rig.sim.vanish()
+        rig.node_proc.wait_for("is gone (the port hung up", timeout=10)
+        for dxl_id in (1, 2):  # the servos lost power with the adapter: torque off
+            rig.sim.servo(dxl_id).write("torque_enable", 0)
+        rig.sim.reappear()
+        rig.node_proc.wait_for("is back: reconnected", timeout=10)
+        rig.wait(lambda: all(rig.sim.servo(i).read("torque_enable") == 1 for i in (1, 2)), timeout=15,
+                 what="the servos set up again (torque on, goal := present)")
+        held = _at_rest(rig, 1)
+        mark = rig.mark()
+        rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[1], position_deg=[45.0]))
+        rig.wait_log("E-stop engaged (dynamixel/set_e_stop): x/position_control refused", since=mark)
+        assert _at_rest(rig, 1) == held and states[-1] is True
+
+        rig.sim.add_servo(3, X)
+        rig.publish("/dynamixel/shortcut", DynamixelShortcut(command="add_id", id_list=[3]))
+        rig.wait(lambda: 3 in list(rig.debug[-1].status.id_list), timeout=15, what="ID 3 handled")
+        start = _at_rest(rig, 3)
+        rig.publish("/dynamixel/command/x/position_control", DynamixelControlXPosition(id_list=[3], position_deg=[90.0]))
+        rig.fresh_states(count=5)
+        assert _at_rest(rig, 3) == start  # refused: the stop holds the new servo too
+        assert _set(rig, False).success
+    finally:
+        assert rig.close() == 0
