@@ -34,12 +34,7 @@ JOINTS = ("joint_state.use:=true", "joint_state.names:=[pan, tilt]", "joint_stat
 
 
 def _call(rig: Rig, srv_type, name: str, request, timeout: float = 30.0):
-    with rig._lock:
-        client = rig.node.create_client(srv_type, name)
-    assert client.wait_for_service(timeout_sec=10)
-    future = client.call_async(request)
-    rig.wait(future.done, timeout=timeout, what=f"the answer of {name}")
-    return future.result()
+    return rig.call(srv_type, name, request, timeout)
 
 
 def _deg(rig: Rig, dxl_id: int, item: str = "present_position") -> float:
@@ -92,8 +87,9 @@ def test_engaging_holds_each_servo_in_its_mode_and_a_release_moves_nothing(rig):
     states = _state_listener(rig)
     rig.wait(lambda: states == [False], what="the latched state: released")
     # ID 1 on a slow move in position mode, ID 2 turning in velocity mode, ID 3 in current mode
+    target = -120.0 if _deg(rig, 1) > 0.0 else 120.0  # far from where it is, within its limits (±180°)
     rig.publish("/dynamixel/command/x/position_control",
-                DynamixelControlXPosition(id_list=[1], position_deg=[_deg(rig, 1) + 120.0], profile_vel_deg_s=[20.0]))
+                DynamixelControlXPosition(id_list=[1], position_deg=[target], profile_vel_deg_s=[20.0]))
     rig.publish("/dynamixel/command/x/velocity_control", DynamixelControlXVelocity(id_list=[2], velocity_deg_s=[30.0]))
     rig.publish("/dynamixel/command/x/current_control", DynamixelControlXCurrent(id_list=[3], current_ma=[20.0]))
     rig.wait(lambda: rig.sim.servo(2).read("operating_mode") == 1 and rig.sim.servo(2).read("goal_velocity") > 0,
@@ -101,7 +97,7 @@ def test_engaging_holds_each_servo_in_its_mode_and_a_release_moves_nothing(rig):
     rig.wait(lambda: rig.sim.servo(3).read("operating_mode") == 0 and rig.sim.servo(3).read("goal_current") > 0,
              what="ID 3 in current mode with a goal")
     start = _deg(rig, 1)
-    rig.wait(lambda: _deg(rig, 1) - start > 5.0, what="ID 1 on its way")
+    rig.wait(lambda: abs(_deg(rig, 1) - start) > 5.0, what=f"ID 1 on its way to {target}° (at {_deg(rig, 1):.1f}°)")
 
     mark = rig.mark()
     rig.publish("/dynamixel/e_stop", Bool(data=True))
@@ -112,7 +108,7 @@ def test_engaging_holds_each_servo_in_its_mode_and_a_release_moves_nothing(rig):
     rig.wait(lambda: rig.sim.servo(2).read("goal_velocity") == 0 and rig.sim.servo(3).read("goal_current") == 0,
              what="goal velocity and current 0")
     held = _at_rest(rig, 1)
-    assert _deg(rig, 1) < start + 110.0, "ID 1 went on to its goal"
+    assert abs(_deg(rig, 1) - target) > 10.0, "ID 1 went on to its goal"
     assert abs(rig.sim.servo(1).read("goal_position") - held) <= 20, rig.sim.servo(1).read("goal_position")
     assert all(rig.sim.servo(i).read("torque_enable") == 1 for i in (1, 2, 3))  # nothing fell
     assert [rig.sim.servo(i).read("operating_mode") for i in (1, 2, 3)] == [3, 1, 0]  # no mode switched

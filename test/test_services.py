@@ -24,12 +24,7 @@ def rig():
 
 
 def _call(rig: Rig, srv_type, name: str, request, timeout: float = 30.0):
-    with rig._lock:
-        client = rig.node.create_client(srv_type, name)
-    assert client.wait_for_service(timeout_sec=10)
-    future = client.call_async(request)
-    rig.wait(future.done, timeout=timeout, what=f"the answer of {name}")
-    return future.result()
+    return rig.call(srv_type, name, request, timeout)
 
 
 def _deg(rig: Rig, dxl_id: int) -> float:

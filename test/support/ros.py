@@ -146,6 +146,15 @@ class TopicClient:
         with self._lock:
             return fn(*args, **kwargs)
 
+    def call(self, srv_type, name: str, request, timeout: float = 30.0):
+        """A service call from the listening node, answered within ``timeout``: its response."""
+        with self._lock:
+            client = self.node.create_client(srv_type, name)
+        assert client.wait_for_service(timeout_sec=10), f"no service {name}"
+        future = client.call_async(request)
+        self.wait(future.done, timeout=timeout, what=f"the answer of {name}")
+        return future.result()
+
     def publish(self, topic: str, msg) -> None:
         """Publish once the handler's subscription is matched (so the message is not lost). The
         first message of a publisher to a node (a new publisher, or the node started again) is
