@@ -19,6 +19,7 @@ from ..bus import BusError
 from ..errors import ConfigError, Interrupted, StartupError
 from ..logs import Throttle, cut
 from ..runner import log_exception
+from ..signal_flag import SignalFlag
 from . import fastpath
 from .params import check_arguments
 
@@ -93,25 +94,24 @@ class _Spinner:
             raise error
 
 
-def _init_rclpy(args: list[str] | None, log: Any, came: threading.Event) -> int | None:
+def _init_rclpy(args: list[str] | None, log: Any, came: SignalFlag) -> int | None:
     """rclpy.init, with bad arguments as one line; an exit code if it cannot start. SIGINT or
     SIGTERM while the arguments and params files are read ends it (exit 0, one line) as soon as
     rcl's parser returns (within a second or two: the files' limits see to that). The signals only
     set a flag meanwhile: a KeyboardInterrupt raised inside rclpy's C code could be lost there (the
     node then went on starting, the Ctrl-C ignored)."""
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: came.set())
+    came.install(signal.SIGINT, signal.SIGTERM)
     try:
         problem = check_arguments(sys.argv if args is None else args)
         if problem is not None:  # one line naming the file and the line, before rcl says less
             log.fatal(f"bad ROS arguments: {problem}")
             return 2
-        if not came.is_set():
+        if not came.came:
             rclpy.init(args=args, signal_handler_options=rclpy.signals.SignalHandlerOptions.NO)
     except fastpath.RCLError as err:  # e.g. "-p name:=" with no value: one line, not a traceback
         log.fatal(f"bad ROS arguments: {str(err).split(', at ')[0]}")
         return 2
-    if came.is_set():
+    if came.came:
         log.info("interrupted while reading the parameters: exiting")
         rclpy.try_shutdown()
         return 0
@@ -136,9 +136,11 @@ def _exit_code(exc: BaseException, log: Any) -> int:
 
 
 class _Process:
-    """One run of a handler node: signals only set ``stopping``; the main thread then stops."""
+    """One run of a handler node: a signal only sets ``signalled`` (a handler that takes no lock:
+    see ``signal_flag``); the main thread then sets ``stopping``, which the other threads look at."""
 
-    def __init__(self) -> None:
+    def __init__(self, signalled: SignalFlag) -> None:
+        self.signalled = signalled
         self.stopping = threading.Event()
         self.waker: list[Any] = []  # a guard condition of the node: triggering it ends the executor's wait
         self.node: Any = None
@@ -148,6 +150,7 @@ class _Process:
         self.executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
 
     def on_signal(self, *_: object) -> None:
+        """Stop (never from a signal handler: this takes locks)."""
         self.stopping.set()
         for guard in self.waker:
             guard.trigger()
@@ -156,15 +159,16 @@ class _Process:
         """Spin until a signal (or a loop that gave up); the exit code."""
         log = node.get_logger()
         node.on_failure = self.on_signal
-        node.handler.interrupted = self.stopping.is_set  # a signal during the scan or set-up ends it
+        # a signal during the scan or set-up ends it
+        node.handler.interrupted = lambda: self.signalled.came or self.stopping.is_set()
         self.waker.append(node.create_guard_condition(lambda: None))
         ready(node)
         self.executor.add_node(node)
         # the executor spins on a thread of its own, so that the main thread sees a signal at once
         # (a signal handler only runs on the main thread, between two Python steps)
         self.spinner = _Spinner(self.executor, self.stopping, self.on_signal, log)
-        while not self.stopping.wait(0.05) and rclpy.ok():
-            pass
+        self.signalled.wait(lambda: self.stopping.is_set() or not rclpy.ok())
+        self.on_signal()  # here, on the main thread outside any lock, whatever ended the wait
         self.spinner.join()
         safety = [k for k in ("term/servo_auto_stop", "term/torque_auto_disable") if node.config[k]]
         if node.wire.is_open:
@@ -195,15 +199,11 @@ def run(make_node: Callable[[], Any], ready: Callable[[Any], None], args: list[s
     # the publishing thread encodes (Python's default lets a waiting thread wait 5 ms)
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     log = rclpy.logging.get_logger(NODE_NAME)  # until the node (and so its namespace) exists
-    came = threading.Event()  # a signal before the process's own handlers are in
+    came = SignalFlag()  # SIGINT/SIGTERM from here to the exit: the main thread looks at it
     code = _init_rclpy(args, log, came)
     if code is not None:
         return code
-    proc = _Process()
-    signal.signal(signal.SIGINT, proc.on_signal)
-    signal.signal(signal.SIGTERM, proc.on_signal)
-    if came.is_set():
-        proc.stopping.set()
+    proc = _Process(came)
     try:
         try:
             proc.node = make_node()

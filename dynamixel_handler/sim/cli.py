@@ -19,6 +19,7 @@ import threading
 from typing import Callable
 
 from dynamixel_handler.control_table import known_models, model_by_number
+from dynamixel_handler.signal_flag import SignalFlag
 
 from . import DEFAULT_SERVOS
 from .bus import AnyServo, VirtualBus
@@ -263,9 +264,9 @@ def main(argv: list[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     bus = _bus_from(args, ap)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop = threading.Event()  # the console's "quit" sets it; a signal only sets the flag (see signal_flag)
+    signalled = SignalFlag()
+    signalled.install(signal.SIGINT, signal.SIGTERM)
     path = bus.start()
     print(path, flush=True)
     if not args.quiet:
@@ -274,7 +275,7 @@ def main(argv: list[str] | None = None) -> int:
         print("serving; Ctrl-C to stop", file=sys.stderr, flush=True)
     threading.Thread(target=_console, args=(bus, stop, args.quiet), daemon=True).start()
     try:
-        while not stop.wait(SAVE_PERIOD_S):
+        while not (signalled.wait(stop.is_set, SAVE_PERIOD_S) or stop.is_set()):
             if args.state and bus.eeprom_changed:
                 bus.save_state()
     finally:
