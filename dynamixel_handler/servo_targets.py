@@ -79,10 +79,10 @@ def refused_fields(model: Model, setting: ServoSetting) -> dict[str, str]:
 def _refused(model: Model, field: str, item: str, value: Any) -> str:
     kind = FIELDS[field].kind
     if kind == MODE:
+        if value in CURRENT_MODES and not (model.has("current_limit") or model.has("goal_current")):  # the reason first
+            return f"has no current sensor, so no '{value}' mode"
         if value not in model.modes or value not in model.mode_values:
             return f"has no '{value}' mode (its modes: {', '.join(sorted(set(model.modes) & set(model.mode_values)))})"
-        if value in CURRENT_MODES and not (model.has("current_limit") or model.has("goal_current")):
-            return f"has no current sensor, so no '{value}' mode"
         return ""
     if kind not in (UNIT, PULSE, WATCHDOG):
         return ""

@@ -9,6 +9,15 @@ The `ros2` command (ros2cli) and `launch` are not on PyPI, so a machine set up f
     python scripts/ros_cli.py topic pub /dynamixel/shortcut dynamixel_handler_msgs/msg/DynamixelShortcut \\
         "{command: 'TON', id_list: [1]}"
     python scripts/ros_cli.py param get /dynamixel_handler loop_rate
+    python scripts/ros_cli.py param describe /dynamixel_handler loop_rate
+    python scripts/ros_cli.py param set /dynamixel_handler verbose_ratio 100
+    python scripts/ros_cli.py service list
+    python scripts/ros_cli.py service call /dynamixel/set_torque dynamixel_handler_msgs/srv/SetTorque \
+        "{ids: [1], enable: true}"
+    python scripts/ros_cli.py action send_goal /dynamixel/move_joints dynamixel_handler_msgs/action/MoveJoints \
+        "{ids: [1], positions_deg: [30.0]}" [--feedback]
+    python scripts/ros_cli.py lifecycle get /dynamixel_handler
+    python scripts/ros_cli.py lifecycle set /dynamixel_handler configure
     python scripts/ros_cli.py launch launch_dynamixel_handler.py name_space:=robot1 device_name:=/dev/pts/3
 
 `launch` reads the installed launch file as `ros2 launch` would (test/support/launch_runner.py) and runs the
@@ -34,9 +43,24 @@ from rclpy.node import Node  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _type(name: str):
-    package, _, cls = name.replace("/msg/", "/").partition("/")
-    return getattr(importlib.import_module(f"{package}.msg"), cls)
+def _type(name: str, kind: str = "msg"):
+    """``pkg/msg/Name`` (or ``pkg/Name``), ``pkg/srv/Name``, ``pkg/action/Name`` -> the class."""
+    package, _, cls = name.replace(f"/{kind}/", "/").partition("/")
+    try:
+        return getattr(importlib.import_module(f"{package}.{kind}"), cls)
+    except (ImportError, AttributeError):
+        sys.exit(f"unknown {kind} type {name!r}")
+
+
+def _call(node: Node, client, request, what: str, timeout: float = 30.0):
+    """Wait for the server, send, wait for the answer (or exit naming what did not answer)."""
+    if not client.wait_for_service(timeout_sec=10):
+        sys.exit(f"{what}: no server")
+    future = client.call_async(request)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=timeout)
+    if not future.done():
+        sys.exit(f"{what}: no answer within {timeout:.0f} s")
+    return future.result()
 
 
 def _to_dict(msg):
@@ -137,6 +161,103 @@ def param_get(args) -> None:
     print(f"{kinds.get(value.type, 'Value')} value is: {parameter_value_to_python(value)}")
 
 
+def param_describe(args) -> None:
+    from rcl_interfaces.srv import DescribeParameters
+    node = Node("ros_cli_param")
+    answer = _call(node, node.create_client(DescribeParameters, f"{args.node}/describe_parameters"),
+                   DescribeParameters.Request(names=[args.name]), f"{args.node}/describe_parameters")
+    kinds = {0: "not set", 1: "boolean", 2: "integer", 3: "double", 4: "string", 5: "byte array",
+             6: "boolean array", 7: "integer array", 8: "double array", 9: "string array"}
+    for d in answer.descriptors:
+        print(f"Parameter name: {d.name}\n  Type: {kinds.get(d.type, d.type)}\n  Description: {d.description}")
+        print("  Constraints:")
+        if d.read_only:
+            print("    Read only: true")
+        if d.additional_constraints:
+            print(f"    Additional constraints: {d.additional_constraints}")
+
+
+def param_set(args) -> None:
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+    node = Node("ros_cli_param")
+    client = AsyncParameterClient(node, args.node)
+    if not client.wait_for_services(timeout_sec=10):
+        sys.exit(f"node {args.node} not found")
+    future = client.set_parameters([Parameter(args.name, value=yaml.safe_load(args.value))])
+    rclpy.spin_until_future_complete(node, future, timeout_sec=10)
+    result = future.result().results[0]
+    print("Set parameter successful" if result.successful else f"Setting parameter failed: {result.reason}")
+
+
+def service_list(args) -> None:
+    node = Node("ros_cli_service")
+    end = time.monotonic() + args.seconds  # discovery needs a moment
+    while time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.1)
+    for name, types in sorted(node.get_service_names_and_types()):
+        if "/ros_cli_" not in name:
+            print(f"{name} [{', '.join(types)}]" if args.show_types else name)
+
+
+def service_call(args) -> None:
+    node = Node("ros_cli_service")
+    typ = _type(args.type, "srv")
+    request = _fill(typ.Request(), yaml.safe_load(args.values or "") or {})
+    print(f"requester: making request: {request}\n")
+    print(f"response:\n{_call(node, node.create_client(typ, args.service), request, args.service)}\n")
+
+
+def action_send_goal(args) -> None:
+    from rclpy.action import ActionClient
+    node = Node("ros_cli_action")
+    typ = _type(args.type, "action")
+    client = ActionClient(node, typ, args.action)
+    if not client.wait_for_server(timeout_sec=10):
+        sys.exit(f"{args.action}: no server")
+    goal = _fill(typ.Goal(), yaml.safe_load(args.values or "") or {})
+    show = (lambda m: print(f"Feedback:\n    {m.feedback}")) if args.feedback else None
+    sent = client.send_goal_async(goal, feedback_callback=show)
+    rclpy.spin_until_future_complete(node, sent, timeout_sec=10)
+    handle = sent.result()
+    if handle is None or not handle.accepted:
+        sys.exit("Goal was rejected.")
+    print(f"Goal accepted with ID: {bytes(handle.goal_id.uuid).hex()}\n")
+    result = handle.get_result_async()
+    while rclpy.ok() and not result.done():
+        rclpy.spin_once(node, timeout_sec=0.1)
+    from action_msgs.msg import GoalStatus
+    names = {v: k[len("STATUS_"):] for k, v in vars(GoalStatus).items() if k.startswith("STATUS_") and isinstance(v, int)}
+    status = result.result().status
+    print(f"Result:\n    {result.result().result}\n\nGoal finished with status: {names.get(status, status)}")
+
+
+def lifecycle_get(args) -> None:
+    from lifecycle_msgs.srv import GetState
+    node = Node("ros_cli_lifecycle")
+    answer = _call(node, node.create_client(GetState, f"{args.node}/get_state"), GetState.Request(),
+                   f"{args.node}/get_state")
+    print(f"{answer.current_state.label} [{answer.current_state.id}]")
+
+
+def lifecycle_set(args) -> None:
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState
+    ids = {name.lower(): value for name, value in vars(Transition).items()
+           if name.startswith("TRANSITION_") and isinstance(value, int)}
+    key = f"transition_{args.transition.lower()}"
+    if key not in ids:
+        sys.exit(f"unknown transition {args.transition!r} (configure, activate, deactivate, cleanup, "
+                 "unconfigured_shutdown, inactive_shutdown, active_shutdown)")
+    node = Node("ros_cli_lifecycle")
+    request = ChangeState.Request(transition=Transition(id=ids[key]))
+    answer = _call(node, node.create_client(ChangeState, f"{args.node}/change_state"), request,
+                   f"{args.node}/change_state")
+    print("Transitioning successful" if answer.success else "Transitioning failed")
+    if not answer.success:
+        sys.exit(1)
+
+
 def launch(args) -> None:
     sys.path.insert(0, str(ROOT / "test"))
     from support.launch_runner import nodes
@@ -174,6 +295,40 @@ def main() -> None:
     p.add_argument("node")
     p.add_argument("name")
     p.set_defaults(run=param_get)
+    p = param.add_parser("describe")
+    p.add_argument("node")
+    p.add_argument("name")
+    p.set_defaults(run=param_describe)
+    p = param.add_parser("set")
+    p.add_argument("node")
+    p.add_argument("name")
+    p.add_argument("value", help="YAML, as ros2 param set takes it")
+    p.set_defaults(run=param_set)
+    service = sub.add_parser("service").add_subparsers(dest="verb", required=True)
+    p = service.add_parser("list")
+    p.add_argument("-t", "--show-types", action="store_true")
+    p.add_argument("--seconds", type=float, default=2.0, help="discovery time")
+    p.set_defaults(run=service_list)
+    p = service.add_parser("call")
+    p.add_argument("service")
+    p.add_argument("type", help="e.g. std_srvs/srv/Trigger")
+    p.add_argument("values", nargs="?", help="the request in YAML")
+    p.set_defaults(run=service_call)
+    action = sub.add_parser("action").add_subparsers(dest="verb", required=True)
+    p = action.add_parser("send_goal")
+    p.add_argument("action")
+    p.add_argument("type", help="e.g. dynamixel_handler_msgs/action/MoveJoints")
+    p.add_argument("values", nargs="?", help="the goal in YAML")
+    p.add_argument("-f", "--feedback", action="store_true")
+    p.set_defaults(run=action_send_goal)
+    lifecycle = sub.add_parser("lifecycle").add_subparsers(dest="verb", required=True)
+    p = lifecycle.add_parser("get")
+    p.add_argument("node")
+    p.set_defaults(run=lifecycle_get)
+    p = lifecycle.add_parser("set")
+    p.add_argument("node")
+    p.add_argument("transition", help="configure, activate, deactivate, cleanup, ..._shutdown")
+    p.set_defaults(run=lifecycle_set)
     p = sub.add_parser("launch")
     p.add_argument("file", help="a launch file of dynamixel_handler, e.g. launch_dynamixel_handler.py")
     p.add_argument("arguments", nargs="*", help="name:=value")

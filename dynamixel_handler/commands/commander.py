@@ -289,11 +289,11 @@ class Commander(SettingsCommands):
         bus) or LATER (too soon after the last change: the caller defers the request). A refusal
         or failure is warned about here."""
         model = self.h.model(dxl_id)
-        if mode not in model.modes:
-            return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored"))
-        if mode in CURRENT_MODES and not (model.has("current_limit") or model.has("goal_current")):
+        if mode in CURRENT_MODES and not (model.has("current_limit") or model.has("goal_current")):  # the reason first
             return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no current sensor, "
                                       f"so no '{mode}' mode: ignored"))
+        if mode not in model.modes:
+            return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored"))
         return self.warned(self.h.ask(ChangeMode(dxl_id, mode, what)))
 
     def warned(self, answer: Answer) -> Answer:

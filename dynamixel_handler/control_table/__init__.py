@@ -370,7 +370,8 @@ def _protocol1_registry() -> Mapping[int, Model]:
 
 def protocol1_models() -> List[Model]:
     """Every Protocol 1.0 model (AX, RX, DX, EX, MX with the 1.0 firmware), by model number. Kept
-    apart from ``known_models()``: the node does not drive them yet."""
+    apart from ``known_models()``: a 1.0 model number is looked up only for a servo that answered in
+    Protocol 1.0."""
     return list(_protocol1_registry().values())
 
 

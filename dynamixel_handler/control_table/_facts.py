@@ -113,8 +113,11 @@ _NO_CURRENT = NAN  # XL430, XC430, 2XL430, 2XC430: no current sensor (Present Lo
 _CURRENT_MX = 3.36  # MX-64(2.0), MX-106(2.0): "about 3.36 [mA]" per LSB
 
 # MX(2.0): MX-28 has velocity, position, extended position and PWM control only (no current
-# sensor: Present Load at 126); MX-64 and MX-106 have all six modes of the X table.
-_MX_28_MODES = (1, 3, 4, 16)
+# sensor: Present Load at 126); MX-64 and MX-106 have all six modes of the X table. So have XL430-W250,
+# XC430-W150/W240, 2XL430-W250 and 2XC430-W250 (e-Manual "Operating Mode": 1, 3, 4, 16; no current
+# control and no current-based position control without a current sensor).
+_NO_CURRENT_MODES = (1, 3, 4, 16)
+_MX_28_MODES = _NO_CURRENT_MODES
 
 # RH-P12-RN(A) (e-Manual platform/rh_p12_rn_a): the P table (model file rh_p12_rn.model) with the
 # P units (1 mA, 0.01 rev/min, 1 rev/min^2, PWM 2009); Operating Mode 0 (current) or 5 (current-based
@@ -153,10 +156,10 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     1030: _x("XM430-W210", "xm430_w210.model", _CURRENT_X, _X430_540_EXTRA),
     1040: _x("XH430-V350", "xh430_v350.model", _CURRENT_XH430_V, _X430_540_EXTRA),
     1050: _x("XH430-V210", "xh430_v210.model", _CURRENT_XH430_V, _X430_540_EXTRA),
-    1060: _x("XL430-W250", "xl430_w250.model", _NO_CURRENT, _X430_540_EXTRA),
-    1070: _x("XC430-W150", "xc430_w150.model", _NO_CURRENT, _X430_540_EXTRA),
-    1080: _x("XC430-W240", "xc430_w240.model", _NO_CURRENT, _X430_540_EXTRA),
-    1090: _x("2XL430-W250", "2xl430_w250.model", _NO_CURRENT, _X430_540_EXTRA),
+    1060: _x("XL430-W250", "xl430_w250.model", _NO_CURRENT, _X430_540_EXTRA, modes=_NO_CURRENT_MODES),
+    1070: _x("XC430-W150", "xc430_w150.model", _NO_CURRENT, _X430_540_EXTRA, modes=_NO_CURRENT_MODES),
+    1080: _x("XC430-W240", "xc430_w240.model", _NO_CURRENT, _X430_540_EXTRA, modes=_NO_CURRENT_MODES),
+    1090: _x("2XL430-W250", "2xl430_w250.model", _NO_CURRENT, _X430_540_EXTRA, modes=_NO_CURRENT_MODES),
     1100: _x("XH540-W270", "xh540_w270.model", _CURRENT_X, _X430_540_EXTRA),
     1101: _x("XD540-T270", "xd540_t270.model", _CURRENT_X, _X430_540_EXTRA),
     1110: _x("XH540-W150", "xh540_w150.model", _CURRENT_X, _X430_540_EXTRA),
@@ -165,7 +168,7 @@ MODEL_FACTS: Dict[int, ModelFacts] = {
     1130: _x("XM540-W150", "xm540_w150.model", _CURRENT_X, _X430_540_EXTRA),
     1140: _x("XH540-V270", "xh540_v270.model", _CURRENT_X, _X430_540_EXTRA),
     1150: _x("XH540-V150", "xh540_v150.model", _CURRENT_X, _X430_540_EXTRA),
-    1160: _x("2XC430-W250", "2xc430_w250.model", _NO_CURRENT, _X430_540_EXTRA),
+    1160: _x("2XC430-W250", "2xc430_w250.model", _NO_CURRENT, _X430_540_EXTRA, modes=_NO_CURRENT_MODES),
     1170: _x("XW540-T260", "xw540_t260.model", _CURRENT_X, _X430_540_EXTRA),
     1180: _x("XW540-T140", "xw540_t140.model", _CURRENT_X, _X430_540_EXTRA),
     1190: _x("XL330-M077", "xl330_m077.model", _CURRENT_X330, _X330_EXTRA),

@@ -90,7 +90,7 @@ def _id_list(text: str) -> list[int]:
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="dynamixel_handler_sim",
-        description="Serve virtual Dynamixel servos (Protocol 2.0) on a pseudo-terminal. "
+        description="Serve virtual Dynamixel servos (Protocol 2.0 and 1.0) on a pseudo-terminal. "
                     "Prints the device path as the first line of stdout, then serves until "
                     "SIGINT/SIGTERM. Default bus: 1 XM430-W350, 2 XM540-W270, "
                     "3 PH54-200-S500-R, 4 H54-200-S500-R.",

@@ -123,9 +123,18 @@ def test_rh_p12_rn_a_factory_values():
 
 
 def test_other_models_keep_their_family_modes():
-    for number in (1020, 1060, 2020, 54025, 54024):
+    for number in (1020, 2020, 54025, 54024):
         model = model_by_number(number)
         assert model.modes == model.family.modes and not model.own_modes
+
+
+def test_the_x430_models_without_a_current_sensor_have_the_four_modes_of_their_firmware():
+    """XL430-W250, XC430-W150/W240, 2XL430-W250, 2XC430-W250 (e-Manual "Operating Mode"): velocity,
+    position, extended position and PWM; no current nor current-based position control."""
+    for number in (1060, 1070, 1080, 1090, 1160):
+        model = model_by_number(number)
+        assert model.own_modes and model.operating_modes == (1, 3, 4, 16), model.name
+        assert model.modes == {"velocity", "position", "ex_position", "pwm"}, model.name
 
 
 def test_rh_p12_rn_old_firmware_is_the_old_pro_table_without_what_it_lacks():
