@@ -112,3 +112,23 @@ def test_every_anchor_a_page_links_to_is_a_heading_of_that_page():
             if path in anchors and anchor not in anchors[path]:
                 broken.append(f"{page.relative_to(ROOT)} -> {target}")
     assert not broken, "links to headings that do not exist: " + ", ".join(broken)
+
+
+def test_a_block_said_to_be_recorded_by_the_walkthrough_is_one_it_runs():
+    """docs/setup_tool.md: a console block whose comment says `--walkthrough` regenerates it runs a
+    command the walk-through (scripts/setup_tool_pictures.py's FirstDay) runs."""
+    source = (ROOT / "scripts" / "setup_tool_pictures.py").read_text(encoding="utf-8")
+    at = "--device /tmp/ttyDXL --baud 1000000"
+    source = source.replace("{at}", at).replace("{device}", "--device /tmp/ttyDXL")
+    text = (DOCS / "setup_tool.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"<!-- skip: next \"recorded by scripts/setup_tool_pictures\.py --walkthrough[^\n]*\n```console\n"
+                        r"\$ (\S+) ([^\n]+)", text)
+    assert len(blocks) >= 10
+    missing = []
+    for program, args in blocks:
+        if program == "dynamixel_handler_setup":
+            if f'"{args.split(" --device")[0]}' not in source.replace("f\"", "\"") and args not in source:
+                missing.append(args)
+        elif program != "dynamixel_handler":
+            missing.append(f"{program} {args}")
+    assert not missing, f"blocks the walk-through does not run: {missing}"
