@@ -51,7 +51,7 @@ BUCKETS: list[tuple[str, tuple[str, ...]]] = [
     ("diagnostics / joint states", ("diagnostic", "joint_state")),
     ("executor wait (idle)", ("_wait_for_ready_callbacks", "wait_for_ready_callbacks",
                               "_worker (concurrent/futures/thread.py")),
-    ("loop bookkeeping (runner, step)", ("dynamixel_handler/runner.py", "step (dynamixel_handler/loop.py",
+    ("loop bookkeeping (runner, step)", ("dynamixel_handler/loop/runner.py", "dynamixel_handler/loop/stats.py",
                                          "dynamixel_handler/core/step.py")),
 ]
 #: innermost frames that mean the thread is blocked in C (select / sleep), not running Python

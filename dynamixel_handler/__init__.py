@@ -22,8 +22,8 @@ if TYPE_CHECKING:
     from .commands import Commander, CommandPaths
     from .config import Config, ConfigError, validate
     from .core.handler import Handler, StepReport
-    from .runner import Hooks, Runner
-    from .servo_settings import ServoSetting
+    from .loop.runner import Hooks, Runner
+    from .servo.settings import ServoSetting
     from .settings import (
         BusSettings,
         ExternalPortSettings,
@@ -43,10 +43,10 @@ __version__ = "0.1.0"
 
 #: name -> the module (relative to the package) it is imported from when first used
 _LAZY = {
-    "Handler": "core.handler", "StepReport": "core.handler", "Runner": "runner", "Hooks": "runner", "Commander": "commands",
+    "Handler": "core.handler", "StepReport": "core.handler", "Runner": "loop.runner", "Hooks": "loop.runner", "Commander": "commands",
     "CommandPaths": "commands",
     "DynamixelBus": "bus", "BusError": "bus", "VirtualBus": "sim",
-    "Config": "config", "ConfigError": "config", "validate": "config", "ServoSetting": "servo_settings",
+    "Config": "config", "ConfigError": "config", "validate": "config", "ServoSetting": "servo.settings",
     **{name: "settings" for name in ("Settings", "BusSettings", "ScanSettings", "StartValues", "TermSettings",
                                      "LoopSettings", "ReadRatios", "Method", "LogSettings", "ExternalPortSettings",
                                      "TrajectorySettings")},

@@ -15,7 +15,7 @@ from .config_checks import DUMMY_SERIES, USED_FAMILIES, check_values
 from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
 from .joints import JointMap, joint_map
-from .servo_settings import servo_block
+from .servo.settings import servo_block
 from .settings import (
     GROUP_RATIOS,
     LOGGED_READS,

@@ -12,8 +12,8 @@ from typing import Any, Sequence
 
 from .core.handler import Handler
 from .core.request_types import WriteEeprom, WriteItem
-from .groups import due
-from .servos import ServoTable
+from .servo.groups import due
+from .servo.table import ServoTable
 from .settings import ExternalPortSettings
 
 MODES = {"a_in": 0, "d_out": 1, "d_in_pu": 2, "d_in_pd": 3}

@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .logs import cut, some_ids
-from .servos import ServoTable
+from .servo.table import ServoTable
 
 DEG = math.pi / 180.0
 

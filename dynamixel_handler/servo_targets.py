@@ -12,9 +12,10 @@ from __future__ import annotations
 
 from typing import Any, Callable, Iterable
 
-from . import error_state, units
+from . import units
 from .control_table import POSITION_MODES, Model
-from .servo_settings import BITS, FIELDS, FORCE, LED, MODE, PULSE, UNIT, WATCHDOG, ServoSetting
+from .servo import error_state
+from .servo.settings import BITS, FIELDS, FORCE, LED, MODE, PULSE, UNIT, WATCHDOG, ServoSetting
 from .setup_tool.checks import needed, problems
 
 #: modes that need a current sensor (as ``commands.tables.CURRENT_MODES``)

@@ -16,7 +16,7 @@ from types import MappingProxyType
 from typing import Mapping
 
 from .joints import JointMap
-from .servo_settings import ServoSetting
+from .servo.settings import ServoSetting
 
 #: present item keys (``pub_ratio/present.<key>``) -> default ratio
 PRESENT_RATIOS: Mapping[str, int] = {

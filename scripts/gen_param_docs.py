@@ -98,7 +98,7 @@ def render(schema: Iterable | None = None) -> str:
 def render_servos() -> list[str]:
     """The items a servos block entry may hold, in the order ``servo_settings.FIELDS`` lists them."""
     sys.path.insert(0, str(ROOT))
-    from dynamixel_handler.servo_settings import FIELDS
+    from dynamixel_handler.servo.settings import FIELDS
     out = [SERVOS_TITLE, "", SERVOS_TEXT, "", "| item | type | control-table item | meaning |", "|---|---|---|---|"]
     out += [f"| `servos.<servo>.{name}` | {f.type.__name__} | {f.item if f.kind != 'led' else 'led / led_<colour>'} "
             f"| {_cell(f.meaning)} |" for name, f in FIELDS.items()]

@@ -11,7 +11,7 @@ import dynamixel_handler
 
 
 @pytest.mark.parametrize("name, module", [
-    ("Handler", "loop"), ("Runner", "runner"), ("Hooks", "runner"), ("Commander", "commands"),
+    ("Handler", "core.handler"), ("Runner", "loop.runner"), ("Hooks", "loop.runner"), ("Commander", "commands"),
     ("DynamixelBus", "bus"), ("VirtualBus", "sim"), ("Settings", "settings"), ("ScanSettings", "settings"),
     ("validate", "config"), ("Config", "config"),
 ])
@@ -41,6 +41,12 @@ def test_importing_the_package_imports_none_of_its_parts():
 
 
 def test_the_ros_free_parts_import_without_rclpy():
-    loaded = _loaded_after("import dynamixel_handler.sim, dynamixel_handler.loop, dynamixel_handler.runner\n"
+    loaded = _loaded_after("import dynamixel_handler.sim, dynamixel_handler.loop, dynamixel_handler.loop.runner\n"
                            "from dynamixel_handler import Commander, Handler, Settings, VirtualBus")
     assert "dynamixel_handler.loop" in loaded and "rclpy" not in loaded
+
+
+def test_the_former_loop_module_names_still_import():
+    from dynamixel_handler.core import handler
+    from dynamixel_handler.loop import Handler, StepReport, mode_value
+    assert (Handler, StepReport, mode_value) == (handler.Handler, handler.StepReport, handler.mode_value)

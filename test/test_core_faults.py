@@ -6,7 +6,7 @@ import math
 
 from test_core_states import assert_unit
 
-from dynamixel_handler.loop import RECHECK_LOOPS
+from dynamixel_handler.core.handler import RECHECK_LOOPS
 from dynamixel_handler_msgs.msg import DynamixelShortcut
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
@@ -189,7 +189,7 @@ def test_the_tables_positions_follow_servos_added_and_removed():
     """The loop finds where a read's servos sit in the table through a kept lookup: it must follow
     every change of the set of servos (a removed servo is skipped, a new one shifts the others)."""
     from dynamixel_handler.control_table import model_by_number
-    from dynamixel_handler.servos import ServoTable
+    from dynamixel_handler.servo.table import ServoTable
 
     table, xm430 = ServoTable(), model_by_number(1020)
     for dxl_id in (2, 4, 6):

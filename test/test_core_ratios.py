@@ -241,9 +241,9 @@ def test_the_items_due_worked_out_once_per_pattern_equal_the_ratios_every_loop(r
     loop (0 included) and after the parameters are replaced, they are those the ratios give."""
     from dynamixel_handler.bus import DynamixelBus
     from dynamixel_handler.config import GROUP_RATIO_PARAMS, defaults, validate
+    from dynamixel_handler.core.handler import Handler
     from dynamixel_handler.core.read_plan import due_items_plain
-    from dynamixel_handler.groups import PRESENT
-    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.servo.groups import PRESENT
 
     def config(values: list[int]):
         names = [f"pub_ratio/present.{k}" for k in PRESENT] + list(GROUP_RATIO_PARAMS.values())

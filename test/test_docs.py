@@ -39,7 +39,7 @@ def test_every_parameter_has_exactly_one_row_with_its_default():
 
 
 def test_every_item_of_the_servos_block_has_one_row():
-    from dynamixel_handler.servo_settings import FIELDS
+    from dynamixel_handler.servo.settings import FIELDS
     rows = [line for line in _generator().render().splitlines() if line.startswith("| `servos.<servo>.")]
     assert [re.match(r"\| `servos.<servo>.([^`]+)`", row).group(1) for row in rows] == list(FIELDS)
 

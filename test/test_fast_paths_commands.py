@@ -26,7 +26,7 @@ from dynamixel_handler import units
 from dynamixel_handler.commands import Commander, CommandPaths, goal_bounds
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.core.request_types import SetGoals
-from dynamixel_handler.servos import ServoTable
+from dynamixel_handler.servo.table import ServoTable
 from dynamixel_handler.sim import VirtualBus
 
 from support.handler_bench import capture_log, handler_on_virtual_bus

@@ -24,12 +24,12 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 import dynamixel_handler_msgs.msg as msgs
 from dynamixel_handler.control_table import model_by_number
-from dynamixel_handler.groups import GAIN, GOAL, LIMIT, PRESENT
 from dynamixel_handler.ros import convert
 from dynamixel_handler.ros.cdr import Codec
 from dynamixel_handler.ros.lean import Patcher
 from dynamixel_handler.ros.publishers import SAME_NAME, STATE_TOPICS, StatePublishers
-from dynamixel_handler.servos import ServoTable
+from dynamixel_handler.servo.groups import GAIN, GOAL, LIMIT, PRESENT
+from dynamixel_handler.servo.table import ServoTable
 
 from support.msg_fill import codec_values, decoded_with, same_value
 from support.rig import PRO, X540, P, X
@@ -181,7 +181,7 @@ def test_no_servo_at_all_and_nothing_read_yet():
 def test_a_handler_on_a_virtual_bus_publishes_the_same_bytes_either_way():
     from dynamixel_handler.bus import DynamixelBus
     from dynamixel_handler.config import defaults, validate
-    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.core.handler import Handler
     from dynamixel_handler.sim import VirtualBus
 
     sim = VirtualBus({1: X, 2: X540, 3: P, 4: PRO}, baudrate=1_000_000)
@@ -364,7 +364,7 @@ def test_loops_of_present_values_only_send_the_plain_bytes(outdated):
     from rclpy.context import Context
     from rclpy.node import Node
 
-    from dynamixel_handler.loop import StepReport
+    from dynamixel_handler.core.handler import StepReport
 
     context = Context()
     rclpy.init(context=context)

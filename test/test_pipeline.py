@@ -17,8 +17,8 @@ import pytest
 from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.bus.ops import Read
 from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.core.handler import Handler
 from dynamixel_handler.core.request_types import RemoveServo, WriteItem
-from dynamixel_handler.loop import Handler
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DxlCommandsX
 

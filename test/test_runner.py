@@ -1,4 +1,4 @@
-"""The handler's loop without ROS (``dynamixel_handler/runner.py``), shown by the example script
+"""The handler's loop without ROS (``dynamixel_handler/loop/runner.py``), shown by the example script
 ``examples/plain_python.py`` run as a user would, against a virtual bus served by this test: the
 servos must really move to the goal (their registers in the simulator), the loop's states must
 reach the script, and rclpy must never be imported."""

@@ -11,8 +11,8 @@ from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.errors import ConfigError
 from dynamixel_handler.joints import joint_map
-from dynamixel_handler.servo_settings import ServoSetting, servo_block, servo_settings
-from dynamixel_handler.servo_snapshot import entry_of, servos_yaml
+from dynamixel_handler.servo.settings import ServoSetting, servo_block, servo_settings
+from dynamixel_handler.servo.snapshot import entry_of, servos_yaml
 from dynamixel_handler.servo_targets import dangers, refusals, register_values
 from dynamixel_handler.settings import Settings
 

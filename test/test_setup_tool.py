@@ -309,7 +309,7 @@ def test_backup_also_writes_the_handler_s_servos_block(sim_of, tmp_path):
     import yaml
 
     from dynamixel_handler.control_table import model_by_number
-    from dynamixel_handler.servo_settings import servo_settings
+    from dynamixel_handler.servo.settings import servo_settings
     from dynamixel_handler.servo_targets import refusals
     sim = sim_of("1:XM430-W350", "3:PH54-200-S500-R")
     for args in (("set-mode", "1", "cur_position"), ("set", "1", "velocity_limit", "120deg/s")):

@@ -21,7 +21,7 @@ TESTS = Path(__file__).resolve().parent
 UNIT_DIRS = {"core": TESTS / "core", "commands": TESTS / "commands"}
 EXEMPT = {"dynamixel_handler.core.handler"}
 #: importing one of these (or ``Handler`` from the package) means a test builds the Handler or a node
-FRONTS = ("dynamixel_handler.core.handler", "dynamixel_handler.loop", "rclpy")
+FRONTS = ("dynamixel_handler.core.handler", "rclpy")
 
 
 def modules_needing_a_test() -> list[str]:
@@ -71,7 +71,7 @@ def imports_of(path: Path) -> tuple[set[str], set[str]]:
             if node.module.startswith("dynamixel_handler"):
                 names = [_defined_in(node.module, alias.name) for alias in node.names]
                 if node.module == "dynamixel_handler" and any(a.name == "Handler" for a in node.names):
-                    names.append("dynamixel_handler.loop")
+                    names.append("dynamixel_handler.core.handler")
                 names.append(node.module)
             else:
                 names = [node.module]
@@ -158,7 +158,7 @@ def _settings():
 
 
 def test_the_unit_tests_hand_each_part_the_settings_slice_the_handler_does():
-    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.core.handler import Handler
 
     from support import parts
     from support.fake_bus import XM430, FakeBus
@@ -191,7 +191,7 @@ def _watchers(table, root: dict[str, object]) -> list[str]:
 
 
 def test_the_unit_tests_wire_the_parts_as_the_handler_does():
-    from dynamixel_handler.loop import Handler
+    from dynamixel_handler.core.handler import Handler
 
     from support import parts
     from support.fake_bus import XM430, FakeBus

@@ -243,7 +243,7 @@ def test_the_tables_kept_conversion_equals_pulse_to_unit(numbers, item, data):
     """The servo table converts with an offset and scale kept per item until its servos or models
     change: the values equal ``pulse_to_unit``'s, NaN where unknown, also after a model is
     replaced and a servo removed."""
-    from dynamixel_handler.servos import ServoTable
+    from dynamixel_handler.servo.table import ServoTable
 
     table = ServoTable()
     for dxl_id, number in enumerate(numbers, start=1):

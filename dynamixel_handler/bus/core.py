@@ -1,4 +1,5 @@
-"""DynamixelBus: every Protocol 2.0 transaction the handler needs, with retries and counters.
+"""DynamixelBus: every transaction the handler needs, in Protocol 2.0 or 1.0 (the framer of each
+instruction's protocol), with retries and counters.
 
 This is the one place that talks to the servos. It sends packets built by
 :mod:`..protocol.host` through :class:`.port.SerialPort` (which uses ``dynamixel_sdk``'s

@@ -6,10 +6,11 @@ from __future__ import annotations
 import logging
 from typing import Any, Iterable, Mapping, Protocol, Sequence
 
-from .. import error_state, units
+from .. import units
 from ..control_table import Model, ServoFamily
 from ..core.api import ServoAccess
 from ..core.request_types import Reboot, SetUserWatchdog, WriteEeprom, WriteItem
+from ..servo import error_state
 
 
 class Checks(Protocol):

@@ -20,7 +20,7 @@ from .. import units
 from ..control_table import POSITION_MODES, ServoFamily
 from ..core.api import ServoAccess
 from ..core.request_types import CancelDeferred
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from .goal_bounds import Targets
 from .paths import CommandPaths
 from .rules import Rules, all_finite, fits

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import units
 from ..control_table import Model
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 
 if TYPE_CHECKING:
     from ..core.api import ServoAccess

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import error_state
 from ..core.request_types import ClearError
+from ..servo import error_state
 from .move_checks import DONE, ERROR
 from .moves import Book, Job
 

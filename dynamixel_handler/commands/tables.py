@@ -6,8 +6,8 @@ from __future__ import annotations
 from typing import Mapping
 
 from ..control_table import MAX_ROTATION
-from ..groups import GAIN, GOAL, LIMIT
 from ..protocol import BROADCAST_ID
+from ..servo.groups import GAIN, GOAL, LIMIT
 
 #: control topic/field name -> operating mode it needs
 CONTROL_MODES: Mapping[str, str] = {

@@ -1,5 +1,6 @@
-"""Control-table facts for Protocol 2.0 Dynamixel servos (X, P, PRO): addresses, sizes, signs,
-EEPROM flags and unit scales, by canonical snake_case item name.
+"""Control-table facts for every Dynamixel the handler drives (Protocol 2.0: X, P, PRO, Y, XL-320;
+Protocol 1.0: AX, RX, DX, EX, MX): addresses, sizes, signs, EEPROM flags and unit scales, by
+canonical snake_case item name, and each model's family (``_family.py``).
 
 Addresses and sizes of X, P and PRO "-R(A)" models come from the control-table files shipped in
 the ``dynamixel-sdk`` wheel; the old PRO "-R" table, unit scales and the items those files omit

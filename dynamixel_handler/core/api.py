@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Protocol, TypeVar, runtime_checkable
 
 from ..control_table import Model
-from ..servos import PendingWrites, ServoTable
+from ..servo.table import PendingWrites, ServoTable
 from ..settings import Settings
 from .request_types import Answer
 

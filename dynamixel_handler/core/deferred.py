@@ -5,7 +5,7 @@ import logging
 import time
 
 from ..bus import Failure, Result
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from .log_limits import LogLimits
 from .servo_io import Log, ServoIO
 

@@ -23,8 +23,8 @@ import threading
 
 import numpy as np
 
-from .. import error_state
-from ..servos import PendingWrites, ServoTable
+from ..servo import error_state
+from ..servo.table import PendingWrites, ServoTable
 from .deferred import Deferred
 from .group_io import GroupIO
 from .log_limits import LogLimits

@@ -9,7 +9,7 @@ from .. import units
 from ..bus import ServoBus
 from ..bus.ops import SyncRead
 from ..control_table import Item, Model
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from .servo_io import Log
 
 #: items farther apart than this many bytes are read in separate sync reads (not one long span)

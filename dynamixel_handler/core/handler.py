@@ -116,7 +116,7 @@ class Handler:
                 self.log.info("start-up wrote nothing: the servos are left as they were found (torque unchanged)")
             return
         dropped = self.pacing.dropped_mode_changes | set(self.work.deferred)
-        self.ending.shutdown(dropped, set(self.watchdog.user))
+        self.ending.shutdown(dropped, self.watchdog.user_ids())
 
     def step(self) -> StepReport:
         return self.steps.step()

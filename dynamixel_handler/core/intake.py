@@ -24,7 +24,8 @@ def label(request: object) -> str:
 
 
 class Intake:
-    """The queue and the routes. A request type has one handler; registering it again replaces it."""
+    """The queue and the routes. A request type has one handler: registering a second one is an error
+    (it silently replaced the first)."""
 
     def __init__(self, log: Log, gate: Route = lambda _request: None) -> None:
         self.log = log
@@ -35,6 +36,8 @@ class Intake:
         self._lock = threading.Lock()
 
     def register(self, kind: type[R], handler: Callable[[R], Answer | None]) -> None:
+        if kind in self._routes:
+            raise ValueError(f"{kind.__name__} already has a handler ({self._routes[kind]!r}): one route per request type")
         self._routes[kind] = handler
 
     def routes(self) -> dict[type, Route]:

@@ -15,9 +15,9 @@ from typing import Callable, Sequence
 from .. import units
 from ..control_table import POSITION_MODES, Model
 from ..errors import ConfigError
-from ..servo_settings import FIELDS, ServoSetting
+from ..servo.settings import FIELDS, ServoSetting
+from ..servo.table import ServoTable
 from ..servo_targets import dangers, refused_fields, register_values
-from ..servos import ServoTable
 from .deferred import Deferred
 from .servo_io import ServoIO
 from .watchdog import Watchdog
@@ -180,7 +180,7 @@ class KeptSettings:
                 continue
             if item == "bus_watchdog":
                 if not quiet:  # the watchdog part keeps it (armed when the loop starts, again after a reboot)
-                    self.watchdog.user[dxl_id] = value
+                    self.watchdog.keep_user(dxl_id, value)
                     done.append(self._field(entry, item))
                 continue
             written = self.io.write_item(dxl_id, item, value)

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .. import error_state
-from ..servos import PendingWrites, ServoTable
+from ..servo import error_state
+from ..servo.table import PendingWrites, ServoTable
 
 __all__ = ["COLOURS", "LedStatus", "STATES"]
 

@@ -23,7 +23,7 @@ from typing import Callable
 import numpy as np
 
 from ..bus import ServoBus
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 
 #: longest wire time of one sync read, as a share of the shortest armed bus watchdog time
 READ_SHARE = 1 / 3

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from ..bus import ServoBus
-from ..servos import PendingWrites, ServoTable
+from ..servo.table import PendingWrites, ServoTable
 from ..settings import LoopSettings, Settings, TermSettings
 from .deferred import Deferred
 from .e_stop import EStop

@@ -9,8 +9,8 @@ import numpy as np
 
 from ..bus import ServoBus
 from ..bus.ops import SyncRead
-from ..groups import GROUP_ITEMS, PRESENT, due
-from ..servos import ServoTable
+from ..servo.groups import GROUP_ITEMS, PRESENT, due
+from ..servo.table import ServoTable
 from ..settings import ReadRatios
 from ..units import from_sign_magnitude
 from .pacing import REPLY_BYTES, SYNC_READ_BYTES, Pacing

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from .. import units
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from .servo_io import MODE, ServoIO
 
 #: RAM items the start-up set-up writes its start values to: written back as they were

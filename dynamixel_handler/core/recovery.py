@@ -9,7 +9,7 @@ import numpy as np
 
 from ..bus import Failure, Result, ServoBus, dummy_ids
 from ..bus.ops import ClearError, Ping, Reboot
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
 from .reconnect_memory import Remembered, differences, remember, restore

@@ -8,10 +8,10 @@ import logging
 import time
 from typing import Callable
 
-from .. import error_state
 from ..bus import Failure, Result
 from ..control_table import Model
-from ..servos import PendingWrites, ServoTable
+from ..servo import error_state
+from ..servo.table import PendingWrites, ServoTable
 from ..settings import LoopSettings
 from .deferred import Deferred
 from .log_limits import LogLimits

@@ -9,7 +9,7 @@ from ..bus import Failure, Result, ServoBus
 from ..bus.ops import ErrorByte, Read, Write
 from ..control_table import Model
 from ..protocol import protocol1 as p1
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 
 Log = logging.Logger | logging.LoggerAdapter[Any]
 #: the item that holds the mode (Protocol 1.0 servos: the Angle Limits stand for it)

@@ -9,7 +9,7 @@ from typing import Collection
 
 from ..bus import ServoBus
 from ..logs import some_ids
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from ..settings import TermSettings
 from .group_io import GroupIO
 from .servo_io import Log, ServoIO

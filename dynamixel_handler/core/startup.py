@@ -5,13 +5,14 @@ import logging
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-from .. import error_state, units
+from .. import units
 from ..bus import ServoBus, dummy_ids
 from ..bus.ops import Ping
 from ..control_table import POSITION_MODES
 from ..errors import Interrupted, StartupError
-from ..servo_settings import ServoSetting
-from ..servos import ServoTable
+from ..servo import error_state
+from ..servo.settings import ServoSetting
+from ..servo.table import ServoTable
 from ..settings import ScanSettings, StartValues
 from .deferred import Deferred
 from .kept_settings import KeptSettings

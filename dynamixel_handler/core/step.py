@@ -7,11 +7,12 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from .. import error_state, units
+from .. import units
 from ..bus import ServoBus
 from ..bus.ops import Ping
-from ..groups import GROUP_ITEMS, PRESENT
-from ..servos import ServoTable
+from ..servo import error_state
+from ..servo.groups import GROUP_ITEMS, PRESENT
+from ..servo.table import ServoTable
 from ..settings import LogSettings
 from .deferred import Deferred
 from .e_stop import EStop

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
-from ..servos import ServoTable
+from ..servo.table import ServoTable
 from .group_io import GroupIO
 from .servo_io import Log, ServoIO
 
@@ -214,6 +214,15 @@ class Watchdog:
         """A bus watchdog the servo keeps whatever its mode (0: off), armed now."""
         self.user[dxl_id] = pulses
         self.arm_watchdog(dxl_id)
+
+    def keep_user(self, dxl_id: int, pulses: int) -> None:
+        """A bus watchdog the servo keeps whatever its mode (0: off), armed when the loop arms the
+        watchdogs (its start, after a reboot): the ``servos`` block's value."""
+        self.user[dxl_id] = pulses
+
+    def user_ids(self) -> set[int]:
+        """The servos whose bus watchdog an owner set (a command or the ``servos`` block)."""
+        return set(self.user)
 
     def forget(self, dxl_id: int) -> None:
         """The servo is no longer handled."""

@@ -5,7 +5,7 @@ import numpy as np
 
 from ..bus import PreparedWrite, ServoBus
 from ..logs import Throttle
-from ..servos import PendingWrites, ServoTable
+from ..servo.table import PendingWrites, ServoTable
 from .servo_io import Log
 
 #: one sync write: (address, size, protocol)

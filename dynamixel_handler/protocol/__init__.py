@@ -1,7 +1,8 @@
-"""Dynamixel Protocol 2.0, the one place for the wire format: header, instruction and error
-codes, CRC-16, byte stuffing, packet framing and the noise-tolerant packet reader (here), the host
+"""The Dynamixel wire formats, the one place for them. Protocol 2.0 here: header, instruction and
+error codes, CRC-16, byte stuffing, packet framing and the noise-tolerant packet reader, the host
 side (``host``: instruction packets, reply parsing, used by the bus layer) and the servo side
-(``servo``: instruction parsing, status and fast-read replies, used by the virtual bus).
+(``servo``: instruction parsing, status and fast-read replies, used by the virtual bus). Protocol 1.0
+in ``protocol1``; ``framers`` gives the bus one framer per protocol.
 
 Both sides are checked byte for byte against the ROBOTIS e-Manual's example packets (and the bus
 layer's CRC against ``dynamixel_sdk``'s), so sharing this code hides nothing from the tests.

@@ -14,9 +14,10 @@ from typing import Any, Callable, Iterable, Mapping
 import numpy as np
 from builtin_interfaces.msg import Time
 
-from .. import error_state, units
-from ..groups import ERROR_ITEMS, GAIN, GOAL, LIMIT, PRESENT, STATUS_ITEMS
-from ..servos import ServoTable
+from .. import units
+from ..servo import error_state
+from ..servo.groups import ERROR_ITEMS, GAIN, GOAL, LIMIT, PRESENT, STATUS_ITEMS
+from ..servo.table import ServoTable
 
 Tree = dict[str, Any]
 Units = Callable[[str], np.ndarray]  # item -> its values in physical units (``ServoTable.units``)

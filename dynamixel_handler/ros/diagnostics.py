@@ -2,7 +2,7 @@
 
 Published from the loop thread every ``diagnostics.period_sec`` (1 s by default), from the
 servo table as last read, so it costs no bus traffic. Levels and messages come from
-:mod:`dynamixel_handler.health`; the topic is the absolute ``/diagnostics`` that
+:mod:`dynamixel_handler.servo.health`; the topic is the absolute ``/diagnostics`` that
 diagnostic_aggregator and rqt_robot_monitor read, and status names start with the node's full
 name, so several handlers (one per bus) stay apart.
 """
@@ -13,7 +13,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from ..core.handler import StepReport
-from ..health import BusSample, Health, bus_health, servo_health, silent_count
+from ..servo.health import BusSample, Health, bus_health, servo_health, silent_count
 from .lean import lean_publisher
 
 

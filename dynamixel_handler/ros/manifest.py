@@ -14,7 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .. import units
-from ..groups import GAIN, LIMIT, MODE_NAMES
+from ..servo.groups import GAIN, LIMIT, MODE_NAMES
 
 #: latched: the last manifest is kept for subscribers that come later
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,

@@ -28,7 +28,7 @@ from ..core.handler import Handler, StepReport
 from ..dummy import BusWithDummies, make_dummies
 from ..errors import StartupError
 from ..external_ports import ExternalPorts, PortReading
-from ..runner import Hooks, Runner, log_exception
+from ..loop.runner import Hooks, Runner, log_exception
 from ..tools.baudrate import search_rates, unify_baudrate
 from . import diagnostics, e_stop, fastpath, joint_commands, joint_states, manifest, services, snapshot
 from .command_topics import COMMAND_TYPES, CommandTopics

@@ -34,7 +34,7 @@ from ..config import (
     validate,
 )
 from ..logs import ECHO_MAX, cut, cut_path
-from ..servo_settings import is_servo_parameter
+from ..servo.settings import is_servo_parameter
 from .params_file import Totals, read_problem
 from .servo_params import declare_servo_block
 

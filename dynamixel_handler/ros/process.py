@@ -18,7 +18,7 @@ from rclpy.node import Node
 from ..bus import BusError
 from ..errors import ConfigError, Interrupted, StartupError
 from ..logs import Throttle, cut
-from ..runner import log_exception
+from ..loop.runner import log_exception
 from ..signal_flag import SignalFlag
 from . import fastpath
 from .params import check_arguments

@@ -12,7 +12,7 @@ from typing import Any, Mapping
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.node import Node
 
-from ..servo_settings import FIELDS, PREFIX, ServoSetting
+from ..servo.settings import FIELDS, PREFIX, ServoSetting
 
 _TYPES = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
           float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING}

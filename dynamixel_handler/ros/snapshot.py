@@ -24,7 +24,7 @@ import rclpy.logging
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 from ..logs import cut_path
-from ..servo_snapshot import entry_of, items_of, servos_yaml
+from ..servo.snapshot import entry_of, items_of, servos_yaml
 from .services import QOS
 
 #: the file's name in the ROS log directory when servos_snapshot.path is ""

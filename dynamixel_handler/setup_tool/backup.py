@@ -8,7 +8,7 @@ import argparse
 import datetime
 from typing import Any, Callable
 
-from ..servo_snapshot import entry_of, servos_yaml
+from ..servo.snapshot import entry_of, servos_yaml
 from .context import Context
 from .errors import StepFailed
 from .items import to_unit, unit_of

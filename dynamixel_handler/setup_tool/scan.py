@@ -10,8 +10,7 @@ from typing import Callable, Sequence
 from ..bus import BusError, DynamixelBus
 from ..bus.census import census, noise, rounds
 from ..bus.ops import Read
-from ..config import USED_FAMILIES
-from ..control_table import model_by_number, protocol1_model_by_number
+from ..control_table import FAMILIES, PROTOCOL1_FAMILIES, model_by_number, protocol1_model_by_number
 from ..units import decode_hardware_error
 from .errors import StepFailed
 from .protocol1 import model_for, model_name1, ping1, switch_to_2
@@ -203,12 +202,12 @@ def _protocol1_note(number: int, dxl_id: int) -> tuple[str, str]:
 
 def _driven(number: int) -> str:
     """Whether the handler drives a Protocol 1.0 model: its family has an ``init/used_servo_series``
-    key (``config.USED_FAMILIES``, off by default) or not."""
+    key (every family of ``control_table``: ``config.USED_FAMILIES``, off by default) or not."""
     try:
         family = protocol1_model_by_number(number).family
     except KeyError:
         return "the handler does not drive it"
-    if family in USED_FAMILIES:
+    if family in FAMILIES + PROTOCOL1_FAMILIES:
         return f"the handler drives it with init/used_servo_series.{family.title} true (off by default)"
     return "the handler does not drive it"
 

@@ -1,4 +1,4 @@
-"""A virtual Dynamixel bus: Protocol 2.0 servos served on a pseudo-terminal.
+"""A virtual Dynamixel bus: Protocol 2.0 and 1.0 servos served on a pseudo-terminal.
 
 Tests, demos and users' CI open it with the real ``dynamixel_sdk`` like a USB adapter::
 

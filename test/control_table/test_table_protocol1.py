@@ -177,7 +177,7 @@ def test_baud_tables():
 
 
 def test_status_error_bits_read_as_the_handlers_error_causes():
-    from dynamixel_handler import error_state
+    from dynamixel_handler.servo import error_state
     ax = M(12)
     # Protocol 1.0: 0 input voltage, 1 angle limit, 2 overheating, 3 range, 4 checksum, 5 overload, 6 instruction;
     # input voltage, overheating and overload sit where the X layout has them, the rest are no hardware error

@@ -12,10 +12,11 @@ import math
 import numpy as np
 import pytest
 
-from dynamixel_handler import error_state, units
+from dynamixel_handler import units
 from dynamixel_handler.control_table import X, family_named, model_by_number
 from dynamixel_handler.core.read_plan import Read, ReadPart, decode_replies, decode_replies_plain
 from dynamixel_handler.protocol import ERR_DATA_LIMIT, ERR_DATA_RANGE, ERR_NONE
+from dynamixel_handler.servo import error_state
 from dynamixel_handler.sim.servo import VirtualServo
 
 from support.clock import HandClock

@@ -9,11 +9,12 @@ import time
 import numpy as np
 import pytest
 
-from dynamixel_handler import error_state, units
+from dynamixel_handler import units
 from dynamixel_handler.config import SCHEMA
 from dynamixel_handler.control_table import FAMILIES, SERIES, Model, family_named, family_titled, known_models, model_by_number
 from dynamixel_handler.protocol import servo as p
-from dynamixel_handler.servos import ServoTable
+from dynamixel_handler.servo import error_state
+from dynamixel_handler.servo.table import ServoTable
 from dynamixel_handler.sim.servo import VirtualServo
 
 NAMES = {

@@ -11,7 +11,7 @@ from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.kept_settings import KeptSettings
 from dynamixel_handler.core.request_types import ChangeMode, Outcome
 from dynamixel_handler.errors import ConfigError
-from dynamixel_handler.servo_settings import ServoSetting
+from dynamixel_handler.servo.settings import ServoSetting
 from dynamixel_handler.settings import LoopSettings, ScanSettings, Settings
 
 from support.fake_bus import PH54, XM430, FakeBus

@@ -8,7 +8,7 @@ import logging
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.reconnect_memory import Remembered, remember
 from dynamixel_handler.core.state import StepReport
-from dynamixel_handler.servo_settings import ServoSetting
+from dynamixel_handler.servo.settings import ServoSetting
 from dynamixel_handler.settings import Settings
 
 from support.fake_bus import XM430, FakeBus

@@ -54,11 +54,16 @@ def test_queued_requests_run_in_order_and_one_that_raises_is_logged_and_the_rest
 def test_asked_now_a_request_goes_to_its_handler_and_a_handler_that_answers_nothing_did_it():
     part, done, _ = intake()
     assert part.ask(Note("now")) is DONE and done == ["now"]
-    part.register(Note, lambda r: Answer(Outcome.REFUSED, f"no {r.text}"))  # registered again: replaced
-    assert part.ask(Note("x")) == Answer(Outcome.REFUSED, "no x") and not part.ask(Note("x"))
+
+    @dataclass(frozen=True)
+    class Refused:
+        text: str
+
+    part.register(Refused, lambda r: Answer(Outcome.REFUSED, f"no {r.text}"))
+    assert part.ask(Refused("x")) == Answer(Outcome.REFUSED, "no x") and not part.ask(Refused("x"))
     with pytest.raises(TypeError, match="WriteItem"):
         part.ask(WriteItem(1, "led", 1))
-    assert set(part.routes()) == {Note, Broken}
+    assert set(part.routes()) == {Note, Broken, Refused}
 
 
 def test_answers_and_labels():
@@ -66,3 +71,15 @@ def test_answers_and_labels():
     assert answer(Result(False, Failure.NO_REPLY, "no reply")) == Answer(Outcome.FAILED, "no reply")
     assert answer(False, "not added") == Answer(Outcome.FAILED, "not added")
     assert label(Note("x")) == "note" and label(object()) == "object"
+
+
+def test_a_second_handler_for_one_request_type_is_refused_and_the_first_kept():
+    part, done, _ = intake()
+    try:
+        part.register(Note, lambda r: None)
+    except ValueError as err:
+        assert "Note already has a handler" in str(err)
+    else:
+        raise AssertionError("a second route for Note was taken")
+    part.ask(Note("still the first"))
+    assert done == ["still the first"]

@@ -6,8 +6,8 @@ import logging
 
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core.handler import Handler
 from dynamixel_handler.core.request_types import CancelDeferred, ChangeMode, ClearError, DeferModeChange, Later, Outcome, SetGoals
-from dynamixel_handler.loop import Handler
 
 from support.fake_bus import XM430, FakeBus
 

@@ -7,9 +7,9 @@ import logging
 import pytest
 
 from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.core.handler import Handler
 from dynamixel_handler.core.request_types import AddServo, WantHandled
 from dynamixel_handler.errors import Interrupted, StartupError
-from dynamixel_handler.loop import Handler
 
 from support.fake_bus import H54, XM430, FakeBus
 

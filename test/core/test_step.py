@@ -5,8 +5,8 @@ from __future__ import annotations
 import logging
 
 from dynamixel_handler.config import defaults, validate
+from dynamixel_handler.core.handler import RECHECK_LOOPS, Handler
 from dynamixel_handler.core.request_types import WriteItem
-from dynamixel_handler.loop import RECHECK_LOOPS, Handler
 
 from support.fake_bus import XM430, FakeBus
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 
 from dynamixel_handler.core.write_batch import WriteBatch
-from dynamixel_handler.servos import PendingWrites
+from dynamixel_handler.servo.table import PendingWrites
 
 from support.fake_bus import H54, XM430, FakeBus, table_of
 

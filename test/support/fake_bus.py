@@ -16,7 +16,7 @@ from dynamixel_handler.bus.ops import ErrorByte, Ping, Read, Reboot, SyncRead, W
 from dynamixel_handler.bus.result import Failure, Result
 from dynamixel_handler.bus.stats import BusStats
 from dynamixel_handler.control_table import Model, model_by_number, protocol1_model_by_number
-from dynamixel_handler.servos import ServoTable
+from dynamixel_handler.servo.table import ServoTable
 
 XM430, XM540, PH54, H54 = 1020, 1130, 2020, 54024
 MEMORY = 1024

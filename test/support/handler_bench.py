@@ -8,7 +8,7 @@ from typing import Any, Callable, Iterator, Mapping
 
 from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.config import defaults, validate
-from dynamixel_handler.loop import Handler
+from dynamixel_handler.core.handler import Handler
 from dynamixel_handler.sim import VirtualBus
 
 from .ros import SCAN_RETRIES

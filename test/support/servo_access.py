@@ -11,7 +11,7 @@ from dynamixel_handler.control_table import OPERATING_MODES, Model, model_by_num
 from dynamixel_handler.core.api import LoopFigures
 from dynamixel_handler.core.request_types import DONE, Answer, ChangeMode, SetGoals
 from dynamixel_handler.core.state import recheck_loops
-from dynamixel_handler.servos import PendingWrites, ServoTable
+from dynamixel_handler.servo.table import PendingWrites, ServoTable
 from dynamixel_handler.settings import Settings
 
 

@@ -18,7 +18,7 @@ PR_GET_TIMERSLACK = 30
 LOOP_TIMER_SLACK_NS = 1000
 
 
-def _libc():
+def _libc() -> "ctypes.CDLL | None":
     if not sys.platform.startswith("linux"):
         return None
     try:

@@ -21,13 +21,12 @@ from __future__ import annotations
 import difflib
 import math
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Mapping, Protocol, Sequence
 
-from .control_table import OPERATING_MODES
-from .errors import ConfigError
+from ..control_table import OPERATING_MODES
+from ..errors import ConfigError
+from ..logs import cut
 from .groups import GAIN, LIMIT
-from .joints import JointMap
-from .logs import cut
 
 #: the parameter names of the block start so
 PREFIX = "servos."
@@ -188,7 +187,16 @@ def _typed(kind: type, value: Any) -> Any:
     return float(value)
 
 
-def servo_key(name: str, joints: JointMap | None) -> int:
+class JointNames(Protocol):
+    """What an entry's joint name is looked up in (``joints.JointMap``): the names and their servos."""
+
+    @property
+    def names(self) -> Sequence[str]: ...
+
+    def id_of(self, name: str) -> int: ...
+
+
+def servo_key(name: str, joints: JointNames | None) -> int:
     """The servo ID an entry's name stands for: ``id_<N>``, or a joint of ``joint_state.names``."""
     digits = name[3:]
     if name.startswith("id_") and digits.isascii() and digits.isdigit():  # not "id_²" nor "id_٢"
@@ -199,7 +207,7 @@ def servo_key(name: str, joints: JointMap | None) -> int:
     raise ConfigError(f"servos.{cut(name)}: neither id_<N> nor a joint name of joint_state.names ({known})")
 
 
-def servo_settings(block: Mapping[str, Mapping[str, Any]], joints: JointMap | None = None) -> tuple[ServoSetting, ...]:
+def servo_settings(block: Mapping[str, Mapping[str, Any]], joints: JointNames | None = None) -> tuple[ServoSetting, ...]:
     """The entries of a ``servos`` block given as nested mappings ({name: {item: value}}), in ID
     order; ConfigError for an entry that is no mapping, an unknown name, a servo named twice."""
     out: dict[int, ServoSetting] = {}
@@ -215,7 +223,7 @@ def servo_settings(block: Mapping[str, Mapping[str, Any]], joints: JointMap | No
     return tuple(out[i] for i in sorted(out))
 
 
-def servo_block(values: Mapping[str, Any], joints: JointMap | None = None) -> tuple[ServoSetting, ...]:
+def servo_block(values: Mapping[str, Any], joints: JointNames | None = None) -> tuple[ServoSetting, ...]:
     """The entries given by flattened parameter names (``servos.<name>.<item>``) in ``values``."""
     block: dict[str, dict[str, Any]] = {}
     for name, value in values.items():

@@ -12,9 +12,10 @@ from __future__ import annotations
 import datetime
 from typing import Any, Callable, Iterable
 
-from . import error_state, units
-from .control_table import Model
-from .servo_settings import BITS, FIELDS, LED, MODE, WATCHDOG
+from .. import units
+from ..control_table import Model
+from . import error_state
+from .settings import BITS, FIELDS, LED, MODE, WATCHDOG
 
 #: decimals kept of a value in physical units: far finer than a register unit of any item
 DECIMALS = 4

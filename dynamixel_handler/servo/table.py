@@ -13,8 +13,8 @@ from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import units
-from .control_table import Model
+from .. import units
+from ..control_table import Model
 
 
 class ServoTable:

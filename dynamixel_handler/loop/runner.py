@@ -27,10 +27,10 @@ import traceback
 from dataclasses import dataclass
 from typing import Callable, Protocol
 
-from .bus.api import StatsWire
-from .core.handler import StepReport
-from .external_ports import ExternalPorts, PortReading
-from .loop_stats import LoopStats, StatsCore
+from ..bus.api import StatsWire
+from ..core.handler import StepReport
+from ..external_ports import ExternalPorts, PortReading
+from .stats import LoopStats, StatsCore
 from .timing import set_timer_slack
 
 #: consecutive failed loop steps after which the loop gives up

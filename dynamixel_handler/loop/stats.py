@@ -20,7 +20,7 @@ import logging
 import time
 from typing import Callable, Protocol, Sized
 
-from .bus.api import StatsWire
+from ..bus.api import StatsWire
 
 #: longest time between two statistics lines [s]
 STATS_MAX_S = 10.0

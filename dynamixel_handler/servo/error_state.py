@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import units
-from .control_table import Model
-from .protocol import protocol1
-from .servos import ServoTable
+from .. import units
+from ..control_table import Model
+from ..protocol import protocol1
+from .table import ServoTable
 
 HARDWARE_ERROR = "hardware_error_status"
 
@@ -84,7 +84,7 @@ def hardware_bits(table: ServoTable) -> np.ndarray:
 
 def in_error(table: ServoTable) -> np.ndarray:
     """Per servo: a hardware error bit is set or an error code (not a warning) is held."""
-    flags = hardware_bits(table) != 0
+    flags: np.ndarray = np.asarray(hardware_bits(table) != 0)
     for pos, code, model in _codes_of(table):
         codes = model.family.error_codes
         if codes is not None and codes.is_error(code):

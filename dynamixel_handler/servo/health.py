@@ -12,8 +12,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import error_state, units
-from .servos import ServoTable
+from .. import units
+from . import error_state
+from .table import ServoTable
 
 OK, WARN, ERROR = 0, 1, 2  # the levels of diagnostic_msgs/DiagnosticStatus
 #: WARN when the temperature is this close to temperature_limit [degC] (ERROR at or above it)
