@@ -2,21 +2,19 @@
 scripts/gen_param_docs.py renders from config.SCHEMA, and links between docs lead somewhere."""
 from __future__ import annotations
 
-import importlib.util
 import re
 from pathlib import Path
 
 from dynamixel_handler.config import SCHEMA
+
+from support.scripts import load_script
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 
 
 def _generator():
-    spec = importlib.util.spec_from_file_location("gen_param_docs", ROOT / "scripts" / "gen_param_docs.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("gen_param_docs")
 
 
 def test_parameter_tables_match_the_schema():
@@ -79,9 +77,7 @@ def test_relative_links_in_docs_lead_to_files_that_exist():
 
 
 def test_the_models_page_lists_every_model_the_control_table_knows():
-    spec = importlib.util.spec_from_file_location("gen_models_doc", ROOT / "scripts" / "gen_models_doc.py")
-    gen = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(gen)
+    gen = load_script("gen_models_doc")
     text = (DOCS / "models.md").read_text(encoding="utf-8")
     assert text == gen.render(), "docs/models.md is out of date: run scripts/gen_models_doc.py --write"
     from dynamixel_handler.control_table import known_models

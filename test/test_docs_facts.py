@@ -2,7 +2,6 @@
 claims of README.md and docs/ that name such facts in prose agree with the code."""
 from __future__ import annotations
 
-import importlib.util
 import re
 import subprocess
 import sys
@@ -11,16 +10,15 @@ from pathlib import Path
 from dynamixel_handler.control_table import FAMILIES, PROTOCOL1_FAMILIES, known_models
 from dynamixel_handler.sim.cli import build_parser
 
+from support.scripts import load_script
+
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 README = ROOT / "README.md"
 
 
 def _facts():
-    spec = importlib.util.spec_from_file_location("gen_doc_facts", ROOT / "scripts" / "gen_doc_facts.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("gen_doc_facts")
 
 
 def _flat(path: Path) -> str:

@@ -23,7 +23,7 @@ def _cli(*args: str) -> str:
     return out.stdout
 
 
-def test_ros_cli_stand_ins_read_and_command_the_node():
+def test_ros_cli_stand_ins_read_command_call_and_describe_the_node():
     rig = Rig({1: X, 2: X})
     try:
         assert _cli("param", "get", "/dynamixel_handler", "loop_rate") == "Integer value is: 100\n"
@@ -38,26 +38,7 @@ def test_ros_cli_stand_ins_read_and_command_the_node():
         rig.wait(lambda: rig.sim.servo(2).read("torque_enable") == 0, timeout=5, what="torque off on ID 2")
         # the window includes the subscriber's discovery, which a loaded machine makes longer
         assert "average rate" in _cli("topic", "hz", "/dynamixel/states", "--seconds", "3")
-    finally:
-        rig.close()
-
-
-def test_a_clamp_warning_names_the_servo_and_the_field():
-    rig = Rig({1: X})
-    try:
-        mark = rig.mark()
-        rig.publish("/dynamixel/command/x/position_control",
-                    DynamixelControlXPosition(id_list=[1], position_deg=[200.0]))
-        line = rig.wait_log("clamped", since=mark)
-        assert "ID 1 (XM430-W350) 'position_deg' = 200" in line, line
-        assert "command/" not in line, line
-    finally:
-        rig.close()
-
-
-def test_ros_cli_stand_ins_call_services_and_actions_and_describe_parameters():
-    rig = Rig({1: X, 2: X})
-    try:
+        # services, actions and parameter descriptions
         services = _cli("service", "list", "--seconds", "3").split()
         for name in ("/dynamixel/set_torque", "/dynamixel/move_to", "/dynamixel/reboot",
                      "/dynamixel/save_servo_settings", "/dynamixel/set_e_stop", "/dynamixel_handler/describe_parameters"):
@@ -77,6 +58,19 @@ def test_ros_cli_stand_ins_call_services_and_actions_and_describe_parameters():
         assert "Read only: true" in described, described  # read at start-up only: a set would be refused
         refused = _cli("param", "set", "/dynamixel_handler", "loop_rate", "50")
         assert refused.startswith("Setting parameter failed"), refused
+    finally:
+        rig.close()
+
+
+def test_a_clamp_warning_names_the_servo_and_the_field():
+    rig = Rig({1: X})
+    try:
+        mark = rig.mark()
+        rig.publish("/dynamixel/command/x/position_control",
+                    DynamixelControlXPosition(id_list=[1], position_deg=[200.0]))
+        line = rig.wait_log("clamped", since=mark)
+        assert "ID 1 (XM430-W350) 'position_deg' = 200" in line, line
+        assert "command/" not in line, line
     finally:
         rig.close()
 

@@ -38,7 +38,7 @@ def test_an_event_set_by_the_handler_hangs_there_which_is_why_the_flag_exists():
     try:
         done = subprocess.run([sys.executable, "-c", _HELD.format(
             setup="", seen="1").replace("with waiting._cond:", "signal.signal(signal.SIGINT, lambda *_: waiting.set())\n"
-                                         "with waiting._cond:")], capture_output=True, text=True, timeout=5)
+                                         "with waiting._cond:")], capture_output=True, text=True, timeout=2)
     except subprocess.TimeoutExpired:
         return
     raise AssertionError(f"an Event set from a handler inside its lock returned: {done.stdout!r} {done.stderr!r}")
