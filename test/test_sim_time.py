@@ -30,13 +30,23 @@ def test_stamps_follow_clock_when_use_sim_time_is_true():
         sim_now = SIM_START
         rig.publish("/clock", Clock(clock=Time(sec=int(sim_now))))
         start = len(rig.states)
-        end = time.monotonic() + 20
+
+        def on_sim_time() -> bool:
+            """The state asserted below: the node has taken /clock (its discovery of the test's
+            publisher can take seconds on a loaded host; stamps are 0 until then) and published a
+            dozen states and a joint state and a diagnostics message since, all on its clock."""
+            sim_stamped = [m for m in rig.states[start:] if _seconds(m.stamp) >= SIM_START]
+            return (len(sim_stamped) > 12 and bool(joints) and bool(diagnostics)
+                    and _seconds(joints[-1].header.stamp) >= SIM_START
+                    and _seconds(diagnostics[-1].header.stamp) >= SIM_START)
+
+        end = time.monotonic() + 40
         # the simulated clock runs at a tenth of real time while the node publishes
-        while time.monotonic() < end and not (len(rig.states) > start + 20 and joints and diagnostics):
+        while time.monotonic() < end and not on_sim_time():
             time.sleep(0.02)
             sim_now += 0.002
             rig.publish("/clock", Clock(clock=Time(sec=int(sim_now), nanosec=int(sim_now % 1 * 1e9))))
-        assert len(rig.states) > start + 20 and joints and diagnostics, rig.output[-2000:]
+        assert on_sim_time(), rig.output[-2000:]
         stamps = [_seconds(m.stamp) for m in rig.states[start:]]
         # until the node has received its first /clock (discovery of the test's publisher can take a
         # while on a loaded host) ROS time is 0, as with any node using sim time; from then on a stamp is
