@@ -179,10 +179,12 @@ def test_a_trajectory_and_a_waiting_move_end_at_once_and_new_ones_are_refused(ri
     with rig._lock:
         waiting = rig.node.create_client(MoveTo, "/dynamixel/move_to")
     assert waiting.wait_for_service(timeout_sec=10)
-    move = waiting.call_async(MoveTo.Request(ids=[2], positions_deg=[-90.0 if _deg(rig, 2) > 0.0 else 90.0],
-                                             profile_vel_deg_s=10.0,
+    target = -90.0 if _deg(rig, 2) > 0.0 else 90.0
+    move = waiting.call_async(MoveTo.Request(ids=[2], positions_deg=[target], profile_vel_deg_s=10.0,
                                              wait=True, timeout_s=20.0))
-    rig.wait(lambda: abs(rig.sim.servo(2).read("present_velocity")) > 0, what="the move under way")
+    # the move taken by the node: its goal on the servo (a moving shaft alone may still be the
+    # position command above, the move's request not yet taken: then the E-stop refuses it instead)
+    rig.wait(lambda: abs(_deg(rig, 2, "goal_position") - target) < 1.0, what="the move's goal written")
 
     res = _set(rig, True)
     assert res.success and "engaged" in res.message, res.message
