@@ -7,7 +7,7 @@ PACKAGE = "dynamixel_handler"
 
 setup(
     name=PACKAGE,
-    version="1.1.2",
+    version="1.2.0",
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, ClassVar, Sequence, assert_never
 
 from .core.handler import Handler
-from .core.request_types import WriteEeprom, WriteItem
 from .servo.groups import due
 from .servo.table import ServoTable
 from .settings import ExternalPortSettings
@@ -43,7 +42,6 @@ class PortReading:
 class ExternalPorts:
     def __init__(self, handler: Handler, settings: ExternalPortSettings) -> None:
         self.h = handler
-        handler.register(PortWrite, self._write)
         self.data_ratio, self.mode_ratio = settings.data_ratio, settings.mode_ratio
         self.verbose_callback, self.verbose_write = settings.verbose_callback, settings.verbose_write
         self.verbose_read, self.verbose_err = settings.verbose_read, settings.verbose_err
@@ -73,6 +71,16 @@ class ExternalPorts:
         return list(values)
 
     # ------------------------------------------------------------ loop thread
+    TAKES: ClassVar[tuple[type, ...]] = (PortWrite,)
+
+    def handle(self, request: PortWrite) -> None:
+        """A queued port write, in the loop thread (attached to the intake by who builds this)."""
+        match request:
+            case PortWrite():
+                self._write(request)
+            case _:
+                assert_never(request)
+
     def _write(self, request: PortWrite) -> None:
         ids, ports, modes, data = request.ids, request.ports, request.modes, request.data
         table = self.h.table
@@ -108,7 +116,7 @@ class ExternalPorts:
         if mode not in MODES:
             self.h.log.warning(f"{where}: unknown mode '{mode}' (known: {', '.join([*MODES, UNSET])}): ignored")
             return False
-        written = self.h.ask(WriteEeprom(dxl_id, f"external_port_mode_{port}", MODES[mode]))
+        written = self.h.core.write_eeprom(dxl_id, f"external_port_mode_{port}", MODES[mode])
         if not written:
             self.h.log.warning(f"{where}: writing mode {mode} failed: {written.failure}")
             return False
@@ -125,7 +133,7 @@ class ExternalPorts:
         elif value not in (0, 1):
             self.h.log.warning(f"{where}: digital output data must be 0 or 1, got {value}: ignored")
         else:
-            self.h.ask(WriteItem(dxl_id, f"external_port_data_{port}", int(value)))
+            self.h.core.write_item(dxl_id, f"external_port_data_{port}", int(value))
             if self.verbose_write:
                 self.h.log.info(f"{where}: data -> {value}")
 

@@ -74,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
                         servos=tuple(ServoSetting(i, entry) for i in ids) if entry else ())
     handler = Handler(wire, settings, log)
     commander = Commander(handler)
+    handler.attach(commander)  # its commands, queued by any thread, are taken by the loop thread
     wire.open()
     code = 0
     try:

@@ -20,7 +20,14 @@ Sizes: modules over 400 lines, classes over 250 lines and functions of cyclomati
 
 - forwards in the fronts: methods and properties of a front class (``FRONTS``) whose body, past a
   docstring, is one statement handing the call on: ``[return] self.<part>.<name>(<its own
-  arguments>)`` or ``return self.<part>.<name>``. At most the number ``FRONTS`` gives each;
+  arguments>)`` or ``return self.<part>.<name>``, the part reached one or two levels deep
+  (``self.<a>.<b>.<name>`` counts too). At most the number ``FRONTS`` gives each;
+- runtime registrations: a part that puts itself into another's table at run time: a call of
+  ``<x>.register(...)`` (``atexit`` aside) or ``<h>.attach(self)`` (``h``, ``handler``, ``intake``). Routes are fixed by who builds
+  the parts (``Intake.attach`` called by the assembler with the part it built). None allowed;
+- protocol branches: a comparison of a protocol number (a name or attribute ``protocol`` or
+  ``version``) with the constant 1 or 2, outside the family objects and framers
+  (``PROTOCOL_EXEMPT``). At most ``PROTOCOL_BRANCHES`` (a ceiling that only goes down);
 - parameter-name lookups: a string constant naming a parameter of ``config.SCHEMA`` (a literal
   name, or one starting with the fixed part of a name built by an f-string) used as a subscript
   or as the first argument of a ``get``/``get_parameter`` call, outside ``PARAM_EXEMPT``. At most
@@ -47,12 +54,15 @@ LINEAGE_CLASSES, LINEAGE_LINES, FAMILY_COMPARISONS = 3, 400, 2
 FAMILY_NAMES = frozenset({"X", "P", "PRO", "Pro"})
 FAMILY_EXEMPT = "control_table"
 #: front classes (module relative to the package, class) -> the most one-line forwards allowed
-FRONTS = {("core.handler", "Handler"): 9, ("bus.core", "DynamixelBus"): 12}
+FRONTS = {("core.handler", "Handler"): 9, ("bus.core", "DynamixelBus"): 21}
 #: the modules that may look parameters up by name (and the set-up tool, a command line without
 #: node parameters, whose dictionaries share some key names), and how many lookups the others may
 #: make: none, every other part is given typed settings (``Settings``, the tool's ``UnifySettings``)
 PARAM_EXEMPT = ("config", "config_checks", "ros.params", "setup_tool")
 PARAM_LOOKUPS = 0
+#: where a protocol number may be compared: the family objects and tables, the framers
+PROTOCOL_EXEMPT = ("control_table", "protocol")
+PROTOCOL_BRANCHES = 34
 
 
 def _offenders(path: Path) -> tuple[list[str], int, int, int]:
@@ -296,22 +306,85 @@ def structure(root: Path) -> tuple[list[str], dict[str, int]]:
         for line in param_lookups(mod.tree, names, starts):
             found.append(f"{mod.path}:{line}: parameter looked up by name")
             lookups += 1
+    registrations = 0
+    branches = 0
+    for mod in modules.values():
+        for line in runtime_registrations(mod.tree):
+            found.append(f"{mod.path}:{line}: a part registers itself at run time")
+            registrations += 1
+        if any(e in mod.name.split(".")[1:2] for e in PROTOCOL_EXEMPT):
+            continue
+        for line in protocol_branches(mod.tree):
+            found.append(f"{mod.path}:{line}: protocol branch")
+            branches += 1
     return found, {"lineages": bad_lineages, "longest_lineage": worst_n, "largest_lineage_lines": worst_lines,
                    "family_comparisons": family, "import_circles": len(rings), "forwards_over": over,
                    "forwards": sum(fronts.values()), "param_lookups": lookups,
+                   "registrations": registrations, "protocol_branches": branches,
                    **{f"forwards {k}": v for k, v in fronts.items()}}
 
 
 def structure_broken(figures: dict[str, int]) -> bool:
     return bool(figures["lineages"] or figures["family_comparisons"] > FAMILY_COMPARISONS
                 or figures["import_circles"] or figures["forwards_over"]
-                or figures["param_lookups"] > PARAM_LOOKUPS)
+                or figures["param_lookups"] > PARAM_LOOKUPS or figures["registrations"]
+                or figures["protocol_branches"] > PROTOCOL_BRANCHES)
 
 
 def _self_chain(node: ast.expr) -> bool:
-    """``self.<part>.<name>``: an attribute of an attribute of ``self``."""
-    return (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute)
-            and isinstance(node.value.value, ast.Name) and node.value.value.id == "self")
+    """``self.<part>.<name>`` or ``self.<a>.<b>.<name>``: a part's member one or two levels deep."""
+    if not (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute)):
+        return False
+    owner = node.value.value
+    if isinstance(owner, ast.Attribute):
+        owner = owner.value
+    return isinstance(owner, ast.Name) and owner.id == "self"
+
+
+def runtime_registrations(tree: ast.AST) -> list[int]:
+    """Lines of ``<x>.register(...)`` (not ``atexit.register``) and ``<x>.attach(self)``."""
+    found = []
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)):
+            continue
+        owner = node.func.value
+        if node.func.attr == "register" and not (isinstance(owner, ast.Name) and owner.id == "atexit"):
+            found.append(node.lineno)
+        elif node.func.attr == "attach" and _intake_owner(owner) and \
+                any(isinstance(a, ast.Name) and a.id == "self" for a in node.args):
+            found.append(node.lineno)
+    return found
+
+
+def _intake_owner(node: ast.expr) -> bool:
+    """``h``, ``handler``, ``intake`` or an attribute of that name: what takes a part's requests."""
+    name = node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name) else ""
+    return name in ("h", "handler", "intake")
+
+
+def _protocol_number(node: ast.expr) -> bool:
+    name = node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name) else ""
+    return name in ("protocol", "version")
+
+
+def _one_or_two(node: ast.expr) -> bool:
+    if isinstance(node, ast.Constant):
+        return type(node.value) is int and node.value in (1, 2)
+    if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+        return bool(node.elts) and all(_one_or_two(e) for e in node.elts)
+    return False
+
+
+def protocol_branches(tree: ast.AST) -> list[int]:
+    """Lines of the comparisons of a protocol number with 1 or 2 (see the module doc)."""
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any((_protocol_number(sides[k]) and _one_or_two(sides[k + 1]))
+                   or (_one_or_two(sides[k]) and _protocol_number(sides[k + 1])) for k in range(len(node.ops))):
+                found.append(node.lineno)
+    return found
 
 
 def is_forward(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
@@ -410,6 +483,8 @@ def main(argv: list[str] | None = None) -> int:
         fronts = ", ".join(f"{k[len('forwards '):]} {v}" for k, v in fig.items() if k.startswith("forwards "))
         print(f"{root}: one-line forwards in the fronts: {fronts or 'none'}; parameter-name lookups outside "
               f"{', '.join(PARAM_EXEMPT)}: {fig['param_lookups']} (at most {PARAM_LOOKUPS})")
+        print(f"{root}: runtime registrations: {fig['registrations']} (at most 0); protocol branches outside "
+              f"{', '.join(PROTOCOL_EXEMPT)}: {fig['protocol_branches']} (at most {PROTOCOL_BRANCHES})")
         broken = broken or structure_broken(fig)
     return 1 if args.check and (any(totals) or (args.structure and broken)) else 0
 

@@ -94,6 +94,7 @@ def step_response(gains: tuple[int, int, int], seconds: float = 1.0) -> Response
     try:
         handler.start()
         commander = Commander(handler)
+        handler.attach(commander)
         runner = Runner(handler, wire, settings.loop.rate_hz, log=log, hooks=Hooks(states_ready=states_ready))
         commander.control("X", "position_control", [1], {"position_deg": [0.0]})
         runner.run(loops=100)  # a second of servo time to get to 0 deg and settle

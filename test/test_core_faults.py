@@ -11,6 +11,7 @@ from dynamixel_handler_msgs.msg import DynamixelShortcut
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import BASE_PARAMS, FAST_SYNC_READ, FOUR_SERVOS, PING, READ, SYNC_READ, XM430, Rig
+from support.servo_access import attached
 
 REMOVE_AFTER = 10  # unanswered requests
 SILENT_ID = 3      # the PH54
@@ -251,7 +252,7 @@ def test_a_mode_change_or_eeprom_write_whose_torque_read_gets_no_answer_still_sw
             servo = sim.servo(1)
             assert servo.read("torque_enable") == 1 and servo.read(register) != value
             lines = capture_log(handler, f"torque_read_lost_{register}")
-            commander = Commander(handler)
+            commander = attached(Commander(handler))
             commander.warn = lines.append
             sim.clear_log()
             sim.truncate_next(lost)  # the next replies arrive cut in half: the last of them is the torque read's
@@ -280,7 +281,7 @@ def test_a_mode_change_the_bus_misses_is_read_back_or_tried_again_and_its_goals_
         """A commander whose warnings, and the handler's log lines, go to a list."""
         handler.step()
         lines = capture_log(handler, name)
-        commander = Commander(handler)
+        commander = attached(Commander(handler))
         commander.warn = lines.append
         return commander, lines
 

@@ -25,13 +25,13 @@ from hypothesis import strategies as st
 from dynamixel_handler import units
 from dynamixel_handler.commands import Commander, CommandPaths, goal_bounds
 from dynamixel_handler.control_table import model_by_number
-from dynamixel_handler.core.request_types import SetGoals
 from dynamixel_handler.servo.table import ServoTable
 from dynamixel_handler.sim import VirtualBus
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import PRO, X540, P, X
 from support.ros import SCAN_RETRIES
+from support.servo_access import attached
 
 XL430 = 1060
 SERVOS = {1: X, 2: X540, 3: P, 4: PRO, 5: XL430}
@@ -98,15 +98,14 @@ def _run(fast: bool, small: int, monkeypatch) -> tuple[list, list[dict], list[st
     with handler_on_virtual_bus(SERVOS, config, baudrate=1_000_000, patient=True, tripped_once=fast) as (sim, handler):
         lines = capture_log(handler, f"fast_commands_{fast}_{small}", lambda r: f"{r.levelname} {r.getMessage()}")
         handler.log.setLevel(logging.INFO)
-        commander = Commander(handler, CommandPaths(targets=fast, small=small))
+        commander = attached(Commander(handler, CommandPaths(targets=fast, small=small)))
         writes: list = []
-        ask = handler.ask
+        set_goals = handler.core.set_goals
 
-        def record(request):  # the goals the command side hands to the core, in order
-            if isinstance(request, SetGoals):
-                writes.append([(item, list(values.items())) for item, values in request.writes.items()])
-            return ask(request)
-        handler.ask = record
+        def record(goals, what="goals"):  # the goals the command side hands to the core, in order
+            writes.append([(item, list(values.items())) for item, values in goals.items()])
+            return set_goals(goals, what)
+        handler.core.set_goals = record  # type: ignore[method-assign]
         answers: list[bool] = []
         fast_goals = commander.fast.goals
 
@@ -223,7 +222,7 @@ def _run_bundles(skip: bool, monkeypatch) -> tuple[list[str], list[str], list[di
                 submit(request, what)
             handler.submit = record
             intake = CommandIntake(node, raw=True, detached=True)
-            command_topics.CommandTopics(intake, Commander(handler, CommandPaths(skip_empty=skip)), ("X",),
+            command_topics.CommandTopics(intake, attached(Commander(handler, CommandPaths(skip_empty=skip))), ("X",),
                                          command_line=False)
             handlers = {entry[3]: entry[2] for entry in intake._entries}
             registers = []

@@ -19,6 +19,7 @@ from dynamixel_handler_msgs.msg import DynamixelExtra, DynamixelShortcut
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
 from support.rig import Rig, X
+from support.servo_access import attached
 
 PROFILE_ACCELERATION = 108  # X series
 STAMPED = "{created:.3f} {levelname} {message}"
@@ -93,7 +94,7 @@ def test_a_noisy_line_logs_each_servo_s_answering_state_at_most_once_a_second_an
 def test_mode_changes_and_eeprom_writes_asked_for_at_100_hz_log_one_line_a_second_per_cause_and_servo():
     with handler_on_virtual_bus({1: X}, {"loop_rate": 100}) as (sim, handler):
         lines = _capture(handler, "floods.modes")
-        commander = Commander(handler)
+        commander = attached(Commander(handler))
         k = [0]
 
         def alternate() -> None:  # velocity, position, velocity, ... (deferred: within 1 s of the last change)
@@ -114,7 +115,7 @@ def test_mode_changes_and_eeprom_writes_asked_for_at_100_hz_log_one_line_a_secon
 def test_add_and_remove_at_200_hz_are_one_change_a_loop_one_line_a_second_and_the_last_wins():
     with handler_on_virtual_bus({1: X, 2: X}, {"loop_rate": 100}) as (sim, handler):
         lines = _capture(handler, "floods.membership")
-        commander = Commander(handler)
+        commander = attached(Commander(handler))
         start = time.monotonic()  # the bus log keeps the latest instructions only: by time
 
         def churn() -> None:  # two removes and two adds of ID 2 a loop, the add last
@@ -146,7 +147,7 @@ def test_add_and_remove_at_200_hz_are_one_change_a_loop_one_line_a_second_and_th
 def test_reboots_asked_for_at_100_hz_reboot_each_servo_at_most_once_per_clear_error_interval():
     with handler_on_virtual_bus({1: X, 2: X}, {"loop_rate": 100}) as (sim, handler):
         lines = _capture(handler, "floods.reboot")
-        commander = Commander(handler)
+        commander = attached(Commander(handler))
         start = time.monotonic()  # the bus log keeps the latest instructions only: by time
         loops = _run(handler, 2.5, lambda: (commander.shortcut("reboot", [1]),
                                             commander.extra([2], {"reboot": [True]})))
@@ -167,7 +168,7 @@ def test_reboots_asked_for_at_100_hz_reboot_each_servo_at_most_once_per_clear_er
 def test_a_bus_watchdog_time_the_loop_cannot_keep_is_raised_with_one_warning_and_a_negative_one_refused():
     with handler_on_virtual_bus({1: X, 2: X}, {"loop_rate": 50}) as (sim, handler):
         lines = _capture(handler, "floods.watchdog")
-        commander = Commander(handler)
+        commander = attached(Commander(handler))
         # at 50 Hz a servo is read every 20 ms: a watchdog of 20 ms would trip between two reads
         for _ in range(5):
             commander.extra([1], {"bus_watchdog_ms": [20.0]})

@@ -30,6 +30,7 @@ from dynamixel_handler.core.read_plan import _record, decode_replies, decode_rep
 from dynamixel_handler.ros.cdr import Codec
 
 from support.msg_fill import codec_values, decoded_with, same_value
+from support.servo_access import attached
 
 MESSAGES = [c for _, c in inspect.getmembers(msgs, inspect.isclass) if hasattr(c, "get_fields_and_field_types")]
 @pytest.mark.parametrize("msg_class", MESSAGES, ids=lambda c: c.__name__)
@@ -125,7 +126,7 @@ def _run_goal_sequence(vector: bool, monkeypatch) -> tuple[list[dict[int, int]],
               "init/used_servo_series.P": True, "init/used_servo_series.Pro": True, "init/expected_servo_num": 4}
     with handler_on_virtual_bus({1: X, 2: X540, 3: P, 4: PRO}, config, baudrate=1_000_000, patient=True) as (sim, handler):
         lines = capture_log(handler, f"goal_bounds_{vector}")
-        commander = Commander(handler, CommandPaths(bounds=vector))
+        commander = attached(Commander(handler, CommandPaths(bounds=vector)))
         registers = []
         steps = [
             lambda: commander.control("X", "position_control", [1, 2], {"position_deg": [10.0, 400.0]}),

@@ -175,3 +175,47 @@ def test_parameter_names_looked_up_outside_config_are_counted(tmp_path, monkeypa
     assert [line.rsplit(":", 2)[1] for line in found] == ["1", "2", "3"]
     monkeypatch.setattr(metrics, "PARAM_LOOKUPS", 2)
     assert metrics.structure_broken(metrics.structure(root)[1])
+
+
+@pytest.mark.parametrize("text, count", [
+    ("handler.register(Note, self._note)\n", 1),        # a part putting its own route in another's table
+    ("self.h.attach(self)\n", 1),
+    ("intake.attach(self)\n", 1),
+    ("atexit.register(close)\n", 0),
+    ("self.handler.attach(self.commander)\n", 0),      # the assembler attaching what it built
+    ("joint_states.attach(self)\n", 0),                # a ROS module's attach(node): no intake
+])
+def test_runtime_registrations(text, count):
+    import ast
+    assert len(metrics.runtime_registrations(ast.parse(text))) == count
+
+
+@pytest.mark.parametrize("text, count", [
+    ("if framer.version == 2:\n    pass\n", 1),
+    ("x = a if protocol == 1 else b\n", 1),
+    ("ok = 2 != servo.protocol\n", 1),
+    ("ok = model.protocol in (1, 2)\n", 1),
+    ("ok = table.version != self._built_for\n", 0),     # a version that is no protocol number
+    ("ok = count == 2\n", 0),
+])
+def test_protocol_branches(text, count):
+    import ast
+    assert len(metrics.protocol_branches(ast.parse(text))) == count
+
+
+def test_protocol_branches_in_the_family_objects_and_framers_are_free(tmp_path):
+    same = "def f(p):\n    return p.protocol == 1\n"
+    _, fig = metrics.structure(_package(tmp_path, {"control_table/fam.py": same, "protocol/framers.py": same}))
+    assert fig["protocol_branches"] == 0
+    _, fig = metrics.structure(_package(tmp_path / "b", {"bus/reads.py": same}))
+    assert fig["protocol_branches"] == 1
+
+
+def test_two_level_forwards_count(tmp_path):
+    front = ("class DynamixelBus:\n"
+             "    def device(self):\n        return self._t.port.device\n"
+             "    def close(self):\n        self._t.port.close()\n"
+             "    def read(self, a):\n        return self.reads.read(a)\n"
+             "    def other(self, a):\n        return self.reads.read(a + 1)\n")
+    _, fig = metrics.structure(_package(tmp_path, {"bus/core.py": front}))
+    assert fig["forwards bus.core.DynamixelBus"] == 3

@@ -18,7 +18,6 @@ from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.bus.ops import Read
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.core.handler import Handler
-from dynamixel_handler.core.request_types import RemoveServo, WriteItem
 from dynamixel_handler.sim import VirtualBus
 from dynamixel_handler_msgs.msg import DxlCommandsX
 
@@ -89,7 +88,7 @@ def test_host_values_set_after_a_read_went_out_are_not_overwritten_by_it(timed_b
     report = handler.steps.begin_step()
     handler.steps.send_step(report)                  # reads the goal group: goal position 2048 everywhere
     assert bus.inflight_eta is not None        # the last read is still on the wire
-    assert handler.ask(WriteItem(1, "goal_position", 3000))
+    assert handler.core.write_item(1, "goal_position", 3000)
     handler.steps.finish_step(report)
     assert handler.table.value("goal_position", 1) == 3000  # newer than the read: kept
     assert handler.table.value("goal_position", 2) == 2048  # from the read
@@ -107,7 +106,7 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
     handler = Handler(bus, config)
     handler.start()
 
-    def overlapped(before: dict, after: dict | None = None, request=None) -> list[dict[int, int]]:
+    def overlapped(before: dict, after: dict | None = None, remove: int | None = None) -> list[dict[int, int]]:
         """One loop as the node runs it flat out; the goal positions that reached the wire."""
         report = handler.steps.begin_step()
         handler.steps.send_step(report)               # a read left on the wire
@@ -118,8 +117,8 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
         assert handler.writes.writes_ready and bus.inflight_eta is not None
         for item, values in (after or {}).items():
             handler.pending.put(item, values)   # came later
-        if request is not None:
-            handler.submit(request)
+        if remove is not None:  # as a remove_id command taken before the step's writes
+            handler.core.remove_servo(remove)
         handler.steps.prepare(following)
         sim.clear_log()
         handler.steps.send_writes(following)
@@ -130,7 +129,7 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
 
     # a servo removed after the packet was built is left out of it
     assert overlapped({"goal_position": {1: 1001, 2: 1002, 3: 1003, 4: 1004}},
-                      request=RemoveServo(4)) == [{1: 1001, 2: 1002, 3: 1003}]
+                      remove=4) == [{1: 1001, 2: 1002, 3: 1003}]
     assert sim.servo(4).read("goal_position") != 1004
     # a later value of the same item wins, other items go in their own write
     assert overlapped({"goal_position": {1: 2001, 2: 2002, 3: 2003}, "goal_current": {2: 50}},
@@ -364,6 +363,7 @@ def test_commands_reach_the_core_only_through_its_command_interface(timed_bus):
     handler.log = logging.getLogger("interface_test")
     handler.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
     commander = Commander(OnlyTheInterface())  # type: ignore[arg-type]
+    handler.attach(commander)  # by who builds it, as the node does
     commander.control("X", "extended_position_control", [1, 2, 77], {"position_deg": [90.0, -90.0, 0.0]})
     commander.status([3], {"mode": ["velocity"]})
     handler.step()

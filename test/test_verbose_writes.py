@@ -9,6 +9,7 @@ import pytest
 from dynamixel_handler.commands import Commander
 
 from support.handler_bench import capture_log, handler_on_virtual_bus
+from support.servo_access import attached
 
 XM430 = 1020
 FLAGS = ("verbose/callback", "verbose/write_goal", "verbose/write_limit", "verbose/write_extra")
@@ -18,7 +19,7 @@ def _lines(on: bool) -> list[str]:
     with handler_on_virtual_bus({1: XM430}, {flag: on for flag in FLAGS}) as (_sim, handler):
         lines = capture_log(handler, f"verbose_writes.{on}")
         logging.getLogger(f"verbose_writes.{on}").setLevel(logging.INFO)
-        commander = Commander(handler)
+        commander = attached(Commander(handler))
         commander.goal([1], {"position_deg": [10.0]})
         commander.limit([1], {"velocity_limit_deg_s": [120.0]})
         commander.extra([1], {"return_delay_time_us": [2.0]})

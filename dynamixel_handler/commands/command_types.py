@@ -87,6 +87,10 @@ class HoldJoints:
     what: str = "hold"
 
 
+#: the queued requests of each command-side part (its ``handle`` matches over them)
+CommanderRequest = Control | Goal | Gain | Limit | Status | Extra | Shortcut
+JointRequest = JointCommand | HoldJoints
+
 #: the message groups of the command topics, each with its request type (topics register from this)
 GROUPS: dict[str, type[Goal | Gain | Limit | Status | Extra]] = {
     "goal": Goal, "gain": Gain, "limit": Limit, "status": Status, "extra": Extra}
@@ -115,3 +119,6 @@ class MoveWritten:
     job: Any
     what: str = "move (goals written)"
 
+
+
+MoveRequest = TorqueStep | StartMove | MoveWritten

@@ -2,11 +2,11 @@
 
 The ROS layer hands each command over as ``(id_list, {field: values})`` with arrays of the wrong
 length already dropped (``take_fields``). Everything else happens here, *in the loop thread*
-(``Commander`` queues the command as a value, ``command_types``, for the handler it registered), so
+(``Commander`` queues the command as a value, ``command_types``, and takes it back in its ``handle``), so
 validation sees a consistent servo table and no callback ever touches the bus: unknown or
 wrong-series IDs, NaN/inf, unknown mode strings and out-of-range values are refused or clamped with a
 warning that names the ID and the field. What passes goes down as one request value
-(``core.request_types``) through the core's narrow interface (``core.api.ServoAccess.ask``).
+through the core's narrow interface (``core.api.ServoAccess.core``, typed calls).
 
 Goals and control topics are here; status, gains, limits and shortcuts in ``servo_settings``, the
 extra fields in ``extra``. The rules themselves (known IDs, finite values, bounds, clamping) are in
@@ -17,14 +17,14 @@ once, of the family, in the mode; every value a finite number) is applied by
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, ClassVar, Iterable, Mapping, Sequence, assert_never, get_args
 
 from .. import units
 from ..control_table import POSITION_MODES, ServoFamily, family_named
 from ..core.api import ServoAccess
-from ..core.request_types import Answer, CancelDeferred, ChangeMode, DeferModeChange, Outcome, SetGoals
+from ..core.request_types import Answer, Outcome
 from ..logs import Throttle, cut, some_ids
-from .command_types import Control, Extra, Gain, Goal, Limit, Shortcut, Status
+from .command_types import CommanderRequest, Control, Extra, Gain, Goal, Limit, Shortcut, Status
 from .extra import apply_extra
 from .fast_path import FastGoals
 from .goal_bounds import TableBounds
@@ -81,20 +81,28 @@ class Commander(SettingsCommands):
         self.throttle = Throttle(self.log.warning)
         self.rules = Rules(handler, self.warn, TableBounds(paths.bounds))
         self.fast = FastGoals(handler, self.rules, paths, self.put_writes)
-        for kind, route in self.routes().items():
-            handler.register(kind, route)
 
-    def routes(self) -> dict[type, Callable[[Any], None]]:
-        """Which of the command side's request types this part takes, and how (loop thread)."""
-        return {
-            Control: lambda r: self._control(r.family, r.control, r.ids, r.fields),
-            Goal: lambda r: self._goal(r.ids, r.fields, r.what),
-            Gain: lambda r: self._gain(r.ids, r.fields, r.what),
-            Limit: lambda r: self._limit(r.ids, r.fields, r.what),
-            Status: lambda r: self._status(r.ids, r.fields, r.what),
-            Extra: lambda r: apply_extra(self, r.ids, r.fields, r.what),
-            Shortcut: lambda r: self._shortcut(r.action, r.ids),
-        }
+    TAKES: ClassVar[tuple[type, ...]] = get_args(CommanderRequest)
+
+    def handle(self, request: CommanderRequest) -> None:
+        """A queued command, in the loop thread (attached to the intake by who builds the Commander)."""
+        match request:
+            case Control(family=family, control=control, ids=ids, fields=fields):
+                self._control(family, control, ids, fields)
+            case Goal(ids=ids, fields=fields, what=what):
+                self._goal(ids, fields, what)
+            case Gain(ids=ids, fields=fields, what=what):
+                self._gain(ids, fields, what)
+            case Limit(ids=ids, fields=fields, what=what):
+                self._limit(ids, fields, what)
+            case Status(ids=ids, fields=fields, what=what):
+                self._status(ids, fields, what)
+            case Extra(ids=ids, fields=fields, what=what):
+                apply_extra(self, ids, fields, what)
+            case Shortcut(action=action, ids=ids):
+                self._shortcut(action, ids)
+            case _:
+                assert_never(request)
 
     # ============================================================== entry points (any thread)
     def control(self, series: str | ServoFamily, control: str, ids: Sequence[int], fields: Fields) -> None:
@@ -124,7 +132,7 @@ class Commander(SettingsCommands):
             return
         self.submit(Shortcut(action, list(ids), f"shortcut {command}"))
 
-    def submit(self, request: Control | Goal | Gain | Limit | Status | Extra | Shortcut) -> None:
+    def submit(self, request: CommanderRequest) -> None:
         """A command for the loop thread (any thread), as a value."""
         if self.verbose:
             self.log.info(f"command accepted: {request.what}")
@@ -186,7 +194,7 @@ class Commander(SettingsCommands):
 
     def put_writes(self, what: str, writes: dict[str, dict[int, int]]) -> None:
         if writes:
-            self.h.ask(SetGoals(writes, what))
+            self.h.core.set_goals(writes, what)
             if "goal" in self.h.settings.logs.writes:
                 self.log.info(f"{what}: pending {', '.join(f'{i}={v}' for i, v in writes.items())}")
 
@@ -265,7 +273,7 @@ class Commander(SettingsCommands):
         ready = []
         for k, dxl_id in targets:
             if self.h.mode(dxl_id) == mode:
-                self.h.ask(CancelDeferred(dxl_id))  # a later request wins over a waiting mode change
+                self.h.core.cancel_deferred(dxl_id)  # a later request wins over a waiting mode change
                 ready.append((k, dxl_id))
                 continue
             changed = self.change_mode(dxl_id, mode, what)
@@ -273,8 +281,8 @@ class Commander(SettingsCommands):
                 ready.append((k, dxl_id))
             elif changed.later is not None:
                 one = {f: [v[k]] for f, v in fields.items()}
-                self.h.ask(DeferModeChange(dxl_id, changed.later, Control(family, control, [dxl_id], one, what),
-                                           f"{what}: ID {dxl_id} (deferred)"))
+                self.h.core.defer_mode_change(dxl_id, changed.later, Control(family, control, [dxl_id], one, what),
+                                           f"{what}: ID {dxl_id} (deferred)")
         return ready
 
     def _goal(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -294,7 +302,7 @@ class Commander(SettingsCommands):
                                       f"so no '{mode}' mode: ignored"))
         if mode not in model.modes:
             return self.warned(Answer(Outcome.REFUSED, f"{what}: ID {dxl_id} ({model.name}) has no '{mode}' mode: ignored"))
-        return self.warned(self.h.ask(ChangeMode(dxl_id, mode, what)))
+        return self.warned(self.h.core.change_mode(dxl_id, mode, what))
 
     def warned(self, answer: Answer) -> Answer:
         """A request's answer, its failure (if any) warned about once."""

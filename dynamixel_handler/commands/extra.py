@@ -9,7 +9,6 @@ from typing import Any, Iterable, Mapping, Protocol, Sequence
 from .. import units
 from ..control_table import Model, ServoFamily
 from ..core.api import ServoAccess
-from ..core.request_types import Reboot, SetUserWatchdog, WriteEeprom, WriteItem
 from ..servo import error_state
 
 
@@ -68,7 +67,7 @@ def _apply_one(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
 
 def _reboot(c: Checks, dxl_id: int) -> None:
     """A reboot (refused within clear_error_interval_sec of the servo's last one), its torque read anew."""
-    if c.h.ask(Reboot(dxl_id)):
+    if c.h.core.reboot(dxl_id):
         c.h.read_item(dxl_id, "torque_enable")
 
 
@@ -83,7 +82,7 @@ def _bit_registers(c: Checks, dxl_id: int, model: Model, given: _Given, what: st
         # in the X and P bit layout; the XL-320's own order (error_state.common_bits) on its register
         old = units.decode_shutdown([error_state.common_bits(model, c._value(dxl_id, "shutdown") or 0)])
         flags = {name: bool(given(f"shutdown.{name}", old[name][0])) for name in old}
-        c.h.ask(WriteEeprom(dxl_id, "shutdown", error_state.own_bits(model, units.encode_shutdown(**flags))))
+        c.h.core.write_eeprom(dxl_id, "shutdown", error_state.own_bits(model, units.encode_shutdown(**flags)))
 
 
 class _Given:
@@ -110,9 +109,9 @@ def _scalar(c: Checks, dxl_id: int, model: Model, field: str, item: str, value: 
         c.warn(f"{what}: ID {dxl_id} '{field}' = {value:g} is out of range: refused")
         return
     if item == "bus_watchdog":  # the servo keeps this one, whatever its mode (0: off)
-        c.h.ask(SetUserWatchdog(dxl_id, pulses))
+        c.h.core.set_user_watchdog(dxl_id, pulses)
         return
-    written = c.h.ask(WriteEeprom(dxl_id, item, pulses) if spec.eeprom else WriteItem(dxl_id, item, pulses))
+    written = (c.h.core.write_eeprom(dxl_id, item, pulses) if spec.eeprom else c.h.core.write_item(dxl_id, item, pulses))
     if not written:
         c.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
 
@@ -143,14 +142,14 @@ def _drive_mode(c: Checks, dxl_id: int, given: _Given, what: str) -> None:
         reverse_mode=bool(given("drive_mode.reverse_mode", old["reverse_mode"][0])),
         profile_configuration=str(profile),
         torque_on_by_goal_update=bool(given("drive_mode.torque_on_by_goal_update", old["torque_on_by_goal_update"][0])))
-    c.h.ask(WriteEeprom(dxl_id, "drive_mode", value | (current & ~0x0D)))
+    c.h.core.write_eeprom(dxl_id, "drive_mode", value | (current & ~0x0D))
 
 
 def _restore_configuration(c: Checks, dxl_id: int, given: _Given) -> None:
     ram, torque = units.decode_startup_configuration([c._value(dxl_id, "startup_configuration") or 0])
     value = units.encode_startup_configuration(ram_restore=bool(given(_RESTORE[0], ram[0])),
                                                startup_torque_on=bool(given(_RESTORE[1], torque[0])))
-    c.h.ask(WriteEeprom(dxl_id, "startup_configuration", value))
+    c.h.core.write_eeprom(dxl_id, "startup_configuration", value)
 
 
 def _pwm_slope(c: Checks, dxl_id: int, model: Model, slope: int, what: str) -> None:
@@ -159,18 +158,18 @@ def _pwm_slope(c: Checks, dxl_id: int, model: Model, slope: int, what: str) -> N
     elif not PWM_SLOPE_RANGE[0] <= slope <= PWM_SLOPE_RANGE[1]:
         c.warn(f"{what}: ID {dxl_id} 'pwm_slope_percent' = {slope} is out of range "
                f"{PWM_SLOPE_RANGE[0]}..{PWM_SLOPE_RANGE[1]}: refused")
-    elif not (written := c.h.ask(WriteEeprom(dxl_id, "pwm_slope", slope))):
+    elif not (written := c.h.core.write_eeprom(dxl_id, "pwm_slope", slope)):
         c.warn(f"{what}: ID {dxl_id} writing pwm_slope failed: {written.failure}")
 
 
 def _led(c: Checks, dxl_id: int, model: Model, colour: str, percent: float, what: str) -> None:
     if model.has(f"led_{colour}"):  # P, Pro: 0..255, rounded half up (50 % -> 128)
-        c.h.ask(WriteItem(dxl_id, f"led_{colour}", int(percent * 255.0 / 100.0 + 0.5)))
+        c.h.core.write_item(dxl_id, f"led_{colour}", int(percent * 255.0 / 100.0 + 0.5))
     elif colour == "red" and model.has("led"):  # X: one LED, on from 50 %
-        c.h.ask(WriteItem(dxl_id, "led", 1 if percent >= 50.0 else 0))
+        c.h.core.write_item(dxl_id, "led", 1 if percent >= 50.0 else 0)
     elif model.has("led_colour"):  # XL-320: one colour, a bit per LED (0 red, 1 green, 2 blue), on from 50 %
         bit = 1 << ("red", "green", "blue").index(colour)
         old = c._value(dxl_id, "led_colour") or 0
-        c.h.ask(WriteItem(dxl_id, "led_colour", old | bit if percent >= 50.0 else old & ~bit))
+        c.h.core.write_item(dxl_id, "led_colour", old | bit if percent >= 50.0 else old & ~bit)
     else:
         c.warn(f"{what}: ID {dxl_id} ({model.name}) has no {colour} LED: ignored")

@@ -19,7 +19,6 @@ import numpy as np
 from .. import units
 from ..control_table import POSITION_MODES, ServoFamily
 from ..core.api import ServoAccess
-from ..core.request_types import CancelDeferred
 from ..servo.table import ServoTable
 from .goal_bounds import Targets
 from .paths import CommandPaths
@@ -83,7 +82,7 @@ class FastGoals:
             return False
         if mode is not None:
             for dxl_id in plan.ids:
-                self.h.ask(CancelDeferred(dxl_id))  # a later request wins over a waiting mode change
+                self.h.core.cancel_deferred(dxl_id)  # a later request wins over a waiting mode change
         writes: dict[str, dict[int, int]] = {}
         for field, item, values in work:
             writes.setdefault(item, {}).update(zip(plan.ids, self._pulses(plan, what, field, item, values)))

@@ -22,14 +22,14 @@ refused, limits clamped, mode changes rate-limited, one warning line per cause.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Sequence, cast
+from typing import TYPE_CHECKING, ClassVar, Sequence, assert_never, cast, get_args
 
 import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
 from ..joints import JointMap
-from .command_types import HoldJoints, JointCommand
+from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
 from .goal_bounds import goal_position_limits
 
@@ -48,8 +48,18 @@ class JointGoals:
         self.commander = commander
         self.h = commander.h
         self.mapping = mapping
-        self.h.register(JointCommand, self._apply)
-        self.h.register(HoldJoints, self._hold)
+
+    TAKES: ClassVar[tuple[type, ...]] = get_args(JointRequest)
+
+    def handle(self, request: JointRequest) -> None:
+        """A queued joint command or hold, in the loop thread."""
+        match request:
+            case JointCommand():
+                self._apply(request)
+            case HoldJoints():
+                self._hold(request)
+            case _:
+                assert_never(request)
 
     def check(self, what: str, names: Sequence[str], position: Sequence[float], velocity: Sequence[float],
               effort: Sequence[float]) -> str | None:

@@ -24,13 +24,12 @@ import threading
 import time
 from abc import ABC, abstractmethod
 from collections import deque
-from typing import Callable, Sequence
+from typing import Callable, ClassVar, Sequence, assert_never, get_args
 
 from ..core.api import ServoAccess
-from ..core.request_types import TorqueOff, TorqueOn
 from ..joints import JointMap
 from ..logs import some_ids
-from .command_types import MoveWritten, StartMove, TorqueStep
+from .command_types import MoveRequest, MoveWritten, StartMove, TorqueStep
 from .commander import Commander
 from .move_checks import (
     CANCELED,
@@ -120,7 +119,7 @@ class TorqueJob(Job):
         end = time.perf_counter() + 0.5 * book.period_s
         while self.todo and not self.finished:
             dxl_id = self.todo.popleft()
-            written = h.ask(TorqueOn(dxl_id) if self.enable else TorqueOff(dxl_id))
+            written = h.core.torque_on(dxl_id) if self.enable else h.core.torque_off(dxl_id)
             if not written:
                 self.failed.append(dxl_id)
                 self.why = written.failure
@@ -209,18 +208,20 @@ class Book(MoveIO):
         self.lock = threading.Lock()
         self._last_feedback = 0.0
         self._ended = False  # a job ended since the executor was last woken
-        handler.register(TorqueStep, self._torque_step)
-        handler.register(StartMove, self._start_move)
-        handler.register(MoveWritten, self._move_written)
 
-    def _torque_step(self, request: TorqueStep) -> None:
-        request.job.write(self)
+    TAKES: ClassVar[tuple[type, ...]] = get_args(MoveRequest)
 
-    def _start_move(self, request: StartMove) -> None:
-        self.start(request.job)
-
-    def _move_written(self, request: MoveWritten) -> None:
-        self._written(request.job)
+    def handle(self, request: MoveRequest) -> None:
+        """A job's next step, queued by the job itself (loop thread)."""
+        match request:
+            case TorqueStep(job=job):
+                job.write(self)
+            case StartMove(job=job):
+                self.start(job)
+            case MoveWritten(job=job):
+                self._written(job)
+            case _:
+                assert_never(request)
 
     @property
     def period_s(self) -> float:

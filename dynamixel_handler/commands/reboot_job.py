@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.request_types import ClearError
 from ..servo import error_state
 from .move_checks import DONE, ERROR
 from .moves import Book, Job
@@ -46,7 +45,7 @@ class RebootJob(Job):
         h = book.h
         model = h.model(dxl_id)
         who = f"ID {dxl_id} ({model.name})"
-        done = h.ask(ClearError(dxl_id, keep_rotation=True, what="reboot"))
+        done = h.core.clear_error(dxl_id, keep_rotation=True, what="reboot")
         if not done:
             return f"{who}: not rebooted: {done.failure}", False
         error = h.read_item(dxl_id, error_state.error_item(model))

@@ -8,19 +8,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 from .. import units
 from ..control_table import OPERATING_MODES, ServoFamily
 from ..core.request_types import (
-    AddServo,
     Answer,
-    CancelDeferred,
-    ClearError,
-    DeferModeChange,
-    Reboot,
-    RemoveServo,
-    SetGoals,
-    TorqueOff,
-    TorqueOn,
-    WantHandled,
-    WriteEeprom,
-    WriteItem,
 )
 from ..logs import cut
 from .command_types import Status
@@ -56,40 +44,40 @@ class SettingsCommands:
             return  # nothing else to do: an ID just removed is no "unknown ID"
         for k, dxl_id in self.known_ids(ids, what):
             if "error" in fields:
-                self.warned(self.h.ask(ClearError(dxl_id, bool(fields["error"][k]), what)))
+                self.warned(self.h.core.clear_error(dxl_id, bool(fields["error"][k]), what))
             if "mode" in fields:
                 self._status_mode(dxl_id, str(fields["mode"][k]).strip(), what)
             if "torque" in fields:
                 if fields["torque"][k]:
                     self.torque_on(dxl_id)
                 else:
-                    self.h.ask(TorqueOff(dxl_id))
+                    self.h.core.torque_off(dxl_id)
 
     def _membership(self, ids: list[int], ping: Sequence[Any], now: bool) -> None:
         """Add (ping true) or remove (false) IDs: ``now``, or as one change per loop for each ID
         (``ServoAccess.want_handled``: the last request of the loop wins)."""
         for k, dxl_id in enumerate(ids):
             if not now:
-                self.h.ask(WantHandled(dxl_id, bool(ping[k])))
+                self.h.core.want_handled(dxl_id, bool(ping[k]))
             elif not ping[k]:
-                self.h.ask(RemoveServo(dxl_id))
+                self.h.core.remove_servo(dxl_id)
             elif not self.h.handles(dxl_id):
-                self.h.ask(AddServo(dxl_id))
+                self.h.core.add_servo(dxl_id)
 
     def _status_mode(self, dxl_id: int, mode: str, what: str) -> None:
         if mode not in OPERATING_MODES:
             self.warn(f"{what}: ID {dxl_id} unknown mode '{cut(mode)}' (known: {', '.join(OPERATING_MODES)})")
         elif self.h.mode(dxl_id) == mode:
-            self.h.ask(CancelDeferred(dxl_id))
+            self.h.core.cancel_deferred(dxl_id)
         elif (changed := self.change_mode(dxl_id, mode, what)).later is not None:
-            self.h.ask(DeferModeChange(dxl_id, changed.later, Status([dxl_id], {"mode": [mode]}, what),
-                                       f"{what}: ID {dxl_id} (deferred)"))
+            self.h.core.defer_mode_change(dxl_id, changed.later, Status([dxl_id], {"mode": [mode]}, what),
+                                       f"{what}: ID {dxl_id} (deferred)")
 
     def torque_on(self, dxl_id: int) -> None:
         """Torque on as asked by a command: safely if it is off; a servo whose torque is already on
         keeps its goals (the safe torque on would make them the present state and stop it)."""
         if self.h.read_item(dxl_id, "torque_enable") != 1:
-            self.h.ask(TorqueOn(dxl_id))
+            self.h.core.torque_on(dxl_id)
 
     # ============================================================== gains and limits
     def _gain(self, ids: list[int], fields: Fields, what: str) -> None:
@@ -109,13 +97,13 @@ class SettingsCommands:
                     value = top
                 writes.setdefault(item, {})[dxl_id] = value
         if writes:
-            self.h.ask(SetGoals(writes, what))
+            self.h.core.set_goals(writes, what)
 
     def _limit(self, ids: list[int], fields: Fields, what: str) -> None:
         for k, dxl_id in self.known_ids(ids, what):
             values = self._limit_values(dxl_id, k, fields, what)
             for item, pulses in values.items():
-                written = self.h.ask(WriteEeprom(dxl_id, item, pulses))
+                written = self.h.core.write_eeprom(dxl_id, item, pulses)
                 if not written:
                     self.warn(f"{what}: ID {dxl_id} writing {item} failed: {written.failure}")
             if values and "limit" in self.h.settings.logs.writes:
@@ -148,11 +136,11 @@ class SettingsCommands:
         what = f"shortcut {action}"
         if action == "add_id":  # one change per loop for each ID: the last request of the loop wins
             for dxl_id in ids:
-                self.h.ask(WantHandled(dxl_id, True))
+                self.h.core.want_handled(dxl_id, True)
             return
         if action == "remove_id":
             for dxl_id in (self.h.handled_ids if not ids or ids == [BROADCAST_ID] else ids):
-                self.h.ask(WantHandled(dxl_id, False))
+                self.h.core.want_handled(dxl_id, False)
             return
         act = self._shortcut_actions(what)[action]
         for _, dxl_id in self.known_ids(ids, what, allow_all=True):
@@ -161,11 +149,11 @@ class SettingsCommands:
     def _shortcut_actions(self, what: str) -> dict[str, Callable[[int], object]]:
         h = self.h
         return {
-            "clear_error": lambda i: self.warned(h.ask(ClearError(i, True, what))),
+            "clear_error": lambda i: self.warned(h.core.clear_error(i, True, what)),
             "torque_on": self.torque_on,
-            "torque_off": lambda i: h.ask(TorqueOff(i)),
-            "disable": lambda i: h.ask(TorqueOff(i)),
-            "enable": lambda i: h.ask(WriteItem(i, "torque_enable", 1)),
-            "reboot": lambda i: h.ask(Reboot(i)) and h.read_item(i, "torque_enable"),  # at most once a second per servo
-            "reset_offset": lambda i: h.ask(WriteEeprom(i, "homing_offset", 0)),
+            "torque_off": lambda i: h.core.torque_off(i),
+            "disable": lambda i: h.core.torque_off(i),
+            "enable": lambda i: h.core.write_item(i, "torque_enable", 1),
+            "reboot": lambda i: h.core.reboot(i) and h.read_item(i, "torque_enable"),  # at most once a second per servo
+            "reset_offset": lambda i: h.core.write_eeprom(i, "homing_offset", 0),
         }

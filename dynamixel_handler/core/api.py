@@ -1,21 +1,18 @@
 """The core as the command side sees it: the one narrow interface commands are written against.
 
-``Commander`` (and the extra and joint commands) check a message and then ask for requests
-(``request_types``) through these; nothing
-else of the ``Handler`` is theirs to touch. ``loop.Handler`` implements it (a runtime-checked
-test holds them together)."""
+``Commander`` (and the extra and joint commands) check a message and then ask the core through
+``core`` (typed calls, ``calls.CoreCalls``); nothing else of the ``Handler`` is theirs to touch.
+``core.handler.Handler`` implements it (a runtime-checked test holds them together)."""
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any, Callable, Protocol, TypeVar, runtime_checkable
+from typing import Any, Callable, Protocol, runtime_checkable
 
 from ..control_table import Model
 from ..servo.table import PendingWrites, ServoTable
 from ..settings import Settings
-from .request_types import Answer
-
-R = TypeVar("R")
+from .calls import CoreCalls
 
 Warn = Callable[[str], None]
 
@@ -57,11 +54,10 @@ class ServoAccess(Protocol):
     def mode(self, dxl_id: int) -> str | None: ...
     def value(self, dxl_id: int, item: str) -> int | None: ...
 
-    # ---------------------------------------------------------------- requests (``request_types``)
-    # any thread: queued for the loop thread, taken in order by the handler registered for its type
+    # ---------------------------------------------------------------- requests
+    # any thread: a request value queued for the loop thread, taken in order by the part attached for its type
     def submit(self, request: object, what: str = "") -> None: ...
-    # loop thread: done now by the part whose it is; the Answer is True in a condition when done
-    def ask(self, request: object) -> Answer: ...
-    # the command side's own request types and who takes them (the core's are registered by it)
-    def register(self, kind: type[R], handler: Callable[[R], Answer | None]) -> None: ...
+    # loop thread: typed calls, each answering an Answer (True in a condition when done)
+    @property
+    def core(self) -> CoreCalls: ...
     def read_item(self, dxl_id: int, item: str) -> int | None: ...

@@ -12,7 +12,7 @@ written are dropped first):
     pwm                                   goal PWM 0
 
 Torque stays as it is (nothing falls); no mode is switched; mode changes waiting for their time
-are dropped. While engaged, ``refusal`` (the intake's gate) refuses every request that would move
+are dropped. While engaged, ``refusal`` (the gate of ``calls.CoreCalls``) refuses every request that would move
 a servo: goals (gains and profiles alone pass), a mode change, torque on, a RAM write of a goal or
 of torque on; one line a second per kind. ``on_hardware_error == "hold_all"``: a hardware error on
 any servo engages it, and a release while a servo is still in error is refused."""
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from typing import ClassVar, assert_never
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from ..servo.table import PendingWrites, ServoTable
 from .deferred import Deferred
 from .group_io import GroupIO
 from .log_limits import LogLimits
-from .request_types import Answer, ChangeMode, EngageStop, Outcome, ReleaseStop, SetGoals, TorqueOn, WriteItem
+from .request_types import Answer, EngageStop, Outcome, ReleaseStop
 from .servo_io import Log, ServoIO
 
 __all__ = ["EStop", "GOAL_ITEMS", "HOLD_GOALS"]
@@ -40,8 +41,14 @@ HOLD_GOALS = {"velocity": "goal_velocity", "current": "goal_current", "pwm": "go
 _POSITION_MODES = ("position", "ex_position", "cur_position")
 
 
+#: the queued requests the E-stop takes
+StopRequest = EngageStop | ReleaseStop
+
+
 class EStop:
     """The E-stop's state and its hold. ``why`` is read by any thread (``engaged_why``)."""
+
+    TAKES: ClassVar[tuple[type, ...]] = (EngageStop, ReleaseStop)
 
     def __init__(self, table: ServoTable, pending: PendingWrites, io: ServoIO, group: GroupIO, work: Deferred,
                  log: Log, on_hardware_error: str = "none") -> None:
@@ -70,30 +77,40 @@ class EStop:
         return f"the E-stop stays engaged: hardware error still there ({named}); clear it first"
 
     # ---------------------------------------------------------------- loop thread
-    def engage(self, request: EngageStop) -> Answer:
+    def handle(self, request: StopRequest) -> Answer:
+        """A queued request of the E-stop (any thread submits them)."""
+        match request:
+            case EngageStop(why=why):
+                return self.engage(why)
+            case ReleaseStop(why=why):
+                return self.release(why)
+            case _:
+                assert_never(request)
+
+    def engage(self, why: str) -> Answer:
         """Hold every servo; the line says why. Engaged already: nothing more (a publisher that
         repeats ``true`` costs no bus time)."""
         with self._lock:
             if self._why is not None:
                 return Answer()
-            self._why = request.why
+            self._why = why
             self.changes += 1
         held = self.hold()
-        self.log.warning(f"E-stop engaged ({request.why}): {held}; commands that would move a servo are "
+        self.log.warning(f"E-stop engaged ({why}): {held}; commands that would move a servo are "
                          "refused until it is released")
         return Answer()
 
-    def release(self, request: ReleaseStop) -> Answer:
+    def release(self, why: str) -> Answer:
         refused = self.release_refusal()
         if refused is not None:
-            self._limited(logging.WARNING, f"E-stop release ({request.why}) refused: {refused}", "release refused")
+            self._limited(logging.WARNING, f"E-stop release ({why}) refused: {refused}", "release refused")
             return Answer(Outcome.REFUSED, refused)
         with self._lock:
             was, self._why = self._why, None
             if was is not None:
                 self.changes += 1
         if was is not None:
-            self.log.info(f"E-stop released ({request.why}): commands are taken again; the servos keep the goals "
+            self.log.info(f"E-stop released ({why}): commands are taken again; the servos keep the goals "
                           "they hold")
         return Answer()
 
@@ -139,13 +156,12 @@ class EStop:
                 out[dxl_id] = present
         return out
 
-    def refusal(self, request: object) -> Answer | None:
-        """The intake's gate: REFUSED (and one line a second per kind) for a request that would
-        move a servo while engaged; None lets it through."""
+    def refusal(self, what: str) -> Answer | None:
+        """The gate of a call that would move a servo (``calls.CoreCalls``): REFUSED while engaged
+        (and one line a second per kind), None when released."""
         why = self._why
-        if why is None or not _moves(request):
+        if why is None:
             return None
-        what = str(getattr(request, "what", "") or type(request).__name__)
         self._limited(logging.WARNING, f"E-stop engaged ({why}): {what} refused", f"refused {what}")
         return Answer(Outcome.REFUSED)
 
@@ -170,20 +186,9 @@ class EStop:
             self._faults = faults
         if new:
             named = ", ".join(f"ID {i} ({table.model(i).name}): {faults[i]}" for i in new)
-            self.engage(EngageStop(f"hardware error: {named}"))
+            self.engage(f"hardware error: {named}")
 
     def forget(self, dxl_id: int) -> None:
         """A servo no longer handled is no fault of the bus."""
         with self._lock:
             self._faults.pop(dxl_id, None)
-
-
-def _moves(request: object) -> bool:
-    if isinstance(request, SetGoals):  # gains and profiles alone move nothing
-        return any(item in GOAL_ITEMS for item in request.writes)
-    if isinstance(request, (ChangeMode, TorqueOn)):
-        return True
-    if isinstance(request, WriteItem):
-        return request.item in GOAL_ITEMS or (request.item == "torque_enable" and request.pulses != 0)
-    return False
-

@@ -14,10 +14,15 @@ slice of the parameters, the log) and the other parts it calls:
     deferred     Deferred: EEPROM writes spared and coalesced, mode changes asked for too soon, the
                  operation queue
     watchdog     Watchdog: the bus watchdog time from the loop period; arming, clearing, trips
-    recovery     Recovery: reboot, a vanished device reopened, silent servos marked and removed
-    startup      Startup: scan, expected count, the set-up every servo gets (also add_id)
+    kept_settings KeptSettings: the servos block, checked, applied, put back after what resets RAM
+    reboots      Reboots: a servo's reboot (at most one per interval) and error clear
+    servo_setup  ServoSetup: the set-up every servo gets (start-up, add_id, after a reconnect)
+    recovery     Recovery: a vanished device reopened, silent servos marked and removed
+    startup      Startup: scan, expected count, each servo set up (also add_id)
     e_stop       EStop: every servo holds, moving requests refused until released; hold_all
     requests     Requests: what commands may ask, checked: goals, a mode change, an error clear
+    calls        CoreCalls: the command side's typed calls in the loop thread (``ServoAccess.core``)
+    intake       Intake: the queue of requests from any thread, each to the part that takes it
     step         Step: one loop step in four phases (prepare, send, complete, finish), read logs
     shutdown     Shutdown: the servos left as term/* say
     state        StepReport: what one loop step did
@@ -32,7 +37,7 @@ part gets its slice, again whenever ``settings`` is replaced.
 from __future__ import annotations
 
 import logging
-from typing import Callable, TypeVar
+from typing import Callable
 
 from ..bus import ServoBus
 from ..config import Config
@@ -41,22 +46,22 @@ from ..errors import Interrupted, StartupError
 from ..settings import Settings
 from .api import LoopFigures, ServoAccess
 from .deferred import EEPROM_WRITE_INTERVAL_S
+from .intake import Taker
 from .log_limits import LogLimits
 from .parts import build_parts
-from .recovery import REBOOT_WAIT_S, RECONNECT_INTERVAL_S
-from .request_types import Answer
+from .reboots import REBOOT_WAIT_S
+from .recovery import RECONNECT_INTERVAL_S
 from .servo_io import Log
 from .state import RECHECK_LOOPS, StepReport
 from .watchdog import WATCHDOG_MAX_MS, WATCHDOG_MODES, WATCHDOG_TRIPPED
 
-R = TypeVar("R")
-
 
 class Handler:
     """Owns the servos of one bus: ``start()``, then ``step()`` (or its phases) every loop, then
-    ``shutdown()``. Commands reach it as request values (``core.request_types``): queued for the
-    loop thread (``submit``) or done at once in it (``ask``), each handed by the ``Intake``'s table
-    to the part that does it; goals end as pending writes (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
+    ``shutdown()``. Commands reach it as request values queued for the loop thread (``submit``),
+    each handed by the ``Intake``'s table to the part that takes it (``attach``); in the loop thread
+    they ask through typed methods (``core``, ``calls.CoreCalls``); goals end as pending writes
+    (``pending``). Implements ``core.api.ServoAccess`` and the runner's ``LoopCore``
     by handing each call to the part that does it. ``tripped_once`` False: every goal command looks
     for tripped bus watchdogs servo by servo (for tests and comparisons). ``settings``: the typed
     settings, or the validated parameters (``config.validate``) they are taken from."""
@@ -74,7 +79,9 @@ class Handler:
         self.io, self.group, self.pacing, self.reads, self.writes = p.io, p.group, p.pacing, p.reads, p.writes
         self.watchdog, self.work, self.intake, self.recovery = p.watchdog, p.work, p.intake, p.recovery
         self.startup, self.requests, self.steps, self.ending = p.startup, p.requests, p.steps, p.ending
-        self.e_stop, self.leds = p.e_stop, p.leds
+        self.e_stop, self.leds, self.setup, self.reboots = p.e_stop, p.leds, p.setup, p.reboots
+        #: what the command side asks of the core in the loop thread (``ServoAccess.core``)
+        self.core = p.core
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
         self.table.watch_removals(self._say_removed)  # after the parts forgot it: one line says so
 
@@ -150,11 +157,9 @@ class Handler:
     def submit(self, request: object, what: str = "") -> None:
         self.intake.submit(request, what)
 
-    def ask(self, request: object) -> Answer:
-        return self.intake.ask(request)
-
-    def register(self, kind: type[R], handler: Callable[[R], Answer | None]) -> None:
-        self.intake.register(kind, handler)
+    def attach(self, part: Taker) -> None:
+        """A command-side part that takes queued requests (``TAKES``), attached by who builds it."""
+        self.intake.attach(part)
 
     def drop_ops(self) -> int:
         return self.intake.drop()

@@ -1,21 +1,28 @@
 """The request intake: one queue of request values for the loop thread, and the table from
-request type to the one handler that does it.
+request type to the one part that takes it.
 
 Any thread ``submit``s a request (a frozen dataclass of ``request_types`` or of the command
-side); the loop thread takes them in order (``run_queued``) and hands each to its handler. In the
-loop thread a part or a command ``ask``s for one at once and gets its ``Answer``. A handler that
-raises is one ERROR line; the loop goes on."""
+side); the loop thread takes them in order (``run_queued``) and hands each to its part's
+``handle``. The table is filled when the parts are built (``attach``, once per part). Inside the
+loop thread parts call each other through typed methods (``calls.CoreCalls``), not through here. A
+part that raises is one ERROR line; the loop goes on."""
 from __future__ import annotations
 
 import collections
 import threading
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, ClassVar, Protocol
 
-from .request_types import DONE, Answer
+from .request_types import Answer
 from .servo_io import Log
 
-R = TypeVar("R")
-Route = Callable[[Any], "Answer | None"]
+
+class Taker(Protocol):
+    """A part that takes queued requests: the types it takes (fixed, a class constant) and its
+    ``handle`` (a ``match`` over them)."""
+
+    TAKES: ClassVar[tuple[type, ...]]
+
+    def handle(self, request: Any) -> Answer | None: ...
 
 
 def label(request: object) -> str:
@@ -24,25 +31,27 @@ def label(request: object) -> str:
 
 
 class Intake:
-    """The queue and the routes. A request type has one handler: registering a second one is an error
-    (it silently replaced the first)."""
+    """The queue and the routes. Each part that takes requests is attached once, when the parts
+    are built; a type taken by two parts is an error (it would silently replace the first)."""
 
-    def __init__(self, log: Log, gate: Route = lambda _request: None) -> None:
+    def __init__(self, log: Log) -> None:
         self.log = log
-        #: a request's answer before its handler runs (the E-stop refuses moving ones), None: go on
-        self.gate = gate
-        self._routes: dict[type, Route] = {}
+        self._routes: dict[type, Taker] = {}
         self._queue: collections.deque[tuple[object, str]] = collections.deque()
         self._lock = threading.Lock()
 
-    def register(self, kind: type[R], handler: Callable[[R], Answer | None]) -> None:
-        if kind in self._routes:
-            raise ValueError(f"{kind.__name__} already has a handler ({self._routes[kind]!r}): one route per request type")
-        self._routes[kind] = handler
+    def attach(self, part: Taker) -> None:
+        """``part`` takes the request types of its ``TAKES`` from now on."""
+        taken = [kind for kind in part.TAKES if kind in self._routes]
+        if taken:
+            raise ValueError(f"{', '.join(k.__name__ for k in taken)} already taken by "
+                             f"{type(self._routes[taken[0]]).__name__}: one part per request type")
+        for kind in part.TAKES:
+            self._routes[kind] = part
 
-    def routes(self) -> dict[type, Route]:
-        """The table (a copy): which request types are taken, and by what."""
-        return dict(self._routes)
+    def routes(self) -> dict[type, str]:
+        """The table: which request types are taken, and by which part (its class name)."""
+        return {kind: type(part).__name__ for kind, part in self._routes.items()}
 
     # ---------------------------------------------------------------- any thread
     def submit(self, request: object, what: str = "") -> None:
@@ -58,21 +67,15 @@ class Intake:
         return count
 
     # ---------------------------------------------------------------- loop thread
-    def ask(self, request: object) -> Answer:
-        """Do ``request`` now (loop thread); a handler that answers nothing did it."""
-        handler = self._routes.get(type(request))
-        if handler is None:
-            raise TypeError(f"no part takes a {type(request).__name__} request")
-        refused = self.gate(request)
-        if refused is not None:
-            return refused
-        done = handler(request)
-        return DONE if done is None else done
-
     def run(self, request: object, what: str = "") -> None:
-        """``ask``, with a failure logged instead of raised (a request must never stop the loop)."""
+        """``request`` handed to the part that takes it, a failure logged instead of raised (a
+        request must never stop the loop)."""
         try:
-            self.ask(request)
+            part = self._routes.get(type(request))
+            if part is None:
+                raise TypeError(f"no part takes a {type(request).__name__} request (the part that takes it is "
+                                "attached by who builds it: handler.attach(part))")
+            part.handle(request)
         except Exception as exc:
             self.log.error(f"{what or label(request)} failed: {type(exc).__name__}: {exc}")
 

@@ -29,12 +29,13 @@ class KeptSettings:
     """The entries of ``settings()`` (the ``servos`` block) applied to the servos of the table."""
 
     def __init__(self, table: ServoTable, io: ServoIO, eeprom: Deferred, watchdog: Watchdog,
-                 settings: Callable[[], Sequence[ServoSetting]], say: Say) -> None:
+                 servos: Sequence[ServoSetting], say: Say) -> None:
         self.table = table
         self.io = io
         self.eeprom = eeprom
         self.watchdog = watchdog
-        self.settings = settings
+        #: the parameters file's servos block (replaced with the settings: ``Parts.apply``)
+        self.servos = tuple(servos)
         self.say = say
         #: IDs whose entry was applied at their set-up: what resets their RAM puts it back
         self.applied: set[int] = set()
@@ -45,7 +46,7 @@ class KeptSettings:
         """The servo's entry, without the items its model refuses or that would lower a protection
         unasked (``debug``, or a servo replaced by another model while unplugged: those are left
         out with one line)."""
-        setting = next((s for s in self.settings() if s.dxl_id == dxl_id), None)
+        setting = next((s for s in self.servos if s.dxl_id == dxl_id), None)
         if setting is None or dxl_id not in self.table:
             return setting
         model = self.table.model(dxl_id)
@@ -73,7 +74,7 @@ class KeptSettings:
         true``). One ERROR line each, then ConfigError (nothing is written); with ``debug`` the
         lines are warnings, those items are left out and the node runs on."""
         lines = []
-        for setting in self.settings():
+        for setting in self.servos:
             if setting.dxl_id not in self.table:
                 lines.append(f"servos.{setting.name}: ID {setting.dxl_id} is not on the bus (handled: "
                              f"{list(self.table.ids)}): check the ID, or take the entry out")

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..bus import ServoBus
 from ..servo.table import ServoTable
+from .request_types import Later
 
 #: longest wire time of one sync read, as a share of the shortest armed bus watchdog time
 READ_SHARE = 1 / 3
@@ -94,17 +95,17 @@ class Pacing:
         self._ops_since = time.monotonic()
         self._ops_made = 0
 
-    def ops_wait(self) -> str | None:
-        """Why a mode change must not be made now: "stopping" (the node is stopping: it is dropped),
-        "bus time" (the mode changes since the last reads have used their share of the shortest
+    def ops_wait(self) -> Later | None:
+        """Why a mode change must not be made now: ``STOPPING`` (the node is stopping: it is
+        dropped), ``BUS_TIME`` (the mode changes since the last reads have used their share of the shortest
         armed watchdog time: it waits for a loop after the next reads); None: it may be made now.
         One is always made after each read (and one per watchdog time if nothing is read)."""
         if self.interrupted():
-            return "stopping"
+            return Later.STOPPING
         shortest = self.shortest_armed_s()
         if self._ops_made and shortest is not None:
             since = time.monotonic() - self._ops_since
             if OPS_SHARE * shortest < since < shortest:
-                return "bus time"
+                return Later.BUS_TIME
         self._ops_made += 1
         return None

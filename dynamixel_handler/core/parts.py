@@ -1,46 +1,32 @@
 """The core's parts of one bus, built and wired in one place: each given the bus, table, pending
 writes and log it needs, its slice of the typed settings and the other parts it calls; removals of
-servos watched by the parts that keep something per servo; each core request type routed to the
-part that does it. The ``Handler`` is a front over one ``Parts``; a unit test builds the same
-``Parts`` over a fake bus, so the part it tests is wired as the one the node runs."""
+servos watched by the parts that keep something per servo; the core's queued requests (the
+E-stop's) routed to it; the command side's typed surface (``calls.CoreCalls``). The ``Handler`` is
+a front over one ``Parts``; a unit test builds the same ``Parts`` over a fake bus, so the part it
+tests is wired as the one the node runs."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 from ..bus import ServoBus
+from ..servo.settings import ServoSetting
 from ..servo.table import PendingWrites, ServoTable
 from ..settings import LoopSettings, Settings, TermSettings
+from .calls import CoreCalls
 from .deferred import Deferred
 from .e_stop import EStop
 from .group_io import GroupIO
 from .intake import Intake
+from .kept_settings import KeptSettings
 from .led_status import LedStatus
 from .pacing import Pacing
 from .read_plan import ReadPlan, ReadSettings, every
+from .reboots import Reboots
 from .recovery import Recovery
-from .request_types import (
-    AddServo,
-    Answer,
-    CancelDeferred,
-    ChangeMode,
-    ClearError,
-    DeferModeChange,
-    EngageStop,
-    Reboot,
-    ReleaseStop,
-    RemoveServo,
-    SetGoals,
-    SetUserWatchdog,
-    TorqueOff,
-    TorqueOn,
-    WantHandled,
-    WriteEeprom,
-    WriteItem,
-    answer,
-)
 from .requests import Requests
 from .servo_io import Log, ServoIO
+from .servo_setup import ServoSetup, SetupSettings
 from .shutdown import Shutdown
 from .startup import Startup, StartupSettings
 from .state import recheck_loops
@@ -48,11 +34,12 @@ from .step import Step, Stepped, StepSettings
 from .watchdog import Watchdog, WatchdogSettings
 from .write_batch import WriteBatch
 
-__all__ = ["PART_NAMES", "PartSettings", "Parts", "build_parts", "core_routes", "part_settings"]
+__all__ = ["PART_NAMES", "PartSettings", "Parts", "build_parts", "part_settings"]
 
 #: the parts, by the names the ``Handler`` gives them too
 PART_NAMES = ("bus", "table", "pending", "io", "group", "pacing", "reads", "writes", "watchdog", "work", "intake",
-              "recovery", "startup", "requests", "steps", "ending", "e_stop", "leds")
+              "recovery", "startup", "requests", "steps", "ending", "e_stop", "leds", "core",
+              "setup", "reboots")
 
 
 @dataclass(frozen=True)
@@ -63,6 +50,8 @@ class PartSettings:
     watchdog: WatchdogSettings
     loop: LoopSettings          # Recovery and Requests: the intervals, the removal count
     startup: StartupSettings
+    setup: SetupSettings        # ServoSetup
+    servos: tuple[ServoSetting, ...]  # KeptSettings: the servos block
     step: StepSettings
     term: TermSettings          # Shutdown
     split_write: bool           # WriteBatch
@@ -77,7 +66,9 @@ def part_settings(s: Settings) -> PartSettings:
         watchdog=WatchdogSettings(float(s.loop.rate_hz), every(s.ratios), float(s.start.bus_watchdog_ms),
                                   s.term.servo_auto_stop),
         loop=s.loop,
-        startup=StartupSettings(s.scan, s.start, s.loop.debug, s.servos),
+        startup=StartupSettings(s.scan, s.loop.debug),
+        setup=SetupSettings.of(s.scan, s.start),
+        servos=s.servos,
         step=StepSettings(recheck_loops(s.loop.rate_hz), s.logs),
         term=s.term,
         split_write=s.method.split_write,
@@ -108,12 +99,16 @@ class Parts:
     ending: Shutdown
     e_stop: EStop
     leds: LedStatus
+    core: CoreCalls
+    setup: ServoSetup
+    reboots: Reboots
 
     def apply(self, settings: Settings) -> None:
         """New settings (replaced as a whole): each part gets its new slice."""
         s = part_settings(settings)
         self.reads.settings, self.watchdog.settings, self.startup.settings = s.reads, s.watchdog, s.startup
-        self.recovery.settings = self.requests.settings = s.loop
+        self.setup.settings, self.setup.kept.servos = s.setup, s.servos
+        self.recovery.settings = self.requests.settings = self.reboots.settings = s.loop
         self.steps.settings, self.ending.settings = s.step, s.term
         self.writes.split_write = s.split_write
         self.e_stop.on_hardware_error = s.on_hardware_error
@@ -122,7 +117,8 @@ class Parts:
     def set_log(self, log: Log) -> None:
         """Every part logs to ``log`` from now on."""
         for part in (self.io, self.group, self.reads, self.writes, self.watchdog, self.work, self.intake,
-                     self.recovery, self.startup, self.requests, self.steps, self.ending, self.e_stop):
+                     self.recovery, self.startup, self.requests, self.steps, self.ending, self.e_stop, self.setup,
+                     self.reboots):
             part.log = log
 
 
@@ -134,9 +130,6 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
     s = part_settings(settings)
     table, pending = ServoTable(), PendingWrites()
 
-    def set_up(dxl_id: int) -> None:  # Recovery sets a servo up again (after a reconnect) as Startup does
-        startup.setup_servo(dxl_id)
-
     io = ServoIO(bus, table, log)
     group = GroupIO(bus, table, log)
     pacing = Pacing(bus, table, interrupted)
@@ -145,45 +138,25 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
     watchdog = Watchdog(table, log, io, group, s.watchdog, tripped_once)
     work = Deferred(table, log, io)
     e_stop = EStop(table, pending, io, group, work, log, s.on_hardware_error)
-    intake = Intake(log, e_stop.refusal)
+    intake = Intake(log)
     leds = LedStatus(table, pending, e_stop.engaged_why, s.led_status)
-    recovery = Recovery(bus, table, log, io, watchdog, s.loop, set_up)
-    startup = Startup(bus, table, log, io, work, recovery, watchdog, s.startup, interrupted)
-    requests = Requests(table, pending, log, io, watchdog, pacing, work, recovery, s.loop)
+    # the servos block: checked after the scan, applied at each set-up, put back after what resets RAM
+    kept = KeptSettings(table, io, work, watchdog, s.servos, lambda level, msg: log.log(level, msg))
+    reboots = Reboots(bus, table, log, io, watchdog, kept, s.loop)
+    setup = ServoSetup(table, log, io, work, watchdog, kept, reboots, s.setup)
+    recovery = Recovery(bus, table, log, io, watchdog, s.loop, setup)
+    startup = Startup(bus, table, log, setup, s.startup, interrupted)
+    requests = Requests(table, pending, log, io, watchdog, pacing, work, reboots, kept, s.loop)
     steps = Step(bus, table, log, Stepped(intake, startup, work, pacing, writes, reads, recovery, watchdog, e_stop,
                                           leds), s.step)
     ending = Shutdown(bus, table, log, io, group, s.term)
+    core = CoreCalls(table, io, work, requests, reboots, startup, watchdog, e_stop)
     parts = Parts(bus, table, pending, io, group, pacing, reads, writes, watchdog, work, intake, recovery, startup,
-                  requests, steps, ending, e_stop, leds)
+                  requests, steps, ending, e_stop, leds, core, setup, reboots)
     # a servo removed (a remove_id request, silent too long, the lifecycle's cleanup): each part
     # that keeps something per servo forgets it
     for forget in (pending.forget, work.forget, watchdog.forget, recovery.forget, e_stop.forget, leds.forget):
         table.watch_removals(forget)
-    # the servos block's RAM items come back after what resets them
-    recovery.put_back = requests.put_back = startup.kept.put_back
-    recovery.file_sets = startup.kept.sets
-    for kind, route in core_routes(parts).items():
-        intake.register(kind, route)
+    intake.attach(e_stop)  # the core's own queued requests; the command side's parts are attached by who builds them
     return parts
 
-
-def core_routes(p: Parts) -> dict[type, Callable[[Any], Answer | None]]:
-    """The table from each core request type to the part that does it."""
-    return {
-        SetGoals: p.requests.put_goals,
-        ChangeMode: p.requests.change_mode,
-        DeferModeChange: p.requests.defer_mode_change,
-        CancelDeferred: p.requests.cancel_deferred,
-        ClearError: p.requests.clear_error,
-        TorqueOn: lambda r: answer(p.io.torque_on(r.dxl_id)),
-        TorqueOff: lambda r: answer(p.io.torque_off(r.dxl_id)),
-        WriteItem: lambda r: answer(p.io.write_item(r.dxl_id, r.item, r.pulses)),
-        WriteEeprom: lambda r: answer(p.work.write_eeprom(r.dxl_id, r.item, r.pulses)),
-        Reboot: lambda r: answer(p.recovery.reboot(r.dxl_id)),
-        AddServo: lambda r: answer(p.startup.add_id(r.dxl_id), f"ID {r.dxl_id} not added"),
-        RemoveServo: lambda r: p.table.remove(r.dxl_id),
-        WantHandled: lambda r: p.startup.want_handled(r.dxl_id, r.handled),
-        SetUserWatchdog: lambda r: p.watchdog.set_user(r.dxl_id, r.pulses),
-        EngageStop: p.e_stop.engage,
-        ReleaseStop: p.e_stop.release,
-    }

@@ -1,46 +1,40 @@
-"""Recovery: reboot, a vanished device reopened, silent servos marked and removed."""
+"""Recovery: a vanished device reopened, its servos set up again, silent servos marked and removed."""
 from __future__ import annotations
 
-import logging
 import time
-from typing import Callable
 
 import numpy as np
 
-from ..bus import Failure, Result, ServoBus, dummy_ids
-from ..bus.ops import ClearError, Ping, Reboot
+from ..bus import ServoBus, dummy_ids
+from ..bus.ops import Ping
 from ..servo.table import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
 from .reconnect_memory import Remembered, differences, remember, restore
 from .servo_io import Log, ServoIO
+from .servo_setup import ServoSetup
 from .state import StepReport
 from .watchdog import Watchdog
 
-#: longest wait for a servo to answer again after a reboot instruction [s]
-REBOOT_WAIT_S = 1.0
-#: a reboot asked for this much before clear_error_interval_sec has passed is not refused [s]
-REBOOT_SLACK_S = 0.05
 #: least time between two attempts to reopen a vanished device [s]
 RECONNECT_INTERVAL_S = 1.0
 
 
 class Recovery:
-    """Reboot, reconnect, ping state and the removal of servos that stopped answering. ``set_up``
-    sets a servo up as at start-up (after a reconnect). A servo silent too long is removed from the
+    """Reconnect, ping state and the removal of servos that stopped answering. ``setup`` sets a
+    servo up as at start-up (after a reconnect). A servo silent too long is removed from the
     table (the other parts observe that: ``ServoTable.watch_removals``). Of the settings:
-    ``clear_error_interval_s`` (also between two reboots of a servo) and
     ``no_response_auto_remove``."""
 
     def __init__(self, bus: ServoBus, table: ServoTable, log: Log, io: ServoIO, watchdog: Watchdog,
-                 settings: LoopSettings, set_up: Callable[[int], None]) -> None:
+                 settings: LoopSettings, setup: ServoSetup) -> None:
         self.bus = bus
         self.table = table
         self.log = log
         self.io = io
         self.watchdog = watchdog
         self.settings = settings
-        self._set_up = set_up
+        self.setup = setup  # a servo set up as at start-up after a reconnect; its servos block
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         #: the ping false / answers again lines, at most one a second per servo
         self.ping_log = PingLog(lambda level, msg: self.log.log(level, msg))
@@ -53,66 +47,8 @@ class Recovery:
         self._lost_ids: list[int] | None = None
         #: silent after a reconnect: set up as at start-up once they answer
         self._not_set_up: set[int] = set()
-        self._last_reboot: dict[int, float] = {}  # ID -> time.monotonic() of its last reboot
-        #: (ID, why): the servos block's RAM items written again after a reboot (``KeptSettings``)
-        self.put_back: Callable[[int, str], None] = lambda dxl_id, why: None
-        #: (ID, item): whether the servos block sets the item (it then wins over what the servo had)
-        self.file_sets: Callable[[int, str], bool] = lambda dxl_id, item: False
         #: what was known of each servo when the device went: put back after its set-up
         self._memory: dict[int, Remembered] = {}
-
-    def reboot(self, dxl_id: int) -> Result[bool]:
-        """Reboot and wait until the servo answers again (it needs a few hundred ms; this blocks the
-        loop meanwhile, so that nothing is sent to a servo that is still booting). At most once per
-        clear_error_interval_sec per servo, as the error clear (a reboot too): a reboot asked for
-        sooner is refused with one line a second (False)."""
-        refused = self._reboot_refused(dxl_id)
-        if refused:
-            return Result(False, Failure.HELD_BACK, refused)
-        # a reboot resets the RAM area: what the handler had set there comes back afterwards
-        kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
-        protocol = self.table.model(dxl_id).protocol
-        rebooted = self.bus.execute(Reboot(dxl_id, protocol))  # sent once (a late acknowledgement: rebooted all the same)
-        if rebooted or self.bus.is_open:  # unacknowledged, it may be booting: wait for it all the same
-            deadline = time.monotonic() + REBOOT_WAIT_S
-            time.sleep(0.02)
-            while self.bus.execute(Ping(dxl_id, 0, protocol)).value is None:
-                if time.monotonic() > deadline:
-                    self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
-                    break
-                time.sleep(0.02)
-            for item, value in kept.items():
-                if value is not None:
-                    self.io.write_item(dxl_id, item, value)
-            self.put_back(dxl_id, "a reboot")
-            if dxl_id in self.table:
-                self.watchdog.arm_watchdog(dxl_id)
-        return rebooted
-
-    def clear_error(self, dxl_id: int, params: bytes) -> Result[bool]:
-        """The error clear of a servo that has one (Y: the Clear instruction with ``params``): no
-        reboot; the error item and torque are read again afterwards."""
-        cleared = self.bus.execute(ClearError(dxl_id, params))
-        model = self.table.model(dxl_id)
-        codes = model.family.error_codes
-        for item in ("torque_enable", codes.item if codes is not None else ""):
-            if model.has(item):
-                self.io.read_item(dxl_id, item)
-        return cleared
-
-    def _reboot_refused(self, dxl_id: int) -> str:
-        """Why a reboot of ``dxl_id`` now is refused ("": it is not)."""
-        now, interval = time.monotonic(), float(self.settings.clear_error_interval_s)
-        last = self._last_reboot.get(dxl_id)
-        # the slack: an error clear checks its own interval a few reads before its reboot, so its
-        # next clear, allowed, must not find the reboot a few milliseconds too soon
-        if last is not None and now - last < interval - REBOOT_SLACK_S:
-            why = (f"the last one was {now - last:.2f}s ago "
-                   f"(at most one per clear_error_interval_sec={interval:g}s per servo)")
-            self.limited(logging.WARNING, f"ID {dxl_id}: reboot refused: {why}", f"reboot {dxl_id}")
-            return f"refused: {why}"
-        self._last_reboot[dxl_id] = now
-        return ""
 
     def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
@@ -190,9 +126,10 @@ class Recovery:
             self.log.log(level, msg)
         if before is not None:
             differences(self.io, dxl_id, before, say)
-        self._set_up(dxl_id)
+        self.setup.setup_servo(dxl_id)
         if before is not None:
-            restore(self.io, dxl_id, before, lambda item: self.file_sets(dxl_id, item), say, self.put_back)
+            kept = self.setup.kept
+            restore(self.io, dxl_id, before, lambda item: kept.sets(dxl_id, item), say, kept.put_back)
 
     def update_ping(self, addressed: np.ndarray, answered: np.ndarray) -> None:
         table = self.table

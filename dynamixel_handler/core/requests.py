@@ -1,12 +1,12 @@
 """Checked requests from commands, applied in the loop thread: goals, a mode change, an error
 clear. The command side (``dynamixel_handler.commands``) checks a message and asks for one of
-these as a value (``request_types``); the ``Intake`` hands it here; each goes one way down to the
-bus and answers with an ``Answer``."""
+these through ``calls.CoreCalls``, which hands it here; each goes one way down to the bus and
+answers with an ``Answer``."""
 from __future__ import annotations
 
 import logging
 import time
-from typing import Callable
+from typing import Mapping
 
 from ..bus import Failure, Result
 from ..control_table import Model
@@ -14,10 +14,11 @@ from ..servo import error_state
 from ..servo.table import PendingWrites, ServoTable
 from ..settings import LoopSettings
 from .deferred import Deferred
+from .kept_settings import KeptSettings
 from .log_limits import LogLimits
 from .pacing import Pacing
-from .recovery import Recovery
-from .request_types import DONE, Answer, CancelDeferred, ChangeMode, ClearError, DeferModeChange, Later, Outcome, SetGoals, answer, later
+from .reboots import Reboots
+from .request_types import DONE, Answer, Later, Outcome, answer, later
 from .servo_io import Log, ServoIO
 from .watchdog import Watchdog
 
@@ -34,11 +35,11 @@ MODE_RETRY_S = 0.25
 
 
 class Requests:
-    """What commands may ask of the core, one method per request type. Of the settings:
+    """What commands may ask of the core that takes more than one part. Of the settings:
     ``mode_change_interval_s`` and ``clear_error_interval_s``."""
 
     def __init__(self, table: ServoTable, pending: PendingWrites, log: Log, io: ServoIO, watchdog: Watchdog,
-                 pacing: Pacing, work: Deferred, recovery: Recovery, settings: LoopSettings) -> None:
+                 pacing: Pacing, work: Deferred, reboots: Reboots, kept: KeptSettings, settings: LoopSettings) -> None:
         self.table = table
         self.pending = pending
         self.log = log
@@ -46,20 +47,18 @@ class Requests:
         self.watchdog = watchdog
         self.pacing = pacing
         self.work = work
-        self.recovery = recovery
+        self.reboots = reboots
+        self.kept = kept  # the servos block's RAM items, written again after a mode change
         self.settings = settings
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         self._last_mode_change: dict[int, float] = {}  # ID -> time.monotonic() of its last mode change
         self._last_clear: dict[int, float] = {}  # ID -> time.monotonic() of its last error clear
         self._mode_failures: dict[int, tuple[str, int]] = {}  # ID -> (mode asked, failed attempts)
-        #: (ID, why): the servos block's RAM items written again after a mode change (``KeptSettings``)
-        self.put_back: Callable[[int, str], None] = lambda dxl_id, why: None
 
     # ---------------------------------------------------------------- goals
-    def put_goals(self, request: SetGoals) -> None:
+    def put_goals(self, writes: Mapping[str, Mapping[int, int]]) -> None:
         """Goal values {item: {ID: pulses}} written with the next sync writes; a tripped bus
         watchdog of those servos is cleared first (a tripped servo refuses goals)."""
-        writes = request.writes
         if self.watchdog.any_tripped():
             self.watchdog.clear_tripped(sorted({i for values in writes.values() for i in values}))
         self.pending.put_many(writes.items())
@@ -73,41 +72,35 @@ class Requests:
         interval = float(self.settings.mode_change_interval_s)
         return max(0.0, last + interval - time.monotonic())
 
-    def defer_mode_change(self, request: DeferModeChange) -> None:
-        """Run ``request.then`` for this servo once mode_change_interval_sec allows, or at the next
-        loop when this loop's operations have used their bus time (``Pacing.ops_wait``); a later
+    def defer_mode_change(self, dxl_id: int, why: Later, then: object, what: str) -> None:
+        """Run ``then`` (a queued request) for this servo once mode_change_interval_sec allows, or at
+        the next loop when this loop's operations have used their bus time (``Pacing.ops_wait``); a later
         request replaces it. While the node stops it is dropped (the servo keeps its mode)."""
-        dxl_id, what = request.dxl_id, request.what
-        if request.why is Later.STOPPING:
+        if why is Later.STOPPING:
             self.pacing.drop_mode_change(dxl_id)
             return
-        if request.why is Later.BUS_TIME:
+        if why is Later.BUS_TIME:
             self.log.debug(f"{what}: waits for the next loop (this loop's mode changes used their bus time)")
-            self.work.defer(dxl_id, time.monotonic(), what, request.then)
+            self.work.defer(dxl_id, time.monotonic(), what, then)
             return
-        if request.why is Later.RETRY:
-            self.work.defer(dxl_id, time.monotonic() + MODE_RETRY_S, what, request.then)
+        if why is Later.RETRY:
+            self.work.defer(dxl_id, time.monotonic() + MODE_RETRY_S, what, then)
             return
         left = self.mode_change_wait(dxl_id)
         if dxl_id not in self.work.deferred:
             self.limited(logging.INFO, f"{what}: the last mode change was less than mode_change_interval_sec="
                          f"{self.settings.mode_change_interval_s:g}s ago: applied in {left:.2f}s", f"defer {dxl_id}")
-        self.work.defer(dxl_id, time.monotonic() + left, what, request.then)
+        self.work.defer(dxl_id, time.monotonic() + left, what, then)
 
-    def cancel_deferred(self, request: CancelDeferred) -> None:
-        """A later request for the servo wins over a mode change waiting for it."""
-        self.work.cancel(request.dxl_id)
-
-    def change_mode(self, request: ChangeMode) -> Answer:
+    def change_mode(self, dxl_id: int, mode: str, what: str) -> Answer:
         """Torque off -> operating mode -> goals and profiles written back -> torque back as it
         was (safely: goal := present state) -> bus watchdog as the new mode needs. The caller has
         checked that the servo has ``mode``. DONE, FAILED (the bus, after ``MODE_ATTEMPTS``;
         ``failure`` is the warning), or LATER: the last change was less than
         mode_change_interval_sec ago, or this loop's mode changes used their bus time, or the
         node is stopping, or the bus did not take it and it is tried again in ``MODE_RETRY_S``
-        (``later`` says which; the caller defers the request: ``DeferModeChange``)."""
-        dxl_id, mode, what = request.dxl_id, request.mode, request.what
-        wait = later("interval" if self.mode_change_wait(dxl_id) > 0 else self.pacing.ops_wait())
+        (``later`` says which; the caller defers the request: ``CoreCalls.defer_mode_change``)."""
+        wait = later(Later.INTERVAL if self.mode_change_wait(dxl_id) > 0 else self.pacing.ops_wait())
         if wait is not None:
             return wait
         previous = self._last_mode_change.get(dxl_id)
@@ -121,7 +114,7 @@ class Requests:
             if value is not None:
                 self.io.write_item(dxl_id, item, value)
         if written:
-            self.put_back(dxl_id, f"the mode change to {mode}")
+            self.kept.put_back(dxl_id, f"the mode change to {mode}")
         if torque:
             self.io.torque_on(dxl_id)
         self.watchdog.arm_after_ops(dxl_id)
@@ -167,14 +160,13 @@ class Requests:
                       f"attempt(s): {written.why}; the goals that came with it are not written")
 
     # ---------------------------------------------------------------- error clear
-    def clear_error(self, request: ClearError) -> Answer:
+    def clear_error(self, dxl_id: int, keep_rotation: bool, what: str) -> Answer:
         """Reboot to clear a hardware error (a servo without one is not rebooted); with
         ``keep_rotation`` the multi-turn position survives through the homing offset. Torque comes
         back on if it was on, or if the error's shutdown switched it off (then the error, not the
         user, turned it off). At most once per clear_error_interval_sec per servo (else REFUSED). A
         servo with an error code (Y) is cleared by its error clear instruction instead, not
         rebooted. ``failure``: the warning for the user."""
-        dxl_id, what = request.dxl_id, request.what
         model = self.table.model(dxl_id)
         error = self.io.read_item(dxl_id, error_state.error_item(model))
         if error is None:
@@ -190,7 +182,7 @@ class Requests:
             return self._clear_code(dxl_id, error, codes.clear_params, what)
         if model.family.error_in_status:
             return self._clear_by_torque_limit(dxl_id, error, what)
-        return self._clear_by_reboot(dxl_id, error, request.keep_rotation, what)
+        return self._clear_by_reboot(dxl_id, error, keep_rotation, what)
 
     def _to_clear(self, dxl_id: int, model: Model, error: int) -> bool:
         """Whether there is an error to clear: an error state, or (Protocol 1.0, whose status
@@ -226,7 +218,7 @@ class Requests:
         torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
         before = self.io.read_item(dxl_id, "present_position")
         offset = self.io.read_item(dxl_id, "homing_offset")
-        rebooted = self.recovery.reboot(dxl_id)
+        rebooted = self.reboots.reboot(dxl_id)
         if not rebooted:
             return answer(False, f"{what}: ID {dxl_id} reboot failed: {rebooted.why}")
         self.io.read_item(dxl_id, "torque_enable")
@@ -246,7 +238,7 @@ class Requests:
         code = codes.code(error) if codes is not None else None
         torque = bool(self.io.value(dxl_id, "torque_enable")) or (code is None or code.torque_off)
         name = error_state.describe(model, error)
-        cleared = self.recovery.clear_error(dxl_id, params)
+        cleared = self.reboots.clear_error(dxl_id, params)
         if not cleared:
             return answer(False, f"{what}: ID {dxl_id} {name} not cleared: {cleared.why}")
         if torque:

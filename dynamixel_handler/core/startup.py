@@ -1,50 +1,38 @@
-"""Start-up: the scan, the servos kept, the set-up each gets (also when added later)."""
+"""Start-up: the scan, the servos kept, each set up (``servo_setup``; also when added later)."""
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-from .. import units
 from ..bus import ServoBus, dummy_ids
 from ..bus.ops import Ping
-from ..control_table import POSITION_MODES
 from ..errors import Interrupted, StartupError
-from ..servo import error_state
-from ..servo.settings import ServoSetting
 from ..servo.table import ServoTable
-from ..settings import ScanSettings, StartValues
-from .deferred import Deferred
-from .kept_settings import KeptSettings
+from ..settings import ScanSettings
 from .log_limits import LogLimits
-from .recovery import Recovery
 from .scan import UNKNOWN_MODEL_HELP, Scan, Seen, lookup, none_handled
-from .servo_io import Log, ServoIO
-from .watchdog import Watchdog
+from .servo_io import Log
+from .servo_setup import ServoSetup
 
 
 @dataclass(frozen=True)
 class StartupSettings:
-    scan: ScanSettings = ScanSettings()     # which servos are looked for, how they are set up
-    start: StartValues = StartValues()      # the values every servo gets
+    scan: ScanSettings = ScanSettings()     # which servos are looked for
     debug: bool = False                     # a start-up problem is logged and the node runs on
-    servos: tuple[ServoSetting, ...] = ()   # the parameters file's servos block
 
 
 class Startup:
-    """Scan, expected count, per-servo set-up, add_id. ``interrupted()`` tells that the node is
-    asked to exit (the scan and the set-up stop between two servos)."""
+    """Scan, expected count, each servo set up (``ServoSetup``), add_id. ``interrupted()`` tells
+    that the node is asked to exit (the scan and the set-up stop between two servos)."""
 
-    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, io: ServoIO, eeprom: Deferred,
-                 recovery: Recovery, watchdog: Watchdog, settings: StartupSettings,
+    def __init__(self, bus: ServoBus, table: ServoTable, log: Log, setup: ServoSetup, settings: StartupSettings,
                  interrupted: Callable[[], bool]) -> None:
         self.bus = bus
         self.table = table
         self.log = log
-        self.io = io
-        self.eeprom = eeprom
-        self.recovery = recovery
-        self.watchdog = watchdog
+        self.setup = setup
+        self.kept = setup.kept
         self.settings = settings
         self.interrupted = interrupted
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
@@ -53,9 +41,6 @@ class Startup:
         #: whether start-up reached its first write (a refusal before it leaves every servo as found)
         self.wrote = False
         self.scanning = Scan(bus, log, settings.scan, self._startup_problem, interrupted)
-        #: the servos block: checked after the scan, applied at each set-up, put back after a reset
-        self.kept = KeptSettings(table, io, eeprom, watchdog, lambda: self.settings.servos,
-                                 lambda level, msg: self.log.log(level, msg))
 
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
@@ -75,7 +60,7 @@ class Startup:
         for dxl_id in list(self.table.ids):
             if self.interrupted():
                 raise Interrupted(f"start-up interrupted while setting up the servos (at ID {dxl_id})")
-            self.setup_servo(dxl_id)
+            self.setup.setup_servo(dxl_id)
 
     def _keep(self, found: dict[int, Seen], dummies: Sequence[int]) -> None:
         """Put the servos found that are known models of a used series (or dummies) in the table."""
@@ -102,82 +87,6 @@ class Startup:
         if not self.settings.debug:
             raise StartupError(message)
         self.log.warning(message + " (debug: running on)")
-
-    def setup_servo(self, dxl_id: int) -> None:
-        """The set-up every servo gets, at start-up and when added later (add_id): hardware error
-        cleared (init/hardware_error_auto_clean), the servos block's EEPROM items and mode, return
-        delay, profile defaults, the block's RAM items, torque as init/torque_auto_enable says; the
-        bus watchdog when the loop next runs. The block's items replace the defaults."""
-        settings, model = self.settings, self.table.model(dxl_id)
-        if settings.scan.hardware_error_auto_clean:
-            self._clear_error(dxl_id)
-        done = self.kept.prepare(dxl_id)
-        if not self.kept.sets(dxl_id, "return_delay_time"):
-            delay = int(units.unit_to_pulse([model], "return_delay_time", [settings.start.return_delay_time])[0])
-            self.eeprom.write_eeprom(dxl_id, "return_delay_time", delay)
-        self._setup_ram(dxl_id)
-        self.kept.finish(dxl_id, done)
-        if settings.scan.torque_auto_enable:
-            self.io.torque_on(dxl_id)
-
-    def _clear_error(self, dxl_id: int) -> None:
-        """A hardware error at start-up cleared by reboot; an error code (Y) by its error clear."""
-        model = self.table.model(dxl_id)
-        err = self.io.read_item(dxl_id, error_state.error_item(model))
-        if not error_state.is_error(model, err):
-            return
-        codes = model.family.error_codes
-        if codes is not None and codes.clear_params is not None:
-            self.log.warning(f"ID {dxl_id}: {error_state.describe(model, err or 0)} at start-up: clearing it")
-            cleared = self.recovery.clear_error(dxl_id, params=codes.clear_params)
-            if not cleared:
-                self.log.warning(f"ID {dxl_id}: error not cleared: {cleared.why}")
-            return
-        self.log.warning(f"ID {dxl_id}: hardware error 0x{err or 0:02X} at start-up: clearing it by reboot")
-        self.recovery.reboot(dxl_id)
-
-    def _setup_ram(self, dxl_id: int) -> None:
-        """Profile defaults now; the bus watchdog when the loop starts (arming it here, servo by
-        servo, would let it trip on the first servos while the last ones are still set up)."""
-        model = self.table.model(dxl_id)
-        start = self.settings.start
-        for item, limit, param, value in (
-                ("profile_acceleration", "acceleration_limit", "default/profile_acc", start.profile_acc),
-                (self._speed_item(dxl_id), "velocity_limit", "default/profile_vel", start.profile_vel)):
-            if model.has(item) and not self.kept.sets(dxl_id, item):
-                pulses = self._within(dxl_id, item, limit, param, value)
-                written = self.io.write_item(dxl_id, item, pulses)
-                if not written:  # e.g. above a P servo's velocity limit
-                    self.log.warning(f"ID {dxl_id} ({model.name}): {param} = {value:g} not set "
-                                     f"({item} {pulses} refused: {written.why})")
-        self.watchdog.request_arm(dxl_id)
-
-    def _speed_item(self, dxl_id: int) -> str:
-        """Where default/profile_vel goes: Profile Velocity, or on a model whose Moving Speed 0
-        means "as fast as the motor goes" (Protocol 1.0, XL-320) Moving Speed in Joint Mode (left
-        at 0, the first goal would be reached at full speed)."""
-        model = self.table.model(dxl_id)
-        if model.has("profile_velocity") or not model.family.fastest_at_zero:
-            return "profile_velocity"
-        return model.family.speed_item(False) if self.io.mode(dxl_id) in POSITION_MODES else "profile_velocity"
-
-    def _within(self, dxl_id: int, item: str, limit: str, param: str, value: float) -> int:
-        """A default profile in pulses, within what this servo takes: its e-Manual range and, where
-        the family bounds profiles by them (P, PRO, Y), its Velocity / Acceleration Limit (one line
-        when it had to be lowered: the servo would refuse it)."""
-        model = self.table.model(dxl_id)
-        pulses = int(units.unit_to_pulse([model], item, [value])[0])
-        hi = model.value_range(item)[1]
-        if model.family.profile_max is None and model.has(limit):
-            bound = self.io.read_item(dxl_id, limit)
-            if bound is not None and bound > 0:
-                hi = min(hi, bound)
-        if pulses <= hi:
-            return pulses
-        shown = float(units.pulse_to_unit([model], item, [hi])[0])
-        self.log.info(f"ID {dxl_id} ({model.name}): {param} = {value:g} is beyond what it takes ({limit} and its "
-                      f"e-Manual range): {item} set to {shown:g}")
-        return hi
 
     def want_handled(self, dxl_id: int, handled: bool) -> None:
         """add_id (True) or remove_id (False) from a command, applied once the queued operations of
@@ -220,5 +129,5 @@ class Startup:
             return False
         self.table.add(dxl_id, model)
         self.limited(logging.INFO, f"ID {dxl_id}: {model.name} added", f"added {dxl_id}")
-        self.setup_servo(dxl_id)  # the same set-up as at start-up
+        self.setup.setup_servo(dxl_id)  # the same set-up as at start-up
         return True

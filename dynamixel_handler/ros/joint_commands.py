@@ -56,6 +56,7 @@ class JointCommands:
         self.log = node.get_logger()
         self.mapping = mapping
         self.goals = JointGoals(node.commander, mapping)
+        node.handler.attach(self.goals)
         traj = node.settings.trajectory
         self.default_path_rad = traj.path_tolerance_deg * DEG
         self.default_goal_rad = traj.goal_tolerance_deg * DEG

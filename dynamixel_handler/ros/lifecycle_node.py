@@ -25,7 +25,6 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 
 from ..bus import BusError
 from ..core.handler import StartupError
-from ..core.request_types import TorqueOff, TorqueOn
 from . import fastpath
 from .node import DynamixelHandlerNode, run
 
@@ -114,11 +113,11 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
             ids = list(self.handler.table.ids)
-            enabled = {i: self.handler.ask(TorqueOn(i)) for i in ids}  # goal := present, then torque on
+            enabled = {i: self.handler.core.torque_on(i) for i in ids}  # goal := present, then torque on
             failed = [i for i, done in enabled.items() if not done]
             if failed:
                 for i in ids:
-                    self.handler.ask(TorqueOff(i))
+                    self.handler.core.torque_off(i)
                 self.get_logger().error(f"activate failed: torque on failed on IDs {failed}: "
                                         f"{enabled[failed[-1]].failure} (all servos left without torque)")
                 return FAILURE
@@ -134,7 +133,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
             self._stop_loop()
-            disabled = {i: self.handler.ask(TorqueOff(i)) for i in self.handler.table.ids}
+            disabled = {i: self.handler.core.torque_off(i) for i in self.handler.table.ids}
             failed = [i for i, done in disabled.items() if not done]
         except Exception as exc:
             self.get_logger().error(f"deactivate: {type(exc).__name__}: {exc}")
@@ -166,7 +165,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         try:
             if self.wire.is_open:
                 for i in list(self.handler.table.ids):
-                    self.handler.ask(TorqueOff(i))
+                    self.handler.core.torque_off(i)
         except Exception as exc:
             self.get_logger().error(f"error processing: torque off: {type(exc).__name__}: {exc}")
         self._forget_and_close()

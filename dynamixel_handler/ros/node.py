@@ -144,6 +144,7 @@ class DynamixelHandlerNode(Node):
 
     def _create_subscriptions(self) -> None:
         self.commander = Commander(self.handler)
+        self.handler.attach(self.commander)  # the command topics' requests, taken in the loop thread
         # command topics are taken by the loop thread at the start of each step (intake.py)
         self.intake = CommandIntake(self, self.fast.raw_intake, self.fast.detached_intake)
         self.command_topics = CommandTopics(self.intake, self.commander, self.settings.scan.used_series,
@@ -151,6 +152,7 @@ class DynamixelHandlerNode(Node):
         self.external_ports: ExternalPorts | None = None
         if self.settings.external_port.use:
             self.external_ports = ExternalPorts(self.handler, self.settings.external_port)
+            self.handler.attach(self.external_ports)
             self.pub_external = lean_publisher(self, DxlExternalPort, "dynamixel/external_port/read", 10)
             lean_subscription(self, DxlExternalPort, "dynamixel/external_port/write", self._on_external_write, 10)
 

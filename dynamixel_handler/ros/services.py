@@ -81,6 +81,7 @@ class MotionServices:
         group = ReentrantCallbackGroup()
         self._guard = node.create_guard_condition(lambda: None, callback_group=group)
         self.book = Book(node.handler, node.commander, node.settings.ros.joints, wake=self._wake)
+        node.handler.attach(self.book)  # the jobs' steps, queued by the jobs, taken in the loop thread
         node.step_hooks.append(self.book.on_step)
         self._timer = node.create_timer(EXPIRE_CHECK_S, self._tick, callback_group=group)
         self._timer.cancel()  # runs only while jobs wait

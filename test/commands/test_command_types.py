@@ -9,7 +9,7 @@ from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.command_types import GROUPS, Control, Goal, Shortcut, Status
 from dynamixel_handler.control_table import X
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430, H54 = 1020, 54024
 
@@ -33,7 +33,7 @@ class QueuedAccess(FakeAccess):
 def _commander():
     access = QueuedAccess({1: XM430, 2: XM430, 3: H54})
     lines = warnings_of(access)
-    return Commander(access), access, lines
+    return attached(Commander(access)), access, lines
 
 
 def test_a_command_is_queued_as_a_value_and_checked_only_when_the_loop_takes_it():

@@ -6,7 +6,7 @@ import pytest
 
 from dynamixel_handler.commands import Commander, CommandPaths
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430, XL430, PH54, H54 = 1020, 1060, 2020, 54024
 SERVOS = {1: XM430, 2: XM430, 3: PH54, 4: H54, 5: XL430}
@@ -20,7 +20,7 @@ PLAIN = CommandPaths(bounds=False, targets=False)
 def _commander(paths=None, modes=None):
     access = FakeAccess(SERVOS, modes=modes, values=VALUES)
     lines = warnings_of(access)
-    return Commander(access, paths), access, lines
+    return attached(Commander(access, paths)), access, lines
 
 
 def _both(command, modes=None):

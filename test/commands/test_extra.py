@@ -2,7 +2,7 @@
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.extra import PWM_SLOPE_RANGE, apply_extra
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430, PH54, XC330_T181 = 1020, 2020, 1210
 
@@ -10,7 +10,7 @@ XM430, PH54, XC330_T181 = 1020, 2020, 1210
 def _commander(**kwargs):
     access = FakeAccess({1: XM430, 2: PH54}, **kwargs)
     lines = warnings_of(access)
-    return Commander(access), access, lines
+    return attached(Commander(access)), access, lines
 
 
 def test_leds_by_family_x_one_led_p_three_colours():
@@ -57,7 +57,7 @@ def test_the_pwm_slope_of_an_x330_is_written_within_its_register_range_and_refus
     """``apply_extra`` on its own, with a Commander for its checks: the X330's PWM slope register."""
     access = FakeAccess({1: XC330_T181, 2: XM430})
     lines = warnings_of(access)
-    checks = Commander(access)
+    checks = attached(Commander(access))
     low, high = PWM_SLOPE_RANGE
     apply_extra(checks, [1, 2], {"pwm_slope_percent": [float(high), 10.0]}, "x/extra")
     assert access.calls == [("write_eeprom", 1, "pwm_slope", high)]

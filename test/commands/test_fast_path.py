@@ -9,7 +9,7 @@ from dynamixel_handler.commands.goal_bounds import TableBounds
 from dynamixel_handler.commands.rules import Rules
 from dynamixel_handler.control_table import PRO, X
 
-from support.servo_access import FakeAccess
+from support.servo_access import FakeAccess, attached
 
 XM430, H54 = 1020, 54024
 VALUES = {"min_position_limit": {1: 0, 2: 0, 3: -100_000}, "max_position_limit": {1: 4095, 2: 4095, 3: 100_000}}
@@ -17,7 +17,7 @@ VALUES = {"min_position_limit": {1: 0, 2: 0, 3: -100_000}, "max_position_limit":
 
 def _commander(paths=None, modes=None):
     access = FakeAccess({1: XM430, 2: XM430, 3: H54}, modes=modes, values=VALUES)
-    return Commander(access, paths), access
+    return attached(Commander(access, paths)), access
 
 
 def test_targets_are_checked_once_per_id_list_and_family_and_forgotten_when_the_servos_change():
@@ -67,7 +67,7 @@ def test_many_servos_are_converted_through_numpy_with_the_same_pulses():
     access = FakeAccess({i: XM430 for i in ids})
     values = np.linspace(-170.0, 170.0, len(ids)).tolist()
     for small in (32, 100):
-        c = Commander(access, CommandPaths(small=small))
+        c = attached(Commander(access, CommandPaths(small=small)))
         assert c.fast.goals("goal", ids, {"position_deg": values})
     assert access.goals[0] == access.goals[1]
 

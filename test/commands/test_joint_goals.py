@@ -11,7 +11,7 @@ from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.joint_goals import RAD, JointGoals
 from dynamixel_handler.joints import JointMap
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430 = 1020
 #: shoulder: ID 1 as is; elbow: ID 2 turned round and 90 deg off; wrist: ID 5, not handled
@@ -23,7 +23,7 @@ VALUES = {"min_position_limit": {1: 1024, 2: 1024}, "max_position_limit": {1: 30
 def _goals(modes=None):
     access = FakeAccess({1: XM430, 2: XM430}, modes=modes, values=VALUES)
     lines = warnings_of(access)
-    return JointGoals(Commander(access), MAPPING), access, lines
+    return attached(JointGoals(attached(Commander(access)), MAPPING)), access, lines
 
 
 def _pulses(access, item, value):

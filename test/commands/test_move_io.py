@@ -6,14 +6,14 @@ from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.move_checks import MoveError
 from dynamixel_handler.commands.move_io import MoveIO
 
-from support.servo_access import FakeAccess
+from support.servo_access import FakeAccess, attached
 
 XM430, PH54, H54 = 1020, 2020, 54024
 
 
 def _io(modes=None):
     access = FakeAccess({1: XM430, 2: XM430, 3: PH54, 4: H54}, modes=modes)
-    return MoveIO(access, Commander(access), None), access
+    return MoveIO(access, attached(Commander(access)), None), access
 
 
 def test_the_speed_of_a_move_goes_to_each_familys_item():

@@ -19,7 +19,7 @@ from dynamixel_handler.commands.moves import (
     TorqueJob,
     new_move,
 )
-from dynamixel_handler.core.request_types import Answer, Outcome, TorqueOn
+from dynamixel_handler.core.request_types import Answer, Outcome
 
 from support.servo_access import FakeAccess
 
@@ -33,18 +33,21 @@ class Access(FakeAccess):
 
     refuse: set[int] = set()
 
-    def ask(self, request):
-        if isinstance(request, TorqueOn) and request.dxl_id in self.refuse:
-            self.calls.append(("torque_on", request.dxl_id))
+    def torque_on(self, dxl_id, what=""):
+        if dxl_id in self.refuse:
+            self.calls.append(("torque_on", dxl_id))
             return Answer(Outcome.FAILED, "no reply")
-        return super().ask(request)
+        return super().torque_on(dxl_id, what)
 
 
 def _book(refuse=()):
     access = Access({1: XM430, 2: XM430}, values=VALUES)
     access.refuse = set(refuse)
     woken: list[int] = []
-    book = Book(access, Commander(access), None, wake=lambda: woken.append(1))
+    commander = Commander(access)
+    book = Book(access, commander, None, wake=lambda: woken.append(1))
+    access.attach(commander)
+    access.attach(book)
     return book, access, woken
 
 

@@ -4,7 +4,7 @@ speed of 0 in Joint Mode ("as fast as the motor goes") never written as 0."""
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.moving_speed import goal_item
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 AX12A, XL320, XM430 = 12, 350, 1020
 AX_DEG_S = 0.111 * 6.0
@@ -12,7 +12,7 @@ AX_DEG_S = 0.111 * 6.0
 
 def _commander(modes):
     access = FakeAccess({1: AX12A, 2: XL320, 3: XM430}, modes=modes)
-    return Commander(access), access
+    return attached(Commander(access)), access
 
 
 def test_the_speed_of_a_move_goes_to_moving_speed_in_joint_mode_and_the_velocity_goal_is_not_written():
@@ -32,7 +32,7 @@ def test_in_wheel_mode_the_velocity_goal_goes_to_moving_speed_and_the_profile_is
 def test_a_speed_of_zero_in_joint_mode_is_written_as_the_slowest_with_one_line():
     access = FakeAccess({1: AX12A, 2: XL320, 3: XM430})
     lines = warnings_of(access)            # before the commander takes the access's log
-    c = Commander(access)
+    c = attached(Commander(access))
     c.goal([1, 2, 3], {"profile_vel_deg_s": [0.0, 0.0, 0.0]})
     assert access.goals[-1]["goal_velocity"] == {1: 1, 2: 1}
     assert access.goals[-1]["profile_velocity"] == {3: 0}             # X: 0 is "no profile", as the e-Manual says

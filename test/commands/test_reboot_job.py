@@ -6,14 +6,13 @@ from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.move_checks import DONE, ERROR
 from dynamixel_handler.commands.moves import Book
 from dynamixel_handler.commands.reboot_job import RebootJob
-from dynamixel_handler.core.request_types import ClearError
 
 from support.fake_bus import XM430
-from support.servo_access import FakeAccess
+from support.servo_access import FakeAccess, attached
 
 
 def _run(access: FakeAccess) -> RebootJob:
-    book = Book(access, Commander(access), None)
+    book = attached(Book(access, attached(Commander(access)), None))
     job = RebootJob(answer_by=1e12)
     book.add(job)
     book.on_step()
@@ -37,10 +36,9 @@ def test_only_the_servo_in_error_is_cleared_and_its_outcome_named():
 class Rebooting(FakeAccess):
     """A stand-in whose error clear works: the servo's error reads 0 afterwards."""
 
-    def ask(self, request):
-        answer = super().ask(request)
-        if isinstance(request, ClearError):
-            self.table.set_value("hardware_error_status", request.dxl_id, 0)
+    def clear_error(self, dxl_id, keep_rotation, what=""):
+        answer = super().clear_error(dxl_id, keep_rotation, what)
+        self.table.set_value("hardware_error_status", dxl_id, 0)
         return answer
 
 

@@ -4,7 +4,7 @@ import math
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.servo_settings import SIGNED_LIMITS, SettingsCommands
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430, H54 = 1020, 54024
 
@@ -12,7 +12,7 @@ XM430, H54 = 1020, 54024
 def _commander(**kwargs):
     access = FakeAccess({1: XM430, 2: XM430, 3: H54}, **kwargs)
     lines = warnings_of(access)
-    return Commander(access), access, lines
+    return attached(Commander(access)), access, lines
 
 
 def test_gains_are_written_as_goals_and_clamped_to_the_register():

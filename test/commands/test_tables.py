@@ -6,7 +6,7 @@ import pytest
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.tables import CONTROL_MODES, CURRENT_MODES, GOAL_FIELDS, SHORTCUTS
 
-from support.servo_access import FakeAccess, warnings_of
+from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430, XL430 = 1020, 1060
 VALUES = {"min_position_limit": {1: 0, 2: 0}, "max_position_limit": {1: 4095, 2: 4095},
@@ -17,7 +17,7 @@ VALUES = {"min_position_limit": {1: 0, 2: 0}, "max_position_limit": {1: 4095, 2:
 def _commander(modes=None):
     access = FakeAccess({1: XM430, 2: XL430}, modes=modes, values=VALUES)
     lines = warnings_of(access)
-    return Commander(access), access, lines
+    return attached(Commander(access)), access, lines
 
 
 @pytest.mark.parametrize("name", [n for n, action in SHORTCUTS.items() if n != action])

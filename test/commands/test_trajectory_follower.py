@@ -26,7 +26,7 @@ from dynamixel_handler.commands.trajectory import (
 from dynamixel_handler.core.state import StepReport
 from dynamixel_handler.joints import JointMap
 
-from support.servo_access import FakeAccess
+from support.servo_access import FakeAccess, attached
 
 XM430 = 1020
 PERIOD_S = 0.01
@@ -42,7 +42,7 @@ def _follower(present_pulses: int | None = 2048):
     log = logging.getLogger(f"test_trajectory_follower_{id(access)}")
     log.propagate = False
     log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
-    return Follower(JointGoals(Commander(access), MAPPING), PERIOD_S, log), access, lines
+    return Follower(attached(JointGoals(attached(Commander(access)), MAPPING)), PERIOD_S, log), access, lines
 
 
 def _job(to_rad=1.0, seconds=1.0, started_ago=0.5, path=0.0, goal=0.01):

@@ -3,16 +3,23 @@ requests is the Intake's: test_intake.py)."""
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core import deferred as deferred_module
 from dynamixel_handler.core.deferred import EEPROM_WRITE_INTERVAL_S, Deferred
-from dynamixel_handler.core.request_types import ChangeMode
 from dynamixel_handler.core.servo_io import ServoIO
 
 from support.clock import HandClock
 from support.fake_bus import XM430, FakeBus, table_of
 
+
+@dataclass(frozen=True)
+class Again:
+    """A request run again when due (a command's, after its mode change waited)."""
+
+    dxl_id: int
+    mode: str
 
 def work(monkeypatch):
     clock = HandClock(1000.0)
@@ -55,12 +62,12 @@ def test_an_eeprom_write_switches_torque_off_and_back_on_without_a_jump(monkeypa
 
 def test_work_due_later_runs_when_due_and_only_for_a_servo_still_handled(monkeypatch):
     _, table, part, clock, _ = work(monkeypatch)
-    part.defer(1, clock.t + 0.5, "mode change", ChangeMode(1, "velocity"))
-    part.defer(2, clock.t, "mode change", ChangeMode(2, "velocity"))
+    part.defer(1, clock.t + 0.5, "mode change", Again(1, "velocity"))
+    part.defer(2, clock.t, "mode change", Again(2, "velocity"))
     table.remove(2)
     assert part.run_deferred() == [] and list(part.deferred) == [1]
     clock.t += 0.5
-    assert part.run_deferred() == [("mode change", ChangeMode(1, "velocity"))] and not part.waiting
-    part.defer(1, clock.t, "mode change", ChangeMode(1, "pwm"))
+    assert part.run_deferred() == [("mode change", Again(1, "velocity"))] and not part.waiting
+    part.defer(1, clock.t, "mode change", Again(1, "pwm"))
     part.forget(1)
     assert not part.waiting

@@ -9,7 +9,7 @@ import pytest
 
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.kept_settings import KeptSettings
-from dynamixel_handler.core.request_types import ChangeMode, Outcome
+from dynamixel_handler.core.request_types import Outcome
 from dynamixel_handler.errors import ConfigError
 from dynamixel_handler.servo.settings import ServoSetting
 from dynamixel_handler.settings import LoopSettings, ScanSettings, Settings
@@ -61,7 +61,7 @@ def test_a_second_set_up_writes_no_eeprom_item_that_is_already_so():
     bus, parts, lines = started()
     parts.startup.start()
     bus.calls.clear()
-    parts.startup.setup_servo(1)
+    parts.setup.setup_servo(1)
     assert [w[1] for w in bus.item_writes() if w[2][0] == 1] == [
         "profile_acceleration", "position_p_gain", "profile_velocity", "goal_position", "torque_enable"]  # RAM only
     assert "velocity_limit_deg_s 120.0 (EEPROM, already so)" in lines[-1] and "mode cur_position (already so)" in lines[-1]
@@ -69,21 +69,22 @@ def test_a_second_set_up_writes_no_eeprom_item_that_is_already_so():
 
 def test_the_ram_items_come_back_after_a_mode_change_and_a_reboot_not_the_mode():
     bus, parts, lines = started()
-    assert isinstance(parts.startup.kept, KeptSettings)
-    assert parts.requests.put_back == parts.recovery.put_back == parts.startup.kept.put_back  # wired by build_parts
+    assert isinstance(parts.setup.kept, KeptSettings)
+    kept = parts.setup.kept  # one servos block, given at construction to each part that puts it back
+    assert parts.requests.kept is kept and parts.reboots.kept is kept and parts.startup.kept is kept
     parts.startup.start()
     bus.set(1, "position_p_gain", 800)  # what the firmware does on a mode change
-    assert parts.requests.change_mode(ChangeMode(1, "position", "test")).outcome is Outcome.DONE
+    assert parts.requests.change_mode(1, "position", "test").outcome is Outcome.DONE
     assert bus.get(1, "operating_mode") == 3 and bus.get(1, "position_p_gain") == 640
     assert lines[-2] == "ID 1: servos.id_1 put back after the mode change to position: position_p_gain_pulse 640, " \
                         "profile_vel_deg_s 60.0"
     bus.set(1, "position_p_gain", 800)
     bus.set(1, "profile_velocity", 0)
-    assert parts.recovery.reboot(1)
+    assert parts.reboots.reboot(1)
     assert bus.get(1, "position_p_gain") == 640 and bus.get(1, "profile_velocity") == round(60.0 / DEG_S)
     assert any("put back after a reboot" in x for x in lines)
     bus.calls.clear()
-    parts.recovery.reboot(2)  # no entry: nothing of the block written
+    parts.reboots.reboot(2)  # no entry: nothing of the block written
     assert "position_p_gain" not in [w[1] for w in bus.item_writes()]
 
 
@@ -125,6 +126,6 @@ def test_an_ax_entry_s_speed_of_a_move_is_moving_speed_and_never_turns_it_in_whe
     parts = build(bus, settings, log)
     parts.startup.start()
     assert bus.get(4, "goal_velocity") == round(30.0 / (0.111 * 6.0))
-    assert parts.requests.change_mode(ChangeMode(4, "velocity", "test")).outcome is Outcome.DONE
+    assert parts.requests.change_mode(4, "velocity", "test").outcome is Outcome.DONE
     assert (bus.get(4, "min_position_limit"), bus.get(4, "max_position_limit")) == (0, 0)
     assert bus.get(4, "goal_velocity") == 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dynamixel_handler.core import pacing as pacing_module
 from dynamixel_handler.core.pacing import MIN_SPAN, OPS_SHARE, Pacing
+from dynamixel_handler.core.request_types import Later
 
 from support.clock import HandClock
 from support.fake_bus import H54, XM430, FakeBus, table_of
@@ -44,10 +45,10 @@ def test_mode_changes_after_the_reads_stop_at_their_share_of_the_watchdog_and_a_
     part.note_reads_sent()
     assert part.ops_wait() is None          # one is always made after the reads
     clock.t += OPS_SHARE * 0.2 + 0.001
-    assert part.ops_wait() == "bus time"
+    assert part.ops_wait() is Later.BUS_TIME
     part.note_reads_sent()
     assert part.ops_wait() is None
     stopping[0] = True
-    assert part.ops_wait() == "stopping"
+    assert part.ops_wait() is Later.STOPPING
     part.drop_mode_change(1)  # the request that answered "stopping": not made, the shutdown knows
     assert part.dropped_mode_changes == {1}

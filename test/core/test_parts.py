@@ -8,7 +8,6 @@ import logging
 
 from dynamixel_handler.core import request_types
 from dynamixel_handler.core.parts import build_parts, part_settings
-from dynamixel_handler.core.request_types import RemoveServo, SetUserWatchdog, TorqueOff
 from dynamixel_handler.settings import Settings
 
 from support.fake_bus import XM430, FakeBus
@@ -23,20 +22,21 @@ def _started(settings: Settings | None = None):
     return bus, parts
 
 
-def test_every_request_type_of_the_core_is_taken_by_a_part():
+def test_every_queued_request_type_of_the_core_is_taken_by_a_part_and_the_typed_calls_reach_theirs():
     _, parts = _started()
     kinds = {k for k in vars(request_types).values()
              if isinstance(k, type) and dataclasses.is_dataclass(k) and k.__module__ == request_types.__name__
              and k.__name__ not in ("Answer",)}
-    assert kinds <= set(parts.intake.routes()), sorted(k.__name__ for k in kinds - set(parts.intake.routes()))
-    assert parts.intake.ask(TorqueOff(1))  # done by ServoIO
+    assert parts.intake.routes() == {kind: "EStop" for kind in kinds}
+    assert parts.core.torque_off(1)  # done by ServoIO
+    assert parts.core.write_eeprom(1, "no_such_item", 1).failure == "ID 1 (XM430-W350) has no no_such_item"
 
 
 def test_a_removed_servo_is_forgotten_by_the_parts_that_keep_something_of_it():
     bus, parts = _started()
     parts.pending.put("goal_position", {1: 100, 2: 200})
-    parts.intake.ask(SetUserWatchdog(2, 5))
-    parts.intake.ask(RemoveServo(2))
+    parts.core.set_user_watchdog(2, 5)
+    parts.core.remove_servo(2)
     assert 2 not in parts.table and parts.pending.peek("goal_position") == {1: 100}
     assert 2 not in parts.watchdog.user
     bus.calls.clear()

@@ -1,5 +1,6 @@
 """Recovery: what happens to a servo that stops answering (ping false, counted, removed), one that
-answers again, a reboot and its limit, and a device that vanishes and comes back."""
+answers again, and a device that vanishes and comes back (its servos set up by the real
+``ServoSetup``); ``Reboots``: a reboot and its limit."""
 from __future__ import annotations
 
 import logging
@@ -8,9 +9,13 @@ import numpy as np
 
 from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core.deferred import Deferred
 from dynamixel_handler.core.group_io import GroupIO
+from dynamixel_handler.core.kept_settings import KeptSettings
+from dynamixel_handler.core.reboots import Reboots
 from dynamixel_handler.core.recovery import Recovery
 from dynamixel_handler.core.servo_io import ServoIO
+from dynamixel_handler.core.servo_setup import ServoSetup, SetupSettings
 from dynamixel_handler.core.state import StepReport
 from dynamixel_handler.core.watchdog import Watchdog, WatchdogSettings
 from dynamixel_handler.settings import LoopSettings
@@ -28,12 +33,26 @@ def recovery(servos, remove_after: int = 3, interval_s: float = 1.0):
     io = ServoIO(bus, table, log)
     dog = Watchdog(table, log, io, GroupIO(bus, table, log), WatchdogSettings(100.0, 1, 500.0, True))
     removed: list[int] = []
-    set_up: list[int] = []
     table.watch_removals(removed.append)  # a removal is an event the table tells its watchers
-    part = Recovery(bus, table, log, io, dog,
-                    LoopSettings(no_response_auto_remove=remove_after, clear_error_interval_s=interval_s),
-                    set_up.append)
-    return bus, table, part, lines, removed, set_up
+    settings = LoopSettings(no_response_auto_remove=remove_after, clear_error_interval_s=interval_s)
+    work = Deferred(table, log, io)
+    kept = KeptSettings(table, io, work, dog, (), lambda level, msg: log.log(level, msg))
+    reboots = Reboots(bus, table, log, io, dog, kept, settings)
+    setup = Counted(table, log, io, work, dog, kept, reboots, SetupSettings(torque_auto_enable=False))
+    part = Recovery(bus, table, log, io, dog, settings, setup)
+    return bus, table, part, lines, removed, setup.done
+
+
+class Counted(ServoSetup):
+    """The set-up of the node, and the IDs it set up, in order."""
+
+    def __init__(self, *args) -> None:
+        super().__init__(*args)
+        self.done: list[int] = []
+
+    def setup_servo(self, dxl_id: int) -> None:
+        self.done.append(dxl_id)
+        super().setup_servo(dxl_id)
 
 
 def loop(part: Recovery, table, answering: set[int]) -> None:
@@ -63,7 +82,8 @@ def test_a_servo_that_answers_again_is_counted_from_zero_and_its_watchdog_armed_
 
 
 def test_a_reboot_waits_for_the_servo_restores_its_profiles_and_a_second_one_too_soon_is_refused():
-    bus, table, part, lines, _, _ = recovery({1: XM430}, interval_s=60.0)
+    bus, table, recovering, lines, _, _ = recovery({1: XM430}, interval_s=60.0)
+    part = recovering.setup.reboots
     table.set_value("operating_mode", 1, OPERATING_MODES["position"])
     table.set_value("profile_velocity", 1, 77)
     assert part.reboot(1)
@@ -101,7 +121,8 @@ def test_a_vanished_device_marks_every_servo_silent_without_counting_and_sets_th
 
 
 def test_a_refused_reboot_says_why_in_its_result():
-    _, _, part, _, _, _ = recovery({1: XM430}, interval_s=60.0)
+    _, _, recovering, _, _, _ = recovery({1: XM430}, interval_s=60.0)
+    part = recovering.setup.reboots
     assert part.reboot(1).failure is None
     refused = part.reboot(1)
     assert refused.value is False and refused.failure is Failure.HELD_BACK and refused.why.startswith("refused: the last one was")

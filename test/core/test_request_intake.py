@@ -1,17 +1,19 @@
 """Intake: request values queued by any thread, taken in order by the loop thread and handed to
-the one handler registered for each type; a handler that raises is one line and the rest still
-run; a request of a type nobody takes is refused when asked for."""
+the one part attached for each type (its ``handle``); a part that raises is one line and the rest
+still run; a request of a type nobody takes is one line too; a type taken by two parts is refused
+when the second is attached, and the routes are the parts' own ``TAKES``."""
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import ClassVar, assert_never
 
 import pytest
 
 from dynamixel_handler.bus import Result
 from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.core.intake import Intake, label
-from dynamixel_handler.core.request_types import DONE, Answer, Outcome, WriteItem, answer
+from dynamixel_handler.core.request_types import DONE, Answer, EngageStop, Outcome, answer
 
 
 @dataclass(frozen=True)
@@ -25,45 +27,65 @@ class Broken:
     what: str = "broken"
 
 
-def intake() -> tuple[Intake, list[str], list[str]]:
+class Notes:
+    """A part that takes notes and breaks on ``Broken``."""
+
+    TAKES: ClassVar[tuple[type, ...]] = (Note, Broken)
+
+    def __init__(self) -> None:
+        self.done: list[str] = []
+
+    def handle(self, request: Note | Broken) -> None:
+        match request:
+            case Note(text=text):
+                self.done.append(text)
+            case Broken():
+                raise ZeroDivisionError("division by zero")
+            case _:
+                assert_never(request)
+
+
+class Other:
+    TAKES: ClassVar[tuple[type, ...]] = (Note,)
+
+    def handle(self, request: Note) -> None:
+        raise AssertionError("never taken")
+
+
+def intake() -> tuple[Intake, Notes, list[str]]:
     lines: list[str] = []
     log = logging.getLogger(f"test_intake_{len(lines)}_{id(lines)}")
     log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
     part = Intake(log)
-    done: list[str] = []
-    part.register(Note, lambda r: done.append(r.text))
-    part.register(Broken, lambda r: 1 / 0)
-    return part, done, lines
+    notes = Notes()
+    part.attach(notes)
+    return part, notes, lines
 
 
 def test_queued_requests_run_in_order_and_one_that_raises_is_logged_and_the_rest_still_run():
-    part, done, lines = intake()
+    part, notes, lines = intake()
     part.submit(Note("first"))
     part.submit(Broken())
     part.submit(Note("third"), "the third")
-    assert done == []  # nothing runs before the loop takes them
+    assert notes.done == []  # nothing runs before the loop takes them
     part.run_queued()
-    assert done == ["first", "third"]
+    assert notes.done == ["first", "third"]
     assert lines == ["broken failed: ZeroDivisionError: division by zero"]
     part.submit(Note("dropped"))
     assert part.drop() == 1
     part.run_queued()
-    assert done == ["first", "third"]
+    assert notes.done == ["first", "third"]
 
 
-def test_asked_now_a_request_goes_to_its_handler_and_a_handler_that_answers_nothing_did_it():
-    part, done, _ = intake()
-    assert part.ask(Note("now")) is DONE and done == ["now"]
-
-    @dataclass(frozen=True)
-    class Refused:
-        text: str
-
-    part.register(Refused, lambda r: Answer(Outcome.REFUSED, f"no {r.text}"))
-    assert part.ask(Refused("x")) == Answer(Outcome.REFUSED, "no x") and not part.ask(Refused("x"))
-    with pytest.raises(TypeError, match="WriteItem"):
-        part.ask(WriteItem(1, "led", 1))
-    assert set(part.routes()) == {Note, Broken, Refused}
+def test_a_request_nobody_takes_is_one_line_and_the_queue_goes_on():
+    part, notes, lines = intake()
+    part.submit(EngageStop("nobody attached the E-stop here"))
+    part.submit(Note("after"))
+    part.run_queued()
+    assert lines == ["e-stop failed: TypeError: no part takes a EngageStop request (the part that takes it is "
+                     "attached by who builds it: handler.attach(part))"]
+    assert notes.done == ["after"]
+    assert part.routes() == {Note: "Notes", Broken: "Notes"}
 
 
 def test_answers_and_labels():
@@ -73,13 +95,12 @@ def test_answers_and_labels():
     assert label(Note("x")) == "note" and label(object()) == "object"
 
 
-def test_a_second_handler_for_one_request_type_is_refused_and_the_first_kept():
-    part, done, _ = intake()
-    try:
-        part.register(Note, lambda r: None)
-    except ValueError as err:
-        assert "Note already has a handler" in str(err)
-    else:
-        raise AssertionError("a second route for Note was taken")
-    part.ask(Note("still the first"))
-    assert done == ["still the first"]
+def test_a_second_part_for_one_request_type_is_refused_and_the_first_kept():
+    part, notes, _ = intake()
+    with pytest.raises(ValueError, match="Note already taken by Notes: one part per request type"):
+        part.attach(Other())
+    with pytest.raises(ValueError, match="Note, Broken already taken by Notes"):
+        part.attach(Notes())  # the same part type attached twice: as an error too
+    part.submit(Note("still the first"))
+    part.run_queued()
+    assert notes.done == ["still the first"]

@@ -7,7 +7,7 @@ import logging
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.control_table import OPERATING_MODES
 from dynamixel_handler.core.handler import Handler
-from dynamixel_handler.core.request_types import CancelDeferred, ChangeMode, ClearError, DeferModeChange, Later, Outcome, SetGoals
+from dynamixel_handler.core.request_types import Later, Outcome
 
 from support.fake_bus import XM430, FakeBus
 
@@ -30,7 +30,7 @@ def test_a_mode_change_goes_torque_off_mode_ram_back_torque_on_and_arms_the_watc
     bus, h = started(mode_change_interval_sec=0.0)
     bus.set(1, "profile_velocity", 55)
     h.table.set_value("profile_velocity", 1, 55)
-    assert h.ask(ChangeMode(1, "velocity", "test")).outcome is Outcome.DONE
+    assert h.core.change_mode(1, "velocity", "test").outcome is Outcome.DONE
     assert [w[1] for w in bus.item_writes()] == [
         "torque_enable", "operating_mode",                      # torque off (an EEPROM item), the mode
         "goal_pwm", "goal_current", "goal_velocity", "profile_velocity", "profile_acceleration",  # RAM back
@@ -44,19 +44,19 @@ def test_a_mode_change_goes_torque_off_mode_ram_back_torque_on_and_arms_the_watc
 
 def test_a_mode_change_too_soon_waits_and_the_latest_request_is_made_when_its_time_comes():
     bus, h = started(mode_change_interval_sec=60.0)
-    assert h.ask(ChangeMode(1, "velocity", "first")).outcome is Outcome.DONE
-    later = h.ask(ChangeMode(1, "pwm", "second"))
+    assert h.core.change_mode(1, "velocity", "first").outcome is Outcome.DONE
+    later = h.core.change_mode(1, "pwm", "second")
     assert later.outcome is Outcome.LATER and later.later is Later.INTERVAL
-    h.ask(DeferModeChange(1, later.later, ChangeMode(1, "pwm", "second"), "second"))
+    h.core.defer_mode_change(1, later.later, "the request again", "second")
     assert 1 in h.work.deferred and h.requests.mode_change_wait(1) > 59
-    h.ask(CancelDeferred(1))
+    h.core.cancel_deferred(1)
     assert 1 not in h.work.deferred
 
 
 def test_goals_to_a_servo_whose_watchdog_tripped_clear_it_before_they_are_written():
     bus, h = started()
     h.table.set_value("bus_watchdog", 2, -1)
-    h.ask(SetGoals({"goal_position": {2: 100}}))
+    h.core.set_goals({"goal_position": {2: 100}})
     assert h.figures().watchdog_trips == 1
     h.steps.send_writes(h.steps.begin_step())
     items = [(w[1], w[2]) for w in bus.item_writes()]
@@ -65,13 +65,13 @@ def test_goals_to_a_servo_whose_watchdog_tripped_clear_it_before_they_are_writte
 
 def test_an_error_clear_reboots_only_a_servo_with_an_error_and_brings_its_torque_back():
     bus, h = started(clear_error_interval_sec=0.0)
-    assert h.ask(ClearError(1, False, "test")) and not bus.of("reboot")  # no error: nothing
+    assert h.core.clear_error(1, False, "test") and not bus.of("reboot")  # no error: nothing
     bus.set(1, "hardware_error_status", 0x20)
     bus.set(1, "shutdown", 0x20)
-    assert h.ask(ClearError(1, False, "test"))
+    assert h.core.clear_error(1, False, "test")
     assert bus.of("reboot") == [("reboot", 1)] and bus.item_writes()[-1] == ("write", "torque_enable", (1, 1))
     bus.silent.add(2)
-    failed = h.ask(ClearError(2, False, "test"))
+    failed = h.core.clear_error(2, False, "test")
     assert failed.outcome is Outcome.FAILED
     assert failed.failure == "test: ID 2 did not answer the hardware error read: not rebooted"
 
@@ -79,7 +79,6 @@ def test_an_error_clear_reboots_only_a_servo_with_an_error_and_brings_its_torque
 def test_a_servo_removed_by_any_door_is_forgotten_by_every_part_with_one_line():
     """A removal is an event of the table the parts observe: a remove_id request and a servo
     removed for its silence leave nothing of it waiting anywhere."""
-    from dynamixel_handler.core.request_types import RemoveServo, SetUserWatchdog
 
     lines: list[str] = []
     bus, h = started(no_response_id_auto_remove_count=2)
@@ -88,10 +87,10 @@ def test_a_servo_removed_by_any_door_is_forgotten_by_every_part_with_one_line():
     h.log.setLevel(logging.INFO)
     for dxl_id in (1, 2):
         h.pending.put("goal_position", {dxl_id: 3000})
-        h.ask(SetUserWatchdog(dxl_id, 5))
+        h.core.set_user_watchdog(dxl_id, 5)
     assert h.watchdog.user == {1: 5, 2: 5}
 
-    h.ask(RemoveServo(2))                      # a command's remove_id
+    h.core.remove_servo(2)                      # a command's remove_id
     assert 2 not in h.table and 2 not in h.pending.peek("goal_position") and 2 not in h.watchdog.user
     assert lines.count("ID 2: removed from the handled servos") == 1
 

@@ -50,11 +50,9 @@ class PartsAccess:
     def submit(self, request, what=""):
         self.parts.intake.submit(request, what)
 
-    def ask(self, request):
-        return self.parts.intake.ask(request)
-
-    def register(self, kind, handler):
-        self.parts.intake.register(kind, handler)
+    @property
+    def core(self):
+        return self.parts.core
 
     def read_item(self, dxl_id, item):
         return self.parts.io.read_item(dxl_id, item)
@@ -86,6 +84,7 @@ def test_an_object_with_every_door_is_a_servo_access_and_one_without_them_is_not
 def test_a_commander_over_the_doors_alone_switches_the_mode_and_writes_the_goal_at_the_next_step():
     bus, doors, lines = access("commander")
     commander = Commander(doors)
+    doors.parts.intake.attach(commander)  # as the node does once it built the Commander
     commander.control("X", "velocity_control", [1, 7], {"velocity_deg_s": [10.0, 10.0]})
     assert bus.calls == []  # queued for the loop thread: nothing on the bus yet
     doors.parts.steps.step()

@@ -8,10 +8,10 @@ import pytest
 
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.core.handler import Handler
-from dynamixel_handler.core.request_types import AddServo, WantHandled
 from dynamixel_handler.errors import Interrupted, StartupError
 
 from support.fake_bus import H54, XM430, FakeBus
+from support.queued import Asker, Membership
 
 LOG = logging.getLogger("test_startup")
 
@@ -58,15 +58,16 @@ def test_add_and_remove_asked_many_times_in_one_loop_make_at_most_one_change():
     bus, h = handler({1: XM430, 2: XM430}, **{"init/servo_auto_search.max_id": 1})
     h.start()
     assert h.handled_ids == [1]
+    h.attach(Asker(h.core))
     for _ in range(5):
-        h.submit(WantHandled(2, True))
-        h.submit(WantHandled(2, False))
-    h.submit(WantHandled(2, True))
+        h.submit(Membership(2, True))
+        h.submit(Membership(2, False))
+    h.submit(Membership(2, True))
     bus.calls.clear()
     h.step()
     assert h.handled_ids == [1, 2] and bus.of("ping") == [("ping", 2)]
     bus.silent.add(3)
-    assert not h.ask(AddServo(3))
+    assert not h.core.add_servo(3)
 
 
 def test_an_unknown_model_is_named_with_what_the_user_can_do(caplog):

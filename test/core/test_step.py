@@ -6,9 +6,9 @@ import logging
 
 from dynamixel_handler.config import defaults, validate
 from dynamixel_handler.core.handler import RECHECK_LOOPS, Handler
-from dynamixel_handler.core.request_types import WriteItem
 
 from support.fake_bus import XM430, FakeBus
+from support.queued import Asker, Led
 
 LOG = logging.getLogger("test_step")
 ONLY_POSITION = {f"pub_ratio/present.{k}": 0 for k in ("pwm", "current", "velocity", "input_voltage", "temperature")} | {
@@ -28,7 +28,8 @@ def started(**params) -> tuple[FakeBus, Handler]:
 
 def test_a_loop_runs_the_operations_then_writes_then_reads_what_is_due():
     bus, h = started()
-    h.submit(WriteItem(2, "led", 1))
+    h.attach(Asker(h.core))
+    h.submit(Led(2))  # queued: a RAM write the loop makes first
     h.pending.put("goal_position", {1: 1000, 3: 3000})
     report = h.step()
     assert [c[0] for c in bus.calls] == ["write", "sync_write", "sync_read"]

@@ -7,13 +7,13 @@ from __future__ import annotations
 import logging
 
 from dynamixel_handler.core import log_limits
-from dynamixel_handler.core.request_types import WantHandled, WriteItem
 from dynamixel_handler.core.step import Step
 from dynamixel_handler.settings import LogSettings, ReadRatios, Settings
 
 from support.clock import HandClock
 from support.fake_bus import XM430, FakeBus
 from support.parts import Parts, build, lines_of
+from support.queued import Asker, Led, Membership
 
 ONLY_POSITION = ReadRatios(present={"pwm": 0, "current": 0, "velocity": 0, "position": 1, "velocity_trajectory": 0,
                                     "position_trajectory": 0, "input_voltage": 0, "temperature": 0},
@@ -35,7 +35,8 @@ def started(name: str, servos=None, ratios: ReadRatios = ONLY_POSITION, logs: Lo
 
 def test_a_loop_runs_the_queued_requests_then_writes_what_is_pending_then_reads_what_is_due():
     bus, parts, step, _ = started("order")
-    parts.intake.submit(WriteItem(2, "led", 1))
+    parts.intake.attach(Asker(parts.core))
+    parts.intake.submit(Led(2))
     parts.pending.put("goal_position", {1: 1000, 3: 3000})
     report = step.step()
     assert [c[0] for c in bus.calls] == ["write", "sync_write", "sync_read"]
@@ -46,7 +47,8 @@ def test_a_loop_runs_the_queued_requests_then_writes_what_is_pending_then_reads_
 
 def test_between_loops_the_queued_requests_and_their_writes_go_out_at_once_without_reads():
     bus, parts, step, _ = started("apply now")
-    parts.intake.submit(WriteItem(1, "led", 1))
+    parts.intake.attach(Asker(parts.core))
+    parts.intake.submit(Led(1))
     parts.pending.put("goal_position", {2: 2000})
     step.apply_now()
     assert [c[0] for c in bus.calls] == ["write", "sync_write"] and step.loop_count == 1
@@ -122,15 +124,17 @@ def test_a_request_no_part_takes_is_one_error_line_and_the_loop_goes_on():
     parts.intake.submit(Unknown())
     parts.pending.put("goal_position", {1: 1500})
     step.step()
-    assert lines == ["mystery failed: TypeError: no part takes a Unknown request"]
+    assert lines == ["mystery failed: TypeError: no part takes a Unknown request (the part that takes it is "
+                     "attached by who builds it: handler.attach(part))"]
     assert ("sync_write", "goal_position", {1: 1500}) in bus.item_writes()
 
 
 def test_add_id_asked_many_times_in_a_loop_pings_once_in_that_loop():
     bus, parts, step, _ = started("membership", servos={1: XM430, 2: XM430, 4: XM430})
+    parts.intake.attach(Asker(parts.core))
     for _ in range(5):
-        parts.intake.submit(WantHandled(4, True))
-        parts.intake.submit(WantHandled(4, False))
-    parts.intake.submit(WantHandled(4, True))
+        parts.intake.submit(Membership(4, True))
+        parts.intake.submit(Membership(4, False))
+    parts.intake.submit(Membership(4, True))
     step.step()
     assert bus.of("ping") == [("ping", 4)] and list(parts.table.ids) == [1, 2, 4]

@@ -1,15 +1,13 @@
 """A small in-process ``ServoAccess`` for unit tests of the command side: a real ``ServoTable``
-of given models, requests run at once and recorded, no bus. Values the table lacks read as None."""
+of given models, queued requests taken at once, the core's typed calls recorded, no bus. Values the table lacks read as None."""
 from __future__ import annotations
 
-import dataclasses
 import logging
-import re
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 from dynamixel_handler.control_table import OPERATING_MODES, Model, model_by_number, protocol1_model_by_number
 from dynamixel_handler.core.api import LoopFigures
-from dynamixel_handler.core.request_types import DONE, Answer, ChangeMode, SetGoals
+from dynamixel_handler.core.request_types import DONE, Answer
 from dynamixel_handler.core.state import recheck_loops
 from dynamixel_handler.servo.table import PendingWrites, ServoTable
 from dynamixel_handler.settings import Settings
@@ -35,7 +33,7 @@ class FakeAccess:
         self.goals: list[dict[str, dict[int, int]]] = []  # put_goals, in order
         self.pending = PendingWrites()  # what put_goals left for the next write
         self.calls: list[tuple[Any, ...]] = []  # every other request, in order: (snake_case type, fields but what)
-        self.routes: dict[type, Callable[[Any], Any]] = {}  # the command side's request types
+        self.routes: dict[type, Any] = {}  # the command side's request types -> the part attached for them
 
     # ------------------------------------------------------------ what is known
     def figures(self) -> LoopFigures:
@@ -61,29 +59,68 @@ class FakeAccess:
         return self.table.value(item, dxl_id)
 
     # ------------------------------------------------------------ requests
-    def register(self, kind: type, handler: Callable[[Any], Any]) -> None:
-        self.routes[kind] = handler
+    def attach(self, part: Any) -> None:
+        for kind in part.TAKES:
+            self.routes[kind] = part
 
     def submit(self, request: Any, what: str = "") -> None:
-        """A queued request: run at once by the handler registered for it (or asked of the core)."""
-        if type(request) in self.routes:
-            self.routes[type(request)](request)
-        else:
-            self.ask(request)
+        """A queued request: taken at once by the part attached for its type."""
+        self.routes[type(request)].handle(request)
 
-    def ask(self, request: Any) -> Answer:
-        """A core request: goals kept, a mode set; every request but goals recorded."""
-        if isinstance(request, SetGoals):
-            self.goals.append({item: dict(values) for item, values in request.writes.items()})
-            for item, values in request.writes.items():
-                self.pending.put(item, values)
-            return DONE
-        name = re.sub(r"(?<!^)(?=[A-Z])", "_", type(request).__name__).lower()
-        self.calls.append((name, *[getattr(request, f.name) for f in dataclasses.fields(request)
-                                   if f.name not in ("what", "why", "then")]))
-        if isinstance(request, ChangeMode):
-            self.table.set_value("operating_mode", request.dxl_id, OPERATING_MODES[request.mode])
+    @property
+    def core(self) -> FakeAccess:
+        """The core's typed calls: goals kept, a mode set; every call but goals recorded."""
+        return self
+
+    def _did(self, name: str, *args: Any) -> Answer:
+        self.calls.append((name, *args))
         return DONE
+
+    def set_goals(self, writes: Mapping[str, Mapping[int, int]], what: str = "goals") -> Answer:
+        self.goals.append({item: dict(values) for item, values in writes.items()})
+        for item, values in writes.items():
+            self.pending.put(item, values)
+        return DONE
+
+    def change_mode(self, dxl_id: int, mode: str, what: str = "mode") -> Answer:
+        self.table.set_value("operating_mode", dxl_id, OPERATING_MODES[mode])
+        return self._did("change_mode", dxl_id, mode)
+
+    def defer_mode_change(self, dxl_id: int, why: Any, then: object, what: str = "") -> Answer:
+        return self._did("defer_mode_change", dxl_id)
+
+    def cancel_deferred(self, dxl_id: int) -> Answer:
+        return self._did("cancel_deferred", dxl_id)
+
+    def clear_error(self, dxl_id: int, keep_rotation: bool, what: str = "") -> Answer:
+        return self._did("clear_error", dxl_id, keep_rotation)
+
+    def torque_on(self, dxl_id: int, what: str = "") -> Answer:
+        return self._did("torque_on", dxl_id)
+
+    def torque_off(self, dxl_id: int) -> Answer:
+        return self._did("torque_off", dxl_id)
+
+    def write_item(self, dxl_id: int, item: str, pulses: int, what: str = "") -> Answer:
+        return self._did("write_item", dxl_id, item, pulses)
+
+    def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> Answer:
+        return self._did("write_eeprom", dxl_id, item, pulses)
+
+    def reboot(self, dxl_id: int) -> Answer:
+        return self._did("reboot", dxl_id)
+
+    def add_servo(self, dxl_id: int) -> Answer:
+        return self._did("add_servo", dxl_id)
+
+    def remove_servo(self, dxl_id: int) -> Answer:
+        return self._did("remove_servo", dxl_id)
+
+    def want_handled(self, dxl_id: int, handled: bool) -> Answer:
+        return self._did("want_handled", dxl_id, handled)
+
+    def set_user_watchdog(self, dxl_id: int, pulses: int) -> Answer:
+        return self._did("set_user_watchdog", dxl_id, pulses)
 
     def read_item(self, dxl_id: int, item: str) -> int | None:
         return self.table.value(item, dxl_id)
@@ -104,3 +141,10 @@ def warnings_of(access: FakeAccess) -> list[str]:
     access.log.propagate = False
     access.log.addHandler(type("H", (logging.Handler,), {"emit": lambda self, r: lines.append(r.getMessage())})())
     return lines
+
+
+def attached(part: Any) -> Any:
+    """``part`` (a Commander, Book, JointGoals...) attached to its handler's intake, as the node
+    attaches the parts it builds: its queued requests are taken from now on."""
+    part.h.attach(part)
+    return part
