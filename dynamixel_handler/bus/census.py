@@ -15,6 +15,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Iterable
 
+from ..protocol.framers import FRAMERS
 from .api import ServoBus
 from .ops import Ping
 from .reads import BROADCAST_SCAN_MIN_IDS
@@ -73,7 +74,8 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
     ``protocol`` 1: Protocol 1.0 servos, which have no broadcast ping: pinged ID by ID."""
     wanted = sorted(set(ids))
     before = noise(bus)
-    broadcast = protocol == 2 and (len(wanted) >= BROADCAST_SCAN_MIN_IDS if broadcast is None else broadcast)
+    broadcast = FRAMERS[protocol].broadcast_ping and (len(wanted) >= BROADCAST_SCAN_MIN_IDS if broadcast is None
+                                                      else broadcast)
     answered = _answered(bus, wanted, broadcast, protocol)
     out = Census()
     garbled = noise(bus) != before
@@ -92,9 +94,10 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
 
 
 def _answered(bus: ServoBus, wanted: list[int], broadcast: bool, protocol: int) -> dict[int, int]:
-    """{ID: model number} of the first pings: a Protocol 2.0 scan, or a Protocol 1.0 ping per ID."""
-    if protocol == 1:
-        return {i: n for i in wanted if (n := _ping(bus, i, 0.0, 1)) is not None}
+    """{ID: model number} of the first pings: the bus's scan, or a ping per ID in a protocol without a
+    broadcast ping (1.0)."""
+    if not FRAMERS[protocol].broadcast_ping:
+        return {i: n for i in wanted if (n := _ping(bus, i, 0.0, protocol)) is not None}
     return bus.scan(wanted, broadcast)
 
 

@@ -75,15 +75,15 @@ class Instructions:
         return self.send(framer.REBOOT, "reboot", dxl_id, b"", retries=0, framer=framer)
 
     def clear_multi_turn(self, dxl_id: int, framer: Framer = PROTOCOL2) -> Result[bool]:
-        if framer.version != 2:
+        if framer.CLEAR is None:
             return _not_in(framer, "clear multi-turn", dxl_id)
-        return self.send(p.CLEAR, "clear multi-turn", dxl_id, b"\x01\x44\x58\x4c\x22")
+        return self.send(framer.CLEAR, "clear multi-turn", dxl_id, b"\x01\x44\x58\x4c\x22", framer=framer)
 
     def clear_error(self, dxl_id: int, params: bytes, framer: Framer = PROTOCOL2) -> Result[bool]:
         """The error clear of a servo that has one (Y: Clear with P1 0x02 and its key)."""
-        if framer.version != 2:
+        if framer.CLEAR is None:
             return _not_in(framer, "error clear", dxl_id)
-        return self.send(p.CLEAR, "error clear", dxl_id, bytes(params))
+        return self.send(framer.CLEAR, "error clear", dxl_id, bytes(params), framer=framer)
 
     def factory_reset(self, dxl_id: int, option: int = 0x02, framer: Framer = PROTOCOL2) -> Result[bool]:
         """Protocol 2.0: ``option`` says what is kept; Protocol 1.0's reset has no option (it resets all)."""
@@ -92,4 +92,4 @@ class Instructions:
 
 
 def _not_in(framer: Framer, what: str, dxl_id: int) -> Result[bool]:
-    return Result(False, Failure.NOT_IN_PROTOCOL, f"{what} ID {dxl_id}: no such instruction in Protocol {framer.version}.0")
+    return Result(False, Failure.NOT_IN_PROTOCOL, f"{what} ID {dxl_id}: no such instruction in {framer.name}")

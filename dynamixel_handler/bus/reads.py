@@ -8,7 +8,6 @@ from typing import Iterable, Mapping
 import serial
 
 from ..protocol import host as p
-from ..protocol import protocol1 as p1
 from ..protocol.framers import FRAMERS, PROTOCOL2, Framer
 from .group_read import GroupRead, check_id, unique_ids
 from .result import Failure, Result
@@ -45,10 +44,11 @@ class Reads:
             status = t.unicast(dxl_id, framer.PING, b"", framer.ping_params(), retries, framer)
             if status is None or status.refused:
                 return tx.failed(None, f"ping ID {dxl_id}", status, framer)
-            if framer.version == 2:
+            identity = framer.identity(status.params)
+            if identity is not None:
                 tx.ok(1, 1)
-                self.firmware_versions[dxl_id] = status.params[2]
-                return Result(status.params[0] | (status.params[1] << 8))
+                number, self.firmware_versions[dxl_id] = identity
+                return Result(number)
             status = t.unicast(dxl_id, framer.READ, framer.read_params(0, 2), 2, retries, framer)
             if status is None or status.refused:
                 return Result(None, Failure.ANSWERS_PING_ONLY, tx.fail(
@@ -63,8 +63,9 @@ class Reads:
         replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
         bus; any other transaction first waits for this read to end, so none is ever lost.
         """
-        if protocol != 2:
-            return self._read_protocol1(address, length, ids, fast, FRAMERS[protocol])
+        framer = FRAMERS[protocol]
+        if not framer.sync_read:
+            return self._read_without_sync_read(address, length, ids, fast, framer)
         given = ids if isinstance(ids, tuple) else tuple(ids)
         # plain ints only as a key: 1.0 or True would find the entry of 1 and skip the ID check
         key = (address, length, given, fast) if set(map(type, given)) == _INT_ONLY else None
@@ -84,9 +85,10 @@ class Reads:
         return self._t.start_group_read(packet, list(expected), fast,
                                         f"{'fast ' if fast else ''}sync read @{address}x{length}")
 
-    def _read_protocol1(self, address: int, length: int, ids: Iterable[int], bulk: bool, framer: Framer) -> GroupRead:
-        """A group read of Protocol 1.0 servos: one Bulk Read (``bulk``: MX and EX take it), or
-        one read each (no Sync Read in Protocol 1.0)."""
+    def _read_without_sync_read(self, address: int, length: int, ids: Iterable[int], bulk: bool,
+                                framer: Framer) -> GroupRead:
+        """A group read in a protocol without Sync Read (1.0): one Bulk Read (``bulk``: MX and EX
+        take it), or one read each."""
         if bulk:
             return self.bulk_read({i: (address, length) for i in unique_ids(ids)}, framer=framer)
         return self._read_each(address, length, ids, framer)
@@ -119,16 +121,8 @@ class Reads:
         order = list(requests)
         if not order:
             return GroupRead.finished({})
-        if framer.version == 1:
-            params = p1.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
-            packet = framer.instruction(framer.broadcast_id, p1.BULK_READ, params)
-            return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], False,
-                                            "bulk read (Protocol 1.0)", framer)
-        instruction = p.FAST_BULK_READ if fast else p.BULK_READ
-        params = p.bulk_read_params((i, requests[i][0], requests[i][1]) for i in order)
-        packet = p.build_instruction(p.BROADCAST_ID, instruction, params)
-        return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], fast,
-                                        f"{'fast ' if fast else ''}bulk read")
+        packet, fast, what = framer.bulk_read([(i, requests[i][0], requests[i][1]) for i in order], fast)
+        return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], fast, what, framer)
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         """``{id: model_number}`` of the servos among ``ids`` that answer a ping.

@@ -59,7 +59,7 @@ def _taken(read: GroupRead, replies: dict[int, Any]) -> dict[int, bytes]:
     """The data of the replies that are answers (not refusals); Protocol 1.0: their error bytes
     kept on the read (the servo's state is in each status's error byte)."""
     answered = {i: s for i, s in replies.items() if not s.refused}
-    if read.framer.version == 1:
+    if read.framer.state_in_error_byte:
         read.errors = {i: s.error for i, s in answered.items()}
     return {i: s.params for i, s in answered.items()}
 

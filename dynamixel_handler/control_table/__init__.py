@@ -384,8 +384,10 @@ def protocol1_model_by_number(number: int) -> Model:
         raise KeyError(f"unknown Protocol 1.0 Dynamixel model number {number}") from None
 
 
-def model_by_number(number: int) -> Model:
-    """The model whose Model Number register reads ``number``; KeyError if we do not know it."""
+def model_by_number(number: int, protocol: int = 2) -> Model:
+    """The model whose Model Number register reads ``number`` in ``protocol``; KeyError if unknown."""
+    if protocol == 1:
+        return protocol1_model_by_number(number)
     try:
         return _registry()[int(number)]
     except KeyError:

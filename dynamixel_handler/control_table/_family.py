@@ -95,6 +95,16 @@ class ServoFamily:
         field's own goal item)."""
         return self.move_speed_field == "velocity_deg_s"
 
+    @property
+    def protocol_note(self) -> str:
+        """What a line about one of its servos adds to name the protocol ("": 2.0, the usual one)."""
+        return ", Protocol 1.0" if self.protocol == 1 else ""
+
+    def reads_fast(self, fast_read: bool) -> bool:
+        """Whether its servos are read with the faster group read: Fast Sync Read (Protocol 2.0,
+        ``method/fast_read``), Bulk Read (Protocol 1.0: where the model takes it, MX and EX)."""
+        return fast_read if self.protocol == 2 else self.bulk_read
+
     def speed_item(self, has_profile_velocity: bool) -> str:
         """The item the speed of a move in position modes goes to, on a model with or without
         Profile Velocity."""

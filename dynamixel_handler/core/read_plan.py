@@ -133,8 +133,7 @@ class ReadPlan:
             protocol = model.protocol
             # the faster group read where the servo takes it: Fast Sync Read (2.0, method/fast_read),
             # Bulk Read (1.0: MX and EX; the others are read one by one)
-            fast = ((fast_read if protocol == 2 else model.family.bulk_read)
-                    and self.table.ids[pos] not in self.plain_read)
+            fast = model.family.reads_fast(fast_read) and self.table.ids[pos] not in self.plain_read
             if sig:
                 layouts.setdefault((protocol, fast, tuple(sorted(sig, key=lambda s: s[1]))), []).append(pos)
         plan = []

@@ -8,7 +8,7 @@ from typing import Callable, Sequence
 from ..bus import ServoBus
 from ..bus.census import census
 from ..bus.ops import Ping
-from ..control_table import Model, family_named, model_by_number, protocol1_model_by_number
+from ..control_table import Model, family_named, model_by_number
 from ..errors import Interrupted, StartupError
 from ..settings import ScanSettings
 from .servo_io import Log
@@ -47,7 +47,7 @@ def lookup(seen: Seen) -> Model | None:
     """The model of a servo that answered in ``seen``'s protocol with its model number (None: unknown)."""
     protocol, number = seen
     try:
-        return protocol1_model_by_number(number) if protocol == 1 else model_by_number(number)
+        return model_by_number(number, protocol)
     except KeyError:
         return None
 

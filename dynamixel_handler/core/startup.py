@@ -78,7 +78,7 @@ class Startup:
             self.table.add(dxl_id, model)
             kind = "dummy" if dxl_id in dummies else f"model {seen[1]}"
             self.log.info(f"ID {dxl_id}: {model.name} ({kind}, series {model.series}"
-                          f"{', Protocol 1.0' if model.protocol == 1 else ''}) handled")
+                          f"{model.family.protocol_note}) handled")
         if not len(self.table) and found and not self.settings.debug:
             none_handled(found, used)
 

@@ -31,7 +31,16 @@ class Framer(Protocol):
 
     #: 1 or 2
     version: int
+    #: "Protocol 2.0", "Protocol 1.0": how lines name it
+    name: str
     broadcast_id: int
+    #: a broadcast ping answered by every servo in turn (else: one ping per ID)
+    broadcast_ping: bool
+    #: a Sync Read instruction (else: a Bulk Read where the model takes it, or one read each)
+    sync_read: bool
+    #: each status's error byte carries the servo's state of the moment (overload, heat, ...),
+    #: kept with the replies of a group read
+    state_in_error_byte: bool
     #: bytes of a status packet without parameters
     status_overhead: int
     #: instruction codes
@@ -43,6 +52,8 @@ class Framer(Protocol):
     REBOOT: int
     FACTORY_RESET: int
     SYNC_WRITE: int
+    #: the Clear instruction (multi-turn, error clear); None: the protocol has none
+    CLEAR: int | None
 
     def instruction(self, dxl_id: int, instruction: int, params: bytes = b"") -> bytes: ...
     def statuses(self) -> StatusReader: ...
@@ -53,6 +64,8 @@ class Framer(Protocol):
     def factory_reset_params(self, option: int) -> bytes: ...
     def ping_params(self) -> int: ...
     def corrupted(self, error: int) -> bool: ...
+    def identity(self, params: bytes) -> tuple[int, int] | None: ...
+    def bulk_read(self, requests: list[tuple[int, int, int]], fast: bool) -> tuple[bytes, bool, str]: ...
 
 
 class Protocol2:
@@ -60,10 +73,15 @@ class Protocol2:
     the model number and firmware (3 parameters)."""
 
     version = 2
+    name = "Protocol 2.0"
     broadcast_id = p2.BROADCAST_ID
+    broadcast_ping = True
+    sync_read = True
+    state_in_error_byte = False
     status_overhead = p2.STATUS_OVERHEAD
     PING, READ, WRITE, REG_WRITE, ACTION = p2.PING, p2.READ, p2.WRITE, p2.REG_WRITE, p2.ACTION
     REBOOT, FACTORY_RESET, SYNC_WRITE = p2.REBOOT, p2.FACTORY_RESET, p2.SYNC_WRITE
+    CLEAR: int | None = p2.CLEAR
 
     @staticmethod
     def instruction(dxl_id: int, instruction: int, params: bytes = b"") -> bytes:
@@ -102,16 +120,33 @@ class Protocol2:
         """The servo got the packet corrupted (CRC error): sending it again may help."""
         return (error & 0x7F) == p2.ERR_CRC
 
+    @staticmethod
+    def identity(params: bytes) -> tuple[int, int] | None:
+        """A ping status's model number and firmware version."""
+        return params[0] | (params[1] << 8), params[2]
+
+    @staticmethod
+    def bulk_read(requests: list[tuple[int, int, int]], fast: bool) -> tuple[bytes, bool, str]:
+        """The (Fast) Bulk Read of (ID, address, size) each: packet, whether fast, its name."""
+        instruction = p2.FAST_BULK_READ if fast else p2.BULK_READ
+        packet = p2.build_instruction(p2.BROADCAST_ID, instruction, p2.bulk_read_params(requests))
+        return packet, fast, f"{'fast ' if fast else ''}bulk read"
+
 
 class Protocol1:
     """Protocol 1.0: one-byte addresses and lengths, a checksum, no stuffing; a ping's status has
     no parameters (the model number is read at address 0); the reset takes no option."""
 
     version = 1
+    name = "Protocol 1.0"
     broadcast_id = p1.BROADCAST_ID
+    broadcast_ping = False
+    sync_read = False
+    state_in_error_byte = True
     status_overhead = p1.STATUS_OVERHEAD
     PING, READ, WRITE, REG_WRITE, ACTION = p1.PING, p1.READ, p1.WRITE, p1.REG_WRITE, p1.ACTION
     REBOOT, FACTORY_RESET, SYNC_WRITE = p1.REBOOT, p1.RESET, p1.SYNC_WRITE
+    CLEAR: int | None = None
 
     @staticmethod
     def instruction(dxl_id: int, instruction: int, params: bytes = b"") -> bytes:
@@ -149,6 +184,18 @@ class Protocol1:
     def corrupted(error: int) -> bool:
         """The servo got the packet corrupted (checksum error): sending it again may help."""
         return bool(error & p1.ERR_CHECKSUM)
+
+    @staticmethod
+    def identity(params: bytes) -> tuple[int, int] | None:
+        """None: a ping status has no parameters (the model number is read at address 0)."""
+        return None
+
+    @staticmethod
+    def bulk_read(requests: list[tuple[int, int, int]], fast: bool) -> tuple[bytes, bool, str]:
+        """The Bulk Read of (ID, address, size) each (MX, EX); no fast form: each servo answers
+        with a status of its own, after the one listed before it."""
+        packet = p1.build_instruction(p1.BROADCAST_ID, p1.BULK_READ, p1.bulk_read_params(requests))
+        return packet, False, "bulk read (Protocol 1.0)"
 
 
 PROTOCOL1, PROTOCOL2 = Protocol1(), Protocol2()

@@ -15,6 +15,7 @@ import os
 import select
 import threading
 import time
+from typing import Any, Callable
 
 from ..protocol import servo as p
 from .collision import DEFAULT_SKEW_BYTES, overlap, status_id_1, status_id_2
@@ -146,28 +147,29 @@ class WireServer:
         timed = self.wire_timing or self.baudrate is not None
         line = self.port.host_baudrate() if (self.check_baudrate or timed) else None
         for packet in self._parser.feed(data):
-            self._transact(packet, arrival, line)
+            self._transact(packet, arrival, line, self._instructions, status_id_2)
         self._stats["crc_errors"] = self._parser.crc_errors
         if self._instructions1 is not None:
             for packet in self._parser1.feed(data):
-                self._transact(packet, arrival, line, protocol=1)
+                self._transact(packet, arrival, line, self._instructions1, status_id_1)
 
     def _reset_parsers(self) -> None:
         self._parser.reset()
         self._parser1.reset()
 
-    def _transact(self, packet: p.Packet, arrival: float, line_bps: int | None = None,
-                  protocol: int = 2) -> None:
+    def _transact(self, packet: Any, arrival: float, line_bps: int | None,
+                  instructions: InstructionSet | Protocol1Instructions,
+                  status_id: Callable[[bytes], int | None]) -> None:
+        """One instruction packet carried out by ``instructions`` (its protocol's engine); the
+        replies overlapped where servos share an ID (``status_id`` reads a reply's ID)."""
         with self._lock:
-            instructions = self._instructions if protocol == 2 else self._instructions1
-            assert instructions is not None
             instructions.line_bps = line_bps if self.check_baudrate else None
             try:
                 replies = instructions.execute(packet)
             finally:
                 instructions.line_bps = None
             replies = overlap(replies, self.baudrate or line_bps or FACTORY_BAUDRATE,
-                              status_id_2 if protocol == 2 else status_id_1, self.collision_skew_bytes)
+                              status_id, self.collision_skew_bytes)
             out = self._faults.apply(replies)
         bps = self.baudrate or (line_bps or FACTORY_BAUDRATE if self.wire_timing else None)
         if bps:
