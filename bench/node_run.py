@@ -218,8 +218,10 @@ def command_latencies(sent: list[tuple[float, int]], writes: list[tuple[float, i
 
 
 def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: float, loop_rate: int,
-                 fast_read: bool, window_s: float, warmup_s: float = 0.4, start_timeout_s: float = 40.0) -> NodeResult:
-    """Start the node on ``sim``, let it settle, measure for ``window_s``, stop it."""
+                 fast_read: bool, window_s: float, warmup_s: float = 0.4, start_timeout_s: float = 40.0,
+                 tree: Path = ROOT) -> NodeResult:
+    """Start the node on ``sim``, let it settle, measure for ``window_s``, stop it. ``tree``: the
+    source tree whose ``dynamixel_handler`` package the node runs (another revision for an A/B)."""
     result = NodeResult()
     ids = list(range(1, n + 1))
     latency_timer = max(1, int(round(latency_s * 1000)))
@@ -233,7 +235,7 @@ def measure_node(sim, controller: Controller, n: int, baudrate: int, latency_s: 
     lines: list[str] = []
     started = time.monotonic()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-                            cwd=str(ROOT), preexec_fn=_die_with_parent)
+                            cwd=str(tree), preexec_fn=_die_with_parent)
     reader = threading.Thread(target=lambda: lines.extend(line.rstrip() for line in proc.stdout), daemon=True)
     reader.start()
     try:
