@@ -14,7 +14,7 @@ from typing import Any, Callable, Mapping
 from .config_checks import DUMMY_SERIES, USED_FAMILIES, check_values
 from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
-from .joints import JointMap, joint_map
+from .joints import JointMap, is_joint_parameter, joint_map, merged
 from .servo.settings import servo_block
 from .settings import (
     GROUP_RATIOS,
@@ -303,14 +303,22 @@ def settings_of(values: Mapping[str, Any]) -> Settings:
                                       goal_tolerance_deg=float(v["trajectory.goal_tolerance_deg"]),
                                       goal_time_s=float(v["trajectory.goal_time_sec"])),
         ros=RosSettings(command_line=not v["no_use_command_line"], diagnostics_period_s=float(v["diagnostics.period_sec"]),
-                        joint_state_use=v["joint_state.use"], joints=_joints(v), snapshot_path=v["servos_snapshot.path"]),
+                        joint_state_use=_joint_state_use(v), joints=_joints(v),
+                        snapshot_path=v["servos_snapshot.path"]),
         servos=servo_block(v, _joints(v)))
 
 
+def _joint_state_use(v: Mapping[str, Any]) -> bool:
+    """joint_states and the joint doors: ``joint_state.use``, or a joints block given."""
+    return bool(v["joint_state.use"]) or any(map(is_joint_parameter, v))
+
+
 def _joints(v: Mapping[str, Any]) -> JointMap | None:
-    """The joint_state.* mapping (ConfigError naming the parameter at fault)."""
-    return joint_map(v["joint_state.use"], v["joint_state.names"], v["joint_state.ids"], v["joint_state.directions"],
-                     v["joint_state.offsets_deg"])
+    """The joint_state.* mapping and the joints block's (ConfigError naming the parameter at fault)."""
+    block = any(is_joint_parameter(name) for name in v)
+    simple = joint_map(v["joint_state.use"] and not block, v["joint_state.names"], v["joint_state.ids"],
+                       v["joint_state.directions"], v["joint_state.offsets_deg"])
+    return merged(simple, v)
 
 
 def validate(values: Mapping[str, Any]) -> Config:

@@ -92,7 +92,27 @@ def render(schema: Iterable | None = None) -> str:
         out += [f"| `{p.name}` | {p.type} | `{format_value(p.default)}` | {_cell(p.description)} |" for p in params]
         out.append("")
     out += render_servos()
+    out += render_joints()
     return "\n".join(out).rstrip("\n") + "\n"
+
+
+#: the heading and the text before the table of the joints block's keys (``joints.block.KEYS``)
+JOINTS_TITLE = "### Joints (`joints.<joint>.<key>`)"
+JOINTS_TEXT = (
+    "One entry per joint of the robot, named as in its URDF; `limits` may be given as a map "
+    "(`limits: {position: [-1.5, 1.5]}`) or dotted (`-p joints.shoulder.limits.position:=[-1.5, 1.5]`). "
+    "A joint driven by two servos (`ids`) or coupled servos (`coupled`) is not handled yet (refused). "
+    "See [robot_integration.md](robot_integration.md#the-joints-block-joints-as-the-urdf-has-them) for what each does.")
+
+
+def render_joints() -> list[str]:
+    """The keys a joints block entry may hold (``joints.block.KEYS``)."""
+    sys.path.insert(0, str(ROOT))
+    from dynamixel_handler.joints.block import KEYS
+    out = [JOINTS_TITLE, "", JOINTS_TEXT, "", "| key | type | default | joints | meaning |", "|---|---|---|---|---|"]
+    out += [f"| `joints.<joint>.{name}` | {kind} | {default} | {which} | {_cell(meaning)} |"
+            for name, (kind, default, which, meaning) in KEYS.items()]
+    return out + [""]
 
 
 def render_servos() -> list[str]:

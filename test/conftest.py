@@ -64,7 +64,7 @@ SLOW_MODULES = frozenset({
     "test_servo_block_checks", "test_snapshot_service", "test_snapshot_paths", "test_fast_paths_publish",
     "test_fast_paths_commands", "test_commands_topics", "test_commands_bad_input", "test_commands_status",
     "test_core_faults", "test_joint_commands", "test_core_ratios", "test_services_load", "test_params_file_limits",
-    "test_e_stop", "test_e_stop_rigs", "test_reboot_service", "test_manifest",
+    "test_e_stop", "test_e_stop_rigs", "test_reboot_service", "test_manifest", "test_joints_node",
 })
 #: ROS-free modules outside test/sim that drive the bus layer or the virtual bus
 SIM_MODULES = frozenset({"test_bus_sim", "test_bus_wire", "test_bus_protocol"})

@@ -27,7 +27,8 @@ def test_parameter_tables_match_the_schema():
 
 def test_every_parameter_has_exactly_one_row_with_its_default():
     gen = _generator()
-    rows = [line for line in gen.render().splitlines() if line.startswith("| `") and not line.startswith("| `servos.")]
+    rows = [line for line in gen.render().splitlines()
+            if line.startswith("| `") and not line.startswith(("| `servos.", "| `joints."))]
     names = [re.match(r"\| `([^`]+)`", row).group(1) for row in rows]
     assert names.count("device_name") == 1
     assert sorted(names) == sorted(p.name for p in SCHEMA)
@@ -40,6 +41,12 @@ def test_every_item_of_the_servos_block_has_one_row():
     from dynamixel_handler.servo.settings import FIELDS
     rows = [line for line in _generator().render().splitlines() if line.startswith("| `servos.<servo>.")]
     assert [re.match(r"\| `servos.<servo>.([^`]+)`", row).group(1) for row in rows] == list(FIELDS)
+
+
+def test_every_key_of_the_joints_block_has_one_row():
+    from dynamixel_handler.joints.block import KEYS
+    rows = [line for line in _generator().render().splitlines() if line.startswith("| `joints.<joint>.")]
+    assert [re.match(r"\| `joints.<joint>.([^`]+)`", row).group(1) for row in rows] == list(KEYS)
 
 
 def test_the_range_rules_name_what_the_node_accepts():

@@ -15,7 +15,10 @@ effort                  current control
 ======================  ==============================================================
 
 (a velocity given with a position is not a goal of its own: the position governs.) The servo
-angle follows ``joint_state.*``: ``servo deg = direction x joint deg + offset_deg``. Everything
+angle follows the joint's map (``joints.Joint``: ``joint_state.*`` or the ``joints`` block, with
+its reduction, offset, direction, or a prismatic joint's stroke in metres); a position beyond the
+joint's soft limits is clamped (one line a second per joint), a velocity or effort beyond its
+limit is cut to it. Everything
 then goes through ``Commander.control`` / ``Commander.goal``: known IDs, series and modes, NaN
 refused, limits clamped, mode changes rate-limited, one warning line per cause.
 """
@@ -28,7 +31,7 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..joints import JointMap
+from ..joints import Joint, JointMap
 from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
 from .goal_bounds import goal_position_limits
@@ -105,15 +108,15 @@ class JointGoals:
         batches: _Batches = {}
         unhandled = []
         for k, name in enumerate(names):
-            j = m.names.index(name)
-            dxl_id = m.ids[j]
+            joint = m.joint(name)
+            dxl_id = joint.dxl_id
             if dxl_id not in table:
                 unhandled.append(name)
                 continue
-            pos = position[k] if position else None
+            pos = self._within(what, joint, position[k]) if position else None
             vel = velocity[k] if velocity else None
             eff = effort[k] if effort else None
-            control, fields = self._servo_goal(j, dxl_id, pos, vel, eff)
+            control, fields = self._servo_goal(joint, pos, vel, eff)
             series = table.model(dxl_id).family if control != "goal" else None
             ids, cols = batches.setdefault((series, control), ([], {}))
             ids.append(dxl_id)
@@ -123,22 +126,34 @@ class JointGoals:
             self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
         self._send(what, batches)
 
-    def _servo_goal(self, j: int, dxl_id: int, pos: float | None, vel: float | None,
+    def _within(self, what: str, joint: Joint, position: float) -> float:
+        """A position goal inside the joint's soft limits (clamped, one line a second per joint)."""
+        clamped = joint.clamped(float(position))
+        if clamped != position and math.isfinite(position):
+            lo, hi = joint.position_limits
+            self.commander.warn(f"{what}: joint {joint.name} goal beyond its limits [{lo:g}, {hi:g}] "
+                                f"(joints.{joint.name}.limits.position): clamped")
+        return clamped
+
+    def _servo_goal(self, joint: Joint, pos: float | None, vel: float | None,
                     eff: float | None) -> tuple[str, dict[str, float]]:
-        """The control of joint ``j`` (servo ``dxl_id``) and its fields in servo units, from the
-        joint's position, velocity and effort (None: not given) as the table of the module says."""
-        m = self.mapping
-        sign = m.directions[j]
+        """The control of ``joint``'s servo and its fields in servo units, from the joint's
+        position, velocity and effort (None: not given) as the table of the module says; velocity
+        and effort within the joint's limits."""
+        sign = joint.direction
+        if eff is not None and abs(float(eff)) > joint.effort_limit:
+            eff = math.copysign(joint.effort_limit, float(eff))
         if pos is not None:
-            fields = {"position_deg": float(pos) * RAD * sign + m.offsets_deg[j]}
+            fields = {"position_deg": joint.to_servo_deg(float(pos))}
             if eff is not None:
                 fields["current_ma"] = abs(float(eff)) * 1000.0
                 return "current_base_position_control", fields
-            if self.h.mode(dxl_id) in KEPT_POSITION_MODES:
+            if self.h.mode(joint.dxl_id) in KEPT_POSITION_MODES:
                 return "goal", fields
             return "position_control", fields
         if vel is not None:
-            return "velocity_control", {"velocity_deg_s": float(vel) * RAD * sign}
+            vel = max(-joint.velocity_limit, min(joint.velocity_limit, float(vel)))
+            return "velocity_control", {"velocity_deg_s": float(vel) / joint.scale}
         # check() takes no command without a field, so effort is given here
         return "current_control", {"current_ma": float(cast(float, eff)) * 1000.0 * sign}
 
@@ -171,19 +186,18 @@ class JointGoals:
         pos_deg, vel_deg = table.units("present_position"), table.units("present_velocity")
         pos, vel = [], []
         for name in names:
-            j = self.mapping.names.index(name)
-            p = table.index.get(self.mapping.ids[j])
+            joint = self.mapping.joint(name)
+            p = table.index.get(joint.dxl_id)
             if p is None:
                 pos.append(math.nan)
                 vel.append(math.nan)
                 continue
-            sign, offset = self.mapping.directions[j], self.mapping.offsets_deg[j]
-            pos.append(sign * (float(pos_deg[p]) - offset) / RAD)
-            vel.append(sign * float(vel_deg[p]) / RAD)
+            pos.append(joint.to_joint(float(pos_deg[p])))
+            vel.append(joint.scale * float(vel_deg[p]))
         return pos, vel
 
     def position_bounds(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
-        """The joint positions [rad] a position command may reach, per joint (lowest, highest): the
+        """The joint positions a position command may reach, per joint (lowest, highest): the
         goal position bounds of its servo in the mode a position command leaves it in (its position
         limits in position mode; the multi-turn range in extended and current-based position mode),
         half a pulse wider each way. From the servo table as last read (no bus access: any thread);
@@ -191,8 +205,8 @@ class JointGoals:
         lo, hi = np.full(len(names), -math.inf), np.full(len(names), math.inf)
         table = self.h.table
         for k, name in enumerate(names):
-            j = self.mapping.names.index(name)
-            dxl_id = self.mapping.ids[j]
+            joint = self.mapping.joint(name)
+            dxl_id = joint.dxl_id
             if dxl_id not in table:
                 continue
             model = table.model(dxl_id)
@@ -202,8 +216,7 @@ class JointGoals:
             pulses = goal_position_limits(cast("ServoAccess", view), dxl_id, model)
             deg = units.pulse_to_unit([model, model], "goal_position", list(pulses))
             half = 0.5 * model.position_deg_per_pulse
-            sign, offset = self.mapping.directions[j], self.mapping.offsets_deg[j]
-            ends = sorted(sign * (float(d) - offset) / RAD for d in (deg[0] - half, deg[1] + half))
+            ends = sorted(joint.to_joint(float(d)) for d in (deg[0] - half, deg[1] + half))
             lo[k], hi[k] = ends
         return lo, hi
 

@@ -12,7 +12,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Sequence
 
-from ..joints import JointMap, resolve_targets
+from ..joints import DEG, JointMap, resolve_targets
 from ..logs import ECHO_MAX
 
 DEFAULT_TOLERANCE_DEG = 1.0
@@ -51,6 +51,7 @@ def targets_of(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str
         targets = resolve_targets(mapping, list(ids), list(names))
     except ValueError as err:
         raise MoveError(str(err)) from None
+    _no_prismatic(mapping, targets)
     counts = Counter(name if name is not None else i for i, name in targets)
     twice = [(k, n) for k, n in counts.items() if n > 1]
     if twice:
@@ -60,6 +61,33 @@ def targets_of(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str
     if given > handled:
         raise MoveError(f"{given} servo{'s' if given != 1 else ''} named, {handled} handled")
     return targets
+
+
+def _no_prismatic(mapping: JointMap | None, targets: Targets) -> None:
+    """MoveError for a prismatic joint: the moves speak degrees."""
+    prismatic = [name for _, name in targets if name is not None and mapping is not None and mapping.joint(name).prismatic]
+    if prismatic:
+        raise MoveError(f"joint {prismatic[0]} is prismatic: move_to and move_joints speak degrees; command it in "
+                        "metres on joint_commands or follow_joint_trajectory")
+
+
+def servo_goals(mapping: JointMap | None, targets: Targets, positions: Sequence[float]) -> tuple[list[float], list[str]]:
+    """The servo angles [deg] of a move's positions (request frame: a servo's angle, or a revolute
+    joint's angle [deg] through its map), joints within their soft limits; a note for each joint
+    clamped."""
+    out, notes = [], []
+    for (_, name), position in zip(targets, positions):
+        if name is None or mapping is None:
+            out.append(position)
+            continue
+        joint = mapping.joint(name)
+        goal = joint.clamped(position * DEG) / DEG
+        if goal != position:
+            lo, hi = (v / DEG for v in joint.position_limits)
+            notes.append(f"joint {name}: {position:g} deg is beyond its limits [{lo:.6g}, {hi:.6g}] deg "
+                         f"(joints.{name}.limits.position): moved to {goal:.6g} deg")
+        out.append(joint.to_servo_deg(goal * DEG))
+    return out, notes
 
 
 def checked_positions(targets: Targets, positions_deg: Sequence[float], velocity_deg_s: float) -> list[float]:

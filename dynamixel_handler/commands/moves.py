@@ -46,6 +46,7 @@ from .move_checks import (
     Targets,
     Watch,
     listed,
+    servo_goals,
     with_notes,
 )
 from .move_io import MoveIO
@@ -384,12 +385,11 @@ def _feedback_waits(jobs: list[Job]) -> bool:
 def new_move(book: Book, targets: Targets, positions: list[float], velocity: float, tolerance_deg: float,
              timeout_s: float, wait: bool, feedback: bool = False) -> MoveJob:
     """A move job for checked ``positions`` (request frame), its times set from now."""
-    mapping = book.mapping
-    servo_deg = [mapping.to_servo_deg(name, p) if name is not None and mapping is not None else p
-                 for (_, name), p in zip(targets, positions)]
+    servo_deg, notes = servo_goals(book.mapping, targets, positions)
     now = time.monotonic()
     timeout = timeout_s if timeout_s > 0 and math.isfinite(timeout_s) else DEFAULT_TIMEOUT_S
-    move = Move(targets, servo_deg, tolerance_deg if tolerance_deg > 0 else DEFAULT_TOLERANCE_DEG, now + timeout)
+    move = Move(targets, servo_deg, tolerance_deg if tolerance_deg > 0 else DEFAULT_TOLERANCE_DEG, now + timeout,
+                notes=notes)
     grace_until = now + book.grace_s
     # answered by then at the latest: the deadline (with wait) plus a few loops, else the loop's time
     slack = max(3 * book.period_s, 0.3)

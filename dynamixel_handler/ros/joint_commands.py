@@ -146,13 +146,21 @@ class JointCommands:
         return Job(what, names, points, tol, start_wall)
 
     def _check_bounds(self, names: list[str], points: Points) -> None:
-        """TrajectoryRefused naming the first point and joint outside its servo's position limits."""
+        """TrajectoryRefused naming the first point and joint outside the joint's soft limits
+        (``joints.<name>.limits.position``) or its servo's position limits."""
+        soft = np.array([self.mapping.joint(n).position_limits for n in names], dtype=np.float64).reshape(-1, 2)
+        beyond = (points.positions < soft[:, 0]) | (points.positions > soft[:, 1])
+        if beyond.any():
+            k, j = (int(i) for i in np.argwhere(beyond)[0])
+            raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} is beyond "
+                                              f"its limits [{soft[j, 0]:g}, {soft[j, 1]:g}] "
+                                              f"(joints.{names[j]}.limits.position)")
         lo, hi = self.goals.position_bounds(names)
         outside = (points.positions < lo) | (points.positions > hi)
         if outside.any():
             k, j = (int(i) for i in np.argwhere(outside)[0])
-            raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} rad is "
-                                              f"beyond its servo's position limits ({lo[j]:.4f} .. {hi[j]:.4f} rad, "
+            raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} is "
+                                              f"beyond its servo's position limits ({lo[j]:.4f} .. {hi[j]:.4f}, "
                                               f"ID {self.mapping.id_of(names[j])})")
 
     def _check_joints(self, names: list[str]) -> None:

@@ -33,6 +33,7 @@ from ..config import (
     coerce,
     validate,
 )
+from ..joints import is_joint_parameter
 from ..logs import ECHO_MAX, cut, cut_path
 from ..servo.settings import is_servo_parameter
 from .params_file import Totals, read_problem
@@ -58,7 +59,7 @@ def declare_and_load(node: Node) -> Config:
         node.undeclare_parameter(name)
         for target in ALIASES[name]:
             given.setdefault(target, value)
-    block = {name: given.pop(name) for name in sorted(given) if is_servo_parameter(name)}  # servos.<name>.<item>
+    block = _blocks(given)
     _report_unknown(node, given)
     values: dict[str, Any] = {}
     for param in SCHEMA:
@@ -74,8 +75,15 @@ def declare_and_load(node: Node) -> Config:
         node.declare_parameter(param.name, list(value) if isinstance(value, list) else value,
                                descriptor, ignore_override=True)
     config = validate({**values, **block})
-    declare_servo_block(node, block, config.settings.servos)
+    declare_servo_block(node, {k: v for k, v in block.items() if is_servo_parameter(k)}, config.settings.servos)
     return config
+
+
+def _blocks(given: dict[str, Any]) -> dict[str, Any]:
+    """The servos block (``servos.<name>.<item>``) and the joints block (``joints.<name>.<key>``),
+    taken out of ``given``: names of their own, not in ``SCHEMA``."""
+    names = [name for name in sorted(given) if is_servo_parameter(name) or is_joint_parameter(name)]
+    return {name: given.pop(name) for name in names}
 
 
 #: the 64-bit range of a ROS integer parameter

@@ -15,7 +15,7 @@ from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430 = 1020
 #: shoulder: ID 1 as is; elbow: ID 2 turned round and 90 deg off; wrist: ID 5, not handled
-MAPPING = JointMap(("shoulder", "elbow", "wrist"), (1, 2, 5), (1, -1, 1), (0.0, 90.0, 0.0))
+MAPPING = JointMap.simple(("shoulder", "elbow", "wrist"), (1, 2, 5), (1, -1, 1), (0.0, 90.0, 0.0))
 VALUES = {"min_position_limit": {1: 1024, 2: 1024}, "max_position_limit": {1: 3072, 2: 3072},
           "velocity_limit": {1: 200, 2: 200}, "current_limit": {1: 1193, 2: 1193}}
 

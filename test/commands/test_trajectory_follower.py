@@ -30,7 +30,7 @@ from support.servo_access import FakeAccess, attached
 
 XM430 = 1020
 PERIOD_S = 0.01
-MAPPING = JointMap(("pan",), (1,), (1,), (0.0,))
+MAPPING = JointMap.simple(("pan",), (1,), (1,), (0.0,))
 
 
 def _follower(present_pulses: int | None = 2048):

@@ -1,4 +1,4 @@
-"""Joint names on top of servo IDs: the mapping, its validation, and the servo -> joint conversion.
+"""Joint names on top of servo IDs: the mapping, its validation, and the servo <-> joint conversion.
 
 Robot software (robot_state_publisher, rviz, MoveIt) speaks of joints by name in SI units, while
 the handler speaks of servo IDs in degrees. The ``joint_state.*`` parameters map one to the other:
@@ -7,7 +7,10 @@ the handler speaks of servo IDs in degrees. The ``joint_state.*`` parameters map
 
 so ``offset_deg`` is what the servo reads when the joint is at its zero, and ``direction = -1``
 flips a servo mounted the other way round. Velocity and effort follow the direction (effort is
-the present current in A, the only torque-like quantity every model measures). ROS-free.
+the present current in A, the only torque-like quantity every model measures). The ``joints``
+block (``block.py``) describes more: a reduction, an offset in joint units, a prismatic joint
+(a gripper in metres), soft limits, mimic joints; every joint is a ``Joint``, a linear map of its
+servo's angle. ROS-free.
 """
 from __future__ import annotations
 
@@ -17,40 +20,100 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from .errors import ConfigError
-from .logs import cut, some_ids
-from .servo.table import ServoTable
+from ..errors import ConfigError
+from ..logs import cut, some_ids
+from ..servo.table import ServoTable
 
 DEG = math.pi / 180.0
 
 
 @dataclass(frozen=True)
-class JointMap:
-    """Joints in parameter order: name, servo ID, direction (+1/-1) and offset [deg] of each."""
+class Joint:
+    """One joint driven by one servo, as a linear map of the servo's angle:
 
-    names: tuple[str, ...]
-    ids: tuple[int, ...]
-    directions: tuple[int, ...]
-    offsets_deg: tuple[float, ...]
+        joint = zero + scale x servo angle [deg]
+
+    in the joint's units (rad, or m for a prismatic joint). ``position_limits`` and
+    ``velocity_limit`` are its soft limits in those units (infinite: none)."""
+
+    name: str
+    dxl_id: int
+    scale: float                 #: joint units per servo degree (the sign is the direction)
+    zero: float                  #: the joint's position when the servo reads 0 deg
+    prismatic: bool = False
+    position_limits: tuple[float, float] = (-math.inf, math.inf)
+    velocity_limit: float = math.inf
+    effort_limit: float = math.inf   #: [A], the present current's unit
+
+    def to_servo_deg(self, position: float) -> float:
+        """Joint position -> the servo angle [deg] that puts the joint there."""
+        return (position - self.zero) / self.scale
+
+    def to_joint(self, servo_deg: float) -> float:
+        return self.zero + self.scale * servo_deg
+
+    @property
+    def direction(self) -> int:
+        """+1 when the joint turns with the servo, -1 against it."""
+        return 1 if self.scale > 0 else -1
+
+    def clamped(self, position: float) -> float:
+        lo, hi = self.position_limits
+        return min(max(position, lo), hi)
+
+
+@dataclass(frozen=True)
+class Mimic:
+    """A joint that follows another (state only): ``multiplier`` x the other's position + ``offset``."""
+
+    name: str
+    of: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class JointMap:
+    """The joints driven by servos, in parameter order, and the mimic joints (state only)."""
+
+    joints: tuple[Joint, ...]
+    mimics: tuple[Mimic, ...] = ()
+
+    @classmethod
+    def simple(cls, names: Sequence[str], ids: Sequence[int], directions: Sequence[int],
+               offsets_deg: Sequence[float]) -> JointMap:
+        """The ``joint_state.*`` mapping: joint [rad] = direction x (servo deg - offset_deg) in rad."""
+        return cls(tuple(Joint(n, int(i), d * DEG, -d * o * DEG)
+                         for n, i, d, o in zip(names, ids, directions, offsets_deg)))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def ids(self) -> tuple[int, ...]:
+        return tuple(j.dxl_id for j in self.joints)
 
     def __len__(self) -> int:
-        return len(self.names)
+        return len(self.joints)
+
+    def joint(self, name: str) -> Joint:
+        """Joint ``name``; KeyError naming the known joints otherwise."""
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(f"unknown joint '{name}' (known: {', '.join(self.names)})")
 
     def id_of(self, name: str) -> int:
         """The servo ID of joint ``name``; KeyError naming the known joints otherwise."""
-        try:
-            return self.ids[self.names.index(name)]
-        except ValueError:
-            raise KeyError(f"unknown joint '{name}' (known: {', '.join(self.names)})") from None
+        return self.joint(name).dxl_id
 
     def to_servo_deg(self, name: str, joint_deg: float) -> float:
-        """Joint angle [deg] -> the servo angle [deg] that puts the joint there."""
-        k = self.names.index(name)
-        return joint_deg * self.directions[k] + self.offsets_deg[k]
+        """A revolute joint's angle [deg] -> the servo angle [deg] that puts the joint there."""
+        return self.joint(name).to_servo_deg(joint_deg * DEG)
 
     def to_joint_deg(self, name: str, servo_deg: float) -> float:
-        k = self.names.index(name)
-        return self.directions[k] * (servo_deg - self.offsets_deg[k])
+        return self.joint(name).to_joint(servo_deg) / DEG
 
 
 @dataclass(frozen=True)
@@ -79,8 +142,8 @@ def joint_map(use: bool, names: Sequence[str], ids: Sequence[int], directions: S
                           "must have the same length")
     _check_names(names)
     _check_ids(ids)
-    return JointMap(tuple(names), tuple(int(i) for i in ids), tuple(int(d) for d in _directions(directions, n)),
-                    tuple(float(o) for o in _offsets_deg(offsets_deg, n)))
+    return JointMap.simple(names, [int(i) for i in ids], [int(d) for d in _directions(directions, n)],
+                           [float(o) for o in _offsets_deg(offsets_deg, n)])
 
 
 def _check_names(names: list[str]) -> None:
@@ -133,26 +196,43 @@ def unhandled(mapping: JointMap, handled_ids: Iterable[int]) -> list[str]:
 
 
 def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
-    """The mapped joints of ``table`` in SI units (parameter order); joints whose servo is not
-    handled or whose position was never read are left out rather than published as NaN."""
+    """The joints of ``table`` in SI units (parameter order, then the mimic joints); joints whose
+    servo is not handled or whose position was never read are left out rather than published as
+    NaN. Effort is the present current [A] with the joint's direction."""
     position = table.units("present_position")
     velocity = table.units("present_velocity")
     current = table.units("present_current")
     names, rows = [], []
-    for k, (name, dxl_id) in enumerate(zip(mapping.names, mapping.ids)):
-        pos = table.index.get(dxl_id)
+    for joint in mapping.joints:
+        pos = table.index.get(joint.dxl_id)
         if pos is None or not math.isfinite(position[pos]):
             continue
-        names.append(name)
-        rows.append((k, pos))
-    ks = np.array([k for k, _ in rows], dtype=np.int64)
+        names.append(joint.name)
+        rows.append((joint, pos))
     ps = np.array([p for _, p in rows], dtype=np.int64)
-    direction = np.asarray(mapping.directions, dtype=np.float64)[ks]
-    offset = np.asarray(mapping.offsets_deg, dtype=np.float64)[ks]
-    return JointReading(names=names,
-                        position_rad=direction * (position[ps] - offset) * DEG,
-                        velocity_rad_s=direction * velocity[ps] * DEG,
-                        effort_a=direction * current[ps] / 1000.0)
+    scale = np.array([j.scale for j, _ in rows], dtype=np.float64)
+    zero = np.array([j.zero for j, _ in rows], dtype=np.float64)
+    sign = np.sign(scale)
+    reading = JointReading(names=names, position_rad=zero + scale * position[ps], velocity_rad_s=scale * velocity[ps],
+                           effort_a=sign * current[ps] / 1000.0)
+    return _with_mimics(mapping, reading)
+
+
+def _with_mimics(mapping: JointMap, reading: JointReading) -> JointReading:
+    """The mimic joints added after the others: multiplier x the followed joint + offset."""
+    if not mapping.mimics:
+        return reading
+    at = {name: k for k, name in enumerate(reading.names)}
+    follow = [(m, at[m.of]) for m in mapping.mimics if m.of in at]
+    if not follow:
+        return reading
+    k = np.array([i for _, i in follow], dtype=np.int64)
+    mult = np.array([m.multiplier for m, _ in follow], dtype=np.float64)
+    offset = np.array([m.offset for m, _ in follow], dtype=np.float64)
+    return JointReading(names=reading.names + [m.name for m, _ in follow],
+                        position_rad=np.concatenate([reading.position_rad, mult * reading.position_rad[k] + offset]),
+                        velocity_rad_s=np.concatenate([reading.velocity_rad_s, mult * reading.velocity_rad_s[k]]),
+                        effort_a=np.concatenate([reading.effort_a, np.full(len(follow), math.nan)]))
 
 
 def resolve_targets(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str]) -> list[tuple[int, str | None]]:

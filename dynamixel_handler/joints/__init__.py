@@ -1,0 +1,17 @@
+"""The robot's joints over the servos: the mapping (``mapping``) and the ``joints`` block of the
+parameters (``block``)."""
+from .block import is_joint_parameter, joints_block, merged
+from .mapping import (
+    DEG,
+    Joint,
+    JointMap,
+    JointReading,
+    Mimic,
+    joint_map,
+    read_joints,
+    resolve_targets,
+    unhandled,
+)
+
+__all__ = ["DEG", "Joint", "JointMap", "JointReading", "Mimic", "is_joint_parameter", "joint_map", "joints_block", "merged",
+           "read_joints", "resolve_targets", "unhandled"]

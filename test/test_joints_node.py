@@ -1,0 +1,139 @@
+"""The ``joints`` block through the real node on the virtual bus: a joint with a reduction of 2, a
+gripper in metres and a finger that mimics it, on every joint-level door (joint_commands,
+joint_states, follow_joint_trajectory, move_to), soft limits on each, and a block that cannot be
+right stopping the node with one line. Goals are read back from the simulated servos' registers."""
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
+from rclpy.action import ActionClient
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from dynamixel_handler_msgs.srv import MoveTo
+
+from support.rig import Rig, X
+from support.ros import NodeProcess, node_command
+
+BLOCK = ("joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.shoulder.limits.position:=[-1.0, 1.2]",
+         "joints.gripper.id:=2", "joints.gripper.type:=prismatic", "joints.gripper.stroke:=[0.0, 0.04]",
+         "joints.gripper.servo_deg:=[0.0, 100.0]", "joints.finger.mimic:=gripper", "joints.finger.multiplier:=0.5")
+ACTION = "/dynamixel_handler/follow_joint_trajectory"
+R = FollowJointTrajectory.Result
+
+
+@pytest.fixture(scope="module")
+def rig():
+    r = Rig({1: X, 2: X}, *BLOCK, "loop_rate:=100", "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000})
+    yield r
+    assert r.close() == 0
+
+
+def servo_deg(rig: Rig, dxl_id: int, item: str = "goal_position") -> float:
+    servo = rig.sim.servo(dxl_id)
+    return (servo.read(item) - servo.model.position_zero_pulse) * servo.model.position_deg_per_pulse
+
+
+def at_rest(rig: Rig, dxl_id: int) -> bool:
+    """The servo's present position did not change for 0.2 s."""
+    before = rig.sim.servo(dxl_id).read("present_position")
+    time.sleep(0.2)
+    return rig.sim.servo(dxl_id).read("present_position") == before
+
+
+def goals_at(rig: Rig, expected: dict[int, float], what: str) -> None:
+    """Wait until the servos' Goal Position registers are at ``expected`` [servo deg] (a pulse)."""
+    rig.wait(lambda: all(abs(servo_deg(rig, i) - d) < 0.1 for i, d in expected.items()), timeout=15,
+             what=f"{what}: goals {expected} deg")
+
+
+def test_joint_commands_in_joint_units_go_through_the_reduction_and_the_stroke(rig):
+    rig.publish("/joint_commands", JointState(name=["shoulder", "gripper"], position=[0.5, 0.02]))
+    # shoulder: 0.5 rad of joint is 1 rad of servo (reduction 2); gripper: 2 cm of 4 is 50 of 100 deg
+    goals_at(rig, {1: math.degrees(1.0), 2: 50.0}, "shoulder 0.5 rad, gripper 0.02 m")
+
+
+def test_joint_states_carry_joint_units_and_the_mimic_joint(rig):
+    rig.publish("/joint_commands", JointState(name=["shoulder", "gripper"], position=[-0.25, 0.01]))
+    got: list[JointState] = []
+    with rig._lock:
+        rig.node.create_subscription(JointState, "/joint_states", got.append, 50)
+
+    def there() -> bool:
+        if not got:
+            return False
+        msg = got[-1]
+        at = dict(zip(msg.name, msg.position))
+        return (abs(at.get("shoulder", 9) + 0.25) < 0.002 and abs(at.get("gripper", 9) - 0.01) < 0.0002
+                and abs(at.get("finger", 9) - 0.005) < 0.0002)
+
+    rig.wait(there, timeout=15, what="joint_states at shoulder -0.25 rad, gripper 0.01 m, finger 0.005 m")
+    rig.wait(lambda: at_rest(rig, 1), timeout=15, what="the shoulder's shaft at rest")
+    seen = len(got)
+    rig.wait(lambda: len(got) > seen + 1, timeout=10, what="joint states read since")
+    msg = got[-1]
+    assert list(msg.name) == ["gripper", "shoulder", "finger"]  # ROS hands the block over sorted; mimics last
+    shoulder = msg.position[1]
+    assert shoulder == pytest.approx(math.radians(servo_deg(rig, 1, "present_position")) / 2.0, abs=1e-9)
+
+
+def test_a_joint_command_beyond_the_soft_limit_is_clamped_with_one_line(rig):
+    mark = rig.mark()
+    for _ in range(5):
+        rig.publish("/joint_commands", JointState(name=["shoulder"], position=[3.0]))
+    goals_at(rig, {1: math.degrees(2 * 1.2)}, "shoulder clamped at its limit 1.2 rad")
+    line = "joint shoulder goal beyond its limits [-1, 1.2] (joints.shoulder.limits.position): clamped"
+    rig.wait_log(line, since=mark)
+    assert rig.log_since(mark).count(line) == 1  # one line a second, not one per message
+
+
+def _send(rig: Rig, names, points):
+    with rig._lock:
+        if not hasattr(rig, "fjt"):
+            rig.fjt = ActionClient(rig.node, FollowJointTrajectory, ACTION)
+    assert rig.fjt.wait_for_server(timeout_sec=10)
+    goal = FollowJointTrajectory.Goal(trajectory=JointTrajectory(joint_names=list(names), points=[
+        JointTrajectoryPoint(positions=list(p), time_from_start=Duration(sec=int(t), nanosec=int((t % 1) * 1e9)))
+        for t, p in points]))
+    fut = rig.locked(rig.fjt.send_goal_async, goal)
+    rig.wait(fut.done, what="the goal accepted")
+    handle = fut.result()
+    assert handle.accepted
+    res = rig.locked(handle.get_result_async)
+    rig.wait(res.done, timeout=20, what="the goal's result")
+    return res.result().result
+
+
+def test_a_trajectory_in_joint_units_is_followed_and_a_point_beyond_the_limits_refused(rig):
+    result = _send(rig, ["shoulder", "gripper"], [(0.4, [0.3, 0.03]), (0.8, [0.6, 0.035])])
+    assert result.error_code == R.SUCCESSFUL, result.error_string
+    goals_at(rig, {1: math.degrees(1.2), 2: 87.5}, "the trajectory's last point")
+    before = {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)}
+    result = _send(rig, ["shoulder"], [(0.4, [0.5]), (0.8, [1.5])])
+    assert result.error_code == R.INVALID_GOAL
+    assert result.error_string.startswith("point 1: joint shoulder at 1.5 is beyond its limits [-1, 1.2]"), result.error_string
+    rig.fresh_states(count=3)
+    assert {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)} == before  # nothing moved
+
+
+def test_move_to_by_joint_name_speaks_the_joint_s_degrees_and_refuses_the_prismatic_one(rig):
+    res = rig.call(MoveTo, "/dynamixel/move_to", MoveTo.Request(joint_names=["shoulder"], positions_deg=[20.0],
+                                                                 profile_vel_deg_s=200.0, wait=False))
+    assert res.success, res.message
+    goals_at(rig, {1: 40.0}, "shoulder at 20 deg of joint")
+    res = rig.call(MoveTo, "/dynamixel/move_to", MoveTo.Request(joint_names=["shoulder"], positions_deg=[90.0]))
+    assert res.success and "beyond its limits" in res.message, res.message  # clamped at 1.2 rad, said so
+    goals_at(rig, {1: math.degrees(2.4)}, "shoulder at its limit")
+    res = rig.call(MoveTo, "/dynamixel/move_to", MoveTo.Request(joint_names=["gripper"], positions_deg=[1.0]))
+    assert not res.success and "joint gripper is prismatic" in res.message
+
+
+def test_a_block_that_cannot_be_right_stops_the_node_with_one_line():
+    node = NodeProcess(node_command("debug:=true", "joints.a.id:=1", "joints.b.id:=1"))
+    assert node.wait_exit() == 2
+    assert "joints.b.id = 1: servo 1 already drives joint 'a': one joint per servo" in node.output
+    assert "Traceback" not in node.output
