@@ -73,7 +73,6 @@ def test_the_joint_state_parameters_and_the_block_together():
     ({"a.id": 1, "a.gear": 2.0}, "joints.a.gear: unknown key for a revolute joint (known: direction, id, limits.effort"),
     ({"a.id": 1, "b.id": 1}, "joints.b.id = 1: servo 1 already drives joint 'a': one joint per servo"),
     ({"a.mimic": "nobody"}, "joints.a.mimic = 'nobody': no such joint driven by a servo (known: none)"),
-    ({"a.ids": [3, 4]}, "joints.a.ids: a joint driven by two servos is not handled yet"),
     ({"a.coupled": [6, 7]}, "joints.a.coupled: coupled servos (a differential) is not handled yet"),
     ({"a.id": 1, "a.reduction": 0.0}, "joints.a.reduction = 0: servo turns per joint turn, above 0"),
     ({"a.id": 1, "a.reduction": math.nan}, "joints.a.reduction = nan: a finite number"),
@@ -105,3 +104,33 @@ def test_limits_in_joint_units_clamp_and_the_servo_sees_them_through_the_map():
     assert [joint.clamped(p) for p in (-5.0, 0.5, 5.0)] == [-1.0, 0.5, 2.0]
     assert joint.velocity_limit == 1.5 and joint.effort_limit == 0.8
     assert np.isclose(joint.to_servo_deg(2.0), 3.0 * 2.0 / DEG)
+
+
+def test_a_joint_of_several_servos_is_their_mean_each_with_its_direction():
+    joints = config(**{"elbow.ids": [3, 4], "elbow.directions": [1, -1], "elbow.reduction": 2.0,
+                       "elbow.disagreement_deg": 3.0}).settings.ros.joints
+    elbow = joints.joint("elbow")
+    assert elbow.servo_ids == (3, 4) and elbow.disagreement == pytest.approx(3.0 * DEG)
+    assert joints.servo_ids == (3, 4)
+    with pytest.raises(ValueError, match="joint elbow is driven by servos 3 and 4: name one of them"):
+        joints.id_of("elbow")
+    table = ServoTable()
+    model = model_by_number(XM430)
+    for dxl_id, deg in ((3, 20.0), (4, -24.0)):
+        table.add(dxl_id, model)
+        table.set_value("present_position", dxl_id, model.position_zero_pulse + round(deg / model.position_deg_per_pulse))
+    reading = read_joints(joints, table)
+    assert reading.names == ["elbow"]
+    assert reading.position_rad[0] == pytest.approx(22.0 / 2.0 * DEG, abs=1e-3)  # the mean of 10 and 12 deg
+
+
+@pytest.mark.parametrize("block, line", [
+    ({"a.ids": [3]}, "joints.a.ids = [3]: two or more different servo IDs"),
+    ({"a.ids": [3, 3]}, "joints.a.ids = [3, 3]: two or more different servo IDs"),
+    ({"a.ids": [3, 4], "a.directions": [1]}, "joints.a.directions: 1 values for 2 servos"),
+    ({"a.ids": [3, 4], "a.directions": [1, 0]}, "joints.a.directions = 0: 1 or -1"),
+    ({"a.ids": [3, 4], "a.id": 5}, "joints.a.id: unknown key for a joint of several servos"),
+    ({"a.id": 4, "b.ids": [3, 4]}, "joints.b.ids = [3, 4]: servo 4 already drives joint 'a'"),
+])
+def test_a_joint_of_several_servos_that_cannot_be_right_is_one_line(block, line):
+    assert line in problem(**block)

@@ -16,10 +16,11 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from dynamixel_handler_msgs.srv import MoveTo
 
-from support.rig import Rig, X
+from support.rig import SYNC_WRITE, Rig, X
 from support.ros import NodeProcess, node_command
 
-BLOCK = ("joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.shoulder.limits.position:=[-1.0, 1.2]",
+BLOCK = ("joints.elbow.ids:=[3, 4]", "joints.elbow.directions:=[1, -1]",
+         "joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.shoulder.limits.position:=[-1.0, 1.2]",
          "joints.gripper.id:=2", "joints.gripper.type:=prismatic", "joints.gripper.stroke:=[0.0, 0.04]",
          "joints.gripper.servo_deg:=[0.0, 100.0]", "joints.finger.mimic:=gripper", "joints.finger.multiplier:=0.5")
 ACTION = "/dynamixel_handler/follow_joint_trajectory"
@@ -28,7 +29,7 @@ R = FollowJointTrajectory.Result
 
 @pytest.fixture(scope="module")
 def rig():
-    r = Rig({1: X, 2: X}, *BLOCK, "loop_rate:=100", "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000})
+    r = Rig({1: X, 2: X, 3: X, 4: X}, *BLOCK, "loop_rate:=100", "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000})
     yield r
     assert r.close() == 0
 
@@ -76,8 +77,8 @@ def test_joint_states_carry_joint_units_and_the_mimic_joint(rig):
     seen = len(got)
     rig.wait(lambda: len(got) > seen + 1, timeout=10, what="joint states read since")
     msg = got[-1]
-    assert list(msg.name) == ["gripper", "shoulder", "finger"]  # ROS hands the block over sorted; mimics last
-    shoulder = msg.position[1]
+    assert list(msg.name) == ["elbow", "gripper", "shoulder", "finger"]  # ROS hands the block over sorted; mimics last
+    shoulder = msg.position[2]
     assert shoulder == pytest.approx(math.radians(servo_deg(rig, 1, "present_position")) / 2.0, abs=1e-9)
 
 
@@ -109,9 +110,11 @@ def _send(rig: Rig, names, points):
 
 
 def test_a_trajectory_in_joint_units_is_followed_and_a_point_beyond_the_limits_refused(rig):
-    result = _send(rig, ["shoulder", "gripper"], [(0.4, [0.3, 0.03]), (0.8, [0.6, 0.035])])
+    # MoveIt's path: joint units on a robot with a reduction, a gripper in metres and a paired joint
+    result = _send(rig, ["shoulder", "gripper", "elbow"], [(0.4, [0.3, 0.03, 0.1]), (0.8, [0.6, 0.035, 0.2])])
     assert result.error_code == R.SUCCESSFUL, result.error_string
-    goals_at(rig, {1: math.degrees(1.2), 2: 87.5}, "the trajectory's last point")
+    goals_at(rig, {1: math.degrees(1.2), 2: 87.5, 3: math.degrees(0.2), 4: -math.degrees(0.2)},
+             "the trajectory's last point")
     before = {i: rig.sim.servo(i).read("goal_position") for i in (1, 2)}
     result = _send(rig, ["shoulder"], [(0.4, [0.5]), (0.8, [1.5])])
     assert result.error_code == R.INVALID_GOAL
@@ -130,6 +133,43 @@ def test_move_to_by_joint_name_speaks_the_joint_s_degrees_and_refuses_the_prisma
     goals_at(rig, {1: math.degrees(2.4)}, "shoulder at its limit")
     res = rig.call(MoveTo, "/dynamixel/move_to", MoveTo.Request(joint_names=["gripper"], positions_deg=[1.0]))
     assert not res.success and "joint gripper is prismatic" in res.message
+
+
+def _goal_writes_of(rig: Rig, since: float, ids: set[int]) -> list[dict[int, int]]:
+    """The Goal Position values of ``ids`` in each Sync Write the bus received after ``since``."""
+    address = rig.sim.servo(3).model.item("goal_position").address
+    out = []
+    for e in rig.sim.log:
+        if e.time < since or e.instruction != SYNC_WRITE or not e.address <= address < e.address + e.length:
+            continue
+        values = {}
+        for k in range(4, len(e.params), 1 + e.length):
+            data = e.params[k + 1 + address - e.address:][:4]
+            values[e.params[k]] = int.from_bytes(data, "little", signed=True)
+        if ids & set(values):
+            out.append({i: v for i, v in values.items() if i in ids})
+    return out
+
+
+def test_a_joint_of_two_servos_is_written_in_one_sync_write_and_held_when_they_disagree(rig):
+    since = time.monotonic()
+    rig.publish("/joint_commands", JointState(name=["elbow"], position=[0.3]))
+    goals_at(rig, {3: math.degrees(0.3), 4: -math.degrees(0.3)}, "elbow at 0.3 rad, servo 4 mounted the other way")
+    writes = _goal_writes_of(rig, since, {3, 4})
+    assert writes and all(set(w) == {3, 4} for w in writes), writes  # never one servo without the other
+    rig.wait(lambda: at_rest(rig, 3) and at_rest(rig, 4), timeout=15, what="the elbow's servos at rest")
+    mark = rig.mark()
+    servo = rig.sim.servo(4)
+    servo.pin("present_position", servo.read("present_position") + round(10.0 / servo.model.position_deg_per_pulse))
+    try:
+        rig.wait_log("joint elbow: servos [3, 4] disagree by", "held where each was", since=mark)
+        rig.fresh_states(count=3)
+        assert servo_deg(rig, 3) == pytest.approx(math.degrees(0.3), abs=0.2)  # held where it was
+    finally:
+        servo.pin("present_position", None)
+    rig.publish("/joint_commands", JointState(name=["elbow"], position=[-0.3]))  # a later command is taken
+    goals_at(rig, {3: -math.degrees(0.3), 4: math.degrees(0.3)}, "elbow at -0.3 rad")
+    rig.wait_log("joint elbow: servos [3, 4] agree again", since=mark)
 
 
 def test_a_block_that_cannot_be_right_stops_the_node_with_one_line():

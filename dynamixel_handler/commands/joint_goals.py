@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..joints import Joint, JointMap
+from ..joints import DEG, Joint, JointMap, spread
 from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
 from .goal_bounds import goal_position_limits
@@ -51,6 +51,9 @@ class JointGoals:
         self.commander = commander
         self.h = commander.h
         self.mapping = mapping
+        #: joints of several servos whose servos disagree now (held when it began)
+        self.held: set[str] = set()
+        self._paired = [j for j in mapping.joints if j.partners]
 
     TAKES: ClassVar[tuple[type, ...]] = get_args(JointRequest)
 
@@ -109,19 +112,19 @@ class JointGoals:
         unhandled = []
         for k, name in enumerate(names):
             joint = m.joint(name)
-            dxl_id = joint.dxl_id
-            if dxl_id not in table:
+            if any(i not in table for i in joint.servo_ids):
                 unhandled.append(name)
                 continue
             pos = self._within(what, joint, position[k]) if position else None
             vel = velocity[k] if velocity else None
             eff = effort[k] if effort else None
-            control, fields = self._servo_goal(joint, pos, vel, eff)
-            series = table.model(dxl_id).family if control != "goal" else None
-            ids, cols = batches.setdefault((series, control), ([], {}))
-            ids.append(dxl_id)
-            for f, v in fields.items():
-                cols.setdefault(f, []).append(v)
+            for dxl_id, scale in joint.servos:  # a joint of several servos: each in the same write
+                control, fields = self._servo_goal(joint, dxl_id, scale, pos, vel, eff)
+                series = table.model(dxl_id).family if control != "goal" else None
+                ids, cols = batches.setdefault((series, control), ([], {}))
+                ids.append(dxl_id)
+                for f, v in fields.items():
+                    cols.setdefault(f, []).append(v)
         if unhandled:
             self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
         self._send(what, batches)
@@ -135,25 +138,26 @@ class JointGoals:
                                 f"(joints.{joint.name}.limits.position): clamped")
         return clamped
 
-    def _servo_goal(self, joint: Joint, pos: float | None, vel: float | None,
+    def _servo_goal(self, joint: Joint, dxl_id: int, scale: float, pos: float | None, vel: float | None,
                     eff: float | None) -> tuple[str, dict[str, float]]:
-        """The control of ``joint``'s servo and its fields in servo units, from the joint's
-        position, velocity and effort (None: not given) as the table of the module says; velocity
-        and effort within the joint's limits."""
-        sign = joint.direction
-        if eff is not None and abs(float(eff)) > joint.effort_limit:
-            eff = math.copysign(joint.effort_limit, float(eff))
+        """The control of one of ``joint``'s servos (``dxl_id``, its ``scale``) and its fields in
+        servo units, from the joint's position, velocity and effort (None: not given) as the table
+        of the module says; velocity and effort within the joint's limits (an effort shared by
+        the joint's servos)."""
+        sign = 1 if scale > 0 else -1
+        if eff is not None:
+            eff = math.copysign(min(abs(float(eff)), joint.effort_limit), float(eff)) / len(joint.servos)
         if pos is not None:
-            fields = {"position_deg": joint.to_servo_deg(float(pos))}
+            fields = {"position_deg": (float(pos) - joint.zero) / scale}
             if eff is not None:
                 fields["current_ma"] = abs(float(eff)) * 1000.0
                 return "current_base_position_control", fields
-            if self.h.mode(joint.dxl_id) in KEPT_POSITION_MODES:
+            if self.h.mode(dxl_id) in KEPT_POSITION_MODES:
                 return "goal", fields
             return "position_control", fields
         if vel is not None:
             vel = max(-joint.velocity_limit, min(joint.velocity_limit, float(vel)))
-            return "velocity_control", {"velocity_deg_s": float(vel) / joint.scale}
+            return "velocity_control", {"velocity_deg_s": float(vel) / scale}
         # check() takes no command without a field, so effort is given here
         return "current_control", {"current_ma": float(cast(float, eff)) * 1000.0 * sign}
 
@@ -167,9 +171,31 @@ class JointGoals:
             else:
                 self.commander.control(series, control, ids, cols)
 
+    def watch_pairs(self) -> None:
+        """Loop thread, after a read of the present positions: a joint of several servos whose
+        servos are further apart than its ``disagreement`` is held where each servo is when that
+        begins (a trajectory of it ends: ``trajectory.Follower``) and said once a second while it
+        lasts; a later command of the joint is taken (it gives every servo the same goal). One
+        line when they agree again."""
+        table = self.h.table
+        for joint in self._paired:
+            if any(i not in table for i in joint.servo_ids):
+                continue
+            apart = spread(joint, table)
+            if apart > joint.disagreement:
+                self.commander.warn(f"joint {joint.name}: servos {list(joint.servo_ids)} disagree by {apart / DEG:.2f} deg "
+                                    f"(more than joints.{joint.name}.disagreement_deg {joint.disagreement / DEG:g}): "
+                                    "held where each was")
+                if joint.name not in self.held:
+                    self.held.add(joint.name)
+                    self._hold(HoldJoints(list(joint.servo_ids), f"joint {joint.name} held"))
+            elif joint.name in self.held:
+                self.held.discard(joint.name)
+                self.h.log.info(f"joint {joint.name}: servos {list(joint.servo_ids)} agree again")
+
     def hold(self, what: str, names: Sequence[str]) -> None:
         """Stop the joints where they are: goal position := present position (loop thread next step)."""
-        self.h.submit(HoldJoints([self.mapping.id_of(n) for n in names], what))
+        self.h.submit(HoldJoints([i for n in names for i in self.mapping.joint(n).servo_ids], what))
 
     def _hold(self, request: HoldJoints) -> None:
         table = self.h.table
@@ -187,13 +213,13 @@ class JointGoals:
         pos, vel = [], []
         for name in names:
             joint = self.mapping.joint(name)
-            p = table.index.get(joint.dxl_id)
-            if p is None:
+            rows = [(table.index.get(i), scale) for i, scale in joint.servos]
+            if any(p is None for p, _ in rows):
                 pos.append(math.nan)
                 vel.append(math.nan)
                 continue
-            pos.append(joint.to_joint(float(pos_deg[p])))
-            vel.append(joint.scale * float(vel_deg[p]))
+            pos.append(sum(joint.zero + scale * float(pos_deg[p]) for p, scale in rows) / len(rows))
+            vel.append(sum(scale * float(vel_deg[p]) for p, scale in rows) / len(rows))
         return pos, vel
 
     def position_bounds(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -206,18 +232,17 @@ class JointGoals:
         table = self.h.table
         for k, name in enumerate(names):
             joint = self.mapping.joint(name)
-            dxl_id = joint.dxl_id
-            if dxl_id not in table:
-                continue
-            model = table.model(dxl_id)
-            raw = table.value("operating_mode", dxl_id)
-            mode = model.mode_name(raw)
-            view = _TableView(table, mode if mode in KEPT_POSITION_MODES else "position")
-            pulses = goal_position_limits(cast("ServoAccess", view), dxl_id, model)
-            deg = units.pulse_to_unit([model, model], "goal_position", list(pulses))
-            half = 0.5 * model.position_deg_per_pulse
-            ends = sorted(joint.to_joint(float(d)) for d in (deg[0] - half, deg[1] + half))
-            lo[k], hi[k] = ends
+            for dxl_id, scale in joint.servos:  # a joint of several servos: within every one's bounds
+                if dxl_id not in table:
+                    continue
+                model = table.model(dxl_id)
+                mode = model.mode_name(table.value("operating_mode", dxl_id))
+                view = _TableView(table, mode if mode in KEPT_POSITION_MODES else "position")
+                pulses = goal_position_limits(cast("ServoAccess", view), dxl_id, model)
+                deg = units.pulse_to_unit([model, model], "goal_position", list(pulses))
+                half = 0.5 * model.position_deg_per_pulse
+                ends = sorted(joint.zero + scale * float(d) for d in (deg[0] - half, deg[1] + half))
+                lo[k], hi[k] = max(lo[k], ends[0]), min(hi[k], ends[1])
         return lo, hi
 
 

@@ -43,32 +43,43 @@ def listed(values: Iterable[object], limit: int = ECHO_MAX) -> str:
     return ", ".join(out)
 
 
-def targets_of(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str], handled: int) -> Targets:
-    """(servo ID, joint name or None) of a request; MoveError when it names no servo, both IDs and
-    names, an unknown joint, a servo twice, or more servos than the node handles."""
+def targets_of(mapping: JointMap | None, ids: Sequence[int], names: Sequence[str], handled: int,
+               positions: bool = True) -> Targets:
+    """(servo ID, joint name or None) of a request (every servo of a joint of several); MoveError
+    when it names no servo, both IDs and names, an unknown joint, a servo twice, or more servos
+    than the node handles, and for a move (``positions``) a joint it cannot move in degrees."""
     given = len(ids) or len(names)
     try:
         targets = resolve_targets(mapping, list(ids), list(names))
     except ValueError as err:
         raise MoveError(str(err)) from None
-    _no_prismatic(mapping, targets)
-    counts = Counter(name if name is not None else i for i, name in targets)
-    twice = [(k, n) for k, n in counts.items() if n > 1]
-    if twice:
-        what = "joints" if names else "IDs"
-        raise MoveError(f"{what} named more than once: {listed(f'{k} ({n} times)' for k, n in twice)}: "
-                        "name each servo once")
+    if positions:
+        _one_angle_each(mapping, targets)
+    _each_once(ids, names)
     if given > handled:
         raise MoveError(f"{given} servo{'s' if given != 1 else ''} named, {handled} handled")
     return targets
 
 
-def _no_prismatic(mapping: JointMap | None, targets: Targets) -> None:
-    """MoveError for a prismatic joint: the moves speak degrees."""
-    prismatic = [name for _, name in targets if name is not None and mapping is not None and mapping.joint(name).prismatic]
-    if prismatic:
-        raise MoveError(f"joint {prismatic[0]} is prismatic: move_to and move_joints speak degrees; command it in "
-                        "metres on joint_commands or follow_joint_trajectory")
+def _each_once(ids: Sequence[int], names: Sequence[str]) -> None:
+    """MoveError for a joint or an ID named twice in one request."""
+    counts = Counter(names) if len(names) else Counter(int(i) for i in ids)
+    twice = [(k, n) for k, n in counts.items() if n > 1]
+    if twice:
+        what = "joints" if len(names) else "IDs"
+        raise MoveError(f"{what} named more than once: {listed(f'{k} ({n} times)' for k, n in twice)}: "
+                        "name each servo once")
+
+
+def _one_angle_each(mapping: JointMap | None, targets: Targets) -> None:
+    """MoveError for a joint a move cannot take: a prismatic one (the moves speak degrees), one of
+    several servos (a move gives each servo named one angle)."""
+    joints = [mapping.joint(name) for _, name in targets if name is not None and mapping is not None]
+    for joint in joints:
+        if joint.prismatic or joint.partners:
+            why = "is prismatic: move_to and move_joints speak degrees" if joint.prismatic else \
+                "is driven by several servos: move_to and move_joints give each servo one angle"
+            raise MoveError(f"joint {joint.name} {why}; command it on joint_commands or follow_joint_trajectory")
 
 
 def servo_goals(mapping: JointMap | None, targets: Targets, positions: Sequence[float]) -> tuple[list[float], list[str]]:

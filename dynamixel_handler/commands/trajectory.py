@@ -315,6 +315,11 @@ class Follower:
             self._finish(job, ABORTED, f"ended: the E-stop was engaged ({stop}): the joints hold where they are",
                          hold=False)
             return
+        apart = sorted(set(job.names) & self.goals.held)
+        if apart:  # a joint of several servos whose servos disagree: held where each is already
+            self._finish(job, ABORTED, f"ended: the servos of joint {apart[0]} disagree: it is held where each is",
+                         hold=False)
+            return
         now = time.time()
         if "position" in report.present and not self._judge(job, report.stamp):
             return

@@ -10,8 +10,9 @@ from .mapping import (
     joint_map,
     read_joints,
     resolve_targets,
+    spread,
     unhandled,
 )
 
 __all__ = ["DEG", "Joint", "JointMap", "JointReading", "Mimic", "is_joint_parameter", "joint_map", "joints_block", "merged",
-           "read_joints", "resolve_targets", "unhandled"]
+           "read_joints", "resolve_targets", "spread", "unhandled"]

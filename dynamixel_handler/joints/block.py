@@ -12,8 +12,10 @@ joint turn; ``offset``: the joint's position [rad] when the servo reads 0; ``dir
 ``type: prismatic``: a linear map from ``servo_deg`` (two servo angles) to ``stroke`` (the joint's
 two positions in m); ``limits``: the joint's soft limits in its units (rad or m, rad/s or m/s;
 ``effort`` in A, the present current's unit). A mimic joint is published in ``joint_states`` only.
-A joint driven by two servos (``ids``) or coupled servos (``coupled``) is not handled yet: refused
-with one line. Every problem is a ``ConfigError`` of one line naming the parameter. ROS-free.
+``ids`` (with ``directions``): a joint driven by two or more servos together, written in one sync
+write, its state their mean; beyond ``disagreement_deg`` apart each servo is held where it is
+(one line a second while it lasts). Coupled servos (``coupled``, a differential) are not handled yet: refused with one line.
+Every problem is a ``ConfigError`` of one line naming the parameter. ROS-free.
 """
 from __future__ import annotations
 
@@ -40,15 +42,20 @@ KEYS: dict[str, tuple[str, str, str, str]] = {
                         "point beyond refused"),
     "limits.velocity": ("float", "none", "revolute, prismatic", "the fastest velocity command [rad/s or m/s]"),
     "limits.effort": ("float", "none", "revolute, prismatic", "the largest effort command [A, the present current's unit]"),
+    "ids": ("int[]", "-", "paired", "the servos that drive the joint together (two or more, each in one joint)"),
+    "directions": ("int[]", "all 1", "paired", "1 or -1 per servo of ids: how each is mounted"),
+    "disagreement_deg": ("float", "2.0", "paired",
+                         "the largest spread [joint deg] of its servos' positions; beyond, each is held where it "
+                         "is, its trajectory ends, one line a second"),
     "mimic": ("str", "-", "mimic", "the joint this one follows (state only: published in joint_states)"),
     "multiplier": ("float", "1.0", "mimic", "mimic position = multiplier x the followed joint's + offset"),
 }
 #: the keys of a joint driven by one servo, of a mimic joint, and those not handled yet
 REVOLUTE_KEYS = frozenset(k for k, v in KEYS.items() if "revolute" in v[2])
+PAIRED_KEYS = frozenset(k for k, v in KEYS.items() if "paired" in v[2] or ("revolute" in v[2] and k not in ("id", "type")))
 PRISMATIC_KEYS = frozenset(k for k, v in KEYS.items() if "prismatic" in v[2])
 MIMIC_KEYS = frozenset(k for k, v in KEYS.items() if "mimic" in v[2])
-NOT_YET = {"ids": "a joint driven by two servos", "directions": "a joint driven by two servos",
-           "coupled": "coupled servos (a differential)", "row": "coupled servos (a differential)"}
+NOT_YET = {"coupled": "coupled servos (a differential)", "row": "coupled servos (a differential)"}
 
 
 def is_joint_parameter(name: str) -> bool:
@@ -100,10 +107,13 @@ def _check_new(given: list[Joint], joint: Joint) -> None:
     """ConfigError when ``joint``'s name or servo is taken by one of ``given``."""
     if any(j.name == joint.name for j in given):
         raise ConfigError(f"joint '{cut(joint.name)}' is both in joint_state.names and in the joints block: give it once")
-    other = next((j.name for j in given if j.dxl_id == joint.dxl_id), None)
-    if other is not None:
-        raise ConfigError(f"joints.{cut(joint.name)}.id = {joint.dxl_id}: servo {joint.dxl_id} already drives joint "
-                          f"'{cut(other)}': one joint per servo")
+    for dxl_id in joint.servo_ids:
+        other = next((j.name for j in given if dxl_id in j.servo_ids), None)
+        if other is not None:
+            key = "id" if not joint.partners else "ids"
+            shown = dxl_id if not joint.partners else list(joint.servo_ids)
+            raise ConfigError(f"joints.{cut(joint.name)}.{key} = {shown}: servo {dxl_id} already drives joint "
+                              f"'{cut(other)}': one joint per servo")
 
 
 # ---------------------------------------------------------------------------- one entry
@@ -112,6 +122,8 @@ def _joint(name: str, keys: Mapping[str, Any]) -> Joint:
     for key in keys:
         if key in NOT_YET:
             raise ConfigError(f"{where}.{key}: {NOT_YET[key]} is not handled yet: map the joint to one servo (id)")
+    if "ids" in keys:
+        return _paired(name, where, keys)
     kind = keys.get("type", "revolute")
     if kind not in ("revolute", "prismatic"):
         raise ConfigError(f"{where}.type = {cut(repr(kind))}: revolute or prismatic")
@@ -124,20 +136,55 @@ def _joint(name: str, keys: Mapping[str, Any]) -> Joint:
     dxl_id = _integer(f"{where}.id", keys["id"])
     if not 0 <= dxl_id <= 252:
         raise ConfigError(f"{where}.id = {dxl_id}: servo IDs are 0..252")
-    if kind == "prismatic":
-        scale, zero = _prismatic(where, keys)
-    else:
-        reduction = _number(f"{where}.reduction", keys.get("reduction", 1.0))
-        if not reduction > 0 or reduction > 1e6:
-            raise ConfigError(f"{where}.reduction = {reduction:g}: servo turns per joint turn, above 0 (and at most 1e6)")
-        direction = _integer(f"{where}.direction", keys.get("direction", 1))
-        if direction not in (1, -1):
-            raise ConfigError(f"{where}.direction = {direction}: 1 or -1")
-        scale, zero = direction * DEG / reduction, _number(f"{where}.offset", keys.get("offset", 0.0))
+    scale, zero = _prismatic(where, keys) if kind == "prismatic" else _revolute(where, keys)
+    return Joint(name, dxl_id, scale, zero, kind == "prismatic", *_limits(where, keys))
+
+
+def _revolute(where: str, keys: Mapping[str, Any]) -> tuple[float, float]:
+    """scale [rad/deg] and zero [rad] of a revolute joint's reduction, direction and offset."""
+    reduction = _number(f"{where}.reduction", keys.get("reduction", 1.0))
+    if not reduction > 0 or reduction > 1e6:
+        raise ConfigError(f"{where}.reduction = {reduction:g}: servo turns per joint turn, above 0 (and at most 1e6)")
+    direction = _direction(f"{where}.direction", keys.get("direction", 1))
+    return direction * DEG / reduction, _number(f"{where}.offset", keys.get("offset", 0.0))
+
+
+def _limits(where: str, keys: Mapping[str, Any]) -> tuple[tuple[float, float], float, float]:
     lo, hi = _pair(f"{where}.limits.position", keys.get("limits.position", [-math.inf, math.inf]), ordered=True)
     velocity = _positive(f"{where}.limits.velocity", keys.get("limits.velocity", math.inf))
     effort = _positive(f"{where}.limits.effort", keys.get("limits.effort", math.inf))
-    return Joint(name, dxl_id, scale, zero, kind == "prismatic", (lo, hi), velocity, effort)
+    return (lo, hi), velocity, effort
+
+
+def _paired(name: str, where: str, keys: Mapping[str, Any]) -> Joint:
+    """A revolute joint driven by two or more servos together (each with its own direction)."""
+    unknown = sorted(set(keys) - PAIRED_KEYS)
+    if unknown:
+        raise ConfigError(f"{where}.{cut(unknown[0])}: unknown key for a joint of several servos (known: "
+                          f"{', '.join(sorted(PAIRED_KEYS))})")
+    ids = [_integer(f"{where}.ids", i) for i in _listed(keys["ids"])]
+    if len(ids) < 2 or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
+        raise ConfigError(f"{where}.ids = {cut(repr(ids))}: two or more different servo IDs (0..252)")
+    directions = _listed(keys.get("directions", [1] * len(ids)))
+    if len(directions) != len(ids):
+        raise ConfigError(f"{where}.directions: {len(directions)} values for {len(ids)} servos: one per servo of ids")
+    signs = [_direction(f"{where}.directions", d) for d in directions]
+    scale, zero = _revolute(where, keys)
+    spread = _positive(f"{where}.disagreement_deg", keys.get("disagreement_deg", 2.0))
+    return Joint(name, ids[0], scale * signs[0], zero, False, *_limits(where, keys),
+                 partners=tuple((i, scale * s) for i, s in zip(ids[1:], signs[1:])), disagreement=spread * DEG)
+
+
+def _listed(value: Any) -> list[Any]:
+    """A list parameter's values (a single value: a list of one)."""
+    return list(value) if isinstance(value, (list, tuple)) or hasattr(value, "tolist") else [value]
+
+
+def _direction(where: str, value: Any) -> int:
+    direction = _integer(where, value)
+    if direction not in (1, -1):
+        raise ConfigError(f"{where} = {direction}: 1 or -1")
+    return direction
 
 
 def _prismatic(where: str, keys: Mapping[str, Any]) -> tuple[float, float]:
@@ -202,4 +249,4 @@ def _pair(where: str, value: Any, ordered: bool = False) -> tuple[float, float]:
     return lo, hi
 
 
-__all__ = ["KEYS", "MIMIC_KEYS", "PREFIX", "PRISMATIC_KEYS", "REVOLUTE_KEYS", "is_joint_parameter", "joints_block", "merged"]
+__all__ = ["KEYS", "MIMIC_KEYS", "PAIRED_KEYS", "PREFIX", "PRISMATIC_KEYS", "REVOLUTE_KEYS", "is_joint_parameter", "joints_block", "merged"]

@@ -44,6 +44,19 @@ class Joint:
     position_limits: tuple[float, float] = (-math.inf, math.inf)
     velocity_limit: float = math.inf
     effort_limit: float = math.inf   #: [A], the present current's unit
+    #: the other servos of a joint driven by several: (ID, scale) each, the same ``zero``
+    partners: tuple[tuple[int, float], ...] = ()
+    #: the largest spread of a paired joint's servos [joint units] before the joint is held
+    disagreement: float = 2.0 * DEG
+
+    @property
+    def servos(self) -> tuple[tuple[int, float], ...]:
+        """(ID, scale) of every servo that drives the joint, the first one first."""
+        return ((self.dxl_id, self.scale), *self.partners)
+
+    @property
+    def servo_ids(self) -> tuple[int, ...]:
+        return tuple(i for i, _ in self.servos)
 
     def to_servo_deg(self, position: float) -> float:
         """Joint position -> the servo angle [deg] that puts the joint there."""
@@ -105,8 +118,18 @@ class JointMap:
         raise KeyError(f"unknown joint '{name}' (known: {', '.join(self.names)})")
 
     def id_of(self, name: str) -> int:
-        """The servo ID of joint ``name``; KeyError naming the known joints otherwise."""
-        return self.joint(name).dxl_id
+        """The servo ID of joint ``name``; KeyError naming the known joints otherwise, ValueError
+        for a joint driven by several servos (which one is meant?)."""
+        joint = self.joint(name)
+        if joint.partners:
+            ids = " and ".join(str(i) for i in joint.servo_ids)
+            raise ValueError(f"joint {name} is driven by servos {ids}: name one of them (id_{joint.dxl_id})")
+        return joint.dxl_id
+
+    @property
+    def servo_ids(self) -> tuple[int, ...]:
+        """Every servo that drives a joint."""
+        return tuple(i for j in self.joints for i in j.servo_ids)
 
     def to_servo_deg(self, name: str, joint_deg: float) -> float:
         """A revolute joint's angle [deg] -> the servo angle [deg] that puts the joint there."""
@@ -192,30 +215,38 @@ def _per_joint(values: Sequence[Any], name: str, n: int) -> list:
 def unhandled(mapping: JointMap, handled_ids: Iterable[int]) -> list[str]:
     """Joints whose servo is not among the handled ones (to warn about once)."""
     handled = set(handled_ids)
-    return [name for name, i in zip(mapping.names, mapping.ids) if i not in handled]
+    return [j.name for j in mapping.joints if any(i not in handled for i in j.servo_ids)]
 
 
 def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
     """The joints of ``table`` in SI units (parameter order, then the mimic joints); joints whose
     servo is not handled or whose position was never read are left out rather than published as
-    NaN. Effort is the present current [A] with the joint's direction."""
+    NaN. A joint driven by several servos is the mean of theirs. Effort is the present current
+    [A] with the joint's direction (summed over a joint's servos)."""
     position = table.units("present_position")
     velocity = table.units("present_velocity")
     current = table.units("present_current")
-    names, rows = [], []
+    names: list[str] = []
+    pos_out, vel_out, eff_out = [], [], []
     for joint in mapping.joints:
-        pos = table.index.get(joint.dxl_id)
-        if pos is None or not math.isfinite(position[pos]):
+        rows = [(table.index.get(i), scale) for i, scale in joint.servos]
+        if any(p is None or not math.isfinite(position[p]) for p, _ in rows):
             continue
         names.append(joint.name)
-        rows.append((joint, pos))
-    ps = np.array([p for _, p in rows], dtype=np.int64)
-    scale = np.array([j.scale for j, _ in rows], dtype=np.float64)
-    zero = np.array([j.zero for j, _ in rows], dtype=np.float64)
-    sign = np.sign(scale)
-    reading = JointReading(names=names, position_rad=zero + scale * position[ps], velocity_rad_s=scale * velocity[ps],
-                           effort_a=sign * current[ps] / 1000.0)
+        pos_out.append(sum(joint.zero + scale * position[p] for p, scale in rows) / len(rows))
+        vel_out.append(sum(scale * velocity[p] for p, scale in rows) / len(rows))
+        eff_out.append(sum(math.copysign(1.0, scale) * current[p] for p, scale in rows) / 1000.0)
+    reading = JointReading(names=names, position_rad=np.asarray(pos_out, dtype=np.float64),
+                           velocity_rad_s=np.asarray(vel_out, dtype=np.float64), effort_a=np.asarray(eff_out, dtype=np.float64))
     return _with_mimics(mapping, reading)
+
+
+def spread(joint: Joint, table: ServoTable) -> float:
+    """How far apart a joint's servos put it [joint units] as last read (0: one servo, or unread)."""
+    position = table.units("present_position")
+    at = [joint.zero + scale * position[table.index[i]] for i, scale in joint.servos if i in table.index]
+    at = [p for p in at if math.isfinite(p)]
+    return max(at) - min(at) if len(at) > 1 else 0.0
 
 
 def _with_mimics(mapping: JointMap, reading: JointReading) -> JointReading:
@@ -257,9 +288,9 @@ def _targets_by_id(ids: Sequence[int]) -> list[tuple[int, str | None]]:
 def _targets_by_name(mapping: JointMap | None, names: Sequence[str]) -> list[tuple[int, str | None]]:
     if mapping is None:
         raise ValueError("joint names given but no joint_state.names/ids mapping is configured")
-    known = dict(zip(mapping.names, mapping.ids))
+    known = {j.name: j.servo_ids for j in mapping.joints}
     unknown = [name for name in names if name not in known]
     if unknown:
         more = f" and {len(unknown) - 1} more" if len(unknown) > 1 else ""
         raise ValueError(f"unknown joint '{cut(unknown[0])}'{more} (known: {cut(', '.join(mapping.names))})")
-    return [(known[name], name) for name in names]
+    return [(i, name) for name in names for i in known[name]]  # every servo of a joint

@@ -14,7 +14,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import time
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from sensor_msgs.msg import JointState
@@ -65,6 +65,13 @@ class JointCommands:
         self._subscribe_joint_commands()
         node.create_subscription(JointTrajectory, "~/joint_trajectory", self._on_trajectory, 10)
         self.action: Any = None  # trajectory_action.TrajectoryAction, when the node attaches it
+
+    def step(self, report: Any) -> None:
+        """Loop hook: the joints of several servos watched on each read of the present positions,
+        then the trajectory followed."""
+        if "position" in report.present:
+            self.goals.watch_pairs()
+        self.follower(report)
 
     # ------------------------------------------------------------------ joint_commands
     def _subscribe_joint_commands(self) -> None:
@@ -161,7 +168,7 @@ class JointCommands:
             k, j = (int(i) for i in np.argwhere(outside)[0])
             raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} is "
                                               f"beyond its servo's position limits ({lo[j]:.4f} .. {hi[j]:.4f}, "
-                                              f"ID {self.mapping.id_of(names[j])})")
+                                              f"ID {', '.join(map(str, self.mapping.joint(names[j]).servo_ids))})")
 
     def _check_joints(self, names: list[str]) -> None:
         """TrajectoryRefused unless the joints are known, named once and on handled servos."""
@@ -174,7 +181,7 @@ class JointCommands:
         if len(set(names)) != len(names):
             raise TrajectoryRefused(BAD_JOINTS, f"a joint is named twice in {names[:10]}")
         table = self.node.handler.table
-        unhandled = [n for n in names if self.mapping.id_of(n) not in table]
+        unhandled = [n for n in names if any(i not in table for i in self.mapping.joint(n).servo_ids)]
         if unhandled:
             raise TrajectoryRefused(BAD_JOINTS, f"joints {unhandled} map to servos that are not handled")
 
@@ -233,11 +240,11 @@ def missing_package(name: str = "control_msgs") -> str | None:
     return None if importlib.util.find_spec(name) is not None else f"No module named '{name}'"
 
 
-def attach(node) -> Follower | None:
+def attach(node) -> Callable[[Any], None] | None:
     """The follower hook when ``joint_state.use`` is on (the mapping is checked at parameter load)."""
     ros = node.settings.ros
     mapping = ros.joints if ros.joint_state_use else None  # never None with joint_state.use (ConfigError instead)
     if mapping is None:
         return None
     node.joint_commands = JointCommands(node, mapping)
-    return node.joint_commands.follower
+    return node.joint_commands.step

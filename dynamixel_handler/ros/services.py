@@ -109,10 +109,10 @@ class MotionServices:
             if not self.book.jobs:
                 self._timer.cancel()
 
-    def _targets(self, ids: Sequence[int], names: Sequence[str], moves: bool = True):
+    def _targets(self, ids: Sequence[int], names: Sequence[str], moves: bool = True, positions: bool = True):
         """The servos named; MoveError (answered at once) when the node cannot take the request."""
         self._taken(moves)
-        return targets_of(self.book.mapping, ids, names, len(self.node.handler.table))
+        return targets_of(self.book.mapping, ids, names, len(self.node.handler.table), positions)
 
     def _taken(self, moves: bool) -> None:
         """MoveError when the node cannot take a request now: inactive, its loop stopped, or (a
@@ -145,7 +145,8 @@ class MotionServices:
     # ------------------------------------------------------------------ callbacks
     async def _on_set_torque(self, req: SetTorque.Request, res: SetTorque.Response) -> SetTorque.Response:
         try:
-            targets = self._targets(req.ids, req.joint_names, moves=bool(req.enable))  # torque off moves nothing
+            # torque off moves nothing; a joint of several servos: each of them
+            targets = self._targets(req.ids, req.joint_names, moves=bool(req.enable), positions=False)
             job = TorqueJob([i for i, _ in targets], bool(req.enable), time.monotonic() + LOOP_TIMEOUT_S)
             await self._settle(job)
             res.success, res.message = job.outcome == DONE, job.message

@@ -202,7 +202,10 @@ def servo_key(name: str, joints: JointNames | None) -> int:
     if name.startswith("id_") and digits.isascii() and digits.isdigit():  # not "id_²" nor "id_٢"
         return int(digits)
     if joints is not None and name in joints.names:
-        return joints.id_of(name)
+        try:
+            return joints.id_of(name)
+        except ValueError as err:  # a joint of several servos: which one?
+            raise ConfigError(f"servos.{cut(name)}: {err}") from None
     known = f"the joints are {', '.join(joints.names)}" if joints is not None else "joint_state.names maps none"
     raise ConfigError(f"servos.{cut(name)}: neither id_<N> nor a joint name of joint_state.names ({known})")
 

@@ -9,7 +9,7 @@ import pytest
 from dynamixel_handler import units
 from dynamixel_handler.commands import Commander
 from dynamixel_handler.commands.joint_goals import RAD, JointGoals
-from dynamixel_handler.joints import JointMap
+from dynamixel_handler.joints import DEG, Joint, JointMap
 
 from support.servo_access import FakeAccess, attached, warnings_of
 
@@ -96,3 +96,41 @@ def test_position_bounds_are_the_servos_limits_in_the_joints_frame():
     assert lo[0] == pytest.approx((-90.0 - half) / RAD) and hi[0] == pytest.approx((90.0 + half) / RAD)
     assert lo[1] == pytest.approx((0.0 - half) / RAD) and hi[1] == pytest.approx((180.0 + half) / RAD)
     assert lo[2] == -math.inf and hi[2] == math.inf
+
+
+#: elbow: servos 1 and 2 on one axis, 2 mounted the other way round; a 2:1 reduction
+PAIRED = JointMap((Joint("elbow", 1, DEG / 2.0, 0.0, partners=((2, -DEG / 2.0),), disagreement=2.0 * DEG),))
+
+
+def test_a_joint_of_two_servos_writes_both_in_one_goal_each_with_its_direction():
+    access = FakeAccess({1: XM430, 2: XM430}, values=VALUES)
+    goals = attached(JointGoals(attached(Commander(access)), PAIRED))
+    assert goals.command("j", ["elbow"], position=[0.25])
+    deg = 0.25 * 2.0 * RAD  # the reduction: the servos turn twice as far
+    assert access.goals == [{"goal_position": {1: _pulses(access, "goal_position", deg),
+                                               2: _pulses(access, "goal_position", -deg)}}]  # one goal, one write
+
+
+def test_servos_of_one_joint_that_disagree_hold_it_said_once_a_second_and_a_later_command_is_taken():
+    access = FakeAccess({1: XM430, 2: XM430}, values=VALUES)
+    lines = warnings_of(access)
+    goals = attached(JointGoals(attached(Commander(access)), PAIRED))
+    for dxl_id, deg in ((1, 10.0), (2, -10.0)):  # the joint at 5 deg from both: they agree
+        access.table.set_value("present_position", dxl_id, _pulses(access, "present_position", deg))
+    goals.watch_pairs()
+    assert goals.held == set() and access.goals == []
+    access.table.set_value("present_position", 2, _pulses(access, "present_position", -20.0))  # 5 deg of joint apart
+    goals.watch_pairs()
+    goals.watch_pairs()
+    assert goals.held == {"elbow"}
+    assert access.goals == [{"goal_position": {1: _pulses(access, "goal_position", 10.0),
+                                               2: _pulses(access, "goal_position", -20.0)}}]  # each where it is, once
+    said = [line for line in lines if line.startswith("joint elbow: servos [1, 2] disagree by 5.0")]
+    assert len(said) == 1 and said[0].endswith("(more than joints.elbow.disagreement_deg 2): held where each was"), lines
+    goals.command("j", ["elbow"], position=[0.5])  # taken: the same joint goal for both
+    deg = 0.5 * 2.0 * RAD
+    assert access.goals[-1] == {"goal_position": {1: _pulses(access, "goal_position", deg),
+                                                  2: _pulses(access, "goal_position", -deg)}}
+    access.table.set_value("present_position", 2, _pulses(access, "present_position", -10.0))
+    goals.watch_pairs()
+    assert goals.held == set()
