@@ -101,7 +101,7 @@ JOINTS_TITLE = "### Joints (`joints.<joint>.<key>`)"
 JOINTS_TEXT = (
     "One entry per joint of the robot, named as in its URDF; `limits` may be given as a map "
     "(`limits: {position: [-1.5, 1.5]}`) or dotted (`-p joints.shoulder.limits.position:=[-1.5, 1.5]`). "
-    "Coupled servos (`coupled`, a differential) are not handled yet (refused). "
+    "A paired joint names its servos in `ids`; a coupled set (a differential) is one entry per joint naming the same servos in `coupled`. "
     "See [robot_integration.md](robot_integration.md#the-joints-block-joints-as-the-urdf-has-them) for what each does.")
 
 

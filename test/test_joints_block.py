@@ -73,7 +73,7 @@ def test_the_joint_state_parameters_and_the_block_together():
     ({"a.id": 1, "a.gear": 2.0}, "joints.a.gear: unknown key for a revolute joint (known: direction, id, limits.effort"),
     ({"a.id": 1, "b.id": 1}, "joints.b.id = 1: servo 1 already drives joint 'a': one joint per servo"),
     ({"a.mimic": "nobody"}, "joints.a.mimic = 'nobody': no such joint driven by a servo (known: none)"),
-    ({"a.coupled": [6, 7]}, "joints.a.coupled: coupled servos (a differential) is not handled yet"),
+    ({"a.coupled": [6, 7]}, "joints.a.row: 0 factors for 2 servos: one per servo of coupled"),
     ({"a.id": 1, "a.reduction": 0.0}, "joints.a.reduction = 0: servo turns per joint turn, above 0"),
     ({"a.id": 1, "a.reduction": math.nan}, "joints.a.reduction = nan: a finite number"),
     ({"a.id": 1, "a.direction": 2}, "joints.a.direction = 2: 1 or -1"),
@@ -133,4 +133,38 @@ def test_a_joint_of_several_servos_is_their_mean_each_with_its_direction():
     ({"a.id": 4, "b.ids": [3, 4]}, "joints.b.ids = [3, 4]: servo 4 already drives joint 'a'"),
 ])
 def test_a_joint_of_several_servos_that_cannot_be_right_is_one_line(block, line):
+    assert line in problem(**block)
+
+
+def test_a_coupled_set_is_solved_as_a_matrix_and_read_as_its_rows():
+    joints = config(**{"wrist_pitch.coupled": [6, 7], "wrist_pitch.row": [0.5, 0.5],
+                       "wrist_roll.coupled": [7, 6], "wrist_roll.row": [-0.5, 0.5]}).settings.ros.joints
+    pitch, roll = joints.joint("wrist_pitch"), joints.joint("wrist_roll")
+    assert pitch.coupling is roll.coupling or pitch.coupling == roll.coupling
+    coupling = pitch.coupling
+    assert coupling.servo_ids == (6, 7) and coupling.names == ("wrist_pitch", "wrist_roll")
+    assert coupling.rows == ((0.5, 0.5), (0.5, -0.5))  # the roll's row put in the set's servo order
+    assert np.allclose(coupling.servos_rad([0.2, 0.1]), [0.3, 0.1])  # pitch + roll, pitch - roll
+    table = ServoTable()
+    model = model_by_number(XM430)
+    for dxl_id, deg in ((6, 20.0), (7, 10.0)):
+        table.add(dxl_id, model)
+        table.set_value("present_position", dxl_id, model.position_zero_pulse + round(deg / model.position_deg_per_pulse))
+    reading = read_joints(joints, table)
+    at = dict(zip(reading.names, reading.position_rad))
+    assert at["wrist_pitch"] == pytest.approx(15.0 * DEG, abs=1e-3) and at["wrist_roll"] == pytest.approx(5.0 * DEG, abs=1e-3)
+    assert all(math.isnan(e) for e in reading.effort_a)
+
+
+@pytest.mark.parametrize("block, line", [
+    ({"a.coupled": [6, 7], "a.row": [0.5, 0.5]}, "joints.a.coupled = [6, 7]: 2 servos need 2 joints naming them, 1 do (a)"),
+    ({"a.coupled": [6, 7], "a.row": [0.5, 0.5], "b.coupled": [6, 7], "b.row": [1.0, 1.0]},
+     "joints a, b: their rows [[0.5, 0.5], [1.0, 1.0]] cannot be inverted"),
+    ({"a.coupled": [6, 7], "a.row": [0.5]}, "joints.a.row: 1 factors for 2 servos"),
+    ({"a.coupled": [6], "a.row": [0.5]}, "joints.a.coupled = [6]: two or more different servo IDs"),
+    ({"a.coupled": [6, 7], "a.row": [0.5, 0.5], "a.id": 3}, "joints.a.id: unknown key for a joint of a coupled set"),
+    ({"a.coupled": [6, 7], "a.row": [0.5, 0.5], "b.coupled": [6, 7], "b.row": [0.5, -0.5], "c.id": 7},
+     "servo 7 already drives joint"),
+])
+def test_a_coupled_set_that_cannot_be_right_is_one_line(block, line):
     assert line in problem(**block)

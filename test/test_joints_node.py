@@ -20,6 +20,8 @@ from support.rig import SYNC_WRITE, Rig, X
 from support.ros import NodeProcess, node_command
 
 BLOCK = ("joints.elbow.ids:=[3, 4]", "joints.elbow.directions:=[1, -1]",
+         "joints.wrist_pitch.coupled:=[5, 6]", "joints.wrist_pitch.row:=[0.5, 0.5]",
+         "joints.wrist_roll.coupled:=[5, 6]", "joints.wrist_roll.row:=[0.5, -0.5]",
          "joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.shoulder.limits.position:=[-1.0, 1.2]",
          "joints.gripper.id:=2", "joints.gripper.type:=prismatic", "joints.gripper.stroke:=[0.0, 0.04]",
          "joints.gripper.servo_deg:=[0.0, 100.0]", "joints.finger.mimic:=gripper", "joints.finger.multiplier:=0.5")
@@ -29,7 +31,7 @@ R = FollowJointTrajectory.Result
 
 @pytest.fixture(scope="module")
 def rig():
-    r = Rig({1: X, 2: X, 3: X, 4: X}, *BLOCK, "loop_rate:=100", "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000})
+    r = Rig({1: X, 2: X, 3: X, 4: X, 5: X, 6: X}, *BLOCK, "loop_rate:=100", "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000})
     yield r
     assert r.close() == 0
 
@@ -77,7 +79,8 @@ def test_joint_states_carry_joint_units_and_the_mimic_joint(rig):
     seen = len(got)
     rig.wait(lambda: len(got) > seen + 1, timeout=10, what="joint states read since")
     msg = got[-1]
-    assert list(msg.name) == ["elbow", "gripper", "shoulder", "finger"]  # ROS hands the block over sorted; mimics last
+    # ROS hands the block over sorted, the coupled sets after the others, the mimics last
+    assert list(msg.name) == ["elbow", "gripper", "shoulder", "wrist_pitch", "wrist_roll", "finger"]
     shoulder = msg.position[2]
     assert shoulder == pytest.approx(math.radians(servo_deg(rig, 1, "present_position")) / 2.0, abs=1e-9)
 
@@ -170,6 +173,17 @@ def test_a_joint_of_two_servos_is_written_in_one_sync_write_and_held_when_they_d
     rig.publish("/joint_commands", JointState(name=["elbow"], position=[-0.3]))  # a later command is taken
     goals_at(rig, {3: -math.degrees(0.3), 4: math.degrees(0.3)}, "elbow at -0.3 rad")
     rig.wait_log("joint elbow: servos [3, 4] agree again", since=mark)
+
+
+def test_a_coupled_set_is_written_in_one_sync_write_solved_from_its_joints(rig):
+    since = time.monotonic()
+    rig.publish("/joint_commands", JointState(name=["wrist_pitch", "wrist_roll"], position=[0.2, 0.1]))
+    # pitch = (s5 + s6) / 2, roll = (s5 - s6) / 2: s5 = pitch + roll, s6 = pitch - roll
+    goals_at(rig, {5: math.degrees(0.3), 6: math.degrees(0.1)}, "wrist at pitch 0.2, roll 0.1 rad")
+    writes = _goal_writes_of(rig, since, {5, 6})
+    assert writes and all(set(w) == {5, 6} for w in writes), writes
+    rig.publish("/joint_commands", JointState(name=["wrist_roll"], position=[0.0]))  # pitch kept where it is
+    goals_at(rig, {5: math.degrees(0.2), 6: math.degrees(0.2)}, "wrist roll 0, pitch kept")
 
 
 def test_a_block_that_cannot_be_right_stops_the_node_with_one_line():

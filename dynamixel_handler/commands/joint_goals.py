@@ -31,9 +31,10 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..joints import DEG, Joint, JointMap, spread
+from ..joints import DEG, Coupling, Joint, JointMap, spread
 from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
+from .coupled_goals import Given, coupled_goals
 from .goal_bounds import goal_position_limits
 
 if TYPE_CHECKING:
@@ -53,7 +54,7 @@ class JointGoals:
         self.mapping = mapping
         #: joints of several servos whose servos disagree now (held when it began)
         self.held: set[str] = set()
-        self._paired = [j for j in mapping.joints if j.partners]
+        self._paired = [j for j in mapping.joints if j.partners and j.coupling is None]
 
     TAKES: ClassVar[tuple[type, ...]] = get_args(JointRequest)
 
@@ -109,6 +110,7 @@ class JointGoals:
         table = self.h.table
         m = self.mapping
         batches: _Batches = {}
+        coupled: dict[Coupling, dict[str, Given]] = {}
         unhandled = []
         for k, name in enumerate(names):
             joint = m.joint(name)
@@ -118,16 +120,25 @@ class JointGoals:
             pos = self._within(what, joint, position[k]) if position else None
             vel = velocity[k] if velocity else None
             eff = effort[k] if effort else None
+            if joint.coupling is not None:  # solved with the other joints of its set, below
+                coupled.setdefault(joint.coupling, {})[name] = (pos, vel, eff)
+                continue
             for dxl_id, scale in joint.servos:  # a joint of several servos: each in the same write
                 control, fields = self._servo_goal(joint, dxl_id, scale, pos, vel, eff)
-                series = table.model(dxl_id).family if control != "goal" else None
-                ids, cols = batches.setdefault((series, control), ([], {}))
-                ids.append(dxl_id)
-                for f, v in fields.items():
-                    cols.setdefault(f, []).append(v)
+                self._batch(batches, control, dxl_id, fields)
+        for coupling, given in coupled.items():
+            for control, dxl_id, fields in coupled_goals(self.h, self.mapping, self.commander.warn, what, coupling, given):
+                self._batch(batches, control, dxl_id, fields)
         if unhandled:
             self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
         self._send(what, batches)
+
+    def _batch(self, batches: _Batches, control: str, dxl_id: int, fields: dict[str, float]) -> None:
+        series = self.h.table.model(dxl_id).family if control != "goal" else None
+        ids, cols = batches.setdefault((series, control), ([], {}))
+        ids.append(dxl_id)
+        for f, v in fields.items():
+            cols.setdefault(f, []).append(v)
 
     def _within(self, what: str, joint: Joint, position: float) -> float:
         """A position goal inside the joint's soft limits (clamped, one line a second per joint)."""
@@ -218,8 +229,9 @@ class JointGoals:
                 pos.append(math.nan)
                 vel.append(math.nan)
                 continue
-            pos.append(sum(joint.zero + scale * float(pos_deg[p]) for p, scale in rows) / len(rows))
-            vel.append(sum(scale * float(vel_deg[p]) for p, scale in rows) / len(rows))
+            share = 1.0 if joint.coupling is not None else 1.0 / len(rows)  # a row's sum, or the pair's mean
+            pos.append(joint.zero + share * sum(scale * float(pos_deg[p]) for p, scale in rows))
+            vel.append(share * sum(scale * float(vel_deg[p]) for p, scale in rows))
         return pos, vel
 
     def position_bounds(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -232,6 +244,8 @@ class JointGoals:
         table = self.h.table
         for k, name in enumerate(names):
             joint = self.mapping.joint(name)
+            if joint.coupling is not None:
+                continue  # a coupled set's servo bounds are no box in joint space: its soft limits only
             for dxl_id, scale in joint.servos:  # a joint of several servos: within every one's bounds
                 if dxl_id not in table:
                     continue

@@ -3,6 +3,7 @@ parameters (``block``)."""
 from .block import is_joint_parameter, joints_block, merged
 from .mapping import (
     DEG,
+    Coupling,
     Joint,
     JointMap,
     JointReading,
@@ -14,5 +15,5 @@ from .mapping import (
     unhandled,
 )
 
-__all__ = ["DEG", "Joint", "JointMap", "JointReading", "Mimic", "is_joint_parameter", "joint_map", "joints_block", "merged",
+__all__ = ["DEG", "Coupling", "Joint", "JointMap", "JointReading", "Mimic", "is_joint_parameter", "joint_map", "joints_block", "merged",
            "read_joints", "resolve_targets", "spread", "unhandled"]

@@ -14,17 +14,20 @@ two positions in m); ``limits``: the joint's soft limits in its units (rad or m,
 ``effort`` in A, the present current's unit). A mimic joint is published in ``joint_states`` only.
 ``ids`` (with ``directions``): a joint driven by two or more servos together, written in one sync
 write, its state their mean; beyond ``disagreement_deg`` apart each servo is held where it is
-(one line a second while it lasts). Coupled servos (``coupled``, a differential) are not handled yet: refused with one line.
-Every problem is a ``ConfigError`` of one line naming the parameter. ROS-free.
+(one line a second while it lasts). ``coupled`` with ``row``: a coupled set (a differential),
+``joint = offset + row · the set's servo angles`` [rad], as many joints as servos naming the same
+set. Every problem is a ``ConfigError`` of one line naming the parameter. ROS-free.
 """
 from __future__ import annotations
 
 import math
 from typing import Any, Mapping
 
+import numpy as np
+
 from ..errors import ConfigError
 from ..logs import cut
-from .mapping import DEG, Joint, JointMap, Mimic
+from .mapping import DEG, Coupling, Joint, JointMap, Mimic
 
 PREFIX = "joints."
 #: every key of an entry: (type, default, which joints take it, meaning); docs/parameters.md prints it
@@ -33,14 +36,19 @@ KEYS: dict[str, tuple[str, str, str, str]] = {
     "type": ("str", "revolute", "revolute, prismatic", "revolute (rad) or prismatic (m)"),
     "reduction": ("float", "1.0", "revolute", "servo turns per joint turn (above 0)"),
     "direction": ("int", "1", "revolute", "1: the joint turns with the servo, -1: against it"),
-    "offset": ("float", "0.0", "revolute, mimic", "revolute: the joint's position [rad] when the servo reads 0 deg; "
-               "mimic: added to multiplier x the followed joint"),
+    "offset": ("float", "0.0", "revolute, coupled, mimic",
+               "revolute, coupled: the joint's position [rad] when the servo(s) read 0 deg; mimic: added to "
+               "multiplier x the followed joint"),
     "stroke": ("float[2]", "-", "prismatic", "the joint's positions [m] at the two servo angles of servo_deg"),
     "servo_deg": ("float[2]", "-", "prismatic", "two servo angles [deg] (different), where the joint is at stroke"),
-    "limits.position": ("float[2]", "none", "revolute, prismatic",
+    "coupled": ("int[]", "-", "coupled", "the servos of a coupled set (a differential): as many joints as servos "
+                "name the same set"),
+    "row": ("float[]", "-", "coupled", "joint = offset + row · the set's servo angles [rad], one factor per servo of "
+            "coupled (the set's rows must make an invertible matrix)"),
+    "limits.position": ("float[2]", "none", "revolute, prismatic, coupled",
                         "soft limits [rad or m]: a command beyond is clamped (one line a second), a trajectory "
                         "point beyond refused"),
-    "limits.velocity": ("float", "none", "revolute, prismatic", "the fastest velocity command [rad/s or m/s]"),
+    "limits.velocity": ("float", "none", "revolute, prismatic, coupled", "the fastest velocity command [rad/s or m/s]"),
     "limits.effort": ("float", "none", "revolute, prismatic", "the largest effort command [A, the present current's unit]"),
     "ids": ("int[]", "-", "paired", "the servos that drive the joint together (two or more, each in one joint)"),
     "directions": ("int[]", "all 1", "paired", "1 or -1 per servo of ids: how each is mounted"),
@@ -55,7 +63,7 @@ REVOLUTE_KEYS = frozenset(k for k, v in KEYS.items() if "revolute" in v[2])
 PAIRED_KEYS = frozenset(k for k, v in KEYS.items() if "paired" in v[2] or ("revolute" in v[2] and k not in ("id", "type")))
 PRISMATIC_KEYS = frozenset(k for k, v in KEYS.items() if "prismatic" in v[2])
 MIMIC_KEYS = frozenset(k for k, v in KEYS.items() if "mimic" in v[2])
-NOT_YET = {"coupled": "coupled servos (a differential)", "row": "coupled servos (a differential)"}
+COUPLED_KEYS = frozenset(k for k, v in KEYS.items() if "coupled" in v[2])
 
 
 def is_joint_parameter(name: str) -> bool:
@@ -74,11 +82,13 @@ def joints_block(values: Mapping[str, Any]) -> tuple[dict[str, Joint], dict[str,
                               "joints.shoulder.id")
         entries.setdefault(joint, {})[key] = value
     joints, mimics = {}, {}
+    coupled = {joint: keys for joint, keys in entries.items() if "coupled" in keys}
     for joint, keys in entries.items():
         if "mimic" in keys:
             mimics[joint] = _mimic(joint, keys)
-        else:
+        elif joint not in coupled:
             joints[joint] = _joint(joint, keys)
+    joints.update(couplings(coupled))
     return joints, mimics
 
 
@@ -108,7 +118,8 @@ def _check_new(given: list[Joint], joint: Joint) -> None:
     if any(j.name == joint.name for j in given):
         raise ConfigError(f"joint '{cut(joint.name)}' is both in joint_state.names and in the joints block: give it once")
     for dxl_id in joint.servo_ids:
-        other = next((j.name for j in given if dxl_id in j.servo_ids), None)
+        other = next((j.name for j in given if dxl_id in j.servo_ids
+                      and (j.coupling is None or j.coupling != joint.coupling)), None)
         if other is not None:
             key = "id" if not joint.partners else "ids"
             shown = dxl_id if not joint.partners else list(joint.servo_ids)
@@ -119,9 +130,6 @@ def _check_new(given: list[Joint], joint: Joint) -> None:
 # ---------------------------------------------------------------------------- one entry
 def _joint(name: str, keys: Mapping[str, Any]) -> Joint:
     where = f"joints.{cut(name)}"
-    for key in keys:
-        if key in NOT_YET:
-            raise ConfigError(f"{where}.{key}: {NOT_YET[key]} is not handled yet: map the joint to one servo (id)")
     if "ids" in keys:
         return _paired(name, where, keys)
     kind = keys.get("type", "revolute")
@@ -201,6 +209,57 @@ def _prismatic(where: str, keys: Mapping[str, Any]) -> tuple[float, float]:
     return scale, s0 - scale * d0
 
 
+#: one joint of a coupled set as its entry gives it: name, {servo ID: factor}, offset, limits
+_Member = tuple[str, dict[int, float], float, tuple[tuple[float, float], float, float]]
+
+
+def couplings(entries: Mapping[str, Mapping[str, Any]]) -> dict[str, Joint]:
+    """The joints of coupled sets: the entries naming the same servos (in any order) make one set,
+    as many joints as servos, rows that make an invertible matrix."""
+    sets: dict[tuple[int, ...], list[_Member]] = {}
+    for name, keys in entries.items():
+        ids, member = _member(name, keys)
+        sets.setdefault(tuple(sorted(ids)), []).append(member)
+    out: dict[str, Joint] = {}
+    for servo_ids, members in sets.items():
+        out.update(_coupled_set(servo_ids, members))
+    return out
+
+
+def _member(name: str, keys: Mapping[str, Any]) -> tuple[list[int], _Member]:
+    where = f"joints.{cut(name)}"
+    unknown = sorted(set(keys) - COUPLED_KEYS)
+    if unknown:
+        raise ConfigError(f"{where}.{cut(unknown[0])}: unknown key for a joint of a coupled set (known: "
+                          f"{', '.join(sorted(COUPLED_KEYS))})")
+    ids = [_integer(f"{where}.coupled", i) for i in _listed(keys["coupled"])]
+    if len(ids) < 2 or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
+        raise ConfigError(f"{where}.coupled = {cut(repr(ids))}: two or more different servo IDs (0..252)")
+    row = [_number(f"{where}.row", v) for v in _listed(keys.get("row", []))]
+    if len(row) != len(ids):
+        raise ConfigError(f"{where}.row: {len(row)} factors for {len(ids)} servos: one per servo of coupled")
+    offset = _number(f"{where}.offset", keys.get("offset", 0.0))
+    return ids, (name, dict(zip(ids, row)), offset, _limits(where, keys))
+
+
+def _coupled_set(servo_ids: tuple[int, ...], members: list[_Member]) -> dict[str, Joint]:
+    names = [m[0] for m in members]
+    if len(members) != len(servo_ids):
+        raise ConfigError(f"joints.{cut(names[0])}.coupled = {list(servo_ids)}: {len(servo_ids)} servos need "
+                          f"{len(servo_ids)} joints naming them, {len(members)} do ({', '.join(cut(n) for n in names)})")
+    rows = tuple(tuple(factors[i] for i in servo_ids) for _, factors, _, _ in members)
+    if abs(float(np.linalg.det(np.asarray(rows)))) < 1e-9:
+        raise ConfigError(f"joints {', '.join(cut(n) for n in names)}: their rows {[list(r) for r in rows]} cannot "
+                          "be inverted: no servo angles for a joint command")
+    coupling = Coupling(servo_ids, tuple(names), rows, tuple(m[2] for m in members))
+    out = {}
+    for (name, _, offset, limits), factors_row in zip(members, rows):
+        scales = [f * DEG for f in factors_row]
+        out[name] = Joint(name, servo_ids[0], scales[0], offset, False, *limits,
+                          partners=tuple(zip(servo_ids[1:], scales[1:])), coupling=coupling)
+    return out
+
+
 def _mimic(name: str, keys: Mapping[str, Any]) -> Mimic:
     where = f"joints.{cut(name)}"
     unknown = sorted(set(keys) - MIMIC_KEYS)
@@ -249,4 +308,5 @@ def _pair(where: str, value: Any, ordered: bool = False) -> tuple[float, float]:
     return lo, hi
 
 
-__all__ = ["KEYS", "MIMIC_KEYS", "PAIRED_KEYS", "PREFIX", "PRISMATIC_KEYS", "REVOLUTE_KEYS", "is_joint_parameter", "joints_block", "merged"]
+__all__ = ["COUPLED_KEYS", "KEYS", "MIMIC_KEYS", "PAIRED_KEYS", "PREFIX", "PRISMATIC_KEYS", "REVOLUTE_KEYS", "couplings",
+           "is_joint_parameter", "joints_block", "merged"]

@@ -28,6 +28,30 @@ DEG = math.pi / 180.0
 
 
 @dataclass(frozen=True)
+class Coupling:
+    """Servos that drive a set of joints together (a differential): with ``s`` the servos' angles
+    [rad] and one row per joint,
+
+        joints = offsets + rows · s,      s = rows⁻¹ · (joints − offsets)
+
+    so a command of any joint of the set writes every servo of it."""
+
+    servo_ids: tuple[int, ...]
+    names: tuple[str, ...]                      #: the joints, one per row
+    rows: tuple[tuple[float, ...], ...]
+    offsets: tuple[float, ...]
+
+    def servos_rad(self, joints: Sequence[float]) -> np.ndarray:
+        """The servo angles [rad] that put the joints (in ``names`` order) at ``joints``."""
+        rows = np.asarray(self.rows, dtype=np.float64)
+        return np.asarray(np.linalg.solve(rows, np.asarray(joints, dtype=np.float64) - np.asarray(self.offsets)))
+
+    def rates(self, joints: Sequence[float]) -> np.ndarray:
+        """The servo rates [rad/s] of joint rates (``names`` order)."""
+        return np.asarray(np.linalg.solve(np.asarray(self.rows, dtype=np.float64), np.asarray(joints, dtype=np.float64)))
+
+
+@dataclass(frozen=True)
 class Joint:
     """One joint driven by one servo, as a linear map of the servo's angle:
 
@@ -48,6 +72,9 @@ class Joint:
     partners: tuple[tuple[int, float], ...] = ()
     #: the largest spread of a paired joint's servos [joint units] before the joint is held
     disagreement: float = 2.0 * DEG
+    #: a joint of a coupled set: ``servos`` are the set's, each scale its row's entry [rad/deg]
+    #: (the joint is ``zero`` plus their sum, not their mean)
+    coupling: Coupling | None = None
 
     @property
     def servos(self) -> tuple[tuple[int, float], ...]:
@@ -221,8 +248,9 @@ def unhandled(mapping: JointMap, handled_ids: Iterable[int]) -> list[str]:
 def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
     """The joints of ``table`` in SI units (parameter order, then the mimic joints); joints whose
     servo is not handled or whose position was never read are left out rather than published as
-    NaN. A joint driven by several servos is the mean of theirs. Effort is the present current
-    [A] with the joint's direction (summed over a joint's servos)."""
+    NaN. A joint driven by several servos is the mean of theirs, a joint of a coupled set its
+    row of the set's servos. Effort is the present current [A] with the joint's direction (summed
+    over a joint's servos; NaN for a coupled joint)."""
     position = table.units("present_position")
     velocity = table.units("present_velocity")
     current = table.units("present_current")
@@ -233,9 +261,11 @@ def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
         if any(p is None or not math.isfinite(position[p]) for p, _ in rows):
             continue
         names.append(joint.name)
-        pos_out.append(sum(joint.zero + scale * position[p] for p, scale in rows) / len(rows))
-        vel_out.append(sum(scale * velocity[p] for p, scale in rows) / len(rows))
-        eff_out.append(sum(math.copysign(1.0, scale) * current[p] for p, scale in rows) / 1000.0)
+        share = 1.0 if joint.coupling is not None else 1.0 / len(rows)  # a row's sum, or the pair's mean
+        pos_out.append(joint.zero + share * sum(scale * position[p] for p, scale in rows))
+        vel_out.append(share * sum(scale * velocity[p] for p, scale in rows))
+        eff_out.append(math.nan if joint.coupling is not None else
+                       sum(math.copysign(1.0, scale) * current[p] for p, scale in rows) / 1000.0)
     reading = JointReading(names=names, position_rad=np.asarray(pos_out, dtype=np.float64),
                            velocity_rad_s=np.asarray(vel_out, dtype=np.float64), effort_a=np.asarray(eff_out, dtype=np.float64))
     return _with_mimics(mapping, reading)

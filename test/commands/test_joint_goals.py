@@ -134,3 +134,24 @@ def test_servos_of_one_joint_that_disagree_hold_it_said_once_a_second_and_a_late
     access.table.set_value("present_position", 2, _pulses(access, "present_position", -10.0))
     goals.watch_pairs()
     assert goals.held == set()
+
+
+def test_a_coupled_set_writes_every_servo_solved_from_the_joints_given_and_the_others_present():
+    from dynamixel_handler.joints import Coupling
+    coupling = Coupling((1, 2), ("pitch", "roll"), ((0.5, 0.5), (0.5, -0.5)), (0.0, 0.0))
+    mapping = JointMap((Joint("pitch", 1, 0.5 * DEG, 0.0, partners=((2, 0.5 * DEG),), coupling=coupling),
+                        Joint("roll", 1, 0.5 * DEG, 0.0, partners=((2, -0.5 * DEG),), coupling=coupling)))
+    access = FakeAccess({1: XM430, 2: XM430}, values=VALUES)
+    lines = warnings_of(access)
+    goals = attached(JointGoals(attached(Commander(access)), mapping))
+    goals.command("j", ["pitch"], position=[0.1])
+    assert lines == ["j: the coupled joints ['pitch', 'roll'] have no position read yet: ignored"]
+    for dxl_id in (1, 2):  # both servos at 20 deg: pitch 20 deg, roll 0
+        access.table.set_value("present_position", dxl_id, _pulses(access, "present_position", 20.0))
+    assert goals.command("j", ["pitch"], position=[0.1])
+    assert access.goals == [{"goal_position": {1: _pulses(access, "goal_position", 0.1 * RAD),
+                                               2: _pulses(access, "goal_position", 0.1 * RAD)}}]  # roll kept at 0
+    goals.command("j", ["roll", "pitch"], position=[0.1, 0.2])
+    assert access.goals[-1] == {"goal_position": {1: _pulses(access, "goal_position", 0.3 * RAD),
+                                                  2: _pulses(access, "goal_position", 0.1 * RAD)}}
+    assert goals.present(["pitch", "roll"])[0] == pytest.approx([20.0 / RAD, 0.0], abs=1e-3)
