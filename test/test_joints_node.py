@@ -23,6 +23,7 @@ BLOCK = ("joints.elbow.ids:=[3, 4]", "joints.elbow.directions:=[1, -1]",
          "joints.wrist_pitch.coupled:=[5, 6]", "joints.wrist_pitch.row:=[0.5, 0.5]",
          "joints.wrist_roll.coupled:=[5, 6]", "joints.wrist_roll.row:=[0.5, -0.5]",
          "joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.shoulder.limits.position:=[-1.0, 1.2]",
+         "joints.shoulder.limits.velocity:=3.0",
          "joints.gripper.id:=2", "joints.gripper.type:=prismatic", "joints.gripper.stroke:=[0.0, 0.04]",
          "joints.gripper.servo_deg:=[0.0, 100.0]", "joints.finger.mimic:=gripper", "joints.finger.multiplier:=0.5")
 ACTION = "/dynamixel_handler/follow_joint_trajectory"
@@ -83,6 +84,17 @@ def test_joint_states_carry_joint_units_and_the_mimic_joint(rig):
     assert list(msg.name) == ["elbow", "gripper", "shoulder", "wrist_pitch", "wrist_roll", "finger"]
     shoulder = msg.position[2]
     assert shoulder == pytest.approx(math.radians(servo_deg(rig, 1, "present_position")) / 2.0, abs=1e-9)
+
+
+def test_the_velocity_limit_caps_the_servo_s_profile_and_refuses_a_trajectory_too_fast(rig):
+    rig.publish("/joint_commands", JointState(name=["shoulder"], position=[0.4]))
+    servo = rig.sim.servo(1)
+    cap = math.degrees(3.0 * 2.0)  # 3 rad/s of joint: 6 rad/s of servo (reduction 2)
+    rig.wait(lambda: abs(servo.read("profile_velocity") * servo.model.velocity_deg_s_per_pulse - cap) < 1.5, timeout=15,
+             what=f"profile velocity {cap:.0f} deg/s")
+    result = _send(rig, ["shoulder"], [(0.2, [0.4]), (0.3, [0.9])])  # 5 rad/s between the two
+    assert result.error_code == R.INVALID_GOAL
+    assert result.error_string == "point 1: joint shoulder at 5/s is faster than its limit 3/s (joints.shoulder.limits.velocity)"
 
 
 def test_a_joint_command_beyond_the_soft_limit_is_clamped_with_one_line(rig):

@@ -41,8 +41,8 @@ if TYPE_CHECKING:
     from ..core.api import ServoAccess
 
 RAD = 180.0 / math.pi
-#: (series, control) -> (servo IDs, field -> one value per ID): the Commander calls of one command
-_Batches = dict[tuple[ServoFamily | None, str], tuple[list[int], dict[str, list[float]]]]
+#: (series, control, fields) -> (servo IDs, field -> one value per ID): the Commander calls of one command
+_Batches = dict[tuple[ServoFamily | None, str, tuple[str, ...]], tuple[list[int], dict[str, list[float]]]]
 
 
 class JointGoals:
@@ -133,9 +133,21 @@ class JointGoals:
             self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
         self._send(what, batches)
 
+    def _profile_cap(self, joint: Joint, dxl_id: int, scale: float) -> dict[str, float]:
+        """A position goal's servo at most as fast as the joint's velocity limit: its profile
+        velocity lowered to the limit where it is none (0) or faster; nothing otherwise."""
+        if not math.isfinite(joint.velocity_limit):
+            return {}
+        cap = joint.velocity_limit / abs(scale)  # servo deg/s
+        table = self.h.table
+        profile = table.units("profile_velocity")[table.index[dxl_id]]
+        step = float(units.pulse_to_unit([table.model(dxl_id)], "profile_velocity", [1])[0])  # the written value's rounding
+        faster = not math.isfinite(profile) or profile == 0 or profile > cap + step
+        return {"profile_vel_deg_s": cap} if faster else {}
+
     def _batch(self, batches: _Batches, control: str, dxl_id: int, fields: dict[str, float]) -> None:
         series = self.h.table.model(dxl_id).family if control != "goal" else None
-        ids, cols = batches.setdefault((series, control), ([], {}))
+        ids, cols = batches.setdefault((series, control, tuple(sorted(fields))), ([], {}))  # the same fields each
         ids.append(dxl_id)
         for f, v in fields.items():
             cols.setdefault(f, []).append(v)
@@ -159,7 +171,7 @@ class JointGoals:
         if eff is not None:
             eff = math.copysign(min(abs(float(eff)), joint.effort_limit), float(eff)) / len(joint.servos)
         if pos is not None:
-            fields = {"position_deg": (float(pos) - joint.zero) / scale}
+            fields = {"position_deg": (float(pos) - joint.zero) / scale, **self._profile_cap(joint, dxl_id, scale)}
             if eff is not None:
                 fields["current_ma"] = abs(float(eff)) * 1000.0
                 return "current_base_position_control", fields
@@ -173,10 +185,9 @@ class JointGoals:
         return "current_control", {"current_ma": float(cast(float, eff)) * 1000.0 * sign}
 
     def _send(self, what: str, batches: _Batches) -> None:
-        """One Commander call per (series, control): goals of kept modes as plain goals."""
-        for (series, control), (ids, cols) in batches.items():
-            if any(len(v) != len(ids) for v in cols.values()):
-                continue  # cannot happen: one control means the same fields for every joint of a batch
+        """One Commander call per (series, control, fields): goals of kept modes as plain goals (the
+        goals of one command reach the same sync writes: pending goals merge per item)."""
+        for (series, control, _), (ids, cols) in batches.items():
             if series is None:
                 self.commander.goal(ids, cols, what=what)
             else:

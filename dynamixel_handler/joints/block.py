@@ -48,7 +48,9 @@ KEYS: dict[str, tuple[str, str, str, str]] = {
     "limits.position": ("float[2]", "none", "revolute, prismatic, coupled",
                         "soft limits [rad or m]: a command beyond is clamped (one line a second), a trajectory "
                         "point beyond refused"),
-    "limits.velocity": ("float", "none", "revolute, prismatic, coupled", "the fastest velocity command [rad/s or m/s]"),
+    "limits.velocity": ("float", "none", "revolute, prismatic, coupled",
+                        "the fastest the joint is driven [rad/s or m/s]: velocity commands cut, the profile of a "
+                        "position command capped, a faster trajectory refused"),
     "limits.effort": ("float", "none", "revolute, prismatic", "the largest effort command [A, the present current's unit]"),
     "ids": ("int[]", "-", "paired", "the servos that drive the joint together (two or more, each in one joint)"),
     "directions": ("int[]", "all 1", "paired", "1 or -1 per servo of ids: how each is mounted"),

@@ -162,6 +162,7 @@ class JointCommands:
             raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} is beyond "
                                               f"its limits [{soft[j, 0]:g}, {soft[j, 1]:g}] "
                                               f"(joints.{names[j]}.limits.position)")
+        self._check_speeds(names, points)
         lo, hi = self.goals.position_bounds(names)
         outside = (points.positions < lo) | (points.positions > hi)
         if outside.any():
@@ -169,6 +170,24 @@ class JointCommands:
             raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {points.positions[k, j]:.6g} is "
                                               f"beyond its servo's position limits ({lo[j]:.4f} .. {hi[j]:.4f}, "
                                               f"ID {', '.join(map(str, self.mapping.joint(names[j]).servo_ids))})")
+
+    def _check_speeds(self, names: list[str], points: Points) -> None:
+        """TrajectoryRefused naming the first point and joint faster than the joint's velocity
+        limit (``joints.<name>.limits.velocity``): a velocity given, or the mean speed from the
+        point before."""
+        limit = np.array([self.mapping.joint(n).velocity_limit for n in names], dtype=np.float64)
+        if not np.isfinite(limit).any():
+            return
+        speed = np.abs(points.velocities)
+        if len(points) > 1:
+            dt = np.diff(points.times)[:, None]
+            mean = np.abs(np.diff(points.positions, axis=0)) / np.where(dt > 0, dt, np.inf)
+            speed = np.maximum(speed, np.vstack([np.zeros((1, len(names))), mean]))
+        beyond = speed > limit * (1.0 + 1e-9)
+        if beyond.any():
+            k, j = (int(i) for i in np.argwhere(beyond)[0])
+            raise TrajectoryRefused(BAD_GOAL, f"point {k}: joint {names[j]} at {speed[k, j]:.6g}/s is faster than its "
+                                              f"limit {limit[j]:g}/s (joints.{names[j]}.limits.velocity)")
 
     def _check_joints(self, names: list[str]) -> None:
         """TrajectoryRefused unless the joints are known, named once and on handled servos."""

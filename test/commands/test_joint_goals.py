@@ -155,3 +155,14 @@ def test_a_coupled_set_writes_every_servo_solved_from_the_joints_given_and_the_o
     assert access.goals[-1] == {"goal_position": {1: _pulses(access, "goal_position", 0.3 * RAD),
                                                   2: _pulses(access, "goal_position", 0.1 * RAD)}}
     assert goals.present(["pitch", "roll"])[0] == pytest.approx([20.0 / RAD, 0.0], abs=1e-3)
+
+
+def test_a_velocity_limit_caps_the_profile_and_joints_without_one_are_written_all_the_same():
+    mapping = JointMap((Joint("fast", 1, DEG, 0.0), Joint("slow", 2, DEG / 2.0, 0.0, velocity_limit=3.0)))
+    access = FakeAccess({1: XM430, 2: XM430}, values=VALUES)
+    goals = attached(JointGoals(attached(Commander(access)), mapping))
+    goals.command("j", ["fast", "slow"], position=[0.1, 0.2])
+    # two Commander calls (their fields differ), one pending goal of each item: one sync write each
+    assert access.pending.peek("goal_position") == {1: _pulses(access, "goal_position", 0.1 * RAD),
+                                                    2: _pulses(access, "goal_position", 0.4 * RAD)}
+    assert access.pending.peek("profile_velocity") == {2: _pulses(access, "profile_velocity", 6.0 * RAD)}  # 3 rad/s
