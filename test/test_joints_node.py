@@ -14,6 +14,7 @@ from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from dynamixel_handler_msgs.msg import DynamixelGoal
 from dynamixel_handler_msgs.srv import MoveTo
 
 from support.rig import SYNC_WRITE, Rig, X
@@ -86,12 +87,27 @@ def test_joint_states_carry_joint_units_and_the_mimic_joint(rig):
     assert shoulder == pytest.approx(math.radians(servo_deg(rig, 1, "present_position")) / 2.0, abs=1e-9)
 
 
-def test_the_velocity_limit_caps_the_servo_s_profile_and_refuses_a_trajectory_too_fast(rig):
-    rig.publish("/joint_commands", JointState(name=["shoulder"], position=[0.4]))
+def _profile(rig: Rig, deg_s: float) -> None:
+    """Servo 1's profile velocity set on the servo level (an earlier test's move may have set another)."""
+    rig.publish("/dynamixel/command/goal", DynamixelGoal(id_list=[1], profile_vel_deg_s=[deg_s]))
     servo = rig.sim.servo(1)
+    rig.wait(lambda: abs(servo.read("profile_velocity") * servo.model.velocity_deg_s_per_pulse - deg_s) < 1.5,
+             timeout=15, what=f"servo 1's profile velocity at {deg_s:g} deg/s")
+
+
+def test_the_velocity_limit_caps_the_servo_s_profile_and_refuses_a_trajectory_too_fast(rig):
+    servo = rig.sim.servo(1)
+    _profile(rig, 0.0)  # none: as fast as the servo goes
+    rig.fresh_states(count=3)
+    rig.publish("/joint_commands", JointState(name=["shoulder"], position=[0.4]))
     cap = math.degrees(3.0 * 2.0)  # 3 rad/s of joint: 6 rad/s of servo (reduction 2)
     rig.wait(lambda: abs(servo.read("profile_velocity") * servo.model.velocity_deg_s_per_pulse - cap) < 1.5, timeout=15,
              what=f"profile velocity {cap:.0f} deg/s")
+    _profile(rig, 100.0)  # slower than the limit: kept
+    rig.fresh_states(count=3)
+    rig.publish("/joint_commands", JointState(name=["shoulder"], position=[0.2]))
+    goals_at(rig, {1: math.degrees(0.4)}, "shoulder at 0.2 rad")
+    assert servo.read("profile_velocity") * servo.model.velocity_deg_s_per_pulse == pytest.approx(100.0, abs=1.5)
     result = _send(rig, ["shoulder"], [(0.2, [0.4]), (0.3, [0.9])])  # 5 rad/s between the two
     assert result.error_code == R.INVALID_GOAL
     assert result.error_string == "point 1: joint shoulder at 5/s is faster than its limit 3/s (joints.shoulder.limits.velocity)"
@@ -184,7 +200,10 @@ def test_a_joint_of_two_servos_is_written_in_one_sync_write_and_held_when_they_d
         servo.pin("present_position", None)
     rig.publish("/joint_commands", JointState(name=["elbow"], position=[-0.3]))  # a later command is taken
     goals_at(rig, {3: -math.degrees(0.3), 4: math.degrees(0.3)}, "elbow at -0.3 rad")
-    rig.wait_log("joint elbow: servos [3, 4] agree again", since=mark)
+    rig.wait_log("joint elbow: servos [3, 4] agree again", since=mark)  # once each is at its goal
+    rig.wait(lambda: at_rest(rig, 3) and at_rest(rig, 4), timeout=15, what="the elbow's servos at rest")
+    assert servo_deg(rig, 3, "present_position") == pytest.approx(-math.degrees(0.3), abs=1.0)
+    assert servo_deg(rig, 4, "present_position") == pytest.approx(math.degrees(0.3), abs=1.0)
 
 
 def test_a_coupled_set_is_written_in_one_sync_write_solved_from_its_joints(rig):

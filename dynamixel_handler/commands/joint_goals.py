@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..joints import DEG, Coupling, Joint, JointMap, spread
+from ..joints import DEG, Coupling, Joint, JointMap, settled, spread
 from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
 from .coupled_goals import Given, coupled_goals
@@ -198,7 +198,8 @@ class JointGoals:
         servos are further apart than its ``disagreement`` is held where each servo is when that
         begins (a trajectory of it ends: ``trajectory.Follower``) and said once a second while it
         lasts; a later command of the joint is taken (it gives every servo the same goal). One
-        line when they agree again."""
+        line when they agree again, each at its goal (servos that meet half-way on their way from
+        apart have not settled)."""
         table = self.h.table
         for joint in self._paired:
             if any(i not in table for i in joint.servo_ids):
@@ -211,7 +212,7 @@ class JointGoals:
                 if joint.name not in self.held:
                     self.held.add(joint.name)
                     self._hold(HoldJoints(list(joint.servo_ids), f"joint {joint.name} held"))
-            elif joint.name in self.held:
+            elif joint.name in self.held and settled(joint, table):  # not while they pass each other
                 self.held.discard(joint.name)
                 self.h.log.info(f"joint {joint.name}: servos {list(joint.servo_ids)} agree again")
 

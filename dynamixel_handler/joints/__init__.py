@@ -11,9 +11,10 @@ from .mapping import (
     joint_map,
     read_joints,
     resolve_targets,
+    settled,
     spread,
     unhandled,
 )
 
 __all__ = ["DEG", "Coupling", "Joint", "JointMap", "JointReading", "Mimic", "is_joint_parameter", "joint_map", "joints_block", "merged",
-           "read_joints", "resolve_targets", "spread", "unhandled"]
+           "read_joints", "resolve_targets", "settled", "spread", "unhandled"]

@@ -279,6 +279,18 @@ def spread(joint: Joint, table: ServoTable) -> float:
     return max(at) - min(at) if len(at) > 1 else 0.0
 
 
+def settled(joint: Joint, table: ServoTable) -> bool:
+    """Whether each of a joint's servos is within the joint's ``disagreement`` of its own goal (as
+    last written or read; a servo without a known goal counts as there): servos that merely pass
+    each other on the way to their goals are not there yet."""
+    present, goal = table.units("present_position"), table.units("goal_position")
+    for dxl_id, scale in joint.servos:
+        p = table.index.get(dxl_id)
+        if p is not None and math.isfinite(goal[p]) and abs(scale * (present[p] - goal[p])) > joint.disagreement:
+            return False
+    return True
+
+
 def _with_mimics(mapping: JointMap, reading: JointReading) -> JointReading:
     """The mimic joints added after the others: multiplier x the followed joint + offset."""
     if not mapping.mimics:
