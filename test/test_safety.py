@@ -212,11 +212,14 @@ def test_an_exception_in_the_loop_is_logged_and_the_loop_goes_on(monkeypatch):
 def test_a_loop_that_keeps_failing_stops_the_servos_and_exits_non_zero(monkeypatch):
     from dynamixel_handler.sim import VirtualBus
 
-    from support.ros import NodeProcess, node_command
+    from support.ros import PATIENT_SCAN, NodeProcess, node_command
 
     monkeypatch.setenv("DYNAMIXEL_HANDLER_INJECT_LOOP_FAULTS", "1000")
     with VirtualBus(servos={1: X}) as sim:
-        proc = NodeProcess(node_command(f"device_name:={sim.path}", "latency_timer:=1", "init/servo_auto_search.max_id:=1"))
+        # the scan repeated until the servo answers: with a 1 ms adapter's wait, one scan on a loaded
+        # machine found nobody and the node exited (1) before its loop ever ran
+        proc = NodeProcess(node_command(f"device_name:={sim.path}", "latency_timer:=1", "init/servo_auto_search.max_id:=1",
+                                        "init/expected_servo_num:=1", PATIENT_SCAN))
         assert proc.wait_exit(30) == 1
         assert "the loop failed 50 times in a row: shutting down safely" in proc.output
         assert sim.servo(1).read("torque_enable") == 0
