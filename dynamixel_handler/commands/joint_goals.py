@@ -40,7 +40,6 @@ from .goal_bounds import goal_position_limits
 if TYPE_CHECKING:
     from ..core.api import ServoAccess
 
-RAD = 180.0 / math.pi
 #: (series, control, fields) -> (servo IDs, field -> one value per ID): the Commander calls of one command
 _Batches = dict[tuple[ServoFamily | None, str, tuple[str, ...]], tuple[list[int], dict[str, list[float]]]]
 

@@ -92,11 +92,6 @@ class Joint:
     def to_joint(self, servo_deg: float) -> float:
         return self.zero + self.scale * servo_deg
 
-    @property
-    def direction(self) -> int:
-        """+1 when the joint turns with the servo, -1 against it."""
-        return 1 if self.scale > 0 else -1
-
     def clamped(self, position: float) -> float:
         lo, hi = self.position_limits
         return min(max(position, lo), hi)

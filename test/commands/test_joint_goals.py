@@ -8,12 +8,13 @@ import pytest
 
 from dynamixel_handler import units
 from dynamixel_handler.commands import Commander
-from dynamixel_handler.commands.joint_goals import RAD, JointGoals
+from dynamixel_handler.commands.joint_goals import JointGoals
 from dynamixel_handler.joints import DEG, Joint, JointMap
 
 from support.servo_access import FakeAccess, attached, warnings_of
 
 XM430 = 1020
+RAD = 180.0 / math.pi
 #: shoulder: ID 1 as is; elbow: ID 2 turned round and 90 deg off; wrist: ID 5, not handled
 MAPPING = JointMap.simple(("shoulder", "elbow", "wrist"), (1, 2, 5), (1, -1, 1), (0.0, 90.0, 0.0))
 VALUES = {"min_position_limit": {1: 1024, 2: 1024}, "max_position_limit": {1: 3072, 2: 3072},
@@ -166,3 +167,11 @@ def test_a_velocity_limit_caps_the_profile_and_joints_without_one_are_written_al
     assert access.pending.peek("goal_position") == {1: _pulses(access, "goal_position", 0.1 * RAD),
                                                     2: _pulses(access, "goal_position", 0.4 * RAD)}
     assert access.pending.peek("profile_velocity") == {2: _pulses(access, "profile_velocity", 6.0 * RAD)}  # 3 rad/s
+
+
+def test_a_tiny_velocity_limit_is_never_written_as_the_profile_that_means_no_limit():
+    mapping = JointMap((Joint("slow", 1, DEG, 0.0, velocity_limit=1e-6),))
+    access = FakeAccess({1: XM430}, values={item: {1: v[1]} for item, v in VALUES.items()})
+    goals = attached(JointGoals(attached(Commander(access)), mapping))
+    goals.command("j", ["slow"], position=[0.1])
+    assert access.pending.peek("profile_velocity") == {1: 1}  # the smallest step, not 0 (no limit)
