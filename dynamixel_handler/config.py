@@ -142,6 +142,8 @@ SCHEMA: tuple[Param, ...] = (
        "joint trajectories: largest distance from the last point at the end, unless the goal gives one [deg] (0: not checked)"),
     _p("trajectory.goal_time_sec", FLOAT, 1.0,
        "joint trajectories: time allowed after the end to come within the goal tolerance, unless the goal gives one [s]"),
+    _p("joints_calibration.path", STR, "", "file the service dynamixel/calibrate_offsets saves the joints' offsets "
+       "to, loaded at start over the parameters' offsets (\"\": offsets set until the node stops, not saved)"),
     _p("servos_snapshot.path", STR, "", "file the service dynamixel/save_servo_settings writes the servos block to "
        "(\"\": dynamixel_servos.yaml in the ROS log directory)"),
 )
@@ -304,7 +306,7 @@ def settings_of(values: Mapping[str, Any]) -> Settings:
                                       goal_time_s=float(v["trajectory.goal_time_sec"])),
         ros=RosSettings(command_line=not v["no_use_command_line"], diagnostics_period_s=float(v["diagnostics.period_sec"]),
                         joint_state_use=_joint_state_use(v), joints=_joints(v),
-                        snapshot_path=v["servos_snapshot.path"]),
+                        snapshot_path=v["servos_snapshot.path"], calibration_path=v["joints_calibration.path"]),
         servos=servo_block(v, _joints(v)))
 
 

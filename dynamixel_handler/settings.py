@@ -174,6 +174,7 @@ class RosSettings:
     joint_state_use: bool = False      #: joint_states and joint_commands for the mapped servos
     joints: JointMap | None = None     #: the joint_state.* mapping (never None with joint_state_use)
     snapshot_path: str = ""            #: where dynamixel/save_servo_settings writes ("": the ROS log directory)
+    calibration_path: str = ""         #: where dynamixel/calibrate_offsets saves ("": not saved)
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..joints import DEG, Coupling, Joint, JointMap, settled, spread
+from ..joints import DEG, Coupling, Joint, JointMap, LiveJoints, settled, spread
 from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
 from .coupled_goals import Given, coupled_goals
@@ -47,13 +47,17 @@ _Batches = dict[tuple[ServoFamily | None, str, tuple[str, ...]], tuple[list[int]
 class JointGoals:
     """Joint commands by name for one handler (``command`` from any thread; work in the loop)."""
 
-    def __init__(self, commander: Commander, mapping: JointMap) -> None:
+    def __init__(self, commander: Commander, joints: JointMap | LiveJoints) -> None:
         self.commander = commander
         self.h = commander.h
-        self.mapping = mapping
+        self.joints = LiveJoints.of(joints)  # calibrated on the loop thread (``calibration``)
         #: joints of several servos whose servos disagree now (held when it began)
         self.held: set[str] = set()
-        self._paired = [j for j in mapping.joints if j.partners and j.coupling is None]
+        self._paired = [j.name for j in self.mapping.joints if j.partners and j.coupling is None]
+
+    @property
+    def mapping(self) -> JointMap:
+        return self.joints.map
 
     TAKES: ClassVar[tuple[type, ...]] = get_args(JointRequest)
 
@@ -200,7 +204,7 @@ class JointGoals:
         line when they agree again, each at its goal (servos that meet half-way on their way from
         apart have not settled)."""
         table = self.h.table
-        for joint in self._paired:
+        for joint in map(self.mapping.joint, self._paired):
             if any(i not in table for i in joint.servo_ids):
                 continue
             apart = spread(joint, table)

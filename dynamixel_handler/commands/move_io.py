@@ -8,16 +8,21 @@ from typing import Sequence
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
 from ..core.api import ServoAccess
-from ..joints import JointMap
+from ..joints import JointMap, LiveJoints
 from .commander import Commander
 from .move_checks import Move, MoveError, listed
 
 
 class MoveIO:
-    def __init__(self, handler: ServoAccess, commander: Commander, mapping: JointMap | None) -> None:
+    def __init__(self, handler: ServoAccess, commander: Commander, joints: JointMap | LiveJoints | None) -> None:
         self.h = handler
         self.commander = commander
-        self.mapping = mapping
+        #: the joints (None: none configured), calibrated on the loop thread (``calibration``)
+        self.joints = None if joints is None else LiveJoints.of(joints)
+
+    @property
+    def mapping(self) -> JointMap | None:
+        return None if self.joints is None else self.joints.map
 
     def _command(self, ids: list[int], servo_deg: list[float], velocity: float) -> None:
         """Queue the goals per mode and series (the Commander writes them this step)."""

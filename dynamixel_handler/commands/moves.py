@@ -27,7 +27,7 @@ from collections import deque
 from typing import Callable, ClassVar, Sequence, assert_never, get_args
 
 from ..core.api import ServoAccess
-from ..joints import JointMap
+from ..joints import JointMap, LiveJoints
 from ..logs import some_ids
 from .command_types import MoveRequest, MoveWritten, StartMove, TorqueStep
 from .commander import Commander
@@ -201,9 +201,9 @@ class MoveJob(Job):
 class Book(MoveIO):
     """The jobs under way (any thread adds; the loop thread advances them after each step)."""
 
-    def __init__(self, handler: ServoAccess, commander: Commander, mapping: JointMap | None,
+    def __init__(self, handler: ServoAccess, commander: Commander, joints: JointMap | LiveJoints | None,
                  wake: Callable[[], None] = lambda: None) -> None:
-        super().__init__(handler, commander, mapping)
+        super().__init__(handler, commander, joints)
         self.wake = wake  # called when jobs ended or feedback is due (wakes the executor)
         self.jobs: list[Job] = []
         self.lock = threading.Lock()

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from .. import units
+from ..control_table import KEPT_POSITION_MODES
 from ..servo.table import ServoTable
 from .servo_io import MODE, ServoIO
 
@@ -37,6 +38,8 @@ class Remembered:
     profiles: dict[str, int] = field(default_factory=dict)
     goal: tuple[str, int] | None = None       #: a velocity / current / PWM goal that was not 0
     eeprom: dict[str, int] = field(default_factory=dict)
+    #: the last present position [pulses] of a multi-turn servo (its turns are given back after a boot)
+    position: int | None = None
 
 
 def remember(table: ServoTable, dxl_id: int) -> Remembered:
@@ -48,7 +51,8 @@ def remember(table: ServoTable, dxl_id: int) -> Remembered:
     value = table.value(own, dxl_id) if own is not None else None
     eeprom = {name: v for name, spec in model.items.items()
               if spec.eeprom and name not in NOT_COMPARED and (v := table.value(name, dxl_id)) is not None}
-    return Remembered(mode, profiles, (own, value) if own is not None and value else None, eeprom)
+    position = table.value("present_position", dxl_id) if mode in KEPT_POSITION_MODES else None
+    return Remembered(mode, profiles, (own, value) if own is not None and value else None, eeprom, position)
 
 
 def differences(io: ServoIO, dxl_id: int, before: Remembered, say: Say) -> None:

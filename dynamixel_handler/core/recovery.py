@@ -7,11 +7,12 @@ import numpy as np
 
 from ..bus import ServoBus, dummy_ids
 from ..bus.ops import Ping
+from ..control_table import KEPT_POSITION_MODES
 from ..servo.table import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
 from .reconnect_memory import Remembered, differences, remember, restore
-from .servo_io import Log, ServoIO
+from .servo_io import MODE, Log, ServoIO
 from .servo_setup import ServoSetup
 from .state import StepReport
 from .watchdog import Watchdog
@@ -49,6 +50,10 @@ class Recovery:
         self._not_set_up: set[int] = set()
         #: what was known of each servo when the device went: put back after its set-up
         self._memory: dict[int, Remembered] = {}
+        #: the last position [pulses] of each multi-turn servo that went silent (it may come back booted)
+        self._silent_at: dict[int, int] = {}
+        #: multi-turn servos that answer again: their lost turns looked for before the next step
+        self._turns_due: set[int] = set()
 
     def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
@@ -126,6 +131,8 @@ class Recovery:
             self.log.log(level, msg)
         if before is not None:
             differences(self.io, dxl_id, before, say)
+            if before.position is not None:  # before the set-up turns its torque on
+                self.setup.give_back_turns(dxl_id, before.position)
         self.setup.setup_servo(dxl_id)
         if before is not None:
             kept = self.setup.kept
@@ -145,13 +152,11 @@ class Recovery:
         if any_silent:
             for pos in np.flatnonzero(silent & table.ping):
                 ping_log.change(table.ids[pos], False)
+                self._note_silent(table.ids[pos])
         back = answered & ~table.ping
         if back.any():
             for pos in np.flatnonzero(back):
-                ping_log.change(table.ids[pos], True)
-                # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew
-                # before the next commands are written
-                self.watchdog.request_arm(table.ids[pos])
+                self._answers_again(table.ids[pos])
         ping_log.flush()
         # each read or ping of the servo that got no answer counts (a silent servo is only pinged every
         # recheck_loops loops): the removal comes after no_response_id_auto_remove_count
@@ -169,6 +174,35 @@ class Recovery:
                                  "(add it again with the shortcut add_id)")
                 table.remove(dxl_id)
 
+    def _answers_again(self, dxl_id: int) -> None:
+        self.ping_log.change(dxl_id, True)
+        if dxl_id in self._silent_at:  # a multi-turn servo: booted meanwhile, it lost its turns
+            self._turns_due.add(dxl_id)
+        # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
+        # the next commands are written
+        self.watchdog.request_arm(dxl_id)
+
+    def _note_silent(self, dxl_id: int) -> None:
+        """A servo went silent: where a multi-turn one was, should it come back booted."""
+        model = self.table.model(dxl_id)
+        position = self.table.value("present_position", dxl_id)
+        if position is not None and model.mode_name(self.table.value(MODE, dxl_id)) in KEPT_POSITION_MODES:
+            self._silent_at[dxl_id] = position
+
+    @property
+    def turns_due(self) -> bool:
+        """A multi-turn servo answers again: whether it booted meanwhile is to be looked at."""
+        return bool(self._turns_due)
+
+    def give_back_turns(self) -> None:
+        """Each multi-turn servo that answers again and booted meanwhile (torque off, its position
+        within a turn of its offset) gets the whole turns it lost back (``turns.py``)."""
+        for dxl_id in sorted(self._turns_due):
+            before = self._silent_at.pop(dxl_id, None)
+            if before is not None and dxl_id in self.table:
+                self.setup.give_back_turns(dxl_id, before)
+        self._turns_due.clear()
+
     @property
     def device_gone(self) -> bool:
         """The device that was open at start-up is closed (it vanished): ``reconnect`` has work."""
@@ -178,3 +212,5 @@ class Recovery:
         """The servo is no longer handled."""
         self.ping_log.forget(dxl_id)
         self._not_set_up.discard(dxl_id)
+        self._silent_at.pop(dxl_id, None)
+        self._turns_due.discard(dxl_id)

@@ -20,6 +20,7 @@ from .pacing import Pacing
 from .reboots import Reboots
 from .request_types import DONE, Answer, Later, Outcome, answer, later
 from .servo_io import Log, ServoIO
+from .turns import give_back_turns
 from .watchdog import Watchdog
 
 #: RAM items the firmware resets on a mode change (written back after it)
@@ -217,14 +218,15 @@ class Requests:
         shutdown = self.io.value(dxl_id, "shutdown")
         torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
         before = self.io.read_item(dxl_id, "present_position")
-        offset = self.io.read_item(dxl_id, "homing_offset")
         rebooted = self.reboots.reboot(dxl_id)
         if not rebooted:
             return answer(False, f"{what}: ID {dxl_id} reboot failed: {rebooted.why}")
         self.io.read_item(dxl_id, "torque_enable")
         self.io.read_item(dxl_id, "hardware_error_status")
-        if keep_rotation and before is not None and offset is not None:
-            self._keep_turns(dxl_id, before, offset)
+        if keep_rotation and before is not None:
+            line = give_back_turns(self.io, self.work, dxl_id, before)
+            if line:
+                self.log.info(line)
         if torque:
             self.io.torque_on(dxl_id)
         self.log.info(f"ID {dxl_id}: hardware error cleared ({'turns kept' if keep_rotation else 'turns reset'})")
@@ -254,15 +256,3 @@ class Requests:
                           f"{now - last:.2f}s ago (clear_error_interval_sec={interval:g})")
         self._last_clear[dxl_id] = now
         return None
-
-    def _keep_turns(self, dxl_id: int, before: int, offset: int) -> None:
-        """After a reboot the position restarts within one turn: the turns it had go into the
-        homing offset, so the multi-turn position is the one before."""
-        after = self.io.read_item(dxl_id, "present_position")
-        if after is None:
-            return
-        per_turn = int(round(360.0 / self.table.model(dxl_id).position_deg_per_pulse))
-        turns = int(round((before - after) / per_turn))
-        if turns:
-            self.work.write_eeprom(dxl_id, "homing_offset", offset + turns * per_turn)
-            self.io.read_item(dxl_id, "present_position")

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .. import units
-from ..control_table import POSITION_MODES
+from ..control_table import KEPT_POSITION_MODES, POSITION_MODES
 from ..servo import error_state
 from ..servo.table import ServoTable
 from ..settings import ScanSettings, StartValues
@@ -14,6 +14,7 @@ from .deferred import Deferred
 from .kept_settings import KeptSettings
 from .reboots import Reboots
 from .servo_io import Log, ServoIO
+from .turns import give_back_turns
 from .watchdog import Watchdog
 
 
@@ -54,6 +55,18 @@ class ServoSetup:
         self.kept.finish(dxl_id, done)
         if settings.torque_auto_enable:
             self.io.torque_on(dxl_id)
+
+    def give_back_turns(self, dxl_id: int, before: int) -> None:
+        """A multi-turn servo that lost power: the whole turns it lost since it was at ``before``
+        [pulses] given back (``turns.py``), unless its servos block sets the Homing Offset."""
+        if self.io.mode(dxl_id) not in KEPT_POSITION_MODES:
+            return
+        if self.kept.sets(dxl_id, "homing_offset"):
+            self.log.info(f"ID {dxl_id}: whole turns lost at boot not looked for: its servos block sets homing_offset")
+            return
+        line = give_back_turns(self.io, self.eeprom, dxl_id, before, booted=False)
+        if line:
+            self.log.warning(line)
 
     def _clear_error(self, dxl_id: int) -> None:
         """A hardware error at start-up cleared by reboot; an error code (Y) by its error clear."""

@@ -102,6 +102,8 @@ class Step:
             self.recovery.reconnect(report)
         if self.recovery.set_up_due:  # silent after a reconnect, answering now: set up as at start-up
             self.recovery.set_up_returned()
+        if self.recovery.turns_due:  # a multi-turn servo answers again: booted, it lost its turns
+            self.recovery.give_back_turns()
         self.watchdog.arm_waiting()
         if self.work.waiting:
             for what, request in self.work.run_deferred():

@@ -1,6 +1,7 @@
-"""The robot's joints over the servos: the mapping (``mapping``) and the ``joints`` block of the
-parameters (``block``)."""
+"""The robot's joints over the servos: the mapping (``mapping``), the ``joints`` block of the
+parameters (``block``) and the offsets measured from outside (``calibration``)."""
 from .block import is_joint_parameter, joints_block, merged
+from .calibration import LiveJoints
 from .mapping import (
     DEG,
     Coupling,
@@ -16,5 +17,6 @@ from .mapping import (
     unhandled,
 )
 
-__all__ = ["DEG", "Coupling", "Joint", "JointMap", "JointReading", "Mimic", "is_joint_parameter", "joint_map", "joints_block", "merged",
+__all__ = ["DEG", "Coupling", "Joint", "JointMap", "JointReading", "LiveJoints", "Mimic",
+           "is_joint_parameter", "joint_map", "joints_block", "merged",
            "read_joints", "resolve_targets", "settled", "spread", "unhandled"]

@@ -15,8 +15,8 @@ servo's angle. ROS-free.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Iterable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -152,6 +152,18 @@ class JointMap:
     def servo_ids(self) -> tuple[int, ...]:
         """Every servo that drives a joint."""
         return tuple(i for j in self.joints for i in j.servo_ids)
+
+    def with_zeros(self, zeros: Mapping[str, float]) -> JointMap:
+        """This map with the named joints' zeros (their positions when their servos read 0)
+        replaced; a coupled set's offsets with them."""
+        if not zeros:
+            return self
+        sets = {j.coupling: replace(j.coupling, offsets=tuple(zeros.get(n, o) for n, o in zip(j.coupling.names,
+                                                                                           j.coupling.offsets)))
+                for j in self.joints if j.coupling is not None}
+        return replace(self, joints=tuple(replace(j, zero=zeros.get(j.name, j.zero),
+                                                  coupling=None if j.coupling is None else sets[j.coupling])
+                                          for j in self.joints))
 
     def to_servo_deg(self, name: str, joint_deg: float) -> float:
         """A revolute joint's angle [deg] -> the servo angle [deg] that puts the joint there."""

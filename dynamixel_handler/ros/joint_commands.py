@@ -22,7 +22,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..commands.joint_goals import JointGoals
 from ..commands.trajectory import MAX_POINTS, PREEMPTED, Follower, Job, Points, Tolerances, TrajectoryError, make_points
-from ..joints import JointMap
+from ..joints import JointMap, LiveJoints
 from .cdr import Codec, self_check
 from .cdr_counts import sequence_counts
 
@@ -51,11 +51,11 @@ def duration_s(d) -> float:
 class JointCommands:
     """The topics, the follower hook and (optionally) the action of one node."""
 
-    def __init__(self, node, mapping: JointMap) -> None:
+    def __init__(self, node, joints: LiveJoints) -> None:
         self.node = node
         self.log = node.get_logger()
-        self.mapping = mapping
-        self.goals = JointGoals(node.commander, mapping)
+        self.joints = joints  # calibrated on the loop thread (``calibration``)
+        self.goals = JointGoals(node.commander, joints)
         node.handler.attach(self.goals)
         traj = node.settings.trajectory
         self.default_path_rad = traj.path_tolerance_deg * DEG
@@ -65,6 +65,10 @@ class JointCommands:
         self._subscribe_joint_commands()
         node.create_subscription(JointTrajectory, "~/joint_trajectory", self._on_trajectory, 10)
         self.action: Any = None  # trajectory_action.TrajectoryAction, when the node attaches it
+
+    @property
+    def mapping(self) -> JointMap:
+        return self.joints.map
 
     def step(self, report: Any) -> None:
         """Loop hook: the joints of several servos watched on each read of the present positions,
@@ -261,9 +265,7 @@ def missing_package(name: str = "control_msgs") -> str | None:
 
 def attach(node) -> Callable[[Any], None] | None:
     """The follower hook when ``joint_state.use`` is on (the mapping is checked at parameter load)."""
-    ros = node.settings.ros
-    mapping = ros.joints if ros.joint_state_use else None  # never None with joint_state.use (ConfigError instead)
-    if mapping is None:
+    if not node.settings.ros.joint_state_use or node.joints is None:  # never None with it (ConfigError instead)
         return None
-    node.joint_commands = JointCommands(node, mapping)
+    node.joint_commands = JointCommands(node, node.joints)
     return node.joint_commands.step

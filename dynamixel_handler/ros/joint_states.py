@@ -9,7 +9,7 @@ from __future__ import annotations
 from sensor_msgs.msg import JointState
 
 from ..core.handler import StepReport
-from ..joints import JointMap, read_joints, unhandled
+from ..joints import LiveJoints, read_joints, unhandled
 from .convert import f64, stamp_of
 from .lean import lean_publisher
 
@@ -17,9 +17,9 @@ from .lean import lean_publisher
 class JointStatePublisher:
     """Loop hook: one JointState per present-position read."""
 
-    def __init__(self, node, mapping: JointMap) -> None:
+    def __init__(self, node, joints: LiveJoints) -> None:
         self.node = node
-        self.mapping = mapping
+        self.joints = joints
         self.pub = lean_publisher(node, JointState, "joint_states", 10)
         self._checked_version = -1
 
@@ -29,11 +29,11 @@ class JointStatePublisher:
         table = self.node.handler.table
         if self._checked_version != table.version:
             self._checked_version = table.version
-            missing = unhandled(self.mapping, table.ids)
+            missing = unhandled(self.joints.map, table.ids)
             if missing:
                 self.node.get_logger().warning(
                     f"joint_states: joints {missing} map to servos that are not handled: left out")
-        reading = read_joints(self.mapping, table)
+        reading = read_joints(self.joints.map, table)
         msg = JointState()
         msg.header.stamp = stamp_of(self.node.ros_time(report.stamp))  # the node's clock (use_sim_time)
         msg.name = reading.names
@@ -45,6 +45,5 @@ class JointStatePublisher:
 
 def attach(node) -> JointStatePublisher | None:
     """The hook when ``joint_state.use`` is true (the mapping is validated at parameter load)."""
-    ros = node.settings.ros
-    mapping = ros.joints if ros.joint_state_use else None  # never None with joint_state.use (ConfigError instead)
-    return JointStatePublisher(node, mapping) if mapping is not None else None
+    use = node.settings.ros.joint_state_use and node.joints is not None  # never None with it (ConfigError instead)
+    return JointStatePublisher(node, node.joints) if use else None

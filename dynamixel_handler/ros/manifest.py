@@ -33,7 +33,7 @@ class Manifest:
         self.node = node
         self.pub = node.create_publisher(DiagnosticArray, "dynamixel/manifest", QOS)
         self.prefix = node.get_fully_qualified_name().lstrip("/")
-        joints = node.settings.ros.joints
+        joints = node.settings.ros.joints  # the servos of each joint: no calibration changes them
         self.joint_of = {i: j.name for j in joints.joints for i in j.servo_ids} if joints is not None else {}
         self._last: tuple | None = None
         self._looked = 0.0

@@ -30,7 +30,7 @@ from ..errors import StartupError
 from ..external_ports import ExternalPorts, PortReading
 from ..loop.runner import Hooks, Runner, log_exception
 from ..tools.baudrate import search_rates, unify_baudrate
-from . import diagnostics, e_stop, fastpath, joint_commands, joint_states, manifest, services, snapshot
+from . import calibration, diagnostics, e_stop, fastpath, joint_commands, joint_states, manifest, services, snapshot
 from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
 from .lean import lean_publisher, lean_subscription
@@ -100,6 +100,8 @@ class DynamixelHandlerNode(Node):
         self.outbox: Outbox | None = None  # the publishing thread, while the loop runs
         self._create_publishers()
         self._create_subscriptions()
+        #: the joints with their saved offsets (None without joints); calibrated on the loop thread
+        self.joints = calibration.live_joints(self)
         # called on the loop thread after each step's state publishing (joint states, diagnostics)
         self.step_hooks: list[Callable[[StepReport], None]] = [
             h for h in (joint_states.attach(self), diagnostics.attach(self)) if h is not None]

@@ -17,6 +17,7 @@ the loop does not judge in time is answered all the same (``Book.expire``).
 """
 from __future__ import annotations
 
+import threading
 import time
 from typing import Callable, Sequence
 
@@ -25,8 +26,9 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from dynamixel_handler_msgs.action import MoveJoints
-from dynamixel_handler_msgs.srv import MoveTo, SetTorque
+from dynamixel_handler_msgs.srv import CalibrateOffsets, MoveTo, SetTorque
 
+from ..commands.calibrate_job import CalibrateJob
 from ..commands.move_checks import checked_positions, targets_of
 from ..commands.moves import (
     CANCELED,
@@ -45,7 +47,9 @@ from ..commands.moves import (
     new_move,
 )
 from ..commands.reboot_job import RebootJob
+from ..joints.calibration import Calibration
 from ..logs import Throttle
+from . import calibration
 
 #: requests (and answers) each service keeps queued: a burst of calls is not dropped for want of room
 QUEUE_DEPTH = 1000
@@ -80,7 +84,7 @@ class MotionServices:
         self.warn = Throttle(self.log.warning)
         group = ReentrantCallbackGroup()
         self._guard = node.create_guard_condition(lambda: None, callback_group=group)
-        self.book = Book(node.handler, node.commander, node.settings.ros.joints, wake=self._wake)
+        self.book = Book(node.handler, node.commander, node.joints, wake=self._wake)
         node.handler.attach(self.book)  # the jobs' steps, queued by the jobs, taken in the loop thread
         node.step_hooks.append(self.book.on_step)
         self._timer = node.create_timer(EXPIRE_CHECK_S, self._tick, callback_group=group)
@@ -91,6 +95,10 @@ class MotionServices:
                             callback_group=group)
         from std_srvs.srv import Trigger
         node.create_service(Trigger, "dynamixel/reboot", self._on_reboot, qos_profile=QOS, callback_group=group)
+        self._saving = threading.Lock()  # calibrations saved one after the other, the latest last
+        if node.joints is not None:
+            node.create_service(CalibrateOffsets, "dynamixel/calibrate_offsets", self._on_calibrate, qos_profile=QOS,
+                                callback_group=group)
         self.action = ActionServer(node, MoveJoints, "dynamixel/move_joints", execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, callback_group=group,
@@ -166,6 +174,31 @@ class MotionServices:
         except MoveError as err:
             res.success, res.message = False, str(err)
         (self.log.info if res.success else self.warn)(f"reboot: {res.message}")
+        return res
+
+    async def _on_calibrate(self, req: CalibrateOffsets.Request, res: CalibrateOffsets.Response) -> CalibrateOffsets.Response:
+        """Joint offsets from an external measurement, set by the loop between two steps
+        (``CalibrateJob``), then saved here, off the loop."""
+        res.success = res.saved = False
+        try:
+            self._taken(moves=False)  # nothing moves: an engaged E-stop does not stop it
+            joints = self.node.joints
+            request = Calibration(tuple(req.joint_names), tuple(float(p) for p in req.positions))
+            why = request.refusal(joints.map)
+            if why:
+                raise MoveError(f"refused: {why}: no offset changed")
+            commands = getattr(self.node, "joint_commands", None)
+            job = CalibrateJob(request, joints, commands.follower if commands is not None else None,
+                               time.monotonic() + LOOP_TIMEOUT_S)
+            await self._settle(job)
+            res.success, res.message, res.offsets = job.outcome == DONE, job.message, job.positions
+            if res.success:
+                with self._saving:  # the map in use now: a later calibration's save is never overwritten
+                    res.saved, res.path, note = calibration.save(self.node, joints.map)
+                res.message += f" ({note})"
+        except MoveError as err:
+            res.message = str(err)
+        (self.log.info if res.success else self.warn)(f"calibrate_offsets: {res.message}")
         return res
 
     async def _on_move_to(self, req: MoveTo.Request, res: MoveTo.Response) -> MoveTo.Response:

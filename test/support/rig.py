@@ -53,6 +53,25 @@ BASE_PARAMS = ("latency_timer:=1", "loop_rate:=100", "verbose_ratio:=0", "init/u
                "init/servo_auto_search.min_id:=0", "init/servo_auto_search.max_id:=6")
 
 
+def turn_by_hand(sim: VirtualBus, dxl_id: int, pulses: float) -> None:
+    """Turn the shaft of a servo as a hand would (no instruction on the bus): the virtual servo has
+    no public hook for an external force, so the motor model is moved directly. Meant for a servo
+    with torque off (with torque on it would just drive back)."""
+    with sim._lock:
+        servo = sim.servo(dxl_id)
+        servo.refresh(servo._clock())
+        servo._motor.p += pulses
+        servo.refresh(servo._clock())
+
+
+def power_cycle(sim: VirtualBus, dxl_id: int) -> None:
+    """Switch a virtual servo off and on again: RAM at its defaults, torque off, a multi-turn
+    position folded into one turn."""
+    with sim._lock:
+        servo = sim.servo(dxl_id)
+        servo.reboot(servo._clock())
+
+
 def scan_params(servos: Iterable[int], expect: int) -> tuple[str, ...]:
     """The default parameters: a fast adapter, P and Pro on, exactly the IDs of ``servos`` searched,
     ``expect`` of them required, quiet. A loaded machine can delay the simulator's reply past a 1 ms
@@ -263,14 +282,8 @@ class Rig(TopicClient):
 
     # ------------------------------------------------------------------ the bus
     def turn_by_hand(self, dxl_id: int, pulses: float) -> None:
-        """Turn the shaft of a servo as a hand would (no instruction on the bus): the virtual
-        servo has no public hook for an external force, so the motor model is moved directly.
-        Meant for a servo with torque off (with torque on it would just drive back)."""
-        with self.sim._lock:
-            servo = self.sim.servo(dxl_id)
-            servo.refresh(servo._clock())
-            servo._motor.p += pulses
-            servo.refresh(servo._clock())
+        """Turn the shaft of a servo as a hand would (``turn_by_hand``)."""
+        turn_by_hand(self.sim, dxl_id, pulses)
 
     def transactions(self) -> list:
         """The instructions the bus received, a retry (the same packet again right after, when a

@@ -1,0 +1,125 @@
+"""Joint offsets measured from outside, through the real node on the virtual bus: the service
+``dynamixel/calibrate_offsets`` makes the measured joint read its measurement at once (no servo
+written), saves the offsets to ``joints_calibration.path`` and the next start loads them; bad
+requests are refused with the offsets kept. A multi-turn servo that loses its power (on its own,
+or with its adapter) comes back at its position, not within one turn."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from sensor_msgs.msg import JointState
+
+from dynamixel_handler_msgs.srv import CalibrateOffsets
+
+from support.rig import Rig, X, power_cycle, turn_by_hand
+
+TURN = 4096
+#: servos 3 and 4 in extended position mode, three turns and a bit from their zero before the node starts
+START_3 = 3 * TURN + 300
+
+
+def block(path) -> tuple[str, ...]:
+    return ("joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.gripper.id:=2",
+            "joints.gripper.type:=prismatic", "joints.gripper.stroke:=[0.0, 0.04]", "joints.gripper.servo_deg:=[0.0, 100.0]",
+            "joints.finger.mimic:=gripper", f"joints_calibration.path:={path}", "servos.id_3.mode:=ex_position",
+            "servos.id_4.mode:=ex_position",
+            "loop_rate:=100")
+
+
+def _before(sim) -> None:
+    for dxl_id in (3, 4):
+        with sim._lock:
+            sim.servo(dxl_id).write("operating_mode", 4)  # extended position
+        turn_by_hand(sim, dxl_id, START_3 - sim.servo(dxl_id).read("present_position"))
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    path = tmp_path_factory.mktemp("calibration") / "joints.yaml"
+    r = Rig({1: X, 2: X, 3: X, 4: X}, *block(path), before_start=_before)
+    r.calibration_file = path
+    with r._lock:
+        r.joint_states = []
+        r.node.create_subscription(JointState, "/joint_states", r.joint_states.append, 50)
+    yield r
+    assert r.close() == 0
+
+
+def joints_now(rig: Rig, **expected: float) -> None:
+    """Wait until joint_states says ``expected`` (joint: position)."""
+    def there() -> bool:
+        if not rig.joint_states:
+            return False
+        at = dict(zip(rig.joint_states[-1].name, rig.joint_states[-1].position))
+        return all(abs(at.get(n, math.inf) - v) < 1e-3 for n, v in expected.items())
+    rig.wait(there, timeout=15, what=f"joint_states at {expected}")
+
+
+def calibrate(rig: Rig, names, positions) -> CalibrateOffsets.Response:
+    return rig.call(CalibrateOffsets, "/dynamixel/calibrate_offsets",
+                    CalibrateOffsets.Request(joint_names=list(names), positions=list(positions)))
+
+
+def test_a_measured_joint_reads_its_measurement_its_servo_untouched_and_the_offsets_are_saved(rig):
+    goal = rig.sim.servo(1).read("goal_position")
+    writes = len(rig.transactions())
+    res = calibrate(rig, ["shoulder", "gripper"], [0.3, 0.015])
+    assert res.success and res.saved and res.path == str(rig.calibration_file), res.message
+    assert "shoulder: offset 0 -> " in res.message and "saved to" in res.message
+    joints_now(rig, shoulder=0.3, gripper=0.015, finger=0.015)
+    assert rig.sim.servo(1).read("goal_position") == goal  # nothing moved, nothing written but reads
+    assert not [e for e in rig.transactions()[writes:] if e.instruction in (0x03, 0x83) and 1 in e.ids]
+    text = rig.calibration_file.read_text()
+    assert '"shoulder": ' in text and '"gripper": ' in text
+    assert res.offsets == pytest.approx([0.3 - 2 * 0.0, 0.015 - 0.0], abs=0.2)  # near: the servos sit near 0
+
+
+@pytest.mark.parametrize("names, positions, why", [
+    (["knee"], [0.1], "refused: unknown joint 'knee' (known: "),
+    (["finger"], [0.1], "refused: finger is a mimic joint (state only)"),
+    (["shoulder"], [math.nan], "refused: shoulder: position nan is not a finite number"),
+    (["shoulder"], [0.1, 0.2], "refused: 1 joint names but 2 positions"),
+])
+def test_a_request_that_cannot_be_right_is_refused_and_the_offsets_kept(rig, names, positions, why):
+    before = rig.calibration_file.read_text() if rig.calibration_file.exists() else ""
+    res = calibrate(rig, names, positions)
+    assert not res.success and not res.saved and res.message.startswith(why), res.message
+    assert (rig.calibration_file.read_text() if rig.calibration_file.exists() else "") == before
+
+
+def test_the_next_start_loads_the_saved_offsets(rig):
+    res = calibrate(rig, ["shoulder"], [-0.2])
+    assert res.success and res.saved, res.message
+    joints_now(rig, shoulder=-0.2)
+    assert rig.stop_node() == 0
+    rig.joint_states.clear()
+    rig.start_node(*block(rig.calibration_file))
+    rig.wait_log("joint offsets of ", "loaded from")
+    joints_now(rig, shoulder=-0.2)
+
+
+def test_a_multi_turn_servo_that_lost_its_power_comes_back_at_its_position(rig):
+    def near_start(dxl_id: int = 3) -> bool:
+        return abs(rig.sim.servo(dxl_id).read("present_position") - START_3) < 40
+    rig.wait(lambda: near_start(3) and near_start(4), timeout=10, what="servos 3 and 4 three turns from their zero")
+    # its own power: silent, booted (within one turn), answering again
+    mark = rig.mark()
+    rig.sim.set_silent(3, True)
+    rig.wait_log("ID 3: no response", since=mark)
+    power_cycle(rig.sim, 3)
+    assert abs(rig.sim.servo(3).read("present_position") - START_3) > TURN  # the boot lost the turns
+    rig.sim.set_silent(3, False)
+    line = rig.wait_log("whole turns lost at boot given back", since=mark)
+    assert "ID 3: +3 whole turns" in line
+    rig.wait(near_start, timeout=10, what="servo 3 back at its position")
+    # with its adapter: the device gone and back, servo 4 booted meanwhile (3 kept its power: left alone)
+    mark = rig.mark()
+    rig.sim.vanish()
+    rig.wait_log("is gone", since=mark)
+    power_cycle(rig.sim, 4)
+    rig.sim.reappear()
+    rig.wait_log("is back: reconnected", since=mark, timeout=20)
+    line = rig.wait_log("ID 4: +3 whole turns lost at boot given back", since=mark, timeout=20)
+    assert "ID 3: " not in "".join(x for x in line.splitlines() if "turns" in x)
+    rig.wait(lambda: near_start(4), timeout=10, what="servo 4 back at its position after the reconnect")
