@@ -8,13 +8,14 @@ parameter ``pub_ratio/present.pwm``. The ROS layer (``ros/params.py``) declares 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Mapping
 
 from .config_checks import DUMMY_SERIES, USED_FAMILIES, check_values
 from .control_table import FAMILIES, PROTOCOL1_FAMILIES, protocol1_models
 from .errors import ConfigError
-from .joints import JointMap, is_joint_parameter, joint_map, merged
+from .joints import EFFORT_UNITS, JointMap, is_joint_parameter, joint_map, merged
+from .logs import cut
 from .servo.settings import servo_block
 from .settings import (
     GROUP_RATIOS,
@@ -134,6 +135,8 @@ SCHEMA: tuple[Param, ...] = (
     _p("joint_state.names", STR_ARRAY, [""], "joint names, aligned with joint_state.ids ([\"\"]: no mapping)"),
     _p("joint_state.ids", INT_ARRAY, [-1], "servo ID of each joint name ([-1]: no mapping)"),
     _p("joint_state.directions", INT_ARRAY, [1], "+1/-1 per joint (one value: every joint); joint = dir*(servo-offset)"),
+    _p("joint_state.effort_unit", STR, "A", "the joints' effort: A (the present current, as measured) or Nm (the "
+       "current times the model's e-Manual torque per ampere and the joint's reduction: an approximation)"),
     _p("joint_state.offsets_deg", FLOAT_ARRAY, [0.0], "servo angle at the joint's zero [deg] per joint (one value: every joint)"),
     _p("diagnostics.period_sec", FLOAT, 1.0, "publish diagnostic_msgs/DiagnosticArray on /diagnostics every this many seconds (0: off)"),
     _p("trajectory.path_tolerance_deg", FLOAT, 0.0,
@@ -320,7 +323,11 @@ def _joints(v: Mapping[str, Any]) -> JointMap | None:
     block = any(is_joint_parameter(name) for name in v)
     simple = joint_map(v["joint_state.use"] and not block, v["joint_state.names"], v["joint_state.ids"],
                        v["joint_state.directions"], v["joint_state.offsets_deg"])
-    return merged(simple, v)
+    mapping = merged(simple, v)
+    unit = EFFORT_UNITS.get(str(v["joint_state.effort_unit"]).strip().lower())
+    if unit is None:
+        raise ConfigError(f"parameter 'joint_state.effort_unit' = '{cut(str(v['joint_state.effort_unit']))}': A or Nm")
+    return None if mapping is None else replace(mapping, effort_unit=unit)
 
 
 def validate(values: Mapping[str, Any]) -> Config:

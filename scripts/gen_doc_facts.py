@@ -34,6 +34,7 @@ from dynamixel_handler.config import SCHEMA  # noqa: E402
 from dynamixel_handler.config_checks import USED_FAMILIES  # noqa: E402
 from dynamixel_handler.control_table import (  # noqa: E402
     OPERATING_MODES,
+    TORQUE,
     Model,
     ServoFamily,
     known_models,
@@ -152,10 +153,19 @@ def lacks() -> str:
     return "\n".join(rows) + "\n"
 
 
+def torque() -> str:
+    """The torque per ampere of each model with figures (``joint_state.effort_unit: Nm``)."""
+    rows = ["| model | N·m per A | from (e-Manual) |", "|---|---|---|"]
+    for name, f in TORQUE.items():
+        rows.append(f"| {name} | {f.nm_per_a:.3g} | {f.kind} {f.torque_nm:g} N·m at {f.current_a:g} A, {f.volts:g} V "
+                    f"([page]({f.source})) |")
+    return "\n".join(rows) + "\n"
+
+
 #: block name -> what renders it
 BLOCKS: Dict[str, Callable[[], str]] = {
     "families": families, "used-families": used_families, "baud-rates": baud_rates, "modes": modes,
-    "lacks": lacks,
+    "lacks": lacks, "torque": torque,
 }
 
 

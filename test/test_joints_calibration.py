@@ -5,6 +5,7 @@ service through the node: ``test_joints_calibration_node.py``. ROS-free."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -138,3 +139,36 @@ def test_a_file_larger_than_a_calibration_is_refused_unread(tmp_path):
     path.write_text("joint_offsets:\n" + "  a: 0.0\n" * 200_000)
     with pytest.raises(ConfigError, match="more than a calibration"):
         load(path, joint_map())
+
+
+# ---------------------------------------------------------------------------- effort in N·m
+def test_effort_in_nm_is_the_current_through_the_model_s_torque_per_ampere_and_the_joint_s_reduction():
+    v = defaults()
+    v.update({f"joints.{k}": x for k, x in BLOCK.items()})
+    v["joint_state.effort_unit"] = "Nm"
+    mapping = validate(v).settings.ros.joints
+    assert mapping.effort_unit == "Nm" and mapping.with_zeros({"shoulder": 0.2}).effort_unit == "Nm"
+    table = table_at(SERVOS)
+    model = table.model(1)
+    for dxl_id in SERVOS:
+        table.set_value("present_current", dxl_id, round(500.0 / model.current_ma_per_pulse))  # ~0.5 A each
+    amps = table.units("present_current")[0] / 1000.0
+    r = read_joints(mapping, table)
+    effort = dict(zip(r.names, r.effort_a.tolist()))
+    per_amp = 4.1 / 2.3  # XM430-W350: stall torque 4.1 N·m at 2.3 A (12 V)
+    assert effort["shoulder"] == pytest.approx(-amps * per_amp * 2.0)      # reduction 2, direction -1
+    assert effort["gripper"] == pytest.approx(amps * per_amp * DEG / (0.04 / 100.0))  # N: through the stroke
+    assert effort["elbow"] == pytest.approx(amps * per_amp - amps * per_amp)  # two servos, the second flipped
+    assert math.isnan(effort["pitch"]) and math.isnan(effort["finger"])
+
+
+def test_a_model_without_figures_gives_nan_and_an_unknown_unit_stops_the_start_up():
+    from dynamixel_handler.joints import effort_per_amp
+    mapping = joint_map()
+    nm = replace(mapping, effort_unit="Nm")
+    xl430 = model_by_number(1060)  # XL430-W250: no current sensor, no figures
+    assert math.isnan(effort_per_amp(nm, DEG, xl430)) and effort_per_amp(mapping, -DEG, xl430) == -1.0
+    v = defaults()
+    v.update({"joints.a.id": 1, "joint_state.effort_unit": "kgf"})
+    with pytest.raises(ConfigError, match="'joint_state.effort_unit' = 'kgf': A or Nm"):
+        validate(v)

@@ -1,7 +1,8 @@
 """Joint offsets measured from outside, through the real node on the virtual bus: the service
 ``dynamixel/calibrate_offsets`` makes the measured joint read its measurement at once (no servo
 written), saves the offsets to ``joints_calibration.path`` and the next start loads them; bad
-requests are refused with the offsets kept. A multi-turn servo that loses its power (on its own,
+requests are refused with the offsets kept. Effort in N·m (``joint_state.effort_unit: Nm``) read
+and commanded through the model's torque per ampere. A multi-turn servo that loses its power (on its own,
 or with its adapter) comes back at its position, not within one turn."""
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ def block(path) -> tuple[str, ...]:
     return ("joints.shoulder.id:=1", "joints.shoulder.reduction:=2.0", "joints.gripper.id:=2",
             "joints.gripper.type:=prismatic", "joints.gripper.stroke:=[0.0, 0.04]", "joints.gripper.servo_deg:=[0.0, 100.0]",
             "joints.finger.mimic:=gripper", f"joints_calibration.path:={path}", "servos.id_3.mode:=ex_position",
-            "servos.id_4.mode:=ex_position",
+            "servos.id_4.mode:=ex_position", "joint_state.effort_unit:=Nm",
             "loop_rate:=100")
 
 
@@ -123,3 +124,26 @@ def test_a_multi_turn_servo_that_lost_its_power_comes_back_at_its_position(rig):
     line = rig.wait_log("ID 4: +3 whole turns lost at boot given back", since=mark, timeout=20)
     assert "ID 3: " not in "".join(x for x in line.splitlines() if "turns" in x)
     rig.wait(lambda: near_start(4), timeout=10, what="servo 4 back at its position after the reconnect")
+
+
+def test_effort_is_read_and_commanded_in_nm_through_the_model_s_torque_per_ampere(rig):
+    servo = rig.sim.servo(1)
+    per_amp = 4.1 / 2.3  # XM430-W350 (e-Manual: stall torque 4.1 N·m at 2.3 A, 12 V)
+    with rig.sim._lock:
+        servo.pin("present_current", 200)
+    try:
+        expected = 200 * servo.model.current_ma_per_pulse / 1000.0 * per_amp * 2.0  # reduction 2
+
+        def effort() -> float:
+            msg = rig.joint_states[-1] if rig.joint_states else None
+            return dict(zip(msg.name, msg.effort)).get("shoulder", math.nan) if msg is not None else math.nan
+        rig.wait(lambda: abs(effort() - expected) < 1e-6, timeout=15, what=f"shoulder's effort {expected:.4f} N·m")
+    finally:
+        with rig.sim._lock:
+            servo.pin("present_current", None)
+    # the gripper (metres): 10 N through its stroke of 4 cm over 100 deg is a current of
+    amps = 10.0 / (per_amp * math.radians(1.0) / (0.04 / 100.0))
+    rig.publish("/joint_commands", JointState(name=["gripper"], position=[0.02], effort=[10.0]))
+    pulses = round(amps * 1000.0 / rig.sim.servo(2).model.current_ma_per_pulse)
+    rig.wait(lambda: abs(rig.sim.servo(2).read("goal_current") - pulses) <= 1, timeout=15,
+             what=f"servo 2's Goal Current at {pulses} (10 N)")

@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, ServoFamily
-from ..joints import DEG, Coupling, Joint, JointMap, LiveJoints, settled, spread
+from ..joints import DEG, Coupling, Joint, JointMap, LiveJoints, effort_per_amp, settled, spread
 from .command_types import HoldJoints, JointCommand, JointRequest
 from .commander import Commander
 from .coupled_goals import Given, coupled_goals
@@ -120,17 +120,14 @@ class JointGoals:
             if any(i not in table for i in joint.servo_ids):
                 unhandled.append(name)
                 continue
-            pos = self._within(what, joint, position[k]) if position else None
-            vel = velocity[k] if velocity else None
-            eff = effort[k] if effort else None
+            given = (self._within(what, joint, position[k]) if position else None, velocity[k] if velocity else None,
+                     effort[k] if effort else None)
             if joint.coupling is not None:  # solved with the other joints of its set, below
-                coupled.setdefault(joint.coupling, {})[name] = (pos, vel, eff)
+                coupled.setdefault(joint.coupling, {})[name] = given
                 continue
-            for dxl_id, scale in joint.servos:  # a joint of several servos: each in the same write
-                control, fields = self._servo_goal(joint, dxl_id, scale, pos, vel, eff)
-                self._batch(batches, control, dxl_id, fields)
-        for coupling, given in coupled.items():
-            for control, dxl_id, fields in coupled_goals(self.h, self.mapping, self.commander.warn, what, coupling, given):
+            self._one_joint(what, joint, given, batches)
+        for coupling, of_set in coupled.items():
+            for control, dxl_id, fields in coupled_goals(self.h, self.mapping, self.commander.warn, what, coupling, of_set):
                 self._batch(batches, control, dxl_id, fields)
         if unhandled:
             self.commander.warn(f"{what}: joints {unhandled} map to servos that are not handled: ignored")
@@ -164,19 +161,42 @@ class JointGoals:
                                 f"(joints.{joint.name}.limits.position): clamped")
         return clamped
 
-    def _servo_goal(self, joint: Joint, dxl_id: int, scale: float, pos: float | None, vel: float | None,
-                    eff: float | None) -> tuple[str, dict[str, float]]:
-        """The control of one of ``joint``'s servos (``dxl_id``, its ``scale``) and its fields in
-        servo units, from the joint's position, velocity and effort (None: not given) as the table
-        of the module says; velocity and effort within the joint's limits (an effort shared by
-        the joint's servos)."""
-        sign = 1 if scale > 0 else -1
+    def _one_joint(self, what: str, joint: Joint, given: Given, batches: _Batches) -> None:
+        """The goals of a joint of one servo, or of several (each in the same write)."""
+        pos, vel, eff = given
+        amps: list[float | None] = [None] * len(joint.servos)
         if eff is not None:
-            eff = math.copysign(min(abs(float(eff)), joint.effort_limit), float(eff)) / len(joint.servos)
+            per_servo = self._amps(what, joint, eff)
+            if per_servo is None and pos is None and vel is None:
+                return
+            amps = list(per_servo) if per_servo is not None else amps
+        for (dxl_id, scale), amp in zip(joint.servos, amps):
+            control, fields = self._servo_goal(joint, dxl_id, scale, pos, vel, amp)
+            self._batch(batches, control, dxl_id, fields)
+
+    def _amps(self, what: str, joint: Joint, eff: float) -> list[float] | None:
+        """The current [A] of each of ``joint``'s servos for its effort (within its limit, shared by
+        its servos; in N·m through each model's torque per ampere); None, with one line, where a
+        servo's model has no torque figures."""
+        share = math.copysign(min(abs(float(eff)), joint.effort_limit), float(eff)) / len(joint.servos)
+        per_amp = [effort_per_amp(self.mapping, scale, self.h.model(i)) for i, scale in joint.servos]
+        if not all(math.isfinite(k) for k in per_amp):
+            models = sorted({self.h.model(i).name for (i, _), k in zip(joint.servos, per_amp) if not math.isfinite(k)})
+            self.commander.warn(f"{what}: joint {joint.name}: an effort in N·m needs the torque per ampere of "
+                                f"{', '.join(models)}, which is not known: its effort is ignored")
+            return None
+        return [share / k for k in per_amp]
+
+    def _servo_goal(self, joint: Joint, dxl_id: int, scale: float, pos: float | None, vel: float | None,
+                    amps: float | None) -> tuple[str, dict[str, float]]:
+        """The control of one of ``joint``'s servos (``dxl_id``, its ``scale``) and its fields in
+        servo units, from the joint's position, velocity and the servo's current for its effort
+        (``_amps``; None: not given) as the table of the module says; a velocity within the
+        joint's limit."""
         if pos is not None:
             fields = {"position_deg": (float(pos) - joint.zero) / scale, **self._profile_cap(joint, dxl_id, scale)}
-            if eff is not None:
-                fields["current_ma"] = abs(float(eff)) * 1000.0
+            if amps is not None:
+                fields["current_ma"] = abs(amps) * 1000.0
                 return "current_base_position_control", fields
             if self.h.mode(dxl_id) in KEPT_POSITION_MODES:
                 return "goal", fields
@@ -185,7 +205,7 @@ class JointGoals:
             vel = max(-joint.velocity_limit, min(joint.velocity_limit, float(vel)))
             return "velocity_control", {"velocity_deg_s": float(vel) / scale}
         # check() takes no command without a field, so effort is given here
-        return "current_control", {"current_ma": float(cast(float, eff)) * 1000.0 * sign}
+        return "current_control", {"current_ma": float(cast(float, amps)) * 1000.0}
 
     def _send(self, what: str, batches: _Batches) -> None:
         """One Commander call per (series, control, fields): goals of kept modes as plain goals (the

@@ -53,11 +53,12 @@ from ._item import Item
 from ._ranges import LISTED as RANGED_ITEMS
 from ._ranges import ranges_of
 from ._sdk_files import load_sdk_table
+from ._torque import TORQUE, TorqueFigures, torque_figures
 
 __all__ = ["FAMILIES", "KEPT_POSITION_MODES", "MAX_ROTATION", "OPERATING_MODES", "POSITION_LIMITED_MODES",
-           "POSITION_MODES", "PROTOCOL1_FAMILIES", "PRO", "P", "RANGED_ITEMS", "SERIES", "X", "Item", "Model",
-           "ServoFamily", "family_named", "family_titled", "known_models", "model_by_number", "protocol1_model_by_number",
-           "protocol1_models"]
+           "POSITION_MODES", "PROTOCOL1_FAMILIES", "PRO", "P", "RANGED_ITEMS", "SERIES", "TORQUE", "X", "Item", "Model",
+           "ServoFamily", "TorqueFigures", "family_named", "family_titled", "known_models", "model_by_number",
+           "protocol1_model_by_number", "protocol1_models", "torque_figures"]
 
 SERIES: Tuple[str, ...] = tuple(f.name for f in FAMILIES)
 

@@ -4,11 +4,13 @@ from .block import is_joint_parameter, joints_block, merged
 from .calibration import LiveJoints
 from .mapping import (
     DEG,
+    EFFORT_UNITS,
     Coupling,
     Joint,
     JointMap,
     JointReading,
     Mimic,
+    effort_per_amp,
     joint_map,
     read_joints,
     resolve_targets,
@@ -17,6 +19,6 @@ from .mapping import (
     unhandled,
 )
 
-__all__ = ["DEG", "Coupling", "Joint", "JointMap", "JointReading", "LiveJoints", "Mimic",
+__all__ = ["DEG", "EFFORT_UNITS", "Coupling", "Joint", "JointMap", "JointReading", "LiveJoints", "Mimic", "effort_per_amp",
            "is_joint_parameter", "joint_map", "joints_block", "merged",
            "read_joints", "resolve_targets", "settled", "spread", "unhandled"]

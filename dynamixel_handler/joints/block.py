@@ -11,7 +11,7 @@ A parameters file gives it as a map; ROS hands it over flattened (``joints.shoul
 joint turn; ``offset``: the joint's position [rad] when the servo reads 0; ``direction``: +1 or -1;
 ``type: prismatic``: a linear map from ``servo_deg`` (two servo angles) to ``stroke`` (the joint's
 two positions in m); ``limits``: the joint's soft limits in its units (rad or m, rad/s or m/s;
-``effort`` in A, the present current's unit). A mimic joint is published in ``joint_states`` only.
+``effort`` in ``joint_state.effort_unit``: A or N·m). A mimic joint is published in ``joint_states`` only.
 ``ids`` (with ``directions``): a joint driven by two or more servos together, written in one sync
 write, its state their mean; beyond ``disagreement_deg`` apart each servo is held where it is
 (one line a second while it lasts). ``coupled`` with ``row``: a coupled set (a differential),
@@ -51,7 +51,8 @@ KEYS: dict[str, tuple[str, str, str, str]] = {
     "limits.velocity": ("float", "none", "revolute, prismatic, coupled",
                         "the fastest the joint is driven [rad/s or m/s]: velocity commands cut, the profile of a "
                         "position command capped, a faster trajectory refused"),
-    "limits.effort": ("float", "none", "revolute, prismatic", "the largest effort command [A, the present current's unit]"),
+    "limits.effort": ("float", "none", "revolute, prismatic", "the largest effort command [A, or N·m (N) with "
+                      "joint_state.effort_unit: Nm]"),
     "ids": ("int[]", "-", "paired", "the servos that drive the joint together (two or more, each in one joint)"),
     "directions": ("int[]", "all 1", "paired", "1 or -1 per servo of ids: how each is mounted"),
     "disagreement_deg": ("float", "2.0", "paired",

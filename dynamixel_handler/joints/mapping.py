@@ -20,11 +20,14 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from ..control_table import Model, torque_figures
 from ..errors import ConfigError
 from ..logs import cut, some_ids
 from ..servo.table import ServoTable
 
 DEG = math.pi / 180.0
+#: ``joint_state.effort_unit`` (lower case) -> the unit's name
+EFFORT_UNITS = {"a": "A", "nm": "Nm"}
 
 
 @dataclass(frozen=True)
@@ -67,7 +70,7 @@ class Joint:
     prismatic: bool = False
     position_limits: tuple[float, float] = (-math.inf, math.inf)
     velocity_limit: float = math.inf
-    effort_limit: float = math.inf   #: [A], the present current's unit
+    effort_limit: float = math.inf   #: in the map's ``effort_unit``
     #: the other servos of a joint driven by several: (ID, scale) each, the same ``zero``
     partners: tuple[tuple[int, float], ...] = ()
     #: the largest spread of a paired joint's servos [joint units] before the joint is held
@@ -113,6 +116,8 @@ class JointMap:
 
     joints: tuple[Joint, ...]
     mimics: tuple[Mimic, ...] = ()
+    #: the effort's unit: "A" (the present current) or "Nm" (``effort_per_amp``)
+    effort_unit: str = "A"
 
     @classmethod
     def simple(cls, names: Sequence[str], ids: Sequence[int], directions: Sequence[int],
@@ -252,12 +257,22 @@ def unhandled(mapping: JointMap, handled_ids: Iterable[int]) -> list[str]:
     return [j.name for j in mapping.joints if any(i not in handled for i in j.servo_ids)]
 
 
+def effort_per_amp(mapping: JointMap, scale: float, model: Model) -> float:
+    """A servo's present current [A] -> its part of the joint's effort (``scale``: the servo's, in
+    joint units per servo degree): its direction in A; in N·m (N for a prismatic joint) the
+    model's e-Manual torque per ampere through the joint's reduction (NaN without figures)."""
+    if mapping.effort_unit == "A":
+        return math.copysign(1.0, scale)
+    figures = torque_figures(model.name)
+    return math.nan if figures is None else figures.nm_per_a * DEG / scale
+
+
 def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
     """The joints of ``table`` in SI units (parameter order, then the mimic joints); joints whose
     servo is not handled or whose position was never read are left out rather than published as
     NaN. A joint driven by several servos is the mean of theirs, a joint of a coupled set its
-    row of the set's servos. Effort is the present current [A] with the joint's direction (summed
-    over a joint's servos; NaN for a coupled joint)."""
+    row of the set's servos. Effort is the present current [A] with the joint's direction, or N·m
+    (``effort_per_amp``), summed over a joint's servos; NaN for a coupled joint."""
     position = table.units("present_position")
     velocity = table.units("present_velocity")
     current = table.units("present_current")
@@ -267,12 +282,13 @@ def read_joints(mapping: JointMap, table: ServoTable) -> JointReading:
         rows = [(table.index.get(i), scale) for i, scale in joint.servos]
         if any(p is None or not math.isfinite(position[p]) for p, _ in rows):
             continue
+        per_amp = [effort_per_amp(mapping, scale, table.model(i)) for i, scale in joint.servos]
         names.append(joint.name)
         share = 1.0 if joint.coupling is not None else 1.0 / len(rows)  # a row's sum, or the pair's mean
         pos_out.append(joint.zero + share * sum(scale * position[p] for p, scale in rows))
         vel_out.append(share * sum(scale * velocity[p] for p, scale in rows))
         eff_out.append(math.nan if joint.coupling is not None else
-                       sum(math.copysign(1.0, scale) * current[p] for p, scale in rows) / 1000.0)
+                       sum(k * current[p] for (p, _), k in zip(rows, per_amp)) / 1000.0)
     reading = JointReading(names=names, position_rad=np.asarray(pos_out, dtype=np.float64),
                            velocity_rad_s=np.asarray(vel_out, dtype=np.float64), effort_a=np.asarray(eff_out, dtype=np.float64))
     return _with_mimics(mapping, reading)

@@ -22,12 +22,13 @@ Answer = Callable[[bytes], list[bytes]]
 @pytest.fixture
 def line() -> Iterator[Callable[..., tuple[Peer, Transport]]]:
     """Factory: line(answer, **transport_kwargs) -> (peer, opened Transport). The adapter latency
-    is 1 ms and retries are 1 ms apart unless given (short waits for silent servos)."""
+    is 20 ms (the answering peer is a thread of the test process: on a loaded machine it can be a few
+    milliseconds late) and retries are 1 ms apart unless given."""
     made: list[tuple[Peer, Transport]] = []
 
     def make(answer: Answer = lambda packet: [], **kwargs) -> tuple[Peer, Transport]:
         peer = Peer(answer)
-        transport = Transport(peer.path, **{"baudrate": 1_000_000, "latency_timer_ms": 1.0,
+        transport = Transport(peer.path, **{"baudrate": 1_000_000, "latency_timer_ms": 20.0,
                                             "retry_interval_ms": 1.0, **kwargs})
         transport.open()
         made.append((peer, transport))
