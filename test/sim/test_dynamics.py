@@ -92,3 +92,14 @@ def test_a_shaft_turned_by_hand_reads_the_angle_asked_with_homing_offset_and_rev
         assert servo.read("present_position") == 2048 + 341
         assert run_command(bus, "turn 3 10").startswith("error: ")
         assert run_command(bus, "turn 1 inf").startswith("error: ")
+
+
+def test_a_protocol1_shaft_turned_by_hand_stays_within_its_sensor_s_range():
+    from dynamixel_handler.sim import VirtualBus
+
+    with VirtualBus({7: 12}, wire_timing=False) as bus:  # an AX-12A: 0 deg at 512, 0.29 deg per pulse
+        bus.turn(7, 60.0)
+        servo = bus.servos_at(7)[0]
+        assert servo.read("present_position") == 512 + 205
+        bus.turn(7, 400.0)
+        assert servo.read("present_position") == 1023
