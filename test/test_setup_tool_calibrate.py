@@ -2,10 +2,11 @@
 process, so that the test turns the shafts as a hand would: between the tool's reads the virtual
 servo's motor is moved, no instruction on the bus), the Enter lines fed through stdin, every
 register read back with dynamixel_sdk: the file's offsets and limits match the angles the shafts
-were moved to, the node's parser takes it, torque is left off; ``--homing-offset`` writes each
-servo's Homing Offset so that it reads 0 at the zero pose; refusals (torque on without
-``--torque-off``, an existing file, a range smaller than the margins, an unknown ID, Ctrl-C,
-Protocol 1.0 with ``--homing-offset``) write nothing and say so in one line."""
+were moved to, the node's parser takes it, torque is left off; a Protocol 1.0 servo too;
+``--homing-offset`` writes each servo's Homing Offset so that it reads 0 at the zero pose (and
+nothing when not confirmed); refusals (torque on without ``--torque-off``, an existing file, a range
+smaller than the margins, an unknown ID, SIGINT / SIGTERM, ``--homing-offset`` on a Protocol 1.0
+servo or a model without one) write nothing and say so in one line."""
 from __future__ import annotations
 
 import math
@@ -23,7 +24,7 @@ from test_setup_tool_safety import PRESENT_POS, TORQUE, hold, sdk_read
 from dynamixel_handler.joints.block import joints_block
 from dynamixel_handler.sim import VirtualBus
 
-XM430, XM540, AX12 = 1020, 1120, 12
+XM430, XM540, AX12, XL320 = 1020, 1120, 12, 350
 DEG_PER_PULSE = 360.0 / 4096  # X series: 0 deg at 2048 (ROBOTIS e-Manual)
 TWO_PULSES_RAD = math.radians(2 * DEG_PER_PULSE)
 HOMING_ADDR, READ = 20, 0x02
@@ -32,7 +33,7 @@ RECORD, ZERO = "then press Enter", "hold the robot at its zero pose"
 
 @pytest.fixture
 def bus() -> Iterator[VirtualBus]:
-    with VirtualBus([(1, XM430), (2, XM540), (7, AX12)], wire_timing=False) as sim:
+    with VirtualBus([(1, XM430), (2, XM540), (7, AX12), (8, XL320)], wire_timing=False) as sim:
         yield sim
 
 
@@ -128,7 +129,8 @@ def test_the_joints_moved_by_hand_give_offsets_and_limits_the_node_takes(bus, tm
 
 def test_homing_offset_makes_the_servo_read_0_at_the_zero_pose(bus, tmp_path):
     target = tmp_path / "joints.yaml"
-    run = calibrate(bus, "1", "--joints", str(target), "--homing-offset", "--margin-deg", "2")
+    target.write_text("an older calibration\n")  # replaced, with --force
+    run = calibrate(bus, "1", "--joints", str(target), "--homing-offset", "--margin-deg", "2", "--force")
     try:
         run.wait_for(RECORD)
         set_angle(bus, 1, -50.0)
@@ -174,6 +176,27 @@ def test_a_protocol1_servo_is_calibrated_too(bus, tmp_path):
     assert joint.position_limits == pytest.approx((math.radians(-105), math.radians(105)), abs=2 * pulse)
 
 
+def test_a_homing_offset_not_confirmed_is_not_written_nor_the_file(bus, tmp_path):
+    target = tmp_path / "joints.yaml"
+    run = calibrate(bus, "1", "--joints", str(target), "--homing-offset")
+    try:
+        run.wait_for(RECORD)
+        set_angle(bus, 1, -50.0)
+        set_angle(bus, 1, 60.0)
+        run.send("")
+        run.wait_for(ZERO)
+        run.send("")
+        run.wait_for("[y/N]")
+        run.send("n")
+        assert finished(run) == 1
+    finally:
+        run.stop()
+    line = error_line(run)
+    assert line.startswith("error: not confirmed: nothing written") and line.endswith(
+        f"{target} not written; torque left off on ID 1"), line
+    assert sdk_read(bus.path, 57600, 1, HOMING_ADDR, 4) == 0 and not list(tmp_path.iterdir())
+
+
 # ---------------------------------------------------------------------------- refusals
 def test_refusals_before_anything_is_done(bus, tmp_path):
     hold(bus, 1)
@@ -182,8 +205,9 @@ def test_refusals_before_anything_is_done(bus, tmp_path):
             (("1",), 2, ("ID 1: torque is on and calibrate turns it off", "--torque-off", "nothing done")),
             (("1,9", "--torque-off"), 1, ("ID 9: no servo answers at 57600 bps", "nothing done")),
             (("1,2", "--names", "a", "--torque-off"), 2, ("--names gives 1 name(s) for 2 servo(s)",)),
-            (("7", "--homing-offset"), 2, ("ID 7 (AX-12A): it answers Protocol 1.0: --homing-offset refused",))):
-        run = calibrate(bus, *args, "--joints", str(target), bps=1_000_000 if args[0] == "7" else 57600)
+            (("7", "--homing-offset"), 2, ("ID 7 (AX-12A): it answers Protocol 1.0: --homing-offset refused",)),
+            (("8", "--homing-offset"), 2, ("ID 8 (XL-320): the model has no Homing Offset: --homing-offset refused",))):
+        run = calibrate(bus, *args, "--joints", str(target), bps=1_000_000 if args[0] in "78" else 57600)
         assert finished(run) == code, (args, run.lines)
         line = error_line(run)
         assert all(w in line for w in words), (args, line)
@@ -213,7 +237,8 @@ def test_a_range_smaller_than_the_margins_is_refused_naming_the_joint(bus, tmp_p
     assert not target.exists() and not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("signum, stage", [(signal.SIGINT, RECORD), (signal.SIGTERM, ZERO)])
+@pytest.mark.parametrize("signum, stage", [(signal.SIGINT, RECORD), (signal.SIGTERM, ZERO)],
+                         ids=["SIGINT-recording", "SIGTERM-zero-pose"])
 def test_a_signal_names_each_servo_and_writes_no_file(bus, tmp_path, signum, stage):
     hold(bus, 1)
     target = tmp_path / "joints.yaml"
