@@ -2,7 +2,8 @@
 process, so that the test turns the shafts as a hand would: between the tool's reads the virtual
 servo's motor is moved, no instruction on the bus), the Enter lines fed through stdin, every
 register read back with dynamixel_sdk: the file's offsets and limits match the angles the shafts
-were moved to, the node's parser takes it, torque is left off; a Protocol 1.0 servo too;
+were moved to, the node's parser takes it, torque is left off; the node started with the file
+publishes the joint at 0 at the zero pose and holds a command to its limits; a Protocol 1.0 servo too;
 ``--homing-offset`` writes each servo's Homing Offset so that it reads 0 at the zero pose (and
 nothing when not confirmed); refusals (torque on without ``--torque-off``, an existing file, a range
 smaller than the margins, an unknown ID, SIGINT / SIGTERM, ``--homing-offset`` on a Protocol 1.0
@@ -18,11 +19,15 @@ from typing import Iterator
 
 import pytest
 import yaml
+from sensor_msgs.msg import JointState
 from test_setup_tool import TOOL, Lines
 from test_setup_tool_safety import PRESENT_POS, TORQUE, hold, sdk_read
 
 from dynamixel_handler.joints.block import joints_block
 from dynamixel_handler.sim import VirtualBus
+
+from support.rig import Rig, scan_params
+from support.ros import NodeProcess, node_command
 
 XM430, XM540, AX12, XL320 = 1020, 1120, 12, 350
 DEG_PER_PULSE = 360.0 / 4096  # X series: 0 deg at 2048 (ROBOTIS e-Manual)
@@ -195,6 +200,41 @@ def test_a_homing_offset_not_confirmed_is_not_written_nor_the_file(bus, tmp_path
     assert line.startswith("error: not confirmed: nothing written") and line.endswith(
         f"{target} not written; torque left off on ID 1"), line
     assert sdk_read(bus.path, 57600, 1, HOMING_ADDR, 4) == 0 and not list(tmp_path.iterdir())
+
+
+def test_the_node_takes_the_file_its_joint_reads_0_at_the_zero_pose_and_is_held_to_its_limits(tmp_path):
+    target = tmp_path / "arm.yaml"
+    rig = Rig({1: XM430}, start_node=False)
+    try:
+        run = calibrate(rig.sim, "1", "--joints", str(target), "--names", "shoulder")
+        try:
+            run.wait_for(RECORD)
+            set_angle(rig.sim, 1, -60.0)
+            set_angle(rig.sim, 1, 80.0)
+            run.send("")
+            run.wait_for(ZERO)
+            set_angle(rig.sim, 1, 30.0)
+            run.send("")
+            assert finished(run) == 0, "\n".join(run.lines)
+        finally:
+            run.stop()
+        rig.node_proc = NodeProcess(node_command(f"device_name:={rig.device}", *scan_params([1], 1))
+                                    + ["--params-file", str(target)])
+        rig.node_proc.wait_for("handled", timeout=30)
+        got: list[JointState] = []
+        with rig._lock:
+            rig.node.create_subscription(JointState, "/joint_states", got.append, 50)
+        rig.wait(lambda: bool(got) and list(got[-1].name) == ["shoulder"] and abs(got[-1].position[0]) < TWO_PULSES_RAD,
+                 timeout=15, what="joint_states: the shoulder at 0 rad at the zero pose")
+        mark = rig.mark()
+        rig.publish("/joint_commands", JointState(name=["shoulder"], position=[3.0]))
+        # moved through -60 .. 80 deg of the servo, zero at 30: -90 .. 50 deg of the joint, 5 deg inside
+        line = rig.wait_log("joint shoulder goal beyond its limits [", "(joints.shoulder.limits.position): clamped",
+                            since=mark)
+        low, high = (float(v) for v in line.split("limits [")[1].split("]")[0].split(","))
+        assert (low, high) == pytest.approx((math.radians(-85), math.radians(45)), abs=2 * TWO_PULSES_RAD), line
+    finally:
+        assert rig.close() == 0
 
 
 # ---------------------------------------------------------------------------- refusals
