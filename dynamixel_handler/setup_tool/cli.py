@@ -283,7 +283,8 @@ def _plot(out: Output, args: argparse.Namespace) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Set up Dynamixel servos from a terminal: find them, give them IDs, "
-                     "baud rates, modes and limits, back them up, watch them. The handler must not run on the bus.",
+                     "baud rates, modes and limits, back them up, watch them, calibrate the joints by hand. The handler must not run "
+                     "on the bus.",
                      epilog="exit codes: 0 done, 1 a servo or the bus failed, 2 bad arguments (nothing sent), "
                      "130 interrupted (Ctrl-C, SIGTERM, SIGHUP: after the step in progress, the state of each servo "
                      "written to is named)")
