@@ -16,8 +16,9 @@ feed, cursor up, erase line; colours kept) and recorded with rich's ``Console(re
 ``--walkthrough`` runs the page's first day instead (three unboxed servos at ID 1: scan, assign-ids
 plugging them in one at a time through the bus's ``add`` command, limits, a mode, info, backup,
 monitor, a servo replaced and restored, several servos at once, ``--trace``, ``--log``/``--plot``,
-then the handler for a few seconds) and prints each step's commands with their real
-output as the page's console blocks, to paste when the tool's output changes (about 4 minutes).
+the handler for a few seconds, then the joints calibrated, moved by hand through the bus's ``turn``
+command) and prints each step's commands with their real output as the page's console blocks, to
+paste when the tool's output changes (about 4 minutes); ``--calibration`` only the last step.
 
 Usage: ``python scripts/setup_tool_pictures.py [--out docs/img] [--link /tmp/ttyDXL] [--walkthrough]``
 (the pictures: about a minute).
@@ -189,12 +190,14 @@ class FirstDay:
     """The walk-through of docs/setup_tool.md on a virtual bus at ``link``: each step's commands and
     output, keyed by step, as console blocks."""
 
-    def __init__(self, link: str, folder: str) -> None:
+    def __init__(self, link: str, folder: str, assembled: bool = False) -> None:
         self.link, self.folder = link, folder
         self.blocks: dict[str, str] = {}
+        servos = ["--servo", "1:XM430-W350", "--servo", "2:XM430-W350", "--servo", "3:XM540-W270", "--baudrate",
+                  "1000000"] if assembled else ["--servo", "1:XM430-W350", "--servo", "1:XM430-W350", "--servo",
+                                                "1:XM540-W270"]
         self.sim = subprocess.Popen(
-            ["dynamixel_handler_sim", "--link", link, "--state", "first_day.json", "--servo", "1:XM430-W350",
-             "--servo", "1:XM430-W350", "--servo", "1:XM540-W270"],
+            ["dynamixel_handler_sim", "--link", link, "--state", "first_day.json", *servos],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, cwd=folder)
         assert self.sim.stdout is not None
         self.sim.stdout.readline()
@@ -235,6 +238,44 @@ class FirstDay:
                 proc.stdin.flush()
         proc.wait()
         self.show("assign", f"{TOOL} {args}", "".join(lines))
+
+    def session(self, step: str, args: str, answers: dict[str, tuple[list[str], str]]) -> None:
+        """An interactive run: at each line that starts with a key of ``answers`` the bus commands
+        given there are sent (a joint turned by hand), then the answer is typed (shown as typed,
+        Enter as ``<Enter>``)."""
+        proc = subprocess.Popen([TOOL, *args.split()], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, cwd=self.folder)
+        assert proc.stdin is not None and proc.stdout is not None
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            key = next((k for k in answers if line.startswith(k)), None)
+            if key is None:
+                continue
+            turns, answer = answers[key]
+            for command in turns:
+                self.bus(command)
+            lines.append(f"{answer}\n" if answer else "<Enter>\n")
+            proc.stdin.write(answer + "\n")
+            proc.stdin.flush()
+        proc.wait()
+        self.show(step, f"{TOOL} {args}", "".join(lines) + ("" if proc.returncode == 0 else f"[exit {proc.returncode}]"))
+
+    def calibration(self, at: str) -> None:
+        """The arm assembled: ID 1 and 2 a shoulder and an elbow, moved through their ranges by
+        hand (the bus's ``turn``) and held at their zero pose; ID 3 a wrist given a Homing Offset."""
+        self.tool("calibrate", f"set 2 torque_enable 1 {at}")
+        self.tool("calibrate", f"calibrate 1,2 --names shoulder,elbow --joints arm.yaml {at}")
+        record = ["turn 1 -95", "turn 1 -20", "turn 1 85", "turn 2 -40", "turn 2 130", "turn 2 60"]
+        self.session("calibrate", f"calibrate 1,2 --names shoulder,elbow --joints arm.yaml {at} --torque-off", {
+            "torque goes off": ([], "y"), "move each joint": (record, ""),
+            "hold the robot at its zero pose": (["turn 1 -5", "turn 2 45"], "")})
+        with open(os.path.join(self.folder, "arm.yaml"), encoding="utf-8") as f:
+            self.show("calibrate", "cat arm.yaml", f.read())
+        self.session("homing", f"calibrate 3 --names wrist --joints wrist.yaml --homing-offset {at}", {
+            "move each joint": (["turn 3 -150", "turn 3 100"], ""),
+            "hold the robot at its zero pose": (["turn 3 30"], ""), "write the Homing Offset": ([], "y")})
+        self.tool("homing", f"get 3 present_position {at}")
 
     def handler(self, seconds: float) -> None:
         params = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config",
@@ -283,6 +324,16 @@ class FirstDay:
             with open(os.path.join(self.folder, "robot.csv"), encoding="utf-8") as f:
                 self.show("log", "head -3 robot.csv", "".join(f.readlines()[:3]))
             self.handler(8.0)
+            self.calibration(at)
+        finally:
+            self.sim.communicate("quit\n", timeout=30)
+        return self.blocks
+
+
+    def calibrated(self) -> dict[str, str]:
+        """Only the calibration (``--calibration``), on servos already at their IDs and 1 Mbps."""
+        try:
+            self.calibration(f"--device {self.link} --baud 1000000")
         finally:
             self.sim.communicate("quit\n", timeout=30)
         return self.blocks
@@ -307,10 +358,13 @@ def main() -> int:
     ap.add_argument("--only", choices=("scan", "monitor", "plot"))
     ap.add_argument("--walkthrough", action="store_true",
                     help="print the first day's commands and outputs (docs/setup_tool.md) instead")
+    ap.add_argument("--calibration", action="store_true",
+                    help="print only the calibration's (its three servos at 1 Mbps from the start)")
     args = ap.parse_args()
-    if args.walkthrough:
+    if args.walkthrough or args.calibration:
         with tempfile.TemporaryDirectory() as folder:
-            for step, block in FirstDay(args.link, folder).run().items():
+            day = FirstDay(args.link, folder, assembled=args.calibration)
+            for step, block in (day.calibrated() if args.calibration else day.run()).items():
                 print(f"<!-- {step} -->\n```console\n{block.rstrip()}\n```\n")
         return 0
     os.makedirs(args.out, exist_ok=True)

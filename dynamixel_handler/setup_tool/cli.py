@@ -12,10 +12,11 @@ from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus
 from ..control_table import protocol1_models
-from . import backup, monitor, plot, restore, trace, verbs_bus, verbs_config, verbs_many
+from . import backup, calibrate, monitor, plot, restore, trace, verbs_bus, verbs_config, verbs_many
 from .checks import cut
 from .context import Context
 from .errors import StepFailed
+from .joints_file import parse_margin, parse_names
 from .output import Output
 from .port import default_device, open_bus
 from .safety import JOURNAL, install, stopped
@@ -52,6 +53,14 @@ def parse_ids(text: str) -> list[int]:
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{cut(text)}' is not a list of IDs 0..252 (e.g. 1-5,8)") from None
     return sorted(ids)
+
+
+def ordered_ids(text: str) -> list[int]:
+    """``"3,1,2"`` -> [3, 1, 2]: IDs in the order given (ranges ascending), none twice."""
+    ids = [i for part in text.split(",") for i in parse_ids(part)]
+    if len(set(ids)) != len(ids):
+        raise argparse.ArgumentTypeError(f"'{cut(text)}' names an ID twice")
+    return ids
 
 
 def ids_or_all(text: str) -> list[int] | None:
@@ -153,7 +162,7 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                         "with the goal where the servo is); without it a servo with torque on is refused")
     g.add_argument("--force", action="store_true", default=default(False),
                    help="write values that lower a protection (Shutdown bits, a limit beyond its factory value, "
-                        "a reversed direction, a Secondary ID another servo has)")
+                        "a reversed direction, a Secondary ID another servo has); calibrate: replace its --joints FILE")
     g.add_argument("--raw", action="store_true", default=default(False),
                    help="set: the value is the register value, not a value in the item's unit")
     g.add_argument("--protocol", choices=("2", "1", "both"), default=default(None),
@@ -237,6 +246,18 @@ def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--plot", nargs="+", metavar="FILE.svg [ITEMS]",
                    help="at the end draw ITEMS (default position,velocity,current; also pwm, temperature, voltage) "
                         "over time, goal dashed against present, as an SVG")
+    p = verb("calibrate", calibrate.calibrate, "each joint's range and zero pose by hand (torque off, a live table): "
+             "the joints block (offsets, position limits) written to a parameters file")
+    p.add_argument("ids", nargs="?", type=ordered_ids, metavar="IDS", help="IDs (default: every servo found)")
+    p.add_argument("--joints", required=True, metavar="FILE",
+                   help="the parameters file to write (an existing one only with --force)")
+    p.add_argument("--names", type=parse_names, metavar="A,B,C", help="joint names in the order of IDS (default joint_<ID>)")
+    p.add_argument("--margin-deg", type=parse_margin, default=5.0, metavar="DEG",
+                   help="the limits lie this far inside the range moved through (default 5)")
+    p.add_argument("--homing-offset", action="store_true",
+                   help="write each servo's Homing Offset (EEPROM, shown and asked) so that it reads 0 at the zero pose; "
+                        "the file's offsets are then 0")
+    p.add_argument("--rate", type=_positive(float), default=5.0, metavar="HZ", help="table refreshes a second (default 5)")
     p = verb("plot", _no_bus, "draw a monitor --log CSV as an SVG: items over time, goal dashed against present")
     p.add_argument("csv", metavar="FILE.csv")
     p.add_argument("svg_file", metavar="FILE.svg")
@@ -262,7 +283,8 @@ def _plot(out: Output, args: argparse.Namespace) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Set up Dynamixel servos from a terminal: find them, give them IDs, "
-                     "baud rates, modes and limits, back them up, watch them. The handler must not run on the bus.",
+                     "baud rates, modes and limits, back them up, watch them, calibrate the joints by hand. The handler must not run "
+                     "on the bus.",
                      epilog="exit codes: 0 done, 1 a servo or the bus failed, 2 bad arguments (nothing sent), "
                      "130 interrupted (Ctrl-C, SIGTERM, SIGHUP: after the step in progress, the state of each servo "
                      "written to is named)")

@@ -42,6 +42,11 @@ class Servo:
         """An AX, RX, DX, EX or MX (1.0) model: no Operating Mode register, modes by Angle Limits."""
         return self.model.protocol == 1
 
+    @property
+    def over_protocol1(self) -> bool:
+        """It answers Protocol 1.0 (a Protocol 1.0 model, or a 2.0 model set to Protocol Type 1)."""
+        return self.protocol == 1
+
     def item(self, name: str) -> Item:
         return find_item(self.model, name)
 
@@ -71,7 +76,7 @@ class Servo:
         """Whether a write that got no status went to a Protocol 1.0 servo at Status Return Level 1
         (it answers reads and pings only): then the write is taken as sent; every checked write
         reads it back."""
-        if self.protocol != 1 or failure is not Failure.NO_REPLY or not self.model.has("status_return_level"):
+        if not self.over_protocol1 or failure is not Failure.NO_REPLY or not self.model.has("status_return_level"):
             return False
         item = self.model.item("status_return_level")
         got = self.bus.execute(Read(self.dxl_id, item.address, item.size, 1))
@@ -95,7 +100,7 @@ class Servo:
     def status_errors(self) -> list[str]:
         """The error bits of its latest Protocol 1.0 status packet by name ([] in Protocol 2.0,
         whose servos report them in Hardware Error Status)."""
-        if self.protocol != 1:
+        if not self.over_protocol1:
             return []
         return error_names1(self.bus.last_error_bytes.get(self.dxl_id, 0))
 

@@ -27,8 +27,9 @@ from .faults import ReplyFaults
 from .instructions import InstructionSet, Refusal
 from .plugged import AnyServo, new_servo, pair, read_state, set_bps, state_of, write_state
 from .protocol1 import Protocol1Instructions
+from .protocol1_servo import turn_by_hand1
 from .serving import FACTORY_BAUDRATE, WireServer, WireSettings
-from .servo import VirtualServo
+from .servo import VirtualServo, turn_by_hand
 from .transport import PtyPort
 
 __all__ = ["VirtualBus", "LoggedInstruction", "FACTORY_BAUDRATE", "AnyServo"]
@@ -190,6 +191,18 @@ class VirtualBus(WireSettings):
                 if s.id == servo_id and isinstance(s, VirtualServo):
                     return s
         raise KeyError(f"no virtual servo with ID {servo_id}")
+
+    def turn(self, servo_id: int, deg: float) -> None:
+        """Turn the shaft of the (first added) servo at ``servo_id`` by hand until it reads ``deg``
+        (0 deg at its middle position; ``turn`` on the command line), no instruction on the bus."""
+        with self._lock:
+            servos = self.servos_at(servo_id)
+            if not servos:
+                raise KeyError(f"no virtual servo with ID {servo_id}")
+            if isinstance(servos[0], VirtualServo):
+                turn_by_hand(servos[0], float(deg))
+            else:
+                turn_by_hand1(servos[0], float(deg))
 
     def servos_at(self, servo_id: int) -> list[AnyServo]:
         """Every servo at ``servo_id`` (Protocol 1.0 ones included), in the order added: more

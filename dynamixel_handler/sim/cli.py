@@ -12,6 +12,7 @@ host whose port is at their own baud rate, with the wire's time simulated. Every
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -37,6 +38,7 @@ COMMANDS_HELP = """commands (one per line on stdin):
   add ID MODEL [--again]       plug in a servo (factory values, this ID); --again: also when a
                                servo already answers at that ID (both collide on the wire)
   remove ID                    unplug the servo(s) at ID
+  turn ID DEG                  turn a shaft by hand until it reads DEG (0 at its middle; torque off)
   list | help | quit"""
 
 
@@ -168,6 +170,13 @@ def _colliding(bus: VirtualBus, servo: AnyServo) -> list[AnyServo]:
             if s.speaks_protocol_2 == servo.speaks_protocol_2 and s.baudrate == servo.baudrate]
 
 
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text!r} is not a finite angle")
+    return value
+
+
 def _list(bus: VirtualBus, rest: list[str]) -> str:
     return "\n".join(describe_servo(bus, s) for s in bus.all_servos)
 
@@ -203,6 +212,7 @@ _COMMANDS: dict[str, Callable[[VirtualBus, list[str]], str | None]] = {
     "reappear": lambda bus, rest: f"device {bus.reappear()}",
     "add": _add,
     "remove": lambda bus, rest: bus.remove_servo(int(rest[0])),
+    "turn": lambda bus, rest: bus.turn(int(rest[0]), _finite(rest[1])),
     "list": _list,
     "help": lambda bus, rest: COMMANDS_HELP,
 }

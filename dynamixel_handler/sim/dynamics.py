@@ -83,6 +83,12 @@ class Dynamics:
         half = rev // 2
         return ((raw + half) % rev) - half
 
+    def turn_to(self, present: float) -> None:
+        """A hand turns the shaft until Present Position reads ``present`` [pulses] (no
+        instruction; with torque on the servo drives back to its goal)."""
+        self.motor.stop()
+        self.motor.p = self._sign() * (present - self._r.get("homing_offset"))
+
     def hold_if_position_mode(self) -> None:
         if self._mode() in POSITION_MODES:
             self._r.poke("goal_position", int(round(self._user_position())))

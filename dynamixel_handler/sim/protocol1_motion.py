@@ -110,6 +110,15 @@ class Shaft1:
             return math.inf
         return accel * self._r.model.acceleration_deg_ss_per_pulse / self._r.model.position_deg_per_pulse
 
+    def turn_to(self, present: float) -> None:
+        """A hand turns the shaft until Present Position reads ``present`` [pulses] (in Joint Mode
+        within the sensor's range; no instruction)."""
+        self.motor.stop()
+        if self.mode() == "ex_position":
+            self.motor.p = (present - self._r.get("multi_turn_offset")) * self._divider()
+        else:
+            self.motor.p = min(max(present, 0.0), float(self._top))
+
     def hold(self) -> None:
         """Goal Position := Present Position (what the servo does at power on)."""
         self._r.poke("goal_position", int(round(self.user_position())))

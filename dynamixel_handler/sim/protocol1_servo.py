@@ -281,3 +281,12 @@ class Protocol1Servo:
         servo.registers.poke("model_number", servo.model.number)
         servo.power_up()
         return servo
+
+
+def turn_by_hand1(servo: Protocol1Servo, deg: float) -> None:
+    """Turn ``servo``'s shaft by hand until Present Position reads ``deg`` (the handler's degrees: 0
+    at the model's middle position; in Joint Mode within the sensor's range)."""
+    with servo.lock:
+        servo.refresh()
+        servo.shaft.turn_to(servo.model.position_zero_pulse + deg / servo.model.position_deg_per_pulse)
+        servo.refresh()

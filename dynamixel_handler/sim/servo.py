@@ -276,3 +276,12 @@ class VirtualServo:
             self._dynamics.motor.stop()
         elif bits == 0:
             self._shutdown_latched = False
+
+
+def turn_by_hand(servo: VirtualServo, deg: float) -> None:
+    """Turn ``servo``'s shaft by hand until Present Position reads ``deg`` (the handler's degrees:
+    0 at the model's middle position), as someone moving a joint with the torque off would."""
+    with servo.lock:
+        servo.refresh(servo._clock())
+        servo._dynamics.turn_to(servo.model.position_zero_pulse + deg / servo.model.position_deg_per_pulse)
+        servo.refresh(servo._clock())

@@ -76,3 +76,30 @@ def test_the_realtime_tick_counts_milliseconds_since_the_power_cycle(shaft):
     dynamics.restart(100.5)
     dynamics.refresh(100.75)
     assert r.peek("realtime_tick") == 250
+
+
+def test_a_shaft_turned_by_hand_reads_the_angle_asked_with_homing_offset_and_reverse():
+    from dynamixel_handler.sim import VirtualBus
+    from dynamixel_handler.sim.cli import run_command
+
+    with VirtualBus({1: XM430, 2: XM430}, wire_timing=False) as bus:
+        assert run_command(bus, "turn 1 -45") == "ok"
+        assert bus.servo(1).read("present_position") == 2048 - 512  # 0.088 deg per pulse, 0 deg at 2048
+        servo = bus.servo(2)
+        servo.write("homing_offset", 100)
+        servo.write("drive_mode", 1)  # reverse: the shaft counts the other way, Homing Offset added after
+        bus.turn(2, 30.0)
+        assert servo.read("present_position") == 2048 + 341
+        assert run_command(bus, "turn 3 10").startswith("error: ")
+        assert run_command(bus, "turn 1 inf").startswith("error: ")
+
+
+def test_a_protocol1_shaft_turned_by_hand_stays_within_its_sensor_s_range():
+    from dynamixel_handler.sim import VirtualBus
+
+    with VirtualBus({7: 12}, wire_timing=False) as bus:  # an AX-12A: 0 deg at 512, 0.29 deg per pulse
+        bus.turn(7, 60.0)
+        servo = bus.servos_at(7)[0]
+        assert servo.read("present_position") == 512 + 205
+        bus.turn(7, 400.0)
+        assert servo.read("present_position") == 1023
