@@ -222,3 +222,23 @@ def test_a_block_that_cannot_be_right_stops_the_node_with_one_line():
     assert node.wait_exit() == 2
     assert "joints.b.id = 1: servo 1 already drives joint 'a': one joint per servo" in node.output
     assert "Traceback" not in node.output
+
+
+def test_diagnostics_has_a_status_per_joint_in_its_units(rig):
+    from diagnostic_msgs.msg import DiagnosticArray
+    got: list[DiagnosticArray] = []
+    with rig._lock:
+        rig.node.create_subscription(DiagnosticArray, "/diagnostics", got.append, 10)
+
+    def joint_status(name: str):
+        for msg in reversed(got):
+            for s in msg.status:
+                if s.name == f"dynamixel_handler: joint {name}":
+                    return s
+        return None
+    rig.wait(lambda: joint_status("gripper") is not None and joint_status("elbow") is not None, timeout=15,
+             what="/diagnostics with the joints' statuses")
+    gripper = {kv.key: kv.value for kv in joint_status("gripper").values}
+    assert gripper["servos"] == "ID 2" and "position [m]" in gripper and "velocity [m/s]" in gripper
+    assert {kv.key: kv.value for kv in joint_status("elbow").values}["servos"] == "ID 3, ID 4"
+    assert joint_status("finger") is None  # a mimic joint: state only

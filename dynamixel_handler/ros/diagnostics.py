@@ -1,4 +1,5 @@
-"""``/diagnostics`` (diagnostic_msgs/DiagnosticArray): one status per servo and one for the bus.
+"""``/diagnostics`` (diagnostic_msgs/DiagnosticArray): one status per servo, one for the bus, and one per
+joint (``joints.health``, in the joint's units) where joints are configured.
 
 Published from the loop thread every ``diagnostics.period_sec`` (1 s by default), from the
 servo table as last read, so it costs no bus traffic. Levels and messages come from
@@ -13,6 +14,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from ..core.handler import StepReport
+from ..joints.health import joint_health
 from ..servo.health import BusSample, Health, bus_health, servo_health, silent_count
 from .lean import lean_publisher
 
@@ -52,6 +54,9 @@ class DiagnosticsPublisher:
             watchdog_trips_new=f.watchdog_trips - self._trips, servos=len(table), servos_silent=silent_count(table),
             e_stop=f.e_stop)
         statuses = [bus_health(sample, self.prefix)] + [servo_health(table, i, self.prefix) for i in table.ids]
+        joints = getattr(self.node, "joints", None)
+        if joints is not None and self.node.settings.ros.joint_state_use:
+            statuses += joint_health(joints.map, table, self.prefix)  # in the joints' units
         msg = DiagnosticArray()
         msg.header.stamp = self.node.get_clock().now().to_msg()
         msg.status = [_to_msg(s) for s in statuses]
