@@ -30,7 +30,7 @@ from ..errors import StartupError
 from ..external_ports import ExternalPorts, PortReading
 from ..loop.runner import Hooks, Runner, log_exception
 from ..tools.baudrate import search_rates, unify_baudrate
-from . import calibration, diagnostics, e_stop, fastpath, joint_commands, joint_states, manifest, services, snapshot
+from . import calibration, diagnostics, e_stop, fastpath, item_services, joint_commands, joint_states, manifest, services, snapshot
 from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
 from .lean import lean_publisher, lean_subscription
@@ -109,6 +109,7 @@ class DynamixelHandlerNode(Node):
         self.step_hooks += [h for h in (joint_commands.attach(self),) if h is not None]
         self._attach_trajectory_action()
         self.motion_services = services.attach(self)  # set_torque, move_to, move_joints
+        self.item_services = item_services.attach(self, self.motion_services)  # get_items, set_items
         self.e_stop = e_stop.attach(self)  # dynamixel/e_stop, set_e_stop, e_stop_state
         self.step_hooks += [self.e_stop, manifest.attach(self)]  # dynamixel/manifest
         self.snapshot = snapshot.attach(self)  # save_servo_settings: the servos block as a file

@@ -82,7 +82,7 @@ class MotionServices:
         self.node = node
         self.log = node.get_logger()
         self.warn = Throttle(self.log.warning)
-        group = ReentrantCallbackGroup()
+        self.group = group = ReentrantCallbackGroup()  # every service and action of the node's motion
         self._guard = node.create_guard_condition(lambda: None, callback_group=group)
         self.book = Book(node.handler, node.commander, node.joints, wake=self._wake)
         node.handler.attach(self.book)  # the jobs' steps, queued by the jobs, taken in the loop thread
@@ -117,7 +117,7 @@ class MotionServices:
             if not self.book.jobs:
                 self._timer.cancel()
 
-    def _targets(self, ids: Sequence[int], names: Sequence[str], moves: bool = True, positions: bool = True):
+    def targets(self, ids: Sequence[int], names: Sequence[str], moves: bool = True, positions: bool = True):
         """The servos named; MoveError (answered at once) when the node cannot take the request."""
         self._taken(moves)
         return targets_of(self.book.mapping, ids, names, len(self.node.handler.table), positions)
@@ -134,7 +134,7 @@ class MotionServices:
         if moves and stop is not None:
             raise MoveError(f"refused: the E-stop is engaged ({stop}); release it first")
 
-    async def _settle(self, job: Job, on_resume: Callable[[], None] | None = None) -> None:
+    async def settle(self, job: Job, on_resume: Callable[[], None] | None = None) -> None:
         """Until ``job`` has ended: the loop ends it, or it is answered when overdue."""
         self.book.add(job)
         with self.book.lock:
@@ -154,9 +154,9 @@ class MotionServices:
     async def _on_set_torque(self, req: SetTorque.Request, res: SetTorque.Response) -> SetTorque.Response:
         try:
             # torque off moves nothing; a joint of several servos: each of them
-            targets = self._targets(req.ids, req.joint_names, moves=bool(req.enable), positions=False)
+            targets = self.targets(req.ids, req.joint_names, moves=bool(req.enable), positions=False)
             job = TorqueJob([i for i, _ in targets], bool(req.enable), time.monotonic() + LOOP_TIMEOUT_S)
-            await self._settle(job)
+            await self.settle(job)
             res.success, res.message = job.outcome == DONE, job.message
         except MoveError as err:
             res.success, res.message = False, str(err)
@@ -169,7 +169,7 @@ class MotionServices:
         try:
             self._taken(moves=False)  # the node active, its loop running
             job = RebootJob(time.monotonic() + REBOOT_ANSWER_S)
-            await self._settle(job)
+            await self.settle(job)
             res.success, res.message = job.outcome == DONE, job.message
         except MoveError as err:
             res.success, res.message = False, str(err)
@@ -190,7 +190,7 @@ class MotionServices:
             commands = getattr(self.node, "joint_commands", None)
             job = CalibrateJob(request, joints, commands.follower if commands is not None else None,
                                time.monotonic() + LOOP_TIMEOUT_S)
-            await self._settle(job)
+            await self.settle(job)
             res.success, res.message, res.offsets = job.outcome == DONE, job.message, job.positions
             if res.success:
                 with self._saving:  # the map in use now: a later calibration's save is never overwritten
@@ -203,11 +203,11 @@ class MotionServices:
 
     async def _on_move_to(self, req: MoveTo.Request, res: MoveTo.Response) -> MoveTo.Response:
         try:
-            targets = self._targets(req.ids, req.joint_names)
+            targets = self.targets(req.ids, req.joint_names)
             positions = checked_positions(targets, req.positions_deg, req.profile_vel_deg_s)
             job = new_move(self.book, targets, positions, req.profile_vel_deg_s, req.tolerance_deg, req.timeout_s,
                            wait=bool(req.wait))
-            await self._settle(job)
+            await self.settle(job)
             res.success = job.outcome in (REACHED, DONE)
             res.reached = job.outcome == REACHED
             res.message, res.positions_deg = job.message, job.positions
@@ -221,11 +221,11 @@ class MotionServices:
         g = goal_handle.request
         result = MoveJoints.Result()
         try:
-            targets = self._targets(g.ids, g.joint_names)
+            targets = self.targets(g.ids, g.joint_names)
             positions = checked_positions(targets, g.positions_deg, g.velocity_limit_deg_s)
             job = new_move(self.book, targets, positions, g.velocity_limit_deg_s, g.tolerance_deg, g.timeout_s,
                            wait=True, feedback=True)
-            await self._settle(job, lambda: self._goal_news(goal_handle, job))
+            await self.settle(job, lambda: self._goal_news(goal_handle, job))
             outcome = ERROR if job.outcome is None else job.outcome
             result.status, result.message, result.positions_deg = STATUS[outcome], job.message, job.positions
         except MoveError as err:
