@@ -3,7 +3,7 @@
 written), saves the offsets to ``joints_calibration.path`` and the next start loads them; bad
 requests are refused with the offsets kept. Effort in N·m (``joint_state.effort_unit: Nm``) read
 and commanded through the model's torque per ampere. A multi-turn servo that loses its power (on its own,
-or with its adapter) comes back at its position, not within one turn."""
+or with its adapter) comes back at its position, not within one turn, and set up again."""
 from __future__ import annotations
 
 import math
@@ -113,6 +113,10 @@ def test_a_multi_turn_servo_that_lost_its_power_comes_back_at_its_position(rig):
     rig.sim.set_silent(3, False)
     line = rig.wait_log("whole turns lost at boot given back", since=mark)
     assert "ID 3: +3 whole turns" in line
+    # it lost its RAM with its power: set up again, torque on as it was, holding where it is
+    rig.wait_log("ID 3: answers again after a power loss (RAM at its defaults): set up again, torque on as it was",
+                 since=mark)
+    rig.wait(lambda: rig.sim.servo(3).read("torque_enable") == 1, timeout=10, what="servo 3's torque back on")
     rig.wait(near_start, timeout=10, what="servo 3 back at its position")
     # with its adapter: the device gone and back, servo 4 booted meanwhile (3 kept its power: left alone)
     mark = rig.mark()

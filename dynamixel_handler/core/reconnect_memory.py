@@ -40,6 +40,7 @@ class Remembered:
     eeprom: dict[str, int] = field(default_factory=dict)
     #: the last present position [pulses] of a multi-turn servo (its turns are given back after a boot)
     position: int | None = None
+    torque: int | None = None                  #: Torque Enable as last read
 
 
 def remember(table: ServoTable, dxl_id: int) -> Remembered:
@@ -52,7 +53,8 @@ def remember(table: ServoTable, dxl_id: int) -> Remembered:
     eeprom = {name: v for name, spec in model.items.items()
               if spec.eeprom and name not in NOT_COMPARED and (v := table.value(name, dxl_id)) is not None}
     position = table.value("present_position", dxl_id) if mode in KEPT_POSITION_MODES else None
-    return Remembered(mode, profiles, (own, value) if own is not None and value else None, eeprom, position)
+    return Remembered(mode, profiles, (own, value) if own is not None and value else None, eeprom, position,
+                      table.value("torque_enable", dxl_id))
 
 
 def differences(io: ServoIO, dxl_id: int, before: Remembered, say: Say) -> None:
@@ -103,4 +105,13 @@ def _changed_eeprom(io: ServoIO, dxl_id: int, before: Remembered) -> list[str]:
     return out
 
 
-__all__ = ["Remembered", "differences", "remember", "restore"]
+def booted(io: ServoIO, dxl_id: int, before: Remembered) -> bool:
+    """Whether a servo that went silent and answers again lost its power meanwhile: its torque was
+    on and is off, or a profile the handler had written reads 0 (RAM at its defaults)."""
+    torque = io.read_item(dxl_id, "torque_enable")
+    if before.torque and torque == 0:
+        return True
+    return any(value and io.read_item(dxl_id, item) == 0 for item, value in before.profiles.items())
+
+
+__all__ = ["Remembered", "booted", "differences", "remember", "restore"]

@@ -7,18 +7,20 @@ import numpy as np
 
 from ..bus import ServoBus, dummy_ids
 from ..bus.ops import Ping
-from ..control_table import KEPT_POSITION_MODES
 from ..servo.table import ServoTable
 from ..settings import LoopSettings
 from .log_limits import LogLimits, PingLog
-from .reconnect_memory import Remembered, differences, remember, restore
-from .servo_io import MODE, Log, ServoIO
+from .reconnect_memory import Remembered, booted, differences, remember, restore
+from .servo_io import Log, ServoIO
 from .servo_setup import ServoSetup
 from .state import StepReport
 from .watchdog import Watchdog
 
 #: least time between two attempts to reopen a vanished device [s]
 RECONNECT_INTERVAL_S = 1.0
+#: a servo silent at least this long may have booted meanwhile: looked at when it answers again (a
+#: read lost on a noisy line is not) [s]
+BOOT_SILENCE_S = 0.05
 
 
 class Recovery:
@@ -50,10 +52,10 @@ class Recovery:
         self._not_set_up: set[int] = set()
         #: what was known of each servo when the device went: put back after its set-up
         self._memory: dict[int, Remembered] = {}
-        #: the last position [pulses] of each multi-turn servo that went silent (it may come back booted)
-        self._silent_at: dict[int, int] = {}
-        #: multi-turn servos that answer again: their lost turns looked for before the next step
-        self._turns_due: set[int] = set()
+        #: when each servo went silent (time.monotonic()) and what was known of it (it may come back booted)
+        self._silent_at: dict[int, tuple[float, Remembered]] = {}
+        #: servos that answer again: whether they booted meanwhile looked at before the next step
+        self._back: set[int] = set()
 
     def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
@@ -123,9 +125,10 @@ class Recovery:
                 self.log.info(f"ID {dxl_id}: answers after the reconnect: set up as at start-up")
                 self._set_up_as_before(dxl_id)
 
-    def _set_up_as_before(self, dxl_id: int) -> None:
+    def _set_up_as_before(self, dxl_id: int, torque: bool | None = None) -> None:
         """Set up as at start-up, then what it had before the device went (``reconnect_memory``):
-        EEPROM items that differ named, its mode and profiles back, a goal not resumed said."""
+        EEPROM items that differ named, the whole turns a multi-turn servo lost given back, its mode
+        and profiles back, a goal not resumed said. ``torque``: as ``ServoSetup.setup_servo``."""
         before = self._memory.pop(dxl_id, None)
         def say(level: int, msg: str) -> None:
             self.log.log(level, msg)
@@ -133,7 +136,7 @@ class Recovery:
             differences(self.io, dxl_id, before, say)
             if before.position is not None:  # before the set-up turns its torque on
                 self.setup.give_back_turns(dxl_id, before.position)
-        self.setup.setup_servo(dxl_id)
+        self.setup.setup_servo(dxl_id, torque)
         if before is not None:
             kept = self.setup.kept
             restore(self.io, dxl_id, before, lambda item: kept.sets(dxl_id, item), say, kept.put_back)
@@ -176,32 +179,39 @@ class Recovery:
 
     def _answers_again(self, dxl_id: int) -> None:
         self.ping_log.change(dxl_id, True)
-        if dxl_id in self._silent_at:  # a multi-turn servo: booted meanwhile, it lost its turns
-            self._turns_due.add(dxl_id)
+        since = self._silent_at.get(dxl_id)
+        if since is not None and time.monotonic() - since[0] >= BOOT_SILENCE_S:  # it may have booted meanwhile
+            self._back.add(dxl_id)
+        elif since is not None:
+            del self._silent_at[dxl_id]
         # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
         # the next commands are written
         self.watchdog.request_arm(dxl_id)
 
     def _note_silent(self, dxl_id: int) -> None:
-        """A servo went silent: where a multi-turn one was, should it come back booted."""
-        model = self.table.model(dxl_id)
-        position = self.table.value("present_position", dxl_id)
-        if position is not None and model.mode_name(self.table.value(MODE, dxl_id)) in KEPT_POSITION_MODES:
-            self._silent_at[dxl_id] = position
+        """A servo went silent: what it had, should it come back booted."""
+        self._silent_at[dxl_id] = (time.monotonic(), remember(self.table, dxl_id))
 
     @property
-    def turns_due(self) -> bool:
-        """A multi-turn servo answers again: whether it booted meanwhile is to be looked at."""
-        return bool(self._turns_due)
+    def back_due(self) -> bool:
+        """A servo that went silent answers again: whether it booted meanwhile is to be looked at."""
+        return bool(self._back)
 
-    def give_back_turns(self) -> None:
-        """Each multi-turn servo that answers again and booted meanwhile (torque off, its position
-        within a turn of its offset) gets the whole turns it lost back (``turns.py``)."""
-        for dxl_id in sorted(self._turns_due):
-            before = self._silent_at.pop(dxl_id, None)
-            if before is not None and dxl_id in self.table:
-                self.setup.give_back_turns(dxl_id, before)
-        self._turns_due.clear()
+    def look_at_returned(self) -> None:
+        """Each servo that answers again after it went silent: one that lost its power meanwhile
+        (``reconnect_memory.booted``: torque dropped, or RAM at its defaults) is set up again as
+        after a reconnect, with the torque it had (its turns given back, its mode and profiles
+        back); one that did not is left as it is."""
+        for dxl_id in sorted(self._back):
+            silent = self._silent_at.pop(dxl_id, None)
+            before = silent[1] if silent is not None else None
+            if before is None or dxl_id not in self.table or not booted(self.io, dxl_id, before):
+                continue
+            self.log.warning(f"ID {dxl_id}: answers again after a power loss (RAM at its defaults): set up again, "
+                             f"torque {'on' if before.torque else 'left off'} as it was")
+            self._memory[dxl_id] = before
+            self._set_up_as_before(dxl_id, torque=bool(before.torque))
+        self._back.clear()
 
     @property
     def device_gone(self) -> bool:
@@ -213,4 +223,4 @@ class Recovery:
         self.ping_log.forget(dxl_id)
         self._not_set_up.discard(dxl_id)
         self._silent_at.pop(dxl_id, None)
-        self._turns_due.discard(dxl_id)
+        self._back.discard(dxl_id)

@@ -39,11 +39,12 @@ class ServoSetup:
         self.reboots = reboots
         self.settings = settings
 
-    def setup_servo(self, dxl_id: int) -> None:
+    def setup_servo(self, dxl_id: int, torque: bool | None = None) -> None:
         """The set-up every servo gets, at start-up and when added later (add_id): hardware error
         cleared (init/hardware_error_auto_clean), the servos block's EEPROM items and mode, return
         delay, profile defaults, the block's RAM items, torque as init/torque_auto_enable says; the
-        bus watchdog when the loop next runs. The block's items replace the defaults."""
+        bus watchdog when the loop next runs. The block's items replace the defaults. ``torque``:
+        on or left off whatever the parameter says (a servo set up again keeps what it had)."""
         settings, model = self.settings, self.table.model(dxl_id)
         if settings.hardware_error_auto_clean:
             self._clear_error(dxl_id)
@@ -53,7 +54,7 @@ class ServoSetup:
             self.eeprom.write_eeprom(dxl_id, "return_delay_time", delay)
         self._setup_ram(dxl_id)
         self.kept.finish(dxl_id, done)
-        if settings.torque_auto_enable:
+        if settings.torque_auto_enable if torque is None else torque:
             self.io.torque_on(dxl_id)
 
     def give_back_turns(self, dxl_id: int, before: int) -> None:

@@ -102,8 +102,8 @@ class Step:
             self.recovery.reconnect(report)
         if self.recovery.set_up_due:  # silent after a reconnect, answering now: set up as at start-up
             self.recovery.set_up_returned()
-        if self.recovery.turns_due:  # a multi-turn servo answers again: booted, it lost its turns
-            self.recovery.give_back_turns()
+        if self.recovery.back_due:  # a servo answers again: set up again if it lost its power meanwhile
+            self.recovery.look_at_returned()
         self.watchdog.arm_waiting()
         if self.work.waiting:
             for what, request in self.work.run_deferred():

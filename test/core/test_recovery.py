@@ -4,11 +4,13 @@ answers again, and a device that vanishes and comes back (its servos set up by t
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 
 from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.control_table import OPERATING_MODES
+from dynamixel_handler.core import recovery as recovery_module
 from dynamixel_handler.core.deferred import Deferred
 from dynamixel_handler.core.group_io import GroupIO
 from dynamixel_handler.core.kept_settings import KeptSettings
@@ -50,9 +52,9 @@ class Counted(ServoSetup):
         super().__init__(*args)
         self.done: list[int] = []
 
-    def setup_servo(self, dxl_id: int) -> None:
+    def setup_servo(self, dxl_id: int, torque: bool | None = None) -> None:
         self.done.append(dxl_id)
-        super().setup_servo(dxl_id)
+        super().setup_servo(dxl_id, torque)
 
 
 def loop(part: Recovery, table, answering: set[int]) -> None:
@@ -126,3 +128,32 @@ def test_a_refused_reboot_says_why_in_its_result():
     assert part.reboot(1).failure is None
     refused = part.reboot(1)
     assert refused.value is False and refused.failure is Failure.HELD_BACK and refused.why.startswith("refused: the last one was")
+
+
+def test_a_servo_back_after_losing_its_power_is_set_up_again_with_the_torque_it_had_and_one_that_kept_it_is_not():
+    bus, table, part, lines, _, set_up = recovery({1: XM430, 2: XM430}, remove_after=0)
+    for dxl_id in (1, 2):
+        table.set_value("torque_enable", dxl_id, 1)
+        table.set_value("profile_velocity", dxl_id, 77)
+        bus.set(dxl_id, "torque_enable", 1)
+        bus.set(dxl_id, "profile_velocity", 77)
+    loop(part, table, set())                   # both go silent
+    time.sleep(recovery_module.BOOT_SILENCE_S)  # long enough to boot (a read lost on a noisy line is not)
+    bus.set(1, "torque_enable", 0)             # 1 booted meanwhile: torque off, its RAM at the defaults
+    bus.set(1, "profile_velocity", 0)
+    loop(part, table, {1, 2})                  # both answer again
+    assert part.back_due
+    part.look_at_returned()
+    assert set_up == [1] and not part.back_due  # 2 kept its torque: it did not boot
+    assert "ID 1: answers again after a power loss (RAM at its defaults): set up again, torque on as it was" in lines
+    assert ("write", "profile_velocity", (1, 77)) in bus.item_writes()  # its profile as before
+    assert bus.get(1, "torque_enable") == 1    # on as it was, though torque_auto_enable is false here
+
+
+def test_a_servo_back_at_once_is_not_looked_at():
+    bus, table, part, _, _, set_up = recovery({1: XM430}, remove_after=0)
+    table.set_value("torque_enable", 1, 1)
+    loop(part, table, set())
+    bus.set(1, "torque_enable", 0)
+    loop(part, table, {1})  # back within a few milliseconds: a read lost on a noisy line, no boot
+    assert not part.back_due and set_up == []
