@@ -4,12 +4,11 @@ paired joint whose servos disagree raised to a warning, an unread joint an error
 from __future__ import annotations
 
 from dynamixel_handler.config import defaults, validate
-from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.joints.health import joint_health
 from dynamixel_handler.servo.health import ERROR, OK, WARN
 from dynamixel_handler.servo.table import ServoTable
 
-XM430 = 1020
+from support.joint_tables import table_at as at
 
 
 def joints():
@@ -21,11 +20,9 @@ def joints():
 
 
 def table_at(servo_deg: dict[int, float]) -> ServoTable:
-    table = ServoTable()
-    model = model_by_number(XM430)
-    for dxl_id, deg in servo_deg.items():
-        table.add(dxl_id, model)
-        table.set_value("present_position", dxl_id, model.position_zero_pulse + round(deg / model.position_deg_per_pulse))
+    """Servos at ``servo_deg``, healthy: temperature, voltage and their limits, no error."""
+    table = at(servo_deg)
+    for dxl_id in servo_deg:
         for item, value in (("present_temperature", 30), ("temperature_limit", 80), ("present_input_voltage", 120),
                             ("max_voltage_limit", 160), ("min_voltage_limit", 95), ("hardware_error_status", 0)):
             table.set_value(item, dxl_id, value)

@@ -13,9 +13,9 @@ from dynamixel_handler.config import ConfigError, defaults, validate
 from dynamixel_handler.control_table import model_by_number
 from dynamixel_handler.joints import DEG, LiveJoints, read_joints
 from dynamixel_handler.joints.calibration import Calibration, load, offsets_yaml
-from dynamixel_handler.servo.table import ServoTable
 
-XM430 = 1020
+from support.joint_tables import table_at
+
 BLOCK = {"shoulder.id": 1, "shoulder.reduction": 2.0, "shoulder.offset": 0.1, "shoulder.direction": -1,
          "gripper.id": 2, "gripper.type": "prismatic", "gripper.stroke": [0.0, 0.04], "gripper.servo_deg": [0.0, 100.0],
          "finger.mimic": "gripper", "elbow.ids": [3, 4], "elbow.directions": [1, -1],
@@ -26,15 +26,6 @@ def joint_map():
     v = defaults()
     v.update({f"joints.{k}": x for k, x in BLOCK.items()})
     return validate(v).settings.ros.joints
-
-
-def table_at(servo_deg: dict[int, float]) -> ServoTable:
-    table = ServoTable()
-    model = model_by_number(XM430)
-    for dxl_id, deg in servo_deg.items():
-        table.add(dxl_id, model)
-        table.set_value("present_position", dxl_id, model.position_zero_pulse + round(deg / model.position_deg_per_pulse))
-    return table
 
 
 SERVOS = {1: 30.0, 2: 50.0, 3: 10.0, 4: -10.0, 5: 20.0, 6: 40.0}

@@ -71,6 +71,19 @@ def calibrate(sim: VirtualBus, *args: str, bps: int = 57600) -> Lines:
                   "--rate", "20"])
 
 
+def by_hand(run: Lines, sim: VirtualBus, moves: list[tuple[int, float]], zero: list[tuple[int, float]]) -> None:
+    """As an owner would: each joint moved through its range (``moves``: ID, angle in turn), Enter,
+    the robot held at its zero pose (``zero``), Enter."""
+    run.wait_for(RECORD)
+    for dxl_id, deg in moves:
+        set_angle(sim, dxl_id, deg)
+    run.send("")
+    run.wait_for(ZERO)
+    for dxl_id, deg in zero:
+        set_angle(sim, dxl_id, deg)
+    run.send("")
+
+
 def finished(run: Lines, timeout: float = 30.0) -> int:
     code = run.proc.wait(timeout)
     run._reader.join(5)
@@ -104,14 +117,7 @@ def test_the_joints_moved_by_hand_give_offsets_and_limits_the_node_takes(bus, tm
     target = tmp_path / "joints.yaml"
     run = calibrate(bus, "2,1", "--joints", str(target), "--names", "elbow,shoulder", "--torque-off", "--yes")
     try:
-        run.wait_for(RECORD)
-        for dxl_id, deg in ((1, -60.0), (2, 40.0), (1, 75.0), (2, -100.0), (1, 12.0)):
-            set_angle(bus, dxl_id, deg)
-        run.send("")
-        run.wait_for(ZERO)
-        set_angle(bus, 1, -30.0)
-        set_angle(bus, 2, 10.0)
-        run.send("")
+        by_hand(run, bus, [(1, -60.0), (2, 40.0), (1, 75.0), (2, -100.0), (1, 12.0)], [(1, -30.0), (2, 10.0)])
         assert finished(run) == 0, "\n".join(run.lines)
     finally:
         run.stop()
@@ -137,13 +143,7 @@ def test_homing_offset_makes_the_servo_read_0_at_the_zero_pose(bus, tmp_path):
     target.write_text("an older calibration\n")  # replaced, with --force
     run = calibrate(bus, "1", "--joints", str(target), "--homing-offset", "--margin-deg", "2", "--force")
     try:
-        run.wait_for(RECORD)
-        set_angle(bus, 1, -50.0)
-        set_angle(bus, 1, 60.0)
-        run.send("")
-        run.wait_for(ZERO)
-        set_angle(bus, 1, 20.0)
-        run.send("")
+        by_hand(run, bus, [(1, -50.0), (1, 60.0)], [(1, 20.0)])
         asked = run.wait_for("[y/N]")
         shown = "\n".join(run.lines[:asked])
         assert "Homing Offset (EEPROM)" in shown and "0 deg (raw 0)" in shown and "-20.04 deg (raw -228)" in shown, shown
@@ -165,13 +165,7 @@ def test_a_protocol1_servo_is_calibrated_too(bus, tmp_path):
     target = tmp_path / "joints.yaml"
     run = calibrate(bus, "7", "--joints", str(target), "--names", "gripper_arm", bps=1_000_000)
     try:
-        run.wait_for(RECORD)
-        set_angle(bus, 7, -100.0)
-        set_angle(bus, 7, 120.0)
-        run.send("")
-        run.wait_for(ZERO)
-        set_angle(bus, 7, 10.0)
-        run.send("")
+        by_hand(run, bus, [(7, -100.0), (7, 120.0)], [(7, 10.0)])
         assert finished(run) == 0, "\n".join(run.lines)
     finally:
         run.stop()
@@ -185,12 +179,7 @@ def test_a_homing_offset_not_confirmed_is_not_written_nor_the_file(bus, tmp_path
     target = tmp_path / "joints.yaml"
     run = calibrate(bus, "1", "--joints", str(target), "--homing-offset")
     try:
-        run.wait_for(RECORD)
-        set_angle(bus, 1, -50.0)
-        set_angle(bus, 1, 60.0)
-        run.send("")
-        run.wait_for(ZERO)
-        run.send("")
+        by_hand(run, bus, [(1, -50.0), (1, 60.0)], [])
         run.wait_for("[y/N]")
         run.send("n")
         assert finished(run) == 1
@@ -208,13 +197,7 @@ def test_the_node_takes_the_file_its_joint_reads_0_at_the_zero_pose_and_is_held_
     try:
         run = calibrate(rig.sim, "1", "--joints", str(target), "--names", "shoulder")
         try:
-            run.wait_for(RECORD)
-            set_angle(rig.sim, 1, -60.0)
-            set_angle(rig.sim, 1, 80.0)
-            run.send("")
-            run.wait_for(ZERO)
-            set_angle(rig.sim, 1, 30.0)
-            run.send("")
+            by_hand(run, rig.sim, [(1, -60.0), (1, 80.0)], [(1, 30.0)])
             assert finished(run) == 0, "\n".join(run.lines)
         finally:
             run.stop()
