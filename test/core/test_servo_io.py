@@ -65,3 +65,34 @@ def test_a_failed_write_says_why_in_its_own_result():
     assert io.write_item(1, "led", 1).failure is None and io.torque_off(1)
     missing = io.write_item(1, "no_such_item", 1)
     assert not missing and missing.failure is Failure.NO_SUCH_ITEM and missing.why == "ID 1 (XM430-W350) has no no_such_item"
+
+
+def test_a_group_write_that_fails_is_one_warning_naming_the_ids_and_keeps_no_value(caplog):
+    bus = FakeBus({1: XM430, 2: XM430})
+    table = table_of(bus)
+    group = GroupIO(bus, table, LOG)
+    bus.fail_sync_writes = True
+    with caplog.at_level(logging.WARNING, logger=LOG.name):
+        group.write_group("goal_position", {1: 10, 2: 20}, what="shutdown")
+    assert [r.getMessage() for r in caplog.records] == [
+        "shutdown: writing goal_position to IDs [1, 2] failed: the adapter is gone"]
+    assert table.value("goal_position", 1) is None and table.value("goal_position", 2) is None
+
+
+def test_a_snapshot_reads_nearby_items_in_one_sync_read_and_items_far_apart_in_another():
+    bus = FakeBus({1: XM430, 2: XM430, 3: XM430})
+    table = table_of(bus)
+    group = GroupIO(bus, table, LOG)
+    for dxl_id in (1, 2):
+        bus.set(dxl_id, "operating_mode", OPERATING_MODES["ex_position"])
+        bus.set(dxl_id, "homing_offset", -100 * dxl_id)
+        bus.set(dxl_id, "goal_position", 1000 + dxl_id)
+        bus.set(dxl_id, "present_position", -5000 - dxl_id)
+    bus.silent.add(3)
+    items = ["present_position", "operating_mode", "no_such_item", "goal_position", "homing_offset"]
+    assert group.read_items(items, [1, 2, 3]) == {
+        dxl_id: {"operating_mode": OPERATING_MODES["ex_position"], "homing_offset": -100 * dxl_id,
+                 "goal_position": 1000 + dxl_id, "present_position": -5000 - dxl_id} for dxl_id in (1, 2)}
+    reads = bus.of("sync_read")
+    assert len(reads) == 2 and all(r[3] == (1, 2, 3) for r in reads)  # two spans, each one read of every servo
+    assert table.value("goal_position", 1) is None  # a snapshot, not the table's last reads
