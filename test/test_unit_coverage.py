@@ -4,15 +4,22 @@ neither the Handler nor rclpy, itself or through the ``support`` modules it uses
 listed from the file system, so a new one needs such a test from the start; ``core/handler.py`` (the
 front) and the packages' ``__init__.py`` are exempt.
 
+Each of those modules also keeps the branch coverage its own unit tests give it (the test files that
+import it, as read here): ``scripts/coverage_gate.py --check`` against its floor in
+``test/coverage_floors.json``, run here in a subprocess (about 10 s).
+
 The unit tests build the core's parts as the Handler does (``support.parts``): the same settings
 slices and the same wiring between the parts, compared here with a Handler's own."""
 from __future__ import annotations
 
-import ast
-import importlib
 import logging
+import subprocess
+import sys
 from pathlib import Path
-from types import ModuleType
+
+import pytest
+
+from support.scripts import load_script
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "dynamixel_handler"
@@ -22,6 +29,9 @@ UNIT_DIRS = {"core": TESTS / "core", "commands": TESTS / "commands"}
 EXEMPT = {"dynamixel_handler.core.handler"}
 #: importing one of these (or ``Handler`` from the package) means a test builds the Handler or a node
 FRONTS = ("dynamixel_handler.core.handler", "rclpy")
+#: scripts/coverage_gate.py: which test files import a module is read once, there, for both checks
+GATE = load_script("coverage_gate")
+imports_of = GATE.imports_of
 
 
 def modules_needing_a_test() -> list[str]:
@@ -32,54 +42,6 @@ def modules_needing_a_test() -> list[str]:
             if path.name != "__init__.py" and name not in EXEMPT:
                 out.append(name)
     return out
-
-
-def _is_module(name: str) -> bool:
-    parts = name.split(".")
-    if parts[0] != "dynamixel_handler":
-        return False
-    base = ROOT.joinpath(*parts)
-    return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
-
-
-def _defined_in(package: str, name: str) -> str:
-    """The module a name imported from ``package`` comes from (``from dynamixel_handler.commands
-    import Commander``: ``commands.commander``); the package itself when that cannot be told."""
-    if _is_module(f"{package}.{name}"):
-        return f"{package}.{name}"
-    try:
-        value = getattr(importlib.import_module(package), name)
-    except (ImportError, AttributeError):
-        return package
-    if isinstance(value, ModuleType):
-        return value.__name__
-    owner = getattr(value, "__module__", None)
-    return owner if isinstance(owner, str) and owner.startswith(package) else package
-
-
-def imports_of(path: Path) -> tuple[set[str], set[str]]:
-    """(package modules, ``support`` modules) that the file at ``path`` imports, anywhere in it."""
-    found: set[str] = set()
-    support: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            names = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
-            if node.module == "support":
-                support.update(f"support.{alias.name}" for alias in node.names)
-                continue
-            if node.module.startswith("dynamixel_handler"):
-                names = [_defined_in(node.module, alias.name) for alias in node.names]
-                if node.module == "dynamixel_handler" and any(a.name == "Handler" for a in node.names):
-                    names.append("dynamixel_handler.core.handler")
-                names.append(node.module)
-            else:
-                names = [node.module]
-        else:
-            continue
-        for name in names:
-            (support if name.split(".")[0] == "support" else found).add(name)
-    return found, support
 
 
 def _builds_the_front(imported: set[str]) -> bool:
@@ -147,6 +109,53 @@ def test_the_listing_sees_package_imports_the_handler_and_helpers(tmp_path):
     assert front_free(test)
     assert "dynamixel_handler.core.handler" not in modules_needing_a_test()
     assert "dynamixel_handler.core.requests" in modules_needing_a_test()
+
+
+# ---------------------------------------------------------------- the branch coverage of each
+def test_each_module_keeps_the_branch_coverage_of_its_own_unit_tests():
+    """The unit tests of test/core and test/commands under coverage: each module at or above its floor
+    (a new module at the default), one line per module that is not."""
+    run = subprocess.run([sys.executable, str(ROOT / "scripts" / "coverage_gate.py"), "--check"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=600)
+    if run.returncode != 0:
+        pytest.fail("scripts/coverage_gate.py --check failed (--missing MODULE shows what a module's tests miss):\n"
+                    + (run.stderr or run.stdout)[-6000:], pytrace=False)
+
+
+def test_the_gate_holds_the_modules_this_check_lists():
+    assert sorted(GATE.dotted(m) for m in GATE.modules()) == sorted(modules_needing_a_test())
+
+
+def _figure(module: str, own: float, tests: tuple[str, ...] = ("test/core/test_x.py",)):
+    return GATE.Figure(module, own, own, 10, 4, tests)
+
+
+def test_the_gate_names_a_module_below_its_floor_a_new_one_below_the_default_and_a_floor_left_behind():
+    floors = GATE.Floors(70, {"dynamixel_handler/core/a.py": 80, "dynamixel_handler/core/gone.py": 90,
+                              "dynamixel_handler/core/low.py": 40})
+    found = [_figure("dynamixel_handler/core/a.py", 79.96), _figure("dynamixel_handler/core/low.py", 41.0),
+             _figure("dynamixel_handler/core/new.py", 65.0, ()), _figure("dynamixel_handler/core/ok.py", 70.0)]
+    lines = GATE.verdicts(found, floors)
+    assert len(lines) == 3, lines
+    assert lines[0].startswith("dynamixel_handler/core/a.py: 79.9% branch coverage from its own unit tests "
+                               "(test/core/test_x.py), below its floor of 80%")
+    assert lines[1].startswith("dynamixel_handler/core/new.py: 65.0% branch coverage from its own unit tests "
+                               "(none imports it), below the 70% a module without a floor")
+    assert lines[2].startswith("dynamixel_handler/core/gone.py: has a floor")
+
+
+def test_the_update_raises_floors_never_lowers_them_nor_admits_a_new_module_below_the_default():
+    floors = GATE.Floors(70, {"dynamixel_handler/core/up.py": 80, "dynamixel_handler/core/down.py": 90,
+                              "dynamixel_handler/core/gone.py": 90})
+    found = [_figure("dynamixel_handler/core/up.py", 86.7), _figure("dynamixel_handler/core/down.py", 85.0),
+             _figure("dynamixel_handler/core/new.py", 75.2), _figure("dynamixel_handler/core/weak.py", 69.9)]
+    new, lines = GATE.raised(found, floors)
+    assert new.floors == {"dynamixel_handler/core/up.py": 86, "dynamixel_handler/core/down.py": 90,
+                          "dynamixel_handler/core/new.py": 75}
+    assert any(line.startswith("dynamixel_handler/core/weak.py: 69.9%, below the default 70%: not added") for line in lines)
+    assert GATE.verdicts(found, new) == [  # what stays for the author: the lowered one, the weak one
+        line for line in GATE.verdicts(found, new) if line.startswith(("dynamixel_handler/core/down.py",
+                                                                     "dynamixel_handler/core/weak.py"))]
 
 
 # ---------------------------------------------------------------- the parts as the Handler builds them

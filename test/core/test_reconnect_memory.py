@@ -74,3 +74,16 @@ def test_the_servos_block_wins_over_what_the_servo_had():
     assert bus.get(1, "profile_velocity") == round(60.0 / (0.229 * 6))
     assert bus.get(1, "operating_mode") == OPERATING_MODES["position"]
     assert not any("mode velocity as before" in x or "profile_velocity 15" in x for x in lines)
+
+
+def test_a_servo_booted_while_silent_is_told_from_one_that_kept_its_power():
+    from dynamixel_handler.core.reconnect_memory import booted
+    bus, parts, _ = started()
+    before = Remembered(mode="velocity", profiles={"profile_velocity": 15}, torque=1)
+    bus.set(1, "torque_enable", 1)
+    assert not booted(parts.io, 1, before)               # torque on, its profile as written: no boot
+    bus.set(1, "torque_enable", 0)
+    assert booted(parts.io, 1, before)                   # torque dropped
+    bus.set(1, "profile_velocity", 0)
+    assert booted(parts.io, 1, Remembered(mode="velocity", profiles={"profile_velocity": 15}, torque=0))  # RAM reset
+    assert not booted(parts.io, 1, Remembered(mode="velocity", profiles={"profile_velocity": 0}, torque=0))
