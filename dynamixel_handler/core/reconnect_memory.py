@@ -105,13 +105,19 @@ def _changed_eeprom(io: ServoIO, dxl_id: int, before: Remembered) -> list[str]:
     return out
 
 
-def booted(io: ServoIO, dxl_id: int, before: Remembered) -> bool:
+def booted(io: ServoIO, dxl_id: int, before: Remembered) -> bool | None:
     """Whether a servo that went silent and answers again lost its power meanwhile: its torque was
-    on and is off, or a profile the handler had written reads 0 (RAM at its defaults)."""
+    on and is off, or a profile the handler had written reads 0 (RAM at its defaults); None when a
+    read that would tell got no answer (ask again later)."""
     torque = io.read_item(dxl_id, "torque_enable")
+    if torque is None:
+        return None
     if before.torque and torque == 0:
         return True
-    return any(value and io.read_item(dxl_id, item) == 0 for item, value in before.profiles.items())
+    now = {item: io.read_item(dxl_id, item) for item, value in before.profiles.items() if value}
+    if any(v is None for v in now.values()):
+        return None
+    return any(v == 0 for v in now.values())
 
 
 __all__ = ["Remembered", "booted", "differences", "remember", "restore"]

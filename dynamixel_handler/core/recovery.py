@@ -21,6 +21,9 @@ RECONNECT_INTERVAL_S = 1.0
 #: a servo silent at least this long may have booted meanwhile: looked at when it answers again (a
 #: read lost on a noisy line is not) [s]
 BOOT_SILENCE_S = 0.05
+#: steps in which a servo back from silence is asked again whether it booted, when the reads that
+#: would tell get no answer
+BOOT_ASKS = 20
 
 
 class Recovery:
@@ -55,7 +58,8 @@ class Recovery:
         #: when each servo went silent (time.monotonic()) and what was known of it (it may come back booted)
         self._silent_at: dict[int, tuple[float, Remembered]] = {}
         #: servos that answer again: whether they booted meanwhile looked at before the next step
-        self._back: set[int] = set()
+        #: (ID -> the times it may still be asked)
+        self._back: dict[int, int] = {}
 
     def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing
@@ -181,7 +185,7 @@ class Recovery:
         self.ping_log.change(dxl_id, True)
         since = self._silent_at.get(dxl_id)
         if since is not None and time.monotonic() - since[0] >= BOOT_SILENCE_S:  # it may have booted meanwhile
-            self._back.add(dxl_id)
+            self._back[dxl_id] = BOOT_ASKS
         elif since is not None:
             del self._silent_at[dxl_id]
         # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
@@ -202,16 +206,22 @@ class Recovery:
         (``reconnect_memory.booted``: torque dropped, or RAM at its defaults) is set up again as
         after a reconnect, with the torque it had (its turns given back, its mode and profiles
         back); one that did not is left as it is."""
-        for dxl_id in sorted(self._back):
-            silent = self._silent_at.pop(dxl_id, None)
-            before = silent[1] if silent is not None else None
-            if before is None or dxl_id not in self.table or not booted(self.io, dxl_id, before):
+        for dxl_id, asks in sorted(self._back.items()):
+            silent = self._silent_at.get(dxl_id)
+            was = booted(self.io, dxl_id, silent[1]) if silent is not None and dxl_id in self.table else False
+            if was is None and asks > 1:  # no answer to the reads that tell: asked again next step
+                self._back[dxl_id] = asks - 1
                 continue
-            self.log.warning(f"ID {dxl_id}: answers again after a power loss (RAM at its defaults): set up again, "
-                             f"torque {'on' if before.torque else 'left off'} as it was")
-            self._memory[dxl_id] = before
-            self._set_up_as_before(dxl_id, torque=bool(before.torque))
-        self._back.clear()
+            del self._back[dxl_id]
+            self._silent_at.pop(dxl_id, None)
+            if was and silent is not None:
+                self._set_up_after_boot(dxl_id, silent[1])
+
+    def _set_up_after_boot(self, dxl_id: int, before: Remembered) -> None:
+        self.log.warning(f"ID {dxl_id}: answers again after a power loss (RAM at its defaults): set up again, "
+                         f"torque {'on' if before.torque else 'left off'} as it was")
+        self._memory[dxl_id] = before
+        self._set_up_as_before(dxl_id, torque=bool(before.torque))
 
     @property
     def device_gone(self) -> bool:
@@ -223,4 +233,4 @@ class Recovery:
         self.ping_log.forget(dxl_id)
         self._not_set_up.discard(dxl_id)
         self._silent_at.pop(dxl_id, None)
-        self._back.discard(dxl_id)
+        self._back.pop(dxl_id, None)

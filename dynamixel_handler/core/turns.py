@@ -23,6 +23,15 @@ def per_turn(model: Model) -> int:
     return int(round(360.0 / model.position_deg_per_pulse))
 
 
+def _read(io: ServoIO, dxl_id: int, item: str, tries: int = 3) -> int | None:
+    """The item, asked up to ``tries`` times (a servo just booted, a busy line)."""
+    for _ in range(tries):
+        value = io.read_item(dxl_id, item)
+        if value is not None:
+            return value
+    return None
+
+
 def lost_turns(model: Model, before: int, after: int) -> int:
     """Whole turns from ``after`` back to ``before`` [pulses] (nearest)."""
     return int(round((before - after) / per_turn(model)))
@@ -34,11 +43,10 @@ def give_back_turns(io: ServoIO, eeprom: Deferred, dxl_id: int, before: int, boo
     otherwise a servo whose torque is on, or whose position is beyond one turn of its offset, did
     not boot and keeps its position."""
     model = io.table.model(dxl_id)
-    after = io.read_item(dxl_id, "present_position")
-    offset = io.read_item(dxl_id, "homing_offset")
+    after, offset = _read(io, dxl_id, "present_position"), _read(io, dxl_id, "homing_offset")
     if after is None or offset is None:
-        return ""
-    if not booted and (io.read_item(dxl_id, "torque_enable") or abs(after - offset) > per_turn(model)):
+        return f"ID {dxl_id}: whole turns lost at boot not looked for: its position or Homing Offset did not answer"
+    if not booted and (_read(io, dxl_id, "torque_enable") != 0 or abs(after - offset) > per_turn(model)):
         return ""
     turns = lost_turns(model, before, after)
     if not turns:
