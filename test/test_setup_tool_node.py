@@ -1,0 +1,134 @@
+"""The set-up tool on a port a running handler holds: the real node on the virtual bus, the real
+tool process. ``get``, ``set`` and ``info`` go through the node (values read back on the virtual
+servos, the line that says so, ``--json``, the checks' refusals and exit codes), a verb that
+changes the bus is refused with what to do, ``--direct`` is refused as before, a ``get`` while the
+adapter is gone is one clear line within seconds, and a stale owner record is ignored."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from dynamixel_handler.bus.owner_record import find_owner
+
+from support.rig import Rig
+
+ROOT = Path(__file__).resolve().parent.parent
+TOOL = shutil.which("dynamixel_handler_setup")
+XM430 = 1020
+THROUGH = "through the running node /dynamixel_handler"
+
+
+@pytest.fixture(scope="module")
+def rig():
+    r = Rig({1: XM430, 2: XM430}, "baudrate:=1000000", sim_kwargs={"baudrate": 1_000_000})
+    yield r
+    assert r.close() == 0
+
+
+def tool(rig, *args: str, stdin: str = "", timeout: float = 60.0) -> subprocess.CompletedProcess:
+    cmd = [TOOL] if TOOL else [sys.executable, "-m", "dynamixel_handler.setup_tool"]
+    out = subprocess.run([*cmd, "--device", rig.device, *args], input=stdin, capture_output=True, text=True,
+                         timeout=timeout, cwd=ROOT, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    out.text = out.stdout + out.stderr
+    assert "Traceback" not in out.text, out.text
+    return out
+
+
+def test_the_node_is_found_from_the_device_by_its_owner_record(rig):
+    owner = find_owner(rig.device)
+    assert owner is not None and owner.pid == rig.node_proc.proc.pid and owner.node == "/dynamixel_handler"
+    assert owner.domain_id == int(os.environ["ROS_DOMAIN_ID"])
+
+
+def test_get_and_info_go_through_the_node_with_the_same_output(rig):
+    out = tool(rig, "get", "1", "temperature_limit")
+    assert out.returncode == 0, out.text
+    assert out.stdout.splitlines()[0].startswith(THROUGH)
+    limit = rig.sim.servo(1).read("temperature_limit")
+    assert f"ID 1 (XM430-W350) temperature_limit = {limit} degC (raw {limit})" in out.stdout
+    out = tool(rig, "get", "1,2", "position_p_gain", "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 0 and doc["through_node"] == "/dynamixel_handler" and THROUGH in out.stderr
+    assert [(s["id"], s["raw"], s["baudrate"]) for s in doc["servos"]] == \
+        [(i, rig.sim.servo(i).read("position_p_gain"), 1_000_000) for i in (1, 2)]
+    out = tool(rig, "info", "2", "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 0 and doc["model"] == "XM430-W350" and doc["torque"] == "on", out.text
+    assert doc["items"]["max_position_limit"]["raw"] == rig.sim.servo(2).read("max_position_limit")
+
+
+def test_set_goes_through_the_node_with_the_tool_s_checks_and_is_read_back_on_the_servo(rig):
+    servo = rig.sim.servo(1)
+    speed = "30rpm" if servo.read("profile_velocity") != 131 else "60rpm"  # 0.229 rpm a step: 131, 262
+    out = tool(rig, "set", "1", "profile_velocity", speed)
+    assert out.returncode == 0 and "read back" in out.stdout and THROUGH in out.stdout, out.text
+    assert servo.read("profile_velocity") == (131 if speed == "30rpm" else 262)
+    # a protection lowered: --force; an EEPROM item of a servo holding torque: --torque-off (exit 2, nothing written)
+    limit = servo.read("temperature_limit")
+    out = tool(rig, "set", "1", "temperature_limit", "90degC", "--yes", "--torque-off")
+    assert out.returncode == 2 and "--force" in out.stderr and servo.read("temperature_limit") == limit, out.text
+    new = 70 if limit != 70 else 75
+    out = tool(rig, "set", "1", "temperature_limit", f"{new}degC", "--yes")
+    assert out.returncode == 2 and "give --torque-off" in out.stderr and servo.read("temperature_limit") == limit
+    out = tool(rig, "set", "1,2", "temperature_limit", f"{new}degC", "--yes", "--torque-off", "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 0 and [s["raw"] for s in doc["servos"]] == [new, new], out.text
+    assert [rig.sim.servo(i).read("temperature_limit") for i in (1, 2)] == [new, new]
+    assert servo.read("torque_enable") == 1 and "torque was turned off for the write and back on" in out.stderr
+    # an item the node leaves to its command topics, a servo it does not handle
+    out = tool(rig, "set", "1", "goal_position", "10deg")
+    assert out.returncode == 2 and "command topics" in out.stderr
+    out = tool(rig, "get", "1,7", "temperature_limit")
+    assert out.returncode == 1 and "ID 7: not handled by this node" in out.stderr and "ID 1 (XM430-W350)" in out.stdout
+
+
+def test_a_verb_that_changes_the_bus_is_refused_and_direct_is_refused_as_before(rig):
+    out = tool(rig, "set-id", "1", "5", "--yes")
+    assert out.returncode == 1 and rig.sim.servo(1).read("id") == 1
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert "held by the running node /dynamixel_handler" in out.stderr and "changes the bus under it" in out.stderr
+    out = tool(rig, "monitor", "--once")
+    assert out.returncode == 1 and "does not go through the node" in out.stderr
+    out = tool(rig, "get", "1", "id", "--direct")
+    assert out.returncode == 1 and "is busy" in out.stderr and THROUGH not in out.text
+
+
+def test_a_get_while_the_adapter_is_gone_is_one_clear_line_within_seconds(rig):
+    rig.sim.vanish()
+    try:
+        start = time.monotonic()
+        out = tool(rig, "get", "1", "temperature_limit", timeout=30)
+        assert out.returncode == 1 and time.monotonic() - start < 15, out.text
+        assert "the bus device is gone" in out.stderr, out.text
+    finally:
+        rig.sim.reappear()
+    rig.wait(lambda: tool(rig, "get", "1", "temperature_limit").returncode == 0, timeout=30, what="the bus back")
+
+
+def test_a_stale_owner_record_is_ignored(tmp_path):
+    from dynamixel_handler.bus import owner_record
+    device = tmp_path / "ttyX"
+    device.touch()
+    env = dict(os.environ, XDG_RUNTIME_DIR=str(tmp_path))
+    code = (f"from dynamixel_handler.bus.owner_record import write_record; "
+            f"print(write_record({str(device)!r}, '/ns/n', '/ns', 7))")
+    subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=ROOT, capture_output=True)
+    os.environ["XDG_RUNTIME_DIR"], old = str(tmp_path), os.environ.get("XDG_RUNTIME_DIR")
+    try:
+        assert owner_record.find_owner(str(device)) is None  # its process is gone
+        paths = owner_record.write_record(str(device), "/ns/n", "/ns", 7)
+        assert owner_record.find_owner(str(device)) == owner_record.Owner(os.getpid(), "/ns/n", "/ns", 7)
+        owner_record.remove_record(paths)
+        assert owner_record.find_owner(str(device)) is None
+    finally:
+        if old is None:
+            del os.environ["XDG_RUNTIME_DIR"]
+        else:
+            os.environ["XDG_RUNTIME_DIR"] = old
