@@ -89,6 +89,21 @@ def test_set_goes_through_the_node_with_the_tool_s_checks_and_is_read_back_on_th
     assert out.returncode == 1 and "ID 7: not handled by this node" in out.stderr and "ID 1 (XM430-W350)" in out.stdout
 
 
+def test_backup_goes_through_the_node_and_holds_the_servos_eeprom_as_they_are(rig, tmp_path):
+    import yaml
+    out = tool(rig, "backup", str(tmp_path / "b.yaml"), "--servos-block", str(tmp_path / "block.yaml"), "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 0 and doc["ids"] == [1, 2] and doc["through_node"] == "/dynamixel_handler", out.text
+    saved = yaml.safe_load((tmp_path / "b.yaml").read_text())["servos"]
+    for dxl_id in (1, 2):
+        servo = rig.sim.servo(dxl_id)
+        assert saved[dxl_id]["baudrate"] == 1_000_000 and saved[dxl_id]["model"] == "XM430-W350"
+        for name in ("temperature_limit", "max_position_limit", "shutdown", "drive_mode"):
+            assert saved[dxl_id]["eeprom"][name] == servo.read(name), name
+    block = yaml.safe_load((tmp_path / "block.yaml").read_text())
+    assert "id_1" in json.dumps(block)
+
+
 def test_a_verb_that_changes_the_bus_is_refused_and_direct_is_refused_as_before(rig):
     out = tool(rig, "set-id", "1", "5", "--yes")
     assert out.returncode == 1 and rig.sim.servo(1).read("id") == 1

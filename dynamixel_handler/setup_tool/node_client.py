@@ -6,6 +6,7 @@ never a hang."""
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -76,6 +77,24 @@ class NodeClient:
         if len(res.errors) != pairs:  # refused or failed as a whole (the adapter gone, the loop late)
             raise StepFailed(f"the running node {self.owner.node}: {name}: {res.message}")
         return res
+
+    def handled(self) -> list[int]:
+        """The IDs the node handles, from its latched ``dynamixel/manifest`` (one status per servo)."""
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        got: list[Any] = []
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,  # type: ignore[no-untyped-call]
+                         reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        sub = self.node.create_subscription(DiagnosticArray, self.service("manifest"), got.append, qos)
+        end = time.monotonic() + FIND_S
+        while not got and time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.1)
+        self.node.destroy_subscription(sub)
+        if not got:
+            raise StepFailed(f"the running node {self.owner.node} published no {self.service('manifest')} within "
+                             f"{FIND_S:g} s: give the IDs")
+        return sorted(int(s.hardware_id.split()[-1]) for s in got[-1].status if s.hardware_id.startswith("ID "))
 
     def get(self, ids: Sequence[int], items: Sequence[str]) -> tuple[Any, list[Entry]]:
         """The node's answer and its entries (one per servo and item)."""

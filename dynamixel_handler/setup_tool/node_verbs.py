@@ -1,5 +1,6 @@
-"""``get``, ``set`` and ``info`` through a running handler node (``dynamixel/get_items``,
-``dynamixel/set_items``): the same output, JSON, exit codes and checks as the verbs on the bus.
+"""``get``, ``set``, ``info`` and ``backup`` through a running handler node (``dynamixel/get_items``,
+``dynamixel/set_items``; ``backup`` of every servo: the IDs of its ``dynamixel/manifest``): the same
+output, files, JSON, exit codes and checks as the verbs on the bus.
 
 Each servo's model is read first (its Model Number; Protocol Type tells the protocol it answers),
 so values are parsed, checked and shown by the tool's own code; the node checks each write again
@@ -15,6 +16,8 @@ from dataclasses import dataclass, field
 from typing import Any, Sequence, TextIO, cast
 
 from ..control_table import Item
+from ..units import encode
+from . import backup
 from .checks import check, needed
 from .context import confirm
 from .errors import BadArguments, StepFailed
@@ -40,10 +43,35 @@ _GOALS = ("goal_position", "goal_velocity", "goal_current", "goal_pwm")
 
 
 class _NoBus:
-    """What ``mode1.summary`` asks of a servo's bus, through the node: nothing known beyond the items."""
+    """What the verbs ask of a servo's bus, through the node: its rate, nothing known beyond the items."""
 
-    firmware_versions: dict[int, int] = {}
-    last_error_bytes: dict[int, int] = {}
+    def __init__(self, baudrate: int, device: str) -> None:
+        self.baudrate = baudrate
+        self.device = device
+        self.firmware_versions: dict[int, int] = {}
+        self.last_error_bytes: dict[int, int] = {}
+
+
+@dataclass
+class NodeServo(Servo):
+    """A servo the node handles whose items were read through it (``values``: name -> raw)."""
+
+    values: dict[str, int] = field(default_factory=dict)
+
+    def read(self, name: str) -> int:
+        item = self.item(name)
+        if item.name not in self.values:
+            raise StepFailed(f"{self.who}: {item.name} was not read through the node")
+        return self.values[item.name]
+
+    def read_block(self, first: Item, last: Item) -> bytes:
+        """The bytes of the items from ``first`` to ``last`` as read through the node (gaps as 0)."""
+        data = bytearray(last.address + last.size - first.address)
+        for item in self.model.items.values():
+            if first.address <= item.address <= last.address and item.name in self.values:
+                at = item.address - first.address
+                data[at:at + item.size] = bytes(encode(item, self.values[item.name]))[:item.size]
+        return bytes(data)
 
 
 @dataclass
@@ -51,6 +79,7 @@ class NodeContext:
     client: NodeClient
     out: Output
     yes: bool
+    device: str = ""
     torque_off: bool = False
     force: bool = False
     raw: bool = False
@@ -62,7 +91,7 @@ class NodeContext:
 
     def find(self, ids: Sequence[int]) -> list[Servo]:
         """The servos the node handles among ``ids``; each other one named in one line."""
-        _, entries = self.client.get(ids, ["model_number", "baud_rate", "protocol_type"])
+        _, entries = self.client.get(list(ids), ["model_number", "baud_rate", "protocol_type"])
         for e, bps, kind in zip(entries[0::3], entries[1::3], entries[2::3]):
             if e.raw is None:
                 self.out.error(f"ID {e.dxl_id}: {e.error} ({self.client.owner.node})")
@@ -70,8 +99,9 @@ class NodeContext:
                 continue
             model = any_model(e.raw)
             protocol = protocol_of_type(kind.raw) if kind.raw is not None else model.protocol
-            self.servos[e.dxl_id] = Servo(cast(Any, _NoBus()), e.dxl_id, model, protocol)
             self.baudrate[e.dxl_id] = model.baud_rates.get(bps.raw, 0) if bps.raw is not None else 0
+            bus = cast(Any, _NoBus(self.baudrate[e.dxl_id], self.device))
+            self.servos[e.dxl_id] = NodeServo(bus, e.dxl_id, model, protocol)
         return [self.servos[i] for i in ids if i in self.servos]
 
     def read(self, servos: Sequence[Servo], names: Sequence[str]) -> dict[int, dict[str, int]]:
@@ -94,6 +124,24 @@ class NodeContext:
             ids = ", ".join(map(str, self.missing))
             raise StepFailed(f"{len(self.missing)} of {len(self.missing) + len(self.servos)} servo(s) not handled by "
                              f"the node (ID {ids}); {done}")
+
+
+def _everything(ctx: NodeContext, servo: Servo) -> NodeServo:
+    """``servo`` with every item but the indirect entries read through the node."""
+    node_servo = cast(NodeServo, servo)
+    node_servo.values = ctx.read([servo], [i.name for i in info_items(servo.model, False)])[servo.dxl_id]
+    return node_servo
+
+
+def backup_verb(ctx: NodeContext, args: argparse.Namespace) -> None:
+    """``backup`` of the servos the node handles (every one, or the IDs given), read through it."""
+    backup.check_paths(args)
+    servos = ctx.find(args.ids if args.ids else ctx.client.handled())
+    if not servos:
+        raise StepFailed(f"the running node {ctx.client.owner.node} handles none of the servos asked for")
+    backup.save(ctx.out, args, (_everything(ctx, s) for s in servos), ctx.device)
+    ctx.out.document.update(missing=ctx.missing, servos=[ctx.doc(s) for s in servos])
+    ctx.fail_if_missing(f"the others were saved to {args.file}")
 
 
 def _item(servo: Servo, name: str) -> Item:
@@ -209,4 +257,4 @@ def info(ctx: NodeContext, args: argparse.Namespace) -> None:
 
 
 #: the verbs that go through the node
-VERBS = {"get": get, "set": set_item, "info": info}
+VERBS = {"get": get, "set": set_item, "info": info, "backup": backup_verb}

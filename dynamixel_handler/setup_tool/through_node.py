@@ -1,5 +1,5 @@
 """The set-up tool on a port a running handler holds: the verbs that can go through the node do
-(``node_verbs.py``: ``get``, ``set``, ``info``), the others are refused with what to do.
+(``node_verbs.py``: ``get``, ``set``, ``info``, ``backup``), the others are refused with what to do.
 
 The node is found from the device with no flag: the port's lock names the pid that holds it
 (``bus/lock_holder.py``), the owner record the node keeps beside it names the node, its namespace
@@ -21,7 +21,7 @@ from .output import Output
 __all__ = ["THROUGH", "BUS_CHANGING", "owner_of", "run"]
 
 #: the verbs that go through the node
-THROUGH = ("get", "set", "info")
+THROUGH = ("get", "set", "info", "backup")
 #: the verbs that change the bus under the node (IDs, baud rates, the servos it handles)
 BUS_CHANGING = ("scan", "set-id", "set-baud", "assign-ids", "factory-reset")
 
@@ -61,7 +61,8 @@ def run(owner: Owner, device: str, out: Output, args: argparse.Namespace) -> Non
     out.document["through_node"] = owner.node
     client = node_client.NodeClient(owner)
     try:
-        ctx = node_verbs.NodeContext(client, out, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw)
+        ctx = node_verbs.NodeContext(client, out, args.yes, device, torque_off=args.torque_off, force=args.force,
+                                     raw=args.raw)
         node_verbs.VERBS[args.verb_name](ctx, args)
     finally:
         client.close()
