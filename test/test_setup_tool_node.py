@@ -104,13 +104,24 @@ def test_backup_goes_through_the_node_and_holds_the_servos_eeprom_as_they_are(ri
     assert "id_1" in json.dumps(block)
 
 
+def test_monitor_goes_through_the_node(rig):
+    out = tool(rig, "monitor", "--count", "2", "--rate", "20", "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 0 and len(doc["refreshes"]) == 2, out.text
+    last = {s["id"]: s for s in doc["refreshes"][-1]}
+    assert sorted(last) == [1, 2] and all(s["reply"] and s["torque"] and s["mode"] == "position" for s in last.values())
+    assert abs(last[1]["temp"] - rig.sim.servo(1).read("present_temperature")) <= 1
+    out = tool(rig, "monitor", "1,9", "--once")
+    assert out.returncode == 1 and "through the running node" in out.stdout and "not handled" in out.stdout, out.text
+
+
 def test_a_verb_that_changes_the_bus_is_refused_and_direct_is_refused_as_before(rig):
     out = tool(rig, "set-id", "1", "5", "--yes")
     assert out.returncode == 1 and rig.sim.servo(1).read("id") == 1
     assert len(out.stderr.strip().splitlines()) == 1
     assert "held by the running node /dynamixel_handler" in out.stderr and "changes the bus under it" in out.stderr
-    out = tool(rig, "monitor", "--once")
-    assert out.returncode == 1 and "does not go through the node" in out.stderr
+    out = tool(rig, "restore", "backup.yaml", "--dry-run")
+    assert out.returncode == 1 and "does not go through the node yet" in out.stderr
     out = tool(rig, "get", "1", "id", "--direct")
     assert out.returncode == 1 and "is busy" in out.stderr and THROUGH not in out.text
 
