@@ -66,10 +66,6 @@ def test_get_and_info_go_through_the_node_with_the_same_output(rig):
 
 def test_set_goes_through_the_node_with_the_tool_s_checks_and_is_read_back_on_the_servo(rig):
     servo = rig.sim.servo(1)
-    speed = "30rpm" if servo.read("profile_velocity") != 131 else "60rpm"  # 0.229 rpm a step: 131, 262
-    out = tool(rig, "set", "1", "profile_velocity", speed)
-    assert out.returncode == 0 and "read back" in out.stdout and THROUGH in out.stdout, out.text
-    assert servo.read("profile_velocity") == (131 if speed == "30rpm" else 262)
     # a protection lowered: --force; an EEPROM item of a servo holding torque: --torque-off (exit 2, nothing written)
     limit = servo.read("temperature_limit")
     out = tool(rig, "set", "1", "temperature_limit", "90degC", "--yes", "--torque-off")
@@ -79,12 +75,10 @@ def test_set_goes_through_the_node_with_the_tool_s_checks_and_is_read_back_on_th
     assert out.returncode == 2 and "give --torque-off" in out.stderr and servo.read("temperature_limit") == limit
     out = tool(rig, "set", "1,2", "temperature_limit", f"{new}degC", "--yes", "--torque-off", "--json")
     doc = json.loads(out.stdout)
-    assert out.returncode == 0 and [s["raw"] for s in doc["servos"]] == [new, new], out.text
+    assert out.returncode == 0 and [s["raw"] for s in doc["servos"]] == [new, new] and THROUGH in out.stderr, out.text
     assert [rig.sim.servo(i).read("temperature_limit") for i in (1, 2)] == [new, new]
     assert servo.read("torque_enable") == 1 and "torque was turned off for the write and back on" in out.stderr
-    # an item the node leaves to its command topics, a servo it does not handle
-    out = tool(rig, "set", "1", "goal_position", "10deg")
-    assert out.returncode == 2 and "command topics" in out.stderr
+    # a servo the node does not handle: named, the others done
     out = tool(rig, "get", "1,7", "temperature_limit")
     assert out.returncode == 1 and "ID 7: not handled by this node" in out.stderr and "ID 1 (XM430-W350)" in out.stdout
 
@@ -105,14 +99,25 @@ def test_backup_goes_through_the_node_and_holds_the_servos_eeprom_as_they_are(ri
 
 
 def test_monitor_goes_through_the_node(rig):
-    out = tool(rig, "monitor", "--count", "2", "--rate", "20", "--json")
+    out = tool(rig, "monitor", "1,2,9", "--count", "2", "--rate", "20", "--json")
     doc = json.loads(out.stdout)
-    assert out.returncode == 0 and len(doc["refreshes"]) == 2, out.text
+    assert out.returncode == 1 and len(doc["refreshes"]) == 2 and doc["missing"] == [9], out.text
+    assert "ID 9: not handled by this node" in out.stderr and THROUGH in out.stderr
     last = {s["id"]: s for s in doc["refreshes"][-1]}
-    assert sorted(last) == [1, 2] and all(s["reply"] and s["torque"] and s["mode"] == "position" for s in last.values())
+    modes = {i: {1: "velocity", 3: "position"}[rig.sim.servo(i).read("operating_mode")] for i in (1, 2)}
+    assert sorted(last) == [1, 2] and all(s["reply"] and s["torque"] and s["mode"] == modes[s["id"]] for s in last.values())
     assert abs(last[1]["temp"] - rig.sim.servo(1).read("present_temperature")) <= 1
-    out = tool(rig, "monitor", "1,9", "--once")
-    assert out.returncode == 1 and "through the running node" in out.stdout and "not handled" in out.stdout, out.text
+
+
+def test_set_mode_goes_through_the_node_s_own_mode_change_with_the_tool_s_torque_rule(rig):
+    servo = rig.sim.servo(2)
+    mode = "velocity" if servo.read("operating_mode") != 1 else "position"
+    out = tool(rig, "set-mode", "2", mode, "--yes")
+    assert out.returncode == 2 and "give --torque-off" in out.stderr, out.text
+    out = tool(rig, "set-mode", "2", mode, "--yes", "--torque-off", "--json")
+    assert out.returncode == 0 and json.loads(out.stdout)["written"], out.text
+    assert servo.read("operating_mode") == {"velocity": 1, "position": 3}[mode] and servo.read("torque_enable") == 1
+    assert "torque was turned off for the write and back on" in out.stderr
 
 
 def test_a_verb_that_changes_the_bus_is_refused_and_direct_is_refused_as_before(rig):

@@ -181,7 +181,7 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                    help="print every instruction and status packet on stderr: time, hex and what it means")
     g.add_argument("--direct", action="store_true", default=default(False),
                    help="open the port even when a running handler holds it (refused then) instead of going through "
-                        "the node (get, set, info, backup and monitor go through it; the other verbs are refused there)")
+                        "the node (get, set, info, backup, monitor and set-mode go through it; the others are refused there)")
 
 
 def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -298,7 +298,8 @@ def _plot(out: Output, args: argparse.Namespace) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Set up Dynamixel servos from a terminal: find them, give them IDs, "
                      "baud rates, modes and limits, back them up, watch them, calibrate the joints by hand. On a port a "
-                     "running handler holds, get, set, info, backup and monitor go through the node; the other verbs need it stopped.",
+                     "running handler holds, get, set, info, backup, monitor and set-mode go through the node; the "
+                     "other verbs need it stopped.",
                      epilog="exit codes: 0 done, 1 a servo or the bus failed, 2 bad arguments (nothing sent), "
                      "130 interrupted (Ctrl-C, SIGTERM, SIGHUP: after the step in progress, the state of each servo "
                      "written to is named)")

@@ -96,6 +96,20 @@ class NodeClient:
                              f"{FIND_S:g} s: give the IDs")
         return sorted(int(s.hardware_id.split()[-1]) for s in got[-1].status if s.hardware_id.startswith("ID "))
 
+    def switch_modes(self, ids: Sequence[int], mode: str) -> None:
+        """Ask the node to switch the servos ``ids`` to ``mode`` (a status command's ``mode`` on
+        ``dynamixel/commands/all``: the node's own mode change, goals and torque handled)."""
+        from dynamixel_handler_msgs.msg import DxlCommandsAll, DynamixelStatus
+
+        topic = self.service("commands/all")
+        pub = self.node.create_publisher(DxlCommandsAll, topic, 10)
+        end = time.monotonic() + FIND_S
+        while pub.get_subscription_count() == 0 and time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.05)
+        if pub.get_subscription_count() == 0:
+            raise StepFailed(f"the running node {self.owner.node} does not listen on {topic} within {FIND_S:g} s")
+        pub.publish(DxlCommandsAll(status=DynamixelStatus(id_list=list(ids), mode=[mode] * len(ids))))
+
     def get(self, ids: Sequence[int], items: Sequence[str]) -> tuple[Any, list[Entry]]:
         """The node's answer and its entries (one per servo and item)."""
         res = self._call(GetItems, "get_items", GetItems.Request(ids=list(ids), items=list(items)), len(ids) * len(items))

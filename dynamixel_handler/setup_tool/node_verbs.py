@@ -23,7 +23,7 @@ from .context import confirm
 from .errors import BadArguments, StepFailed
 from .guard import torque_done, torque_question
 from .items import find_item, parse_value, show_value, to_unit, unit_of
-from .node_client import NodeClient
+from .node_client import Entry, NodeClient
 from .output import Output
 from .protocol1 import any_model, protocol_of_type
 from .safety import needs_torque_off, refuse_torque
@@ -36,7 +36,7 @@ __all__ = ["NodeContext", "VERBS"]
 #: what the node leaves to its own doors (set_items refuses them): where to go instead
 _NOT_HERE = {
     "torque_enable": "torque goes on and off through the node's dynamixel/set_torque or the command topics",
-    "operating_mode": "the mode is switched by the node's command topics (their mode field)",
+    "operating_mode": "set-mode switches it through the node's own mode change",
     "protocol_type": "it changes the bus under the node: stop the node first",
 }
 _GOALS = ("goal_position", "goal_velocity", "goal_current", "goal_pwm")
@@ -91,7 +91,7 @@ class NodeContext:
 
     def find(self, ids: Sequence[int]) -> list[Servo]:
         """The servos the node handles among ``ids``; each other one named in one line."""
-        _, entries = self.client.get(list(ids), ["model_number", "baud_rate", "protocol_type"])
+        entries = self._identities(list(ids))
         for e, bps, kind in zip(entries[0::3], entries[1::3], entries[2::3]):
             if e.raw is None:
                 self.out.error(f"ID {e.dxl_id}: {e.error} ({self.client.owner.node})")
@@ -103,6 +103,23 @@ class NodeContext:
             bus = cast(Any, _NoBus(self.baudrate[e.dxl_id], self.device))
             self.servos[e.dxl_id] = NodeServo(bus, e.dxl_id, model, protocol)
         return [self.servos[i] for i in ids if i in self.servos]
+
+    def _identities(self, ids: list[int]) -> list[Entry]:
+        """Model Number, Baud Rate and Protocol Type of ``ids``. The node refuses a request naming
+        more servos than it handles: then the IDs its manifest does not list are named and left out."""
+        names = ["model_number", "baud_rate", "protocol_type"]
+        try:
+            return self.client.get(ids, names)[1]
+        except StepFailed:
+            if len(ids) < 2:
+                raise
+            handled = set(self.client.handled())
+        not_handled = [i for i in ids if i not in handled]
+        for dxl_id in not_handled:
+            self.out.error(f"ID {dxl_id}: not handled by this node ({self.client.owner.node})")
+        self.missing += not_handled
+        rest = [i for i in ids if i in handled]
+        return self.client.get(rest, names)[1] if rest else []
 
     def read(self, servos: Sequence[Servo], names: Sequence[str]) -> dict[int, dict[str, int]]:
         """ID -> item -> raw; StepFailed naming the first item not read."""

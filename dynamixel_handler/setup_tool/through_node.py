@@ -1,5 +1,6 @@
 """The set-up tool on a port a running handler holds: the verbs that can go through the node do
-(``node_verbs.py``: ``get``, ``set``, ``info``, ``backup``; ``node_monitor.py``: ``monitor``), the others are refused with what to do.
+(``node_verbs.py``: ``get``, ``set``, ``info``, ``backup``; ``node_monitor.py``: ``monitor``;
+``node_mode.py``: ``set-mode``), the others are refused with what to do.
 
 The node is found from the device with no flag: the port's lock names the pid that holds it
 (``bus/lock_holder.py``), the owner record the node keeps beside it names the node, its namespace
@@ -21,7 +22,7 @@ from .output import Output
 __all__ = ["THROUGH", "BUS_CHANGING", "owner_of", "run"]
 
 #: the verbs that go through the node
-THROUGH = ("get", "set", "info", "backup", "monitor")
+THROUGH = ("get", "set", "info", "backup", "monitor", "set-mode")
 #: the verbs that change the bus under the node (IDs, baud rates, the servos it handles)
 BUS_CHANGING = ("scan", "set-id", "set-baud", "assign-ids", "factory-reset")
 
@@ -54,7 +55,7 @@ def run(owner: Owner, device: str, out: Output, args: argparse.Namespace) -> Non
     """``args``'s verb through ``owner``; StepFailed (exit 1) for a verb that cannot go through it."""
     if args.verb_name not in THROUGH:
         raise StepFailed(_refusal(owner, device, args.verb_name))
-    from . import node_client, node_monitor, node_verbs  # rclpy: only here
+    from . import node_client, node_mode, node_monitor, node_verbs  # rclpy: only here
 
     out.say(f"through the running node {owner.node} (pid {owner.pid}, ROS_DOMAIN_ID {owner.domain_id}), which holds "
             f"{device}")
@@ -63,6 +64,7 @@ def run(owner: Owner, device: str, out: Output, args: argparse.Namespace) -> Non
     try:
         ctx = node_verbs.NodeContext(client, out, args.yes, device, torque_off=args.torque_off, force=args.force,
                                      raw=args.raw)
-        {**node_verbs.VERBS, "monitor": node_monitor.monitor_verb}[args.verb_name](ctx, args)
+        verbs = {**node_verbs.VERBS, "monitor": node_monitor.monitor_verb, "set-mode": node_mode.set_mode_verb}
+        verbs[args.verb_name](ctx, args)
     finally:
         client.close()
