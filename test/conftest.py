@@ -58,7 +58,7 @@ SLOW_MODULES = frozenset({
     "test_node_params", "test_core_startup", "test_compat_params",
     # the set-up tool's process runs, the docs run as written
     "test_setup_tool", "test_setup_tool_safety", "test_setup_tool_restore", "test_setup_tool_reach",
-    "test_setup_tool_protocol1", "test_setup_tool_calibrate", "test_docs_run",
+    "test_setup_tool_protocol1", "test_setup_tool_calibrate", "test_setup_tool_node", "test_docs_run",
     # node suites of many starts or many seconds
     "test_parity", "test_watchdog_pacing", "test_floods", "test_model_y", "test_servo_block",
     "test_servo_block_checks", "test_snapshot_service", "test_snapshot_paths", "test_fast_paths_publish",

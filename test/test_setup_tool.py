@@ -420,7 +420,7 @@ def test_refused_while_a_handler_holds_the_port_and_a_second_handler_fails_at_st
     node = NodeProcess(node_command(*params))
     try:
         node.wait_for("loop running", timeout=60)
-        out = tool(sim, "scan", "--ids", "0-3", "--baud", "57600")
+        out = tool(sim, "scan", "--ids", "0-3", "--baud", "57600", "--direct")  # as with no handler found
         assert out.returncode == 1
         line = one_error_line(out)
         assert f"{sim.path} is busy: dynamixel_handler (pid {node.proc.pid}) holds it" in line, line

@@ -182,7 +182,7 @@ class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
         for i in list(self.handler.table.ids):
             self.handler.table.remove(i)
         self.handler.pending.take()
-        self.wire.close()
+        self.close_wire()
 
     def _safe_stop(self) -> None:
         """The node's stop(): loop stopped, servos safe as term/* say, device closed (idempotent)."""

@@ -23,6 +23,7 @@ from dynamixel_handler_msgs.msg import DxlExternalPort
 
 from .. import serial_ports
 from ..bus import BusError, DynamixelBus
+from ..bus.owner_record import remove_record, write_record
 from ..commands import Commander
 from ..core.handler import Handler, StepReport
 from ..dummy import BusWithDummies, make_dummies
@@ -86,6 +87,9 @@ class DynamixelHandlerNode(Node):
         if chosen is not None:
             log.info(chosen)
         self.wire = DynamixelBus.of(device, cfg.bus, logger=self.adapter)
+        self._device_path = device
+        #: the owner record beside the port lock while the device is open (``bus/owner_record.py``)
+        self._owner_record: list[str] = []
         if cfg.scan.ignored_dummy_ids:
             log.warning(f"init/dummy_servo_list: IDs {list(cfg.scan.ignored_dummy_ids)} are outside 0..252: ignored")
         self.bus = BusWithDummies(self.wire, make_dummies(list(cfg.scan.dummy_ids), list(cfg.scan.dummy_series)))
@@ -182,6 +186,9 @@ class DynamixelHandlerNode(Node):
                 raise
             why = "debug" if self.settings.loop.debug else "dummy servos only"
             self.get_logger().warning(f"{err} ({why}: running without the device)")
+        if self.wire.is_open:  # the set-up tool finds this node from the device (and goes through it)
+            self._owner_record = write_record(self._device_path, self.get_fully_qualified_name(), self.get_namespace(),
+                                              self.context.get_domain_id())
         if self.settings.scan.baudrate_auto_set and self.wire.is_open:
             self._unify_baudrate()
         self.handler.start()
@@ -231,7 +238,13 @@ class DynamixelHandlerNode(Node):
             if self.bus.is_open:
                 self.handler.shutdown()
         finally:
-            self.wire.close()
+            self.close_wire()
+
+    def close_wire(self) -> None:
+        """Close the device and remove the owner record."""
+        self.wire.close()
+        remove_record(self._owner_record)
+        self._owner_record = []
 
     def _close_outbox(self) -> None:
         if self.outbox is not None:

@@ -6,18 +6,19 @@ from __future__ import annotations
 
 import argparse
 import datetime
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from ..servo.snapshot import entry_of, servos_yaml
 from .context import Context
 from .errors import StepFailed
 from .items import to_unit, unit_of
+from .output import Output
 from .plot import check_writable
 from .restore_file import present
 from .servo import Servo
 from .values import number, servo_doc
 
-__all__ = ["backup"]
+__all__ = ["backup", "check_paths", "save"]
 
 
 def _firmware(servo: Servo) -> int | None:
@@ -62,10 +63,16 @@ def _write(path: str, text: str) -> None:
         raise StepFailed(f"cannot write {path}: {exc.strerror}") from None
 
 
-def backup(ctx: Context, args: argparse.Namespace) -> None:
-    check_writable(args.file, "backup")  # before the search: a path that cannot be written is said at once
+def check_paths(args: argparse.Namespace) -> None:
+    """The files a backup writes can be written (said at once, before any servo is looked for)."""
+    check_writable(args.file, "backup")
     if getattr(args, "servos_block", None):
         check_writable(args.servos_block, "backup --servos-block")
+
+
+def save(out: Output, args: argparse.Namespace, servos: Iterable[Servo], device: str) -> list[int]:
+    """The backup of ``servos`` (each read as it comes) written to ``args.file`` (and the servos
+    block); the IDs saved."""
     lines = ["# dynamixel_handler_setup backup: each servo by its ID, with its model, baud rate and EEPROM items",
              "# (raw register values; the physical value in the comment). Edit a value to change it: restore",
              "# checks every value first, writes only what differs and reads it back; a servo not found at its",
@@ -74,19 +81,25 @@ def backup(ctx: Context, args: argparse.Namespace) -> None:
              "servos:"]
     saved = []
     entries: list[tuple[int, dict[str, Any]]] = []
-    found = ctx.servos(args.ids)
-    for placed in found.placed:
-        servo = ctx.at(placed)
+    for servo in servos:
         lines += _servo_yaml(servo)
         saved.append(servo.dxl_id)
         if getattr(args, "servos_block", None):
             entries.append((servo.dxl_id, entry_of(servo.model, _reader(servo), servo.mode())))
     _write(args.file, "\n".join(lines) + "\n")
-    ctx.out.say(f"{len(saved)} servo(s) saved to {args.file}: IDs {', '.join(map(str, saved))}")
+    out.say(f"{len(saved)} servo(s) saved to {args.file}: IDs {', '.join(map(str, saved))}")
     if getattr(args, "servos_block", None):
-        _write(args.servos_block, servos_yaml(entries, ctx.bus.device))
-        ctx.out.say(f"the servos block of IDs {', '.join(map(str, saved))} written to {args.servos_block} "
-                    "(a parameters file for the handler)")
-    ctx.out.document.update(file=args.file, ids=saved, missing=found.missing,
+        _write(args.servos_block, servos_yaml(entries, device))
+        out.say(f"the servos block of IDs {', '.join(map(str, saved))} written to {args.servos_block} "
+                "(a parameters file for the handler)")
+    out.document.update(file=args.file, ids=saved)
+    return saved
+
+
+def backup(ctx: Context, args: argparse.Namespace) -> None:
+    check_paths(args)  # before the search: a path that cannot be written is said at once
+    found = ctx.servos(args.ids)
+    save(ctx.out, args, (ctx.at(p) for p in found.placed), ctx.bus.device)
+    ctx.out.document.update(missing=found.missing,
                             servos=[servo_doc(p.dxl_id, p.servo.model, p.baudrate) for p in found.placed])
     ctx.fail_if_missing(found, f"the others were saved to {args.file}")

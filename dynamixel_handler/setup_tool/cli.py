@@ -12,7 +12,7 @@ from typing import Any, Callable, NoReturn, Sequence
 
 from ..bus import DYNAMIXEL_BAUDRATES, DynamixelBus
 from ..control_table import protocol1_models
-from . import backup, calibrate, monitor, plot, restore, trace, verbs_bus, verbs_config, verbs_many
+from . import backup, calibrate, monitor, plot, restore, through_node, trace, verbs_bus, verbs_config, verbs_many
 from .checks import cut
 from .context import Context
 from .errors import StepFailed
@@ -179,6 +179,9 @@ def _common(parser: argparse.ArgumentParser, suppress: bool) -> None:
                    help="also save the output as it looks in a terminal, as an SVG picture")
     g.add_argument("--trace", action="store_true", default=default(False),
                    help="print every instruction and status packet on stderr: time, hex and what it means")
+    g.add_argument("--direct", action="store_true", default=default(False),
+                   help="open the port even when a running handler holds it (refused then) instead of going through "
+                        "the node (get, set, info, backup, monitor and set-mode go through it; the others are refused there)")
 
 
 def _verbs(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -276,6 +279,17 @@ def _open(args: argparse.Namespace, rate: int) -> DynamixelBus:
     return bus
 
 
+def _through_node(out: Output, args: argparse.Namespace) -> bool:
+    """The verb done through (or refused by) the running handler that holds the port; False when
+    none holds it or ``--direct`` was given."""
+    device = args.device or default_device()
+    owner = None if args.direct else through_node.owner_of(device)
+    if owner is None:
+        return False
+    through_node.run(owner, device, out, args)
+    return True
+
+
 def _plot(out: Output, args: argparse.Namespace) -> None:
     out.document.update(plot.plot(args))
     out.say(f"plot of {', '.join(out.document['items'])} saved to {args.svg_file}")
@@ -283,8 +297,9 @@ def _plot(out: Output, args: argparse.Namespace) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog=PROG, description="Set up Dynamixel servos from a terminal: find them, give them IDs, "
-                     "baud rates, modes and limits, back them up, watch them, calibrate the joints by hand. The handler must not run "
-                     "on the bus.",
+                     "baud rates, modes and limits, back them up, watch them, calibrate the joints by hand. On a port a "
+                     "running handler holds, get, set, info, backup, monitor and set-mode go through the node; the "
+                     "other verbs need it stopped.",
                      epilog="exit codes: 0 done, 1 a servo or the bus failed, 2 bad arguments (nothing sent), "
                      "130 interrupted (Ctrl-C, SIGTERM, SIGHUP: after the step in progress, the state of each servo "
                      "written to is named)")
@@ -323,7 +338,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.verb is _no_bus:
             _plot(out, args)
-        else:
+        elif not _through_node(out, args):
             bus = _open(args, rate)
             args.verb(Context(bus, out, given, args.yes, torque_off=args.torque_off, force=args.force, raw=args.raw,
                               protocols=args.protocol, rates=args.rates), args)

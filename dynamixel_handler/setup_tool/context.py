@@ -12,7 +12,7 @@ from .output import Output
 from .servo import Servo
 from .values import servo_doc
 
-__all__ = ["Context"]
+__all__ = ["Context", "confirm"]
 
 
 @dataclass
@@ -79,10 +79,15 @@ class Context:
 
     def confirm(self, question: str) -> None:
         """Ask before an EEPROM write (``--yes`` skips it); StepFailed when not confirmed."""
-        if self.yes:
-            return
-        self.out.say(f"{question} [y/N]")
-        answer = self.line()
-        if answer is None or answer.strip().lower() not in ("y", "yes"):
-            raise StepFailed(f"not confirmed: nothing written ({'no answer on stdin; ' if answer is None else ''}"
-                             "--yes confirms without asking)")
+        confirm(self.out, self.stdin, self.yes, question)
+
+
+def confirm(out: Output, stdin: TextIO, yes: bool, question: str) -> None:
+    """Ask ``question`` (unless ``yes``); StepFailed when the answer is not yes."""
+    if yes:
+        return
+    out.say(f"{question} [y/N]")
+    answer = stdin.readline() or None
+    if answer is None or answer.strip().lower() not in ("y", "yes"):
+        raise StepFailed(f"not confirmed: nothing written ({'no answer on stdin; ' if answer is None else ''}"
+                         "--yes confirms without asking)")

@@ -11,19 +11,19 @@ import os
 import select
 import sys
 import time
-from typing import Any, Iterator
+from typing import Any, Iterator, Protocol, Sequence
 
 from rich.live import Live
 
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .find import Placed
-from .output import plain_table, rich_table
+from .output import Output, plain_table, rich_table
 from .plot import check_writable, draw, parse_items, series_of
 from .samples import CsvLog, sample
 from .values import number
 
-__all__ = ["monitor"]
+__all__ = ["COLUMNS", "monitor", "prepare", "row", "show"]
 
 COLUMNS = ["ID", "model", "position", "velocity", "current", "temp", "voltage", "mode", "torque", "errors"]
 #: (column, sample key, unit)
@@ -33,7 +33,7 @@ _SHOWN = (("position", "position", "deg"), ("velocity", "velocity", "deg/s"), ("
 LOOK_AGAIN_S = 2.0
 
 
-def _row(sample: dict[str, Any]) -> tuple[list[object], bool]:
+def row(sample: dict[str, Any]) -> tuple[list[object], bool]:
     """One table row and whether the servo has something wrong (no reply, hardware error)."""
     row: list[object] = [sample["id"], sample["model"]]
     if not sample["reply"]:
@@ -101,7 +101,7 @@ class _Refresh:
         self.timed += [(at - self.start, s) for s in samples]
         if self.log is not None:
             self.log.write(at, samples)
-        rows = [_row(s) for s in samples]
+        rows = [row(s) for s in samples]
         absent = [[dxl_id, "-", "not found", "", "", "", "", "", "", ""] for dxl_id in self.missing]
         return [r for r, _ in rows] + absent, ["red" if bad else None for _, bad in rows] + ["red"] * len(absent)
 
@@ -113,25 +113,38 @@ class _Refresh:
         self._look_at = now + LOOK_AGAIN_S
 
 
-def _printed(ctx: Context, table: _Refresh, title: str, count: int, period: float) -> None:
+class Table(Protocol):
+    """A refresh source: called for each refresh's rows; what it kept."""
+
+    missing: list[int]
+    snapshots: list[list[dict[str, Any]]]
+    timed: list[tuple[float, dict[str, Any]]]
+
+    @property
+    def servos(self) -> Sequence[Any]: ...
+
+    def __call__(self) -> tuple[list[list[object]], list[str | None]]: ...
+
+
+def _printed(out: Output, table: Table, title: str, count: int, period: float) -> None:
     """``count`` refreshes printed one after the other (a rich table, plain columns when piped)."""
     for k in range(count):
         rows, styles = table()
-        if ctx.out.console is not None:
-            ctx.out.console.print(rich_table(title, COLUMNS, rows, styles))
-        elif not ctx.out.as_json:
-            print(plain_table(COLUMNS, rows), file=ctx.out.stream, flush=True)
-            print("", file=ctx.out.stream, flush=True)
+        if out.console is not None:
+            out.console.print(rich_table(title, COLUMNS, rows, styles))
+        elif not out.as_json:
+            print(plain_table(COLUMNS, rows), file=out.stream, flush=True)
+            print("", file=out.stream, flush=True)
         if k + 1 < count:
             time.sleep(period)
 
 
-def _saved(ctx: Context, table: _Refresh, log: str | None, plot: tuple[str, list[str]] | None) -> None:
+def _saved(out: Output, table: Table, log: str | None, plot: tuple[str, list[str]] | None) -> None:
     if log is not None:
-        ctx.out.say(f"{len(table.snapshots)} refresh(es) of {len(table.servos)} servo(s) logged to {log}")
+        out.say(f"{len(table.snapshots)} refresh(es) of {len(table.servos)} servo(s) logged to {log}")
     if plot is not None:
         draw(series_of(table.timed), plot[1], plot[0], f"monitor: {', '.join(plot[1])}")
-        ctx.out.say(f"plot of {', '.join(plot[1])} saved to {plot[0]}")
+        out.say(f"plot of {', '.join(plot[1])} saved to {plot[0]}")
 
 
 def _plot_args(args: argparse.Namespace) -> tuple[str, list[str]] | None:
@@ -144,29 +157,44 @@ def _plot_args(args: argparse.Namespace) -> tuple[str, list[str]] | None:
     return args.plot[0], items
 
 
-def monitor(ctx: Context, args: argparse.Namespace) -> None:
+def prepare(args: argparse.Namespace) -> tuple[tuple[str, list[str]] | None, CsvLog | None]:
+    """``--plot`` and ``--log`` checked (before any servo is looked for); the log opened."""
     plot = _plot_args(args)
     if args.log:
         check_writable(args.log, "--log")
-    servos, missing = _servos(ctx, args.ids)
-    period = 1.0 / max(0.2, min(args.rate, 50.0))
-    log = CsvLog(args.log) if args.log else None
-    table = _Refresh(ctx, servos, missing, log)
+    return plot, CsvLog(args.log) if args.log else None
+
+
+def monitor(ctx: Context, args: argparse.Namespace) -> None:
+    plot, log = prepare(args)
+    try:
+        servos, missing = _servos(ctx, args.ids)
+    except BaseException:
+        if log is not None:
+            log.close()
+        raise
     rates = sorted({placed.baudrate for placed, _ in servos})
-    live = ctx.out.human and args.count is None and sys.stdin.isatty() and ctx.out.svg is None
-    title = f"{ctx.bus.device} at {', '.join(map(str, rates))} bps (q quits)"
+    show(ctx.out, args, _Refresh(ctx, servos, missing, log), f"{ctx.bus.device} at {', '.join(map(str, rates))} bps "
+         "(q quits)", log, plot)
+
+
+def show(out: Output, args: argparse.Namespace, table: Table, title: str, log: CsvLog | None,
+         plot: tuple[str, list[str]] | None) -> None:
+    """The refreshes of ``table``: a live table on a terminal (q quits), else ``--count`` printed."""
+    period = 1.0 / max(0.2, min(args.rate, 50.0))
+    live = out.human and args.count is None and sys.stdin.isatty() and out.svg is None
     try:
         if live:
-            with _keys(), Live(rich_table(title, COLUMNS, *table()), console=ctx.out.console, auto_refresh=False) as view:
+            with _keys(), Live(rich_table(title, COLUMNS, *table()), console=out.console, auto_refresh=False) as view:
                 while not _quit_pressed(period):
                     view.update(rich_table(title, COLUMNS, *table()), refresh=True)
         else:
-            _printed(ctx, table, title, args.count or 1, period)
+            _printed(out, table, title, args.count or 1, period)
     finally:
         if log is not None:
             log.close()
-        ctx.out.document.update(refreshes=table.snapshots, missing=table.missing)
-    _saved(ctx, table, args.log, plot)
+        out.document.update(refreshes=table.snapshots, missing=table.missing)
+    _saved(out, table, args.log, plot)
     if table.missing:
         raise StepFailed(f"{len(table.missing)} of {len(table.missing) + len(table.servos)} servo(s) not found (ID "
                          f"{', '.join(map(str, table.missing))}); the others were monitored")

@@ -7,13 +7,14 @@ import datetime
 from typing import IO, Any
 
 from ..bus.ops import Read
+from ..control_table import Model
 from .errors import StepFailed
 from .items import to_unit
 from .scan import _errors
 from .servo import Servo
 from .values import servo_doc
 
-__all__ = ["FIELDS", "sample", "CsvLog"]
+__all__ = ["FIELDS", "sample", "sample_items", "filled", "CsvLog"]
 
 #: (key, item, unit): what a refresh reads, in the order of the CSV's columns
 FIELDS = (("position", "present_position", "deg"), ("goal_position", "goal_position", "deg"),
@@ -27,7 +28,7 @@ _FLAGS = ("torque_enable", "hardware_error_status")
 def sample(servo: Servo, baudrate: int, mode: str) -> dict[str, Any]:
     """One servo's values in units (None where the model lacks one); ``reply: False`` if silent."""
     model = servo.model
-    names = [n for _, n, _ in FIELDS if model.has(n)] + [n for n in _FLAGS if model.has(n)]
+    names = sample_items(model)
     doc = servo_doc(servo.dxl_id, model, baudrate, mode=mode, reply=False)
     items = sorted((model.item(n) for n in names), key=lambda i: i.address)
     if not items:
@@ -36,7 +37,17 @@ def sample(servo: Servo, baudrate: int, mode: str) -> dict[str, Any]:
     got = servo.bus.execute(Read(servo.dxl_id, first, items[-1].address + items[-1].size - first, servo.protocol))
     if got.value is None:
         return doc
-    raw = {i.name: i.from_bytes(bytes(got.value[i.address - first:][:i.size])) for i in items}
+    return filled(servo, doc, {i.name: i.from_bytes(bytes(got.value[i.address - first:][:i.size])) for i in items})
+
+
+def sample_items(model: Model) -> list[str]:
+    """The items a sample of a servo of ``model`` reads."""
+    return [n for _, n, _ in FIELDS if model.has(n)] + [n for n in _FLAGS if model.has(n)]
+
+
+def filled(servo: Servo, doc: dict[str, Any], raw: dict[str, int]) -> dict[str, Any]:
+    """``doc`` (a sample without a reply) with the values ``raw`` (item -> register value) read."""
+    model = servo.model
     doc["reply"] = True
     for key, name, _ in FIELDS:
         doc[key] = to_unit(model, model.item(name), raw[name]) if name in raw else None

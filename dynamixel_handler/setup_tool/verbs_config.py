@@ -12,19 +12,20 @@ from typing import Any
 
 from ..bus import DYNAMIXEL_BAUDRATES, BusError
 from ..bus.ops import Ping
-from ..control_table import Item
+from ..control_table import Item, Model
 from ..units import decode
 from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
 from .mode1 import set_mode1, state_line, summary
+from .output import Output
 from .protocol1 import protocol_of_type, type_1_warning
 from .safety import held
 from .servo import Servo, connect
 from .values import named, number
 
-__all__ = ["info", "get", "set_item", "set_id", "set_baud", "set_mode"]
+__all__ = ["info", "info_items", "show_info", "get", "set_item", "set_id", "set_baud", "set_mode"]
 
 #: items `info` leaves out unless --all (hundreds of indirect entries)
 _BULKY = ("indirect_address_", "indirect_data_")
@@ -51,9 +52,18 @@ def _read_all(servo: Servo, items: list[Item]) -> dict[str, int]:
 def info(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
     guard.only_one(ctx, servo)
+    items = info_items(servo.model, args.all)
+    show_info(ctx.out, servo, ctx.bus.baudrate, items, _read_all(servo, items))
+
+
+def info_items(model: Model, everything: bool) -> list[Item]:
+    """The items ``info`` shows (the indirect entries only with ``--all``)."""
+    return [i for i in model.items.values() if everything or not i.name.startswith(_BULKY)]
+
+
+def show_info(out: Output, servo: Servo, baudrate: int, items: list[Item], values: dict[str, int]) -> None:
+    """The state line and the EEPROM and RAM tables of ``values`` (item -> raw) of ``servo``."""
     model = servo.model
-    items = [i for i in model.items.values() if args.all or not i.name.startswith(_BULKY)]
-    values = _read_all(servo, items)
     rows: dict[bool, list[list[object]]] = {True: [], False: []}
     styles: dict[bool, list[str | None]] = {True: [], False: []}
     doc: dict[str, Any] = {}
@@ -69,17 +79,17 @@ def info(ctx: Context, args: argparse.Namespace) -> None:
         doc[item.name] = {"raw": raw, "value": value, "unit": unit_of(model, item), "text": show_value(model, item, raw),
                           "eeprom": item.eeprom,
                           "address": item.address, "factory": factory, "differs_from_factory": differs}
-    head = f"ID {servo.dxl_id}: {model.name} (model {model.number}) at {ctx.bus.baudrate} bps"
-    ctx.out.say(head)
+    head = f"ID {servo.dxl_id}: {model.name} (model {model.number}) at {baudrate} bps"
+    out.say(head)
     state = summary(servo, values)
-    ctx.out.say(state_line(state))
+    out.say(state_line(state))
     columns = ["addr", "item", "value", "unit", "raw", "factory", "differs"]
-    ctx.out.table("EEPROM (written with torque off)" if model.protocol == 2 else
-                  "EEPROM (a Protocol 1.0 model takes it with torque on)", columns, rows[True], styles[True])
-    ctx.out.table("RAM", columns, rows[False], styles[False])
-    ctx.out.say("* differs from the factory value of the model (ROBOTIS e-Manual)")
-    ctx.out.document.update(id=servo.dxl_id, model=model.name, model_number=model.number,
-                            baudrate=ctx.bus.baudrate, **state, items=doc)
+    out.table("EEPROM (written with torque off)" if model.protocol == 2 else
+              "EEPROM (a Protocol 1.0 model takes it with torque on)", columns, rows[True], styles[True])
+    out.table("RAM", columns, rows[False], styles[False])
+    out.say("* differs from the factory value of the model (ROBOTIS e-Manual)")
+    out.document.update(id=servo.dxl_id, model=model.name, model_number=model.number,
+                        baudrate=baudrate, **state, items=doc)
 
 
 def get(ctx: Context, args: argparse.Namespace) -> None:
