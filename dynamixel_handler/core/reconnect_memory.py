@@ -110,14 +110,10 @@ def booted(io: ServoIO, dxl_id: int, before: Remembered) -> bool | None:
     on and is off, or a profile the handler had written reads 0 (RAM at its defaults); None when a
     read that would tell got no answer (ask again later)."""
     torque = io.read_item(dxl_id, "torque_enable")
-    if torque is None:
+    profiles = [io.read_item(dxl_id, item) for item, value in before.profiles.items() if value]
+    if torque is None or None in profiles:
         return None
-    if before.torque and torque == 0:
-        return True
-    now = {item: io.read_item(dxl_id, item) for item, value in before.profiles.items() if value}
-    if any(v is None for v in now.values()):
-        return None
-    return any(v == 0 for v in now.values())
+    return bool(before.torque and torque == 0) or 0 in profiles
 
 
 __all__ = ["Remembered", "booted", "differences", "remember", "restore"]

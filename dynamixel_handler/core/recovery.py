@@ -18,9 +18,6 @@ from .watchdog import Watchdog
 
 #: least time between two attempts to reopen a vanished device [s]
 RECONNECT_INTERVAL_S = 1.0
-#: a servo silent at least this long may have booted meanwhile: looked at when it answers again (a
-#: read lost on a noisy line is not) [s]
-BOOT_SILENCE_S = 0.05
 #: steps in which a servo back from silence is asked again whether it booted, when the reads that
 #: would tell get no answer
 BOOT_ASKS = 20
@@ -55,8 +52,8 @@ class Recovery:
         self._not_set_up: set[int] = set()
         #: what was known of each servo when the device went: put back after its set-up
         self._memory: dict[int, Remembered] = {}
-        #: when each servo went silent (time.monotonic()) and what was known of it (it may come back booted)
-        self._silent_at: dict[int, tuple[float, Remembered]] = {}
+        #: what was known of each servo that went silent (it may come back booted)
+        self._silent_at: dict[int, Remembered] = {}
         #: servos that answer again: whether they booted meanwhile looked at before the next step
         #: (ID -> the times it may still be asked)
         self._back: dict[int, int] = {}
@@ -183,18 +180,18 @@ class Recovery:
 
     def _answers_again(self, dxl_id: int) -> None:
         self.ping_log.change(dxl_id, True)
-        since = self._silent_at.get(dxl_id)
-        if since is not None and time.monotonic() - since[0] >= BOOT_SILENCE_S:  # it may have booted meanwhile
+        # it may have booted meanwhile, however short the silence (a brown-out resets a servo in
+        # milliseconds): asked before the next step (a read or three; a lost read on a noisy line too)
+        if dxl_id in self._silent_at:
             self._back[dxl_id] = BOOT_ASKS
-        elif since is not None:
-            del self._silent_at[dxl_id]
         # its bus watchdog may have tripped meanwhile (it then refuses goals): armed anew before
         # the next commands are written
         self.watchdog.request_arm(dxl_id)
 
     def _note_silent(self, dxl_id: int) -> None:
         """A servo went silent: what it had, should it come back booted."""
-        self._silent_at[dxl_id] = (time.monotonic(), remember(self.table, dxl_id))
+        self._silent_at[dxl_id] = remember(self.table, dxl_id)
+
 
     @property
     def back_due(self) -> bool:
@@ -207,15 +204,15 @@ class Recovery:
         after a reconnect, with the torque it had (its turns given back, its mode and profiles
         back); one that did not is left as it is."""
         for dxl_id, asks in sorted(self._back.items()):
-            silent = self._silent_at.get(dxl_id)
-            was = booted(self.io, dxl_id, silent[1]) if silent is not None and dxl_id in self.table else False
+            before = self._silent_at.get(dxl_id)
+            was = booted(self.io, dxl_id, before) if before is not None and dxl_id in self.table else False
             if was is None and asks > 1:  # no answer to the reads that tell: asked again next step
                 self._back[dxl_id] = asks - 1
                 continue
             del self._back[dxl_id]
             self._silent_at.pop(dxl_id, None)
-            if was and silent is not None:
-                self._set_up_after_boot(dxl_id, silent[1])
+            if was and before is not None:
+                self._set_up_after_boot(dxl_id, before)
 
     def _set_up_after_boot(self, dxl_id: int, before: Remembered) -> None:
         self.log.warning(f"ID {dxl_id}: answers again after a power loss (RAM at its defaults): set up again, "

@@ -87,3 +87,5 @@ def test_a_servo_booted_while_silent_is_told_from_one_that_kept_its_power():
     bus.set(1, "profile_velocity", 0)
     assert booted(parts.io, 1, Remembered(mode="velocity", profiles={"profile_velocity": 15}, torque=0))  # RAM reset
     assert not booted(parts.io, 1, Remembered(mode="velocity", profiles={"profile_velocity": 0}, torque=0))
+    bus.silent = {1}
+    assert booted(parts.io, 1, before) is None           # no answer: not known (asked again later)

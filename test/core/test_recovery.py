@@ -4,13 +4,11 @@ answers again, and a device that vanishes and comes back (its servos set up by t
 from __future__ import annotations
 
 import logging
-import time
 
 import numpy as np
 
 from dynamixel_handler.bus.result import Failure
 from dynamixel_handler.control_table import OPERATING_MODES
-from dynamixel_handler.core import recovery as recovery_module
 from dynamixel_handler.core.deferred import Deferred
 from dynamixel_handler.core.group_io import GroupIO
 from dynamixel_handler.core.kept_settings import KeptSettings
@@ -138,7 +136,6 @@ def test_a_servo_back_after_losing_its_power_is_set_up_again_with_the_torque_it_
         bus.set(dxl_id, "torque_enable", 1)
         bus.set(dxl_id, "profile_velocity", 77)
     loop(part, table, set())                   # both go silent
-    time.sleep(recovery_module.BOOT_SILENCE_S)  # long enough to boot (a read lost on a noisy line is not)
     bus.set(1, "torque_enable", 0)             # 1 booted meanwhile: torque off, its RAM at the defaults
     bus.set(1, "profile_velocity", 0)
     loop(part, table, {1, 2})                  # both answer again
@@ -150,10 +147,24 @@ def test_a_servo_back_after_losing_its_power_is_set_up_again_with_the_torque_it_
     assert bus.get(1, "torque_enable") == 1    # on as it was, though torque_auto_enable is false here
 
 
-def test_a_servo_back_at_once_is_not_looked_at():
+def test_a_servo_back_that_kept_its_power_costs_one_read_and_is_left_as_it_is():
+    bus, table, part, _, _, set_up = recovery({1: XM430}, remove_after=0)
+    table.set_value("torque_enable", 1, 1)
+    bus.set(1, "torque_enable", 1)
+    loop(part, table, set())
+    loop(part, table, {1})  # a read lost on a noisy line
+    reads = len(bus.of("read"))
+    part.look_at_returned()
+    assert not part.back_due and set_up == [] and len(bus.of("read")) == reads + 1  # its torque, read once
+def test_a_servo_back_whose_reads_get_no_answer_is_asked_again_at_the_next_step():
     bus, table, part, _, _, set_up = recovery({1: XM430}, remove_after=0)
     table.set_value("torque_enable", 1, 1)
     loop(part, table, set())
-    bus.set(1, "torque_enable", 0)
-    loop(part, table, {1})  # back within a few milliseconds: a read lost on a noisy line, no boot
-    assert not part.back_due and set_up == []
+    bus.set(1, "torque_enable", 0)  # booted meanwhile
+    loop(part, table, {1})
+    bus.silent = {1}                # its reads lost on a busy line
+    part.look_at_returned()
+    assert part.back_due and set_up == []
+    bus.silent = set()
+    part.look_at_returned()
+    assert not part.back_due and set_up == [1]

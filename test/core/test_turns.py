@@ -61,3 +61,11 @@ def test_turns_beyond_the_homing_offset_s_range_are_not_written_and_said():
     bus, io, eeprom = parts(present_position=0, homing_offset=0, torque_enable=0)
     line = give_back_turns(io, eeprom, 1, 300 * 4096, booted=False)
     assert homing_writes(bus) == [] and "+300 turns lost at boot not given back" in line and "beyond its range" in line
+
+
+def test_a_servo_that_does_not_answer_is_said_and_nothing_is_written():
+    bus, io, eeprom = parts(present_position=100, homing_offset=0, torque_enable=0)
+    bus.silent = {1}
+    line = give_back_turns(io, eeprom, 1, 3 * 4096 + 100, booted=False)
+    assert line == "ID 1: whole turns lost at boot not looked for: its position or Homing Offset did not answer"
+    assert homing_writes(bus) == []
