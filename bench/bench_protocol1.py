@@ -86,7 +86,7 @@ def run_sdk(device: str, n: int, seconds: float) -> dict:
 def run_node(device: str, n: int, rate: int, seconds: float) -> dict:
     """The node on ``device`` at ``loop_rate`` ``rate``, driven by a controller; its loop rate and CPU."""
     import rclpy
-    from common import cpu_seconds
+    from common import cpu_seconds, stop_all, wait_for_states
     from rclpy.node import Node
     from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -119,22 +119,12 @@ def run_node(device: str, n: int, rate: int, seconds: float) -> dict:
     spinning = threading.Thread(target=executor.spin, daemon=True)
     spinning.start()
     try:
-        deadline = time.monotonic() + 60
-        while len(stamps) < 20 and time.monotonic() < deadline and node_proc.poll() is None:
-            time.sleep(0.1)
-        time.sleep(1.0)
+        wait_for_states(stamps, node_proc)
         first, cpu0, t0 = len(stamps), cpu_seconds(node_proc.pid), time.monotonic()
         time.sleep(seconds)
         last, cpu1, t1 = len(stamps), cpu_seconds(node_proc.pid), time.monotonic()
     finally:
-        node_proc.terminate()
-        try:
-            node_proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            node_proc.kill()
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=context)
+        stop_all(node_proc, executor, node, context)
     window = t1 - t0
     return {"rate_hz": (last - first) / window, "cpu_percent": 100.0 * (cpu1 - cpu0) / window}
 

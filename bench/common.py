@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import os
+import subprocess
 import threading
+import time
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -94,3 +96,28 @@ def coarse_physics(step_s: float = 0.005) -> str:
     Dynamics._bench_exact_refresh = exact
     Dynamics.refresh = refresh
     return f"servo motion refreshed every {1000 * step_s:g} ms"
+
+
+def wait_for_states(stamps: Sequence[float], node_proc, settle_s: float = 1.0) -> None:
+    """Until the node under measure has published 20 states (at most a minute), then ``settle_s``."""
+    deadline = time.monotonic() + 60
+    while len(stamps) < 20 and time.monotonic() < deadline and node_proc.poll() is None:
+        time.sleep(0.1)
+    time.sleep(settle_s)
+
+
+def stop_all(node_proc, executor, node, context) -> None:
+    """The node under measure stopped (killed after 20 s), then the bench's own ROS side."""
+    node_proc.terminate()
+    try:
+        node_proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        node_proc.kill()
+    executor.shutdown()
+    node.destroy_node()
+    rclpy_shutdown(context)
+
+
+def rclpy_shutdown(context) -> None:
+    import rclpy
+    rclpy.shutdown(context=context)

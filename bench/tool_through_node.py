@@ -30,6 +30,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+from common import stop_all, wait_for_states  # noqa: E402
+
 XM430 = 1020
 BAUD = 1_000_000
 
@@ -110,23 +112,13 @@ def run_node(device: str, n: int, rate: int, seconds: float) -> dict:
     executor.add_node(node)
     threading.Thread(target=executor.spin, daemon=True).start()
     try:
-        deadline = time.monotonic() + 60
-        while len(stamps) < 20 and time.monotonic() < deadline and node_proc.poll() is None:
-            time.sleep(0.1)
-        time.sleep(1.0)
+        wait_for_states(stamps, node_proc)
         before = _window(stamps, seconds)
         during, calls, call_s, failures = _during(stamps, seconds, _tool_loop, device, n)
         after = _window(stamps, seconds)
         served, requests, request_s, _ = _during(stamps, seconds, _service_loop, node, n)
     finally:
-        node_proc.terminate()
-        try:
-            node_proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            node_proc.kill()
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=context)
+        stop_all(node_proc, executor, node, context)
     return {"before": before, "during": during, "after": after, "calls": calls, "call_s": call_s,
             "failures": failures, "served": served, "requests": requests, "request_s": request_s}
 
