@@ -108,8 +108,7 @@ def sdk_port(path: str, bps: int) -> Iterator[PatientPort]:
     port = PatientPort(path)
     assert port.openPort() and port.setBaudRate(bps)
     # a reply the tool's process left on the line (answered after it gave up on it, on a loaded
-    # machine) would be taken for this read's: let it land, then drop it
-    time.sleep(0.02)
+    # machine) would be taken for this read's: dropped
     port.clearPort()
     try:
         yield port
