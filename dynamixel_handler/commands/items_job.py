@@ -7,9 +7,10 @@ request is answered over several loops. A write is checked as the set-up tool ch
 (``setup_tool.checks``: the model's e-Manual range, min below max for a limit pair, a value that
 lowers a protection only with ``force``); an EEPROM item of a servo holding torque needs
 ``torque_off`` (the core's EEPROM write turns torque off for it and back on with goal := present).
-A servo with one refused item gets none of its items written, as the set-up tool writes nothing
-when one value is refused. Each item is read back. Goals, torque, the mode (the command topics do
-those, safely) and what changes the bus under the node (ID, baud rate, protocol) are refused."""
+Every servo is checked before anything is written, and one refused item means nothing is written
+to any servo, as the set-up tool writes nothing when one value is refused. Each item is read back.
+Goals, torque, the mode (the command topics do those, safely) and what changes the bus under the
+node (ID, baud rate, protocol) are refused."""
 from __future__ import annotations
 
 import math
@@ -72,7 +73,9 @@ class ItemsJob(Job):
         self.items = list(items)
         self.writes = writes
         self.results: list[ItemResult] = []
-        self._next = 0  # the next (servo, item) to read, or the next servo to write
+        self._next = 0  # the next (servo, item) to read, or the next servo to check, then to write
+        #: each servo's registers and refusals, as checked before anything is written
+        self._checked: list[tuple[dict[str, int], dict[str, str]]] = []
 
     def value_of(self, k_servo: int, k_item: int) -> float:
         assert self.writes is not None
@@ -96,10 +99,7 @@ class ItemsJob(Job):
     def _step(self, h: ServoAccess) -> bool:
         """This step's share: READS_PER_STEP reads, or one servo's writes; True when all is done."""
         if self.writes is not None:
-            if self._next < len(self.ids):
-                self.results += self._write_servo(h, self._next)
-                self._next += 1
-            return self._next >= len(self.ids)
+            return self._write_step(h)
         total = len(self.ids) * len(self.items)
         for k in range(self._next, min(total, self._next + READS_PER_STEP)):
             self.results.append(read_one(h, self.ids[k // len(self.items)], self.items[k % len(self.items)]))
@@ -112,12 +112,28 @@ class ItemsJob(Job):
     def _done_so_far(self) -> str:
         return f"{len(self.results)} item(s) done before" if self.results else "nothing was done"
 
-    def _write_servo(self, h: ServoAccess, k: int) -> list[ItemResult]:
-        """One servo's items checked, written (none if one is refused) and read back."""
+    def _write_step(self, h: ServoAccess) -> bool:
+        """Every servo checked first, one a step; then, if none was refused, each written and read
+        back, one a step (a refusal anywhere: nothing written, as the set-up tool's ``set``)."""
+        n = len(self.ids)
+        if self._next < n:
+            self._checked.append(self._check_servo(h, self._next))
+            self._next += 1
+            if self._next == n and any(why for _, why in self._checked):
+                self.results = [r for k in range(n) for r in self._refusals(k)]
+                return True
+            return False
+        k = self._next - n
+        self.results += self._write_servo(h, k, self._checked[k][0])
+        self._next += 1
+        return self._next >= 2 * n
+
+    def _check_servo(self, h: ServoAccess, k: int) -> tuple[dict[str, int], dict[str, str]]:
+        """One servo's values as registers and why any may not be written ({} when none)."""
         assert self.writes is not None
         dxl_id = self.ids[k]
         if not h.handles(dxl_id):
-            return [_refused(dxl_id, name, "not handled by this node") for name in self.items]
+            return {}, {name: "not handled by this node" for name in self.items}
         model = h.model(dxl_id)
         asked: dict[str, int] = {}
         why: dict[str, str] = {}
@@ -127,9 +143,19 @@ class ItemsJob(Job):
             except BadArguments as err:
                 why[name] = str(err).split(": ", 1)[-1]
         why.update(_problems(h, dxl_id, model, asked, self.writes))
-        if why:
-            others = "not written: another item of this servo was refused"
-            return [_refused(dxl_id, name, why.get(name, others)) for name in self.items]
+        return asked, why
+
+    def _refusals(self, k: int) -> list[ItemResult]:
+        why = self._checked[k][1]
+        others = ("not written: another item of this servo was refused" if why else
+                  "not written: an item of another servo was refused")
+        return [_refused(self.ids[k], name, why.get(name, others)) for name in self.items]
+
+    def _write_servo(self, h: ServoAccess, k: int, asked: dict[str, int]) -> list[ItemResult]:
+        """One servo's items (all checked) written and read back."""
+        dxl_id = self.ids[k]
+        model = h.model(dxl_id)
+        why: dict[str, str] = {}
         for name, raw in asked.items():
             done = h.core.write_eeprom(dxl_id, name, raw) if model.items[name].eeprom else \
                 h.core.write_item(dxl_id, name, raw, what="set_items")

@@ -173,9 +173,7 @@ def _paired(name: str, where: str, keys: Mapping[str, Any]) -> Joint:
     if unknown:
         raise ConfigError(f"{where}.{cut(unknown[0])}: unknown key for a joint of several servos (known: "
                           f"{', '.join(sorted(PAIRED_KEYS))})")
-    ids = [_integer(f"{where}.ids", i) for i in _listed(keys["ids"])]
-    if len(ids) < 2 or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
-        raise ConfigError(f"{where}.ids = {cut(repr(ids))}: two or more different servo IDs (0..252)")
+    ids = _servo_ids(f"{where}.ids", keys["ids"])
     directions = _listed(keys.get("directions", [1] * len(ids)))
     if len(directions) != len(ids):
         raise ConfigError(f"{where}.directions: {len(directions)} values for {len(ids)} servos: one per servo of ids")
@@ -184,6 +182,14 @@ def _paired(name: str, where: str, keys: Mapping[str, Any]) -> Joint:
     spread = _positive(f"{where}.disagreement_deg", keys.get("disagreement_deg", 2.0))
     return Joint(name, ids[0], scale * signs[0], zero, False, *_limits(where, keys),
                  partners=tuple((i, scale * s) for i, s in zip(ids[1:], signs[1:])), disagreement=spread * DEG)
+
+
+def _servo_ids(where: str, value: Any) -> list[int]:
+    """Two or more different servo IDs (``ids``, ``coupled``); ConfigError naming ``where``."""
+    ids = [_integer(where, i) for i in _listed(value)]
+    if len(ids) < 2 or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
+        raise ConfigError(f"{where} = {cut(repr(ids))}: two or more different servo IDs (0..252)")
+    return ids
 
 
 def _listed(value: Any) -> list[Any]:
@@ -235,9 +241,7 @@ def _member(name: str, keys: Mapping[str, Any]) -> tuple[list[int], _Member]:
     if unknown:
         raise ConfigError(f"{where}.{cut(unknown[0])}: unknown key for a joint of a coupled set (known: "
                           f"{', '.join(sorted(COUPLED_KEYS))})")
-    ids = [_integer(f"{where}.coupled", i) for i in _listed(keys["coupled"])]
-    if len(ids) < 2 or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
-        raise ConfigError(f"{where}.coupled = {cut(repr(ids))}: two or more different servo IDs (0..252)")
+    ids = _servo_ids(f"{where}.coupled", keys["coupled"])
     row = [_number(f"{where}.row", v) for v in _listed(keys.get("row", []))]
     if len(row) != len(ids):
         raise ConfigError(f"{where}.row: {len(row)} factors for {len(ids)} servos: one per servo of coupled")

@@ -91,3 +91,15 @@ def test_one_value_per_servo_and_item():
     job = ItemsJob([1, 2], ["led"], Writes((1.0, 0.0), raw=True), answer_by=1e12)
     _steps(book, job)
     assert [c for c in _writes(access)] == [("write_item", 1, "led", 1), ("write_item", 2, "led", 0)]
+
+
+def test_a_refusal_on_one_servo_writes_nothing_to_any_and_a_slow_profile_is_never_no_limit():
+    access, book = _book()
+    job = ItemsJob([1, 2], ["led", "temperature_limit"], Writes((1.0, 70.0, 1.0, 70.0)), answer_by=1e12)
+    _steps(book, job)  # servo 1 holds torque: its EEPROM item refused, so servo 2 gets nothing either
+    assert job.outcome == ERROR and _writes(access) == []
+    assert "give torque_off" in job.results[1].error
+    assert job.results[2].error == "not written: an item of another servo was refused"
+    job = ItemsJob([2], ["profile_velocity"], Writes((0.05,)), answer_by=1e12)  # deg/s: under one step
+    _steps(book, job)
+    assert _writes(access) == [("write_item", 2, "profile_velocity", 1)]  # the smallest step, not 0
