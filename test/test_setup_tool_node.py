@@ -163,3 +163,26 @@ def test_a_stale_owner_record_is_ignored(tmp_path):
             del os.environ["XDG_RUNTIME_DIR"]
         else:
             os.environ["XDG_RUNTIME_DIR"] = old
+
+
+def test_a_record_of_a_device_nobody_holds_is_not_the_node_s(tmp_path, monkeypatch):
+    """A node that lost its adapter keeps its record; a tty number given again to another adapter (or
+    pseudo-terminal) at the same path is then nobody's: the tool opens it itself, not the node's."""
+    import fcntl
+
+    from dynamixel_handler.bus import owner_record
+    from dynamixel_handler.setup_tool.through_node import owner_of
+    device = tmp_path / "ttyX"
+    device.touch()
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    paths = owner_record.write_record(str(device), "/ns/n", "/ns", 7)
+    try:
+        assert owner_record.find_owner(str(device)) is not None  # the record is live (this process)
+        assert owner_of(str(device)) is None  # but nobody holds the device
+        with open(device, "rb") as handle:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)  # as the node's pyserial exclusive open
+            assert owner_of(str(device)) == owner_record.Owner(os.getpid(), "/ns/n", "/ns", 7)
+        device.unlink()  # unplugged: still the node's (it reconnects)
+        assert owner_of(str(device)) == owner_record.Owner(os.getpid(), "/ns/n", "/ns", 7)
+    finally:
+        owner_record.remove_record(paths)

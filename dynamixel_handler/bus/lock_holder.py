@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["lock_holder", "program_of"]
+__all__ = ["lock_holder", "locks_readable", "program_of"]
 
 
 def _locked_by(st_dev: int, st_ino: int, locks: str) -> int | None:
@@ -53,3 +53,8 @@ def lock_holder(device: str, locks_file: str = "/proc/locks") -> tuple[int, str]
     if pid is None:
         return None
     return pid, program_of(pid)
+
+
+def locks_readable(locks_file: str = "/proc/locks") -> bool:
+    """Whether :func:`lock_holder` can tell that nobody holds a device (``/proc/locks`` is readable)."""
+    return os.access(locks_file, os.R_OK)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from ..bus.lock_holder import lock_holder
+from ..bus.lock_holder import lock_holder, locks_readable
 from ..bus.owner_record import Owner, find_owner
 from ..errors import StartupError
 from ..serial_ports import resolve
@@ -34,11 +34,14 @@ def owner_of(device: str) -> Owner | None:
     except StartupError:
         return None
     owner = find_owner(path)
-    if owner is None:
-        return None
-    holder = lock_holder(path) if os.path.exists(path) else None
-    # the device gone (unplugged): the node still owns it and reconnects; held by another pid: not the node's
-    return owner if holder is None or holder[0] == owner.pid else None
+    if owner is None or not os.path.exists(path):
+        return owner  # the device gone (unplugged): the node still owns it and reconnects to it
+    holder = lock_holder(path)
+    if holder is None:
+        # nobody holds the device: the node lost it (and this path may be another device now, as a
+        # tty number is given again); it is not the node's until the node opens it again
+        return owner if not locks_readable() else None
+    return owner if holder[0] == owner.pid else None
 
 
 def _refusal(owner: Owner, device: str, verb: str) -> str:
