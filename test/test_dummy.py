@@ -2,6 +2,8 @@
 call for a real servo while the wire is closed fails at once and says so."""
 from __future__ import annotations
 
+import time
+
 from dynamixel_handler.bus import DynamixelBus, dummy_ids
 from dynamixel_handler.bus.ops import Ping, Read, Reboot, Write
 from dynamixel_handler.bus.result import Failure
@@ -48,3 +50,23 @@ def test_a_sync_write_reaches_the_dummies_even_when_the_wire_is_closed():
 def test_the_dummy_ids_of_a_bus():
     assert dummy_ids(mixed()) == [7, 9]
     assert dummy_ids(DynamixelBus("/dev/null-not-opened")) == []
+
+
+def test_a_bulk_read_and_write_of_dummies_are_answered_in_process_while_the_wire_is_closed():
+    from dynamixel_handler.bus.ops import BulkRead, BulkWrite
+    bus = mixed()
+    assert bus.execute(BulkWrite({7: (LED, b"\x01"), 9: (GOAL_POSITION, (1000).to_bytes(4, "little"))})).value is True
+    got = bus.execute(BulkRead({7: (LED, 1), 9: (GOAL_POSITION, 4)}))
+    assert got.value == {7: b"\x01", 9: (1000).to_bytes(4, "little")} and got.ok
+    mixed_read = bus.execute(BulkRead({7: (LED, 1), 1: (LED, 1)}))  # ID 1 is behind the closed wire
+    assert mixed_read.value == {7: b"\x01"}
+
+
+def test_a_dummy_reboots_as_a_servo_does_its_ram_back_to_its_initial_values():
+    bus = mixed()
+    assert bus.execute(Write(7, LED, b"\x01")).value is True
+    assert bus.execute(Reboot(7)).value is True
+    deadline = time.monotonic() + 5.0
+    while (back := bus.execute(Read(7, LED, 1))).value is None and time.monotonic() < deadline:
+        pass  # a servo answers nothing while it boots
+    assert back.value == b"\x00"

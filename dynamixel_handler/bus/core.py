@@ -38,6 +38,7 @@ from typing import Any, Callable, Iterable, Mapping, Protocol
 from ..protocol.framers import FRAMERS
 from .group_read import GroupRead
 from .instructions import Instructions
+from .line import Line
 from .ops import (
     Action,
     BulkRead,
@@ -54,7 +55,6 @@ from .ops import (
     SyncRead,
     Write,
 )
-from .port import SerialPort
 from .reads import Reads
 from .result import Result
 from .stats import BusStats
@@ -90,9 +90,10 @@ class DynamixelBus:
 
     def __init__(self, device: str, baudrate: int = 57600, latency_timer_ms: float = 16.0,
                  retry_num: int = 5, retry_interval_ms: float = 4.0, verbose: bool = False,
-                 logger: object = None, timeout_margin_ms: float = 2.0, direct_io: bool = True) -> None:
+                 logger: object = None, timeout_margin_ms: float = 2.0, direct_io: bool = True,
+                 line: Line | None = None) -> None:
         self._t = Transport(device, baudrate, latency_timer_ms, retry_num, retry_interval_ms, verbose, logger,
-                            timeout_margin_ms, direct_io)
+                            timeout_margin_ms, direct_io, line)
         self._reads = Reads(self._t)
         self._writes = Writes(self._t)
         self._one = Instructions(self._t)
@@ -126,8 +127,9 @@ class DynamixelBus:
         return self._t.port.baudrate
 
     @property
-    def serial_port(self) -> SerialPort:
-        """The line under the bus, for a tool that speaks Protocol 1.0 on it (the set-up tool's scan)."""
+    def serial_port(self) -> Line:
+        """The line under the bus, for a tool that writes its own packets on it (the set-up tool's
+        Protocol 1.0 scan, its trace)."""
         return self._t.port
 
     @property

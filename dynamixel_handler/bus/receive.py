@@ -11,7 +11,7 @@ import serial
 from ..protocol import host as p
 from ..protocol.framers import PROTOCOL2, Framer
 from .group_read import reply_bytes
-from .port import SerialPort
+from .line import Line
 from .stats import BusStats
 
 
@@ -19,7 +19,7 @@ class Receiver:
     """The receiving side of one serial line, and the line's timing: when what was sent is off the
     wire (``wire_free_at``) and how late replies come (``reply_lag_s``)."""
 
-    def __init__(self, port: SerialPort, stats: BusStats, log: Callable[[str, str], None],
+    def __init__(self, port: Line, stats: BusStats, log: Callable[[str, str], None],
                  timeout_margin_ms: float, verbose: bool) -> None:
         self.port = port
         self.stats = stats

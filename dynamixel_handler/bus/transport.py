@@ -16,6 +16,7 @@ import serial
 from ..protocol.framers import PROTOCOL2, Framer
 from .errors import BusError
 from .group_read import GroupRead, reply_bytes
+from .line import Line
 from .port import SerialPort
 from .receive import Receiver
 from .result import Failure, Result
@@ -75,7 +76,8 @@ class Transport:
 
     def __init__(self, device: str, baudrate: int = 57600, latency_timer_ms: float = 16.0,
                  retry_num: int = 5, retry_interval_ms: float = 4.0, verbose: bool = False,
-                 logger: object = None, timeout_margin_ms: float = 2.0, direct_io: bool = True) -> None:
+                 logger: object = None, timeout_margin_ms: float = 2.0, direct_io: bool = True,
+                 line: Line | None = None) -> None:
         if latency_timer_ms <= 0:
             raise ValueError(f"latency_timer_ms must be > 0, got {latency_timer_ms}")
         self.retry_num = max(0, int(retry_num))
@@ -83,7 +85,9 @@ class Transport:
         self.stats = BusStats()
         self._logger = logger if logger is not None else logging.getLogger("dynamixel_handler.bus")
         # direct_io=False: the port's bytes through pyserial's read/write (same results, slower)
-        self.port = SerialPort(device, baudrate, latency_timer_ms, log=self.log, direct_io=direct_io)
+        #: the line under the bus (the serial port unless another backend is given)
+        self.port: Line = line if line is not None else SerialPort(device, baudrate, latency_timer_ms, log=self.log,
+                                                                   direct_io=direct_io)
         self.rx = Receiver(self.port, self.stats, self.log, max(0.0, float(timeout_margin_ms)), verbose)
         self.lock = threading.RLock()
         self._ever_opened = False
