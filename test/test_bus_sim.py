@@ -143,7 +143,7 @@ def test_one_ms_latency_timer_waits_briefly_for_a_silent_servo(sim):
     dxl.open()
     sim.set_silent(1)
     assert dxl.execute(Ping(1)).value is None
-    assert dxl.last_timeout_ms < 2 * 16 + 2
+    assert dxl.timing.last_timeout_ms < 2 * 16 + 2
     dxl.close()
 
 

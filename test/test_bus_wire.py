@@ -239,10 +239,10 @@ def test_timeout_follows_configured_latency_timer(peer):
     bus = open_bus(far.path, baudrate=1000000, latency_timer_ms=1.0, retry_num=0)
     assert bus.execute(Ping(9)).value is None
     ping_bytes = 10 + 14  # instruction + reply
-    assert bus.last_timeout_ms == pytest.approx(2 * 1.0 + ping_bytes * 0.01 + bus.timeout_margin_ms)
-    assert bus.last_timeout_ms < 2 * 16 + 2  # the SDK's floor for any adapter
+    assert bus.timing.last_timeout_ms == pytest.approx(2 * 1.0 + ping_bytes * 0.01 + bus.timing.timeout_margin_ms)
+    assert bus.timing.last_timeout_ms < 2 * 16 + 2  # the SDK's floor for any adapter
     slow = DynamixelBus(far.path, baudrate=1000000, latency_timer_ms=16.0)
-    assert slow.reply_timeout_ms(10, 14) == pytest.approx(32 + 0.24 + slow.timeout_margin_ms)
+    assert slow.timing.reply_timeout_ms(10, 14) == pytest.approx(32 + 0.24 + slow.timing.timeout_margin_ms)
     bus.close()
 
 

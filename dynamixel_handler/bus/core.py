@@ -33,29 +33,21 @@ or leave one on the wire: ``scan``, ``start_sync_read``, ``prepare_sync_write``.
 """
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable, Mapping, Protocol
+from typing import Any, Iterable, Mapping, Protocol
 
 from ..protocol.framers import FRAMERS
 from .group_read import GroupRead
 from .instructions import Instructions
 from .line import Line
 from .ops import (
-    Action,
     BulkRead,
     BulkWrite,
-    ClearError,
-    ClearMultiTurn,
-    ErrorByte,
-    FactoryReset,
     Instruction,
     Ping,
-    Read,
-    Reboot,
-    RegWrite,
     SyncRead,
-    Write,
 )
 from .reads import Reads
+from .receive import Receiver
 from .result import Result
 from .stats import BusStats
 from .transport import Transport
@@ -97,25 +89,6 @@ class DynamixelBus:
         self._reads = Reads(self._t)
         self._writes = Writes(self._t)
         self._one = Instructions(self._t)
-        one, writes = self._one, self._writes
-        #: the part that sends each kind of instruction, in the framing of its protocol
-        self._run: dict[type, Callable[[Any], Result[Any]]] = {
-            Ping: lambda op: self._reads.ping(op.dxl_id, op.retries, FRAMERS[op.protocol]),
-            ErrorByte: lambda op: one.error_byte(op.dxl_id, FRAMERS[op.protocol]),
-            Read: lambda op: one.read(op.dxl_id, op.address, op.size, FRAMERS[op.protocol]),
-            Write: lambda op: one.write(op.dxl_id, op.address, op.data, FRAMERS[op.protocol]),
-            RegWrite: lambda op: one.reg_write(op.dxl_id, op.address, op.data, FRAMERS[op.protocol]),
-            Action: lambda op: one.action(op.dxl_id, FRAMERS[op.protocol]),
-            Reboot: lambda op: one.reboot(op.dxl_id, FRAMERS[op.protocol]),
-            ClearMultiTurn: lambda op: one.clear_multi_turn(op.dxl_id, FRAMERS[op.protocol]),
-            ClearError: lambda op: one.clear_error(op.dxl_id, op.params, FRAMERS[op.protocol]),
-            FactoryReset: lambda op: one.factory_reset(op.dxl_id, op.option, FRAMERS[op.protocol]),
-            SyncRead: lambda op: self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast,
-                                                                           op.protocol)),
-            BulkRead: lambda op: self._group(self._reads.bulk_read(op.requests, op.fast)),
-            BulkWrite: lambda op: writes.bulk_write(op.data),
-            PreparedWrite: writes.send_prepared,
-        }
 
     # ------------------------------------------------------------ the line
     @property
@@ -147,21 +120,10 @@ class DynamixelBus:
         return self._t.stats
 
     @property
-    def retry_num(self) -> int:
-        return self._t.retry_num
-
-    @property
-    def retry_interval_ms(self) -> float:
-        return self._t.retry_interval_ms
-
-    @property
-    def timeout_margin_ms(self) -> float:
-        return self._t.rx.timeout_margin_ms
-
-    @property
-    def last_timeout_ms(self) -> float:
-        """The reply wait (ms) computed for the latest transaction."""
-        return self._t.rx.last_timeout_ms
+    def timing(self) -> Receiver:
+        """The line's timing: the reply wait of a transaction (``reply_timeout_ms``), the one
+        computed for the latest (``last_timeout_ms``), the margin, how late replies come."""
+        return self._t.rx
 
     @property
     def last_error_bytes(self) -> dict[int, int]:
@@ -174,11 +136,6 @@ class DynamixelBus:
         return self._reads.firmware_versions
 
     @property
-    def reply_lag_s(self) -> float:
-        """How much later than their wire time replies arrive (learnt, seconds)."""
-        return self._t.rx.reply_lag_s
-
-    @property
     def inflight_eta(self) -> float | None:
         """``time.monotonic()`` by which the replies of the read in flight should be in, or None."""
         return self._t.inflight_eta
@@ -187,10 +144,6 @@ class DynamixelBus:
     def dummies(self) -> Mapping[int, object]:
         """In-process dummy servos on this bus: none (``dummy.BusWithDummies`` has them)."""
         return {}
-
-    def reply_timeout_ms(self, tx_bytes: int, rx_bytes: int) -> float:
-        """How long a reply of ``rx_bytes`` is waited for after sending ``tx_bytes``."""
-        return self._t.rx.reply_timeout_ms(tx_bytes, rx_bytes)
 
     def open(self) -> None:
         """Open the device; BusError (what, why, what to do) if it is missing, busy, not a tty."""
@@ -215,8 +168,22 @@ class DynamixelBus:
 
     # ------------------------------------------------------------ instructions
     def execute(self, instruction: Instruction) -> Result[Any]:
-        """Send one instruction (a value of :mod:`.ops`) and give its ``Result``."""
-        return self._run[type(instruction)](instruction)
+        """Send one instruction (a value of :mod:`.ops`) and give its ``Result``: an instruction to
+        one servo frames itself (``Instructions.execute``), a group one goes to its part."""
+        match instruction:
+            case Ping():
+                return self._reads.ping(instruction.dxl_id, instruction.retries, FRAMERS[instruction.protocol])
+            case SyncRead():
+                op = instruction
+                return self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast, op.protocol))
+            case BulkRead():
+                return self._group(self._reads.bulk_read(instruction.requests, instruction.fast))
+            case BulkWrite():
+                return self._writes.bulk_write(instruction.data)
+            case PreparedWrite():
+                return self._writes.send_prepared(instruction)
+            case _:
+                return self._one.execute(instruction, FRAMERS[instruction.protocol])
 
     def _group(self, read: GroupRead) -> Result[dict[int, bytes]]:
         data = read.result()

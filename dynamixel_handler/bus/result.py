@@ -39,11 +39,15 @@ class Failure(enum.Enum):
 class Result(Generic[T]):
     """``value``: what the instruction gives (data, a model number, True) or its failure value
     (None, False); ``failure``: the kind of failure, None when it worked; ``why``: that failure in
-    words for a log line ("" when it worked). True in a condition when it worked."""
+    words for a log line ("" when it worked); ``error``: the status error byte that came with the
+answer or the refusal. True in a condition when it worked."""
 
     value: T
     failure: Failure | None = None
     why: str = ""
+    #: the error byte of the servo's status (a refusal's reason; Protocol 1.0: its state too), None
+    #: without one (no reply, a broadcast, a group read)
+    error: int | None = None
 
     @property
     def ok(self) -> bool:

@@ -53,7 +53,7 @@ class Outcome:
         """The result of a transaction that got ``status`` (None: no reply) instead of an answer:
         ``value`` (the failure value), the kind and ``what`` with the reason."""
         kind, reason = self._transport.why(status, framer)
-        return Result(value, kind, self.fail(f"{what}: {reason}"))
+        return Result(value, kind, self.fail(f"{what}: {reason}"), None if status is None else status.error)
 
 
 def _taken(read: GroupRead, replies: dict[int, Any]) -> dict[int, bytes]:
