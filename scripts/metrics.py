@@ -54,7 +54,7 @@ LINEAGE_CLASSES, LINEAGE_LINES, FAMILY_COMPARISONS = 3, 400, 2
 FAMILY_NAMES = frozenset({"X", "P", "PRO", "Pro"})
 FAMILY_EXEMPT = "control_table"
 #: front classes (module relative to the package, class) -> the most one-line forwards allowed
-FRONTS = {("core.handler", "Handler"): 9, ("bus.core", "DynamixelBus"): 16}
+FRONTS = {("core.handler", "Handler"): 9, ("bus.core", "DynamixelBus"): 10}
 #: the modules that may look parameters up by name (and the set-up tool, a command line without
 #: node parameters, whose dictionaries share some key names), and how many lookups the others may
 #: make: none, every other part is given typed settings (``Settings``, the tool's ``UnifySettings``)

@@ -89,21 +89,25 @@ class DynamixelBus:
         self._reads = Reads(self._t)
         self._writes = Writes(self._t)
         self._one = Instructions(self._t)
+        #: the device the bus was made for (its line's path; the line may be reopened, never changed)
+        self.device = self._t.port.device
+        #: the line under the bus (its backend), for a tool that writes its own packets on it (the
+        #: set-up tool's Protocol 1.0 scan, its trace)
+        self.line: Line = self._t.port
+        #: the counters of every transaction
+        self.stats: BusStats = self._t.stats
+        #: the line's timing: the reply wait of a transaction (``reply_timeout_ms``), the one computed
+        #: for the latest (``last_timeout_ms``), the margin, how late replies come
+        self.timing: Receiver = self._t.rx
+        #: the status error byte last reported by each servo (0x80 = hardware error present)
+        self.last_error_bytes: dict[int, int] = self._t.rx.last_error_bytes
+        #: the firmware version seen in Protocol 2.0 ping replies (a Protocol 1.0 status has none)
+        self.firmware_versions: dict[int, int] = self._reads.firmware_versions
 
     # ------------------------------------------------------------ the line
     @property
-    def device(self) -> str:
-        return self._t.port.device
-
-    @property
     def baudrate(self) -> int:
         return self._t.port.baudrate
-
-    @property
-    def serial_port(self) -> Line:
-        """The line under the bus, for a tool that writes its own packets on it (the set-up tool's
-        Protocol 1.0 scan, its trace)."""
-        return self._t.port
 
     @property
     def latency_timer_ms(self) -> float:
@@ -114,26 +118,6 @@ class DynamixelBus:
     def is_open(self) -> bool:
         """True while the port is open and the device has not vanished."""
         return self._t.port.is_open
-
-    @property
-    def stats(self) -> BusStats:
-        return self._t.stats
-
-    @property
-    def timing(self) -> Receiver:
-        """The line's timing: the reply wait of a transaction (``reply_timeout_ms``), the one
-        computed for the latest (``last_timeout_ms``), the margin, how late replies come."""
-        return self._t.rx
-
-    @property
-    def last_error_bytes(self) -> dict[int, int]:
-        """Status error byte last reported by each servo (0x80 = hardware error present)."""
-        return self._t.rx.last_error_bytes
-
-    @property
-    def firmware_versions(self) -> dict[int, int]:
-        """Firmware version seen in Protocol 2.0 ping replies (a Protocol 1.0 status has none)."""
-        return self._reads.firmware_versions
 
     @property
     def inflight_eta(self) -> float | None:

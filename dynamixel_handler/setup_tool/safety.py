@@ -154,7 +154,7 @@ def install(bus: Any = None) -> None:
 
 
 def _pause_hook(bus: Any, after: int) -> None:
-    port = bus.serial_port
+    port = bus.line
     send = port.write
     sent = [0]
 

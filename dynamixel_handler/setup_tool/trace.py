@@ -185,7 +185,7 @@ class Tracer:
 def install(bus: DynamixelBus, stream: TextIO) -> Tracer:
     """Watch ``bus``'s port: every packet it writes and every byte it reads is traced to ``stream``."""
     tracer = Tracer(stream)
-    port: Any = bus.serial_port
+    port: Any = bus.line
     write, read_until, set_baudrate = port.write, port.read_until, port.set_baudrate
 
     def traced_write(packet: bytes) -> None:
