@@ -21,4 +21,5 @@ if [ ${#paths[@]} -gt 0 ]; then
   n="${DXL_TEST_WORKERS:-$(python -c 'import os; print(min(2, len(os.sched_getaffinity(0))))')}"
   [ "$n" -gt 1 ] && workers=(-n "$n" --dist loadfile)
 fi
-exec python -m pytest -q -p no:cacheprovider "${workers[@]}" "$@" "${paths[@]}"
+# the 15 slowest tests are listed at the end: the suite is kept under ten minutes
+exec python -m pytest -q -p no:cacheprovider --durations=15 "${workers[@]}" "$@" "${paths[@]}"

@@ -34,6 +34,10 @@ class Failure(enum.Enum):
     #: not sent: the servo's protocol has no such instruction (a Clear in Protocol 1.0)
     NOT_IN_PROTOCOL = "not in the protocol"
 
+    def __str__(self) -> str:
+        """The kind in words, as a log line says it ("no reply", not "Failure.NO_REPLY")."""
+        return self.value
+
 
 @dataclass(frozen=True, slots=True)
 class Result(Generic[T]):

@@ -78,3 +78,9 @@ def test_a_bad_factory_reset_option_sends_nothing(line):
     with pytest.raises(ValueError, match="invalid Dynamixel ID"):
         Write(300, 64, b"\x01")
     assert peer.received == []
+
+
+def test_a_failure_kind_reads_as_words_in_a_log_line(line):
+    _, transport = line(retry_num=0)
+    result = Instructions(transport).execute(Write(4, 64, b"\x01"), PROTOCOL2)
+    assert f"torque on failed: {result.failure}" == "torque on failed: no reply"
