@@ -142,7 +142,7 @@ class BusWithDummies:
             return self._sync_read(op)
         if isinstance(op, BulkRead):
             real, dummy = self._split_map(op.requests)
-            return _joined(self._on_wire(BulkRead(real, op.fast), {}) if real else Result({}),
+            return _joined(self._on_wire(BulkRead(real, op.fast, op.protocol), {}) if real else Result({}),
                            self._dummy_bus.execute(BulkRead(dummy)) if dummy else Result({}), "bulk read")
         if isinstance(op, BulkWrite):
             real, dummy = self._split_map(op.data)
@@ -185,28 +185,29 @@ class BusWithDummies:
         return _joined(wire_part, dummy_part, f"sync read @{op.address}x{op.length}")
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
-                        protocol: int = 2) -> GroupRead:
+                        *, protocol: int) -> GroupRead:
         """As ``DynamixelBus.start_sync_read``; a read that includes dummies is done at once."""
         ids = list(ids)
         real, dummy = self._split(ids)
         if not dummy and self._bus.is_open:
-            return self._bus.start_sync_read(address, length, real, fast, protocol)
+            return self._bus.start_sync_read(address, length, real, fast, protocol=protocol)
         done = self._sync_read(SyncRead(address, length, tuple(ids), fast, protocol))
         read = GroupRead.finished(done.value)
         read.failure, read.why = done.failure, done.why
         return read
 
-    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
+    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], *, protocol: int) -> PreparedWrite:
         """As ``DynamixelBus.prepare_sync_write``; the dummies' part is written when it is sent."""
         real, dummy = self._split_map(data)
-        prepared = self._bus.prepare_sync_write(address, length, real, protocol)
+        prepared = self._bus.prepare_sync_write(address, length, real, protocol=protocol)
         return PreparedWrite(prepared.address, prepared.length, prepared.ids, prepared.packet,
                              {i: bytes(d) for i, d in dummy.items()}) if dummy else prepared
 
     def _send_prepared(self, prepared: PreparedWrite) -> Result[bool]:
         mine = {i: d for i, d in prepared.dummies.items() if i in self.dummies}
         if mine:
-            self._dummy_bus.execute(self._dummy_bus.prepare_sync_write(prepared.address, prepared.length, mine))
+            self._dummy_bus.execute(self._dummy_bus.prepare_sync_write(prepared.address, prepared.length, mine,
+                                                                                protocol=2))
         if not prepared.packet:
             return _DONE
         return self._on_wire(PreparedWrite(prepared.address, prepared.length, prepared.ids, prepared.packet), False)

@@ -118,7 +118,7 @@ def _vanish_mid_run(direct_io: bool) -> tuple:
     try:
         bus.open()
         first = bus.execute(SyncRead(126, 10, [1, 2, 3])).value
-        read = bus.start_sync_read(126, 10, [1, 2, 3])
+        read = bus.start_sync_read(126, 10, [1, 2, 3], protocol=2)
         peer.vanish()
         return first, read.result(), bus.is_open, bus.stats.disconnects, [line for line in log.lines if "stopped" in line]
     finally:
@@ -144,7 +144,7 @@ def _stale_before_a_write(direct_io: bool) -> tuple:
         bus.open()
         peer.send(stale)
         time.sleep(0.05)
-        assert bus.execute(bus.prepare_sync_write(116, 4, {1: bytes(4), 2: bytes(4)})).value
+        assert bus.execute(bus.prepare_sync_write(116, 4, {1: bytes(4), 2: bytes(4)}, protocol=2)).value
         time.sleep(0.02)  # the write is answered by nothing
         return bus.execute(SyncRead(126, 10, [1, 2, 3])).value, bus.stats.discarded_bytes, len(stale), peer.received
     finally:

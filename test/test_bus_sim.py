@@ -58,7 +58,8 @@ def test_p_series_goal_that_contains_ff_ff_fd_arrives_intact(sim, bus):
     assert bus.execute(Write(P_SERVO, goal.address, (-131073).to_bytes(4, "little", signed=True))).value is True
     assert sim.servo(P_SERVO).read("goal_position") == -131073
 
-    assert bus.execute(bus.prepare_sync_write(goal.address, 4, {P_SERVO: (-131073 - 256).to_bytes(4, "little", signed=True)})).value
+    assert bus.execute(bus.prepare_sync_write(goal.address, 4, {P_SERVO: (-131073 - 256).to_bytes(4, "little", signed=True)},
+                                              protocol=2)).value
     assert bus.execute(Ping(P_SERVO)).value == SERVOS[P_SERVO]  # sync write has no reply: sync with the peer
     assert sim.servo(P_SERVO).read("goal_position") == -131073 - 256
 

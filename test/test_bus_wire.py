@@ -78,7 +78,7 @@ def test_sync_write_data_is_stuffed_and_length_counts_the_stuffing(peer):
     far = peer()
     bus = open_bus(far.path)
     goal = (-131073).to_bytes(4, "little", signed=True)
-    assert bus.execute(bus.prepare_sync_write(564, 4, {1: goal, 2: goal})).value is True
+    assert bus.execute(bus.prepare_sync_write(564, 4, {1: goal, 2: goal}, protocol=2)).value is True
     time.sleep(0.05)
     sent = far.received[0]
     params = bytes([0x34, 0x02, 0x04, 0x00, 1, 0xFF, 0xFF, 0xFD, 0xFD, 0xFF, 2, 0xFF, 0xFF, 0xFD, 0xFD, 0xFF])

@@ -41,10 +41,10 @@ def test_a_real_servo_behind_a_closed_wire_fails_at_once_and_says_so():
 
 def test_a_sync_write_reaches_the_dummies_even_when_the_wire_is_closed():
     bus = mixed()
-    result = bus.execute(bus.prepare_sync_write(LED, 1, {7: b"\x01", 9: b"\x01", 1: b"\x01"}))
+    result = bus.execute(bus.prepare_sync_write(LED, 1, {7: b"\x01", 9: b"\x01", 1: b"\x01"}, protocol=2))
     assert result.value is False and "port closed" in result.why  # ID 1's part could not go out
     assert bus.execute(Read(7, LED, 1)).value == b"\x01" and bus.execute(Read(9, LED, 1)).value == b"\x01"
-    assert bus.execute(bus.prepare_sync_write(LED, 1, {7: b"\x00"})).value is True  # dummies only: nothing to send
+    assert bus.execute(bus.prepare_sync_write(LED, 1, {7: b"\x00"}, protocol=2)).value is True  # dummies only: nothing to send
 
 
 def test_the_dummy_ids_of_a_bus():

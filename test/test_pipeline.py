@@ -57,7 +57,7 @@ def test_a_read_left_on_the_wire_is_gathered_before_any_other_transaction(timed_
     sim, bus = timed_bus
     for i in range(1, 5):
         sim.servo(i).write("goal_position", 1000 + i)
-    read = bus.start_sync_read(GOAL_POSITION, 4, [1, 2, 3, 4])
+    read = bus.start_sync_read(GOAL_POSITION, 4, [1, 2, 3, 4], protocol=2)
     assert not read.done and bus.inflight_eta is not None and bus.inflight_eta > time.monotonic() - 0.001
     # a unicast read issued while the sync read is on the wire: it must get its own reply, and the
     # sync read must keep all four of its replies (the input flush before a packet would drop them)
@@ -74,7 +74,7 @@ def test_a_read_left_on_the_wire_is_gathered_before_any_other_transaction(timed_
 def test_a_read_in_flight_with_a_silent_servo_still_returns_the_others(timed_bus):
     sim, bus = timed_bus
     sim.servo(3).silent = True
-    read = bus.start_sync_read(PRESENT_POSITION, 4, [1, 2, 3, 4])
+    read = bus.start_sync_read(PRESENT_POSITION, 4, [1, 2, 3, 4], protocol=2)
     assert sorted(read.result()) == [1, 2, 4]
     assert bus.inflight_eta is None
 

@@ -40,14 +40,14 @@ class Census:
     shared: dict[int, int | None] = field(default_factory=dict)
 
 
-def _ping(bus: ServoBus, dxl_id: int, pause_s: float, protocol: int = 2) -> int | None:
+def _ping(bus: ServoBus, dxl_id: int, pause_s: float, *, protocol: int) -> int | None:
     model: int | None = bus.execute(Ping(dxl_id, retries=0, protocol=protocol)).value
     if pause_s:
         time.sleep(pause_s)
     return model
 
 
-def probe(bus: ServoBus, dxl_id: int, pings: int, protocol: int = 2) -> tuple[int | None, bool]:
+def probe(bus: ServoBus, dxl_id: int, pings: int, *, protocol: int) -> tuple[int | None, bool]:
     """Ping ``dxl_id`` ``pings`` times: (its model number or None, whether two servos seem to answer).
     A second complete reply is counted when the next ping flushes the input, so with ``pings`` > 1
     the first ping only flushes what came before. A Protocol 1.0 ping is a ping and a read of the
@@ -55,10 +55,10 @@ def probe(bus: ServoBus, dxl_id: int, pings: int, protocol: int = 2) -> tuple[in
     # a second servo's reply may come up to a Return Delay Time (508 us at most) after the first one:
     # each ping waits for it, so the next ping's input flush counts it instead of taking it as its answer
     pause_s = (0.0015 + 2 * PING_REPLY_BYTES * 10.0 / bus.baudrate) if pings > 1 else 0.0
-    first = _ping(bus, dxl_id, pause_s, protocol) if pings > 1 else None
+    first = _ping(bus, dxl_id, pause_s, protocol=protocol) if pings > 1 else None
     stats = bus.stats
     crc, rx, discarded = stats.crc_errors, stats.bytes_rx, stats.discarded_bytes
-    models = [_ping(bus, dxl_id, pause_s, protocol) for _ in range(max(1, pings - 1))]
+    models = [_ping(bus, dxl_id, pause_s, protocol=protocol) for _ in range(max(1, pings - 1))]
     answered = [m for m in models if m is not None]
     garbled = stats.crc_errors != crc or stats.bytes_rx - rx > len(answered) * PING_REPLY_BYTES
     if pings > 1 and len(answered) == len(models):
@@ -67,7 +67,7 @@ def probe(bus: ServoBus, dxl_id: int, pings: int, protocol: int = 2) -> tuple[in
 
 
 def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, thorough: bool = False,
-           protocol: int = 2) -> Census:
+           *, protocol: int) -> Census:
     """Scan ``ids`` (see ``DynamixelBus.scan``) and tell the shared IDs: each ID found is pinged a
     few times more when the reply train was garbled, when the scan pinged ID by ID (a second
     reply to a unicast ping is seen only by the next transaction), or when ``thorough``.
@@ -83,8 +83,8 @@ def census(bus: ServoBus, ids: Iterable[int], broadcast: bool | None = None, tho
         out.found = answered
         return out
     for dxl_id in wanted:
-        if dxl_id in answered or (garbled and _noisy(bus, dxl_id, protocol)):
-            probed, shared = rounds(bus, dxl_id, protocol)
+        if dxl_id in answered or (garbled and _noisy(bus, dxl_id, protocol=protocol)):
+            probed, shared = rounds(bus, dxl_id, protocol=protocol)
             number = answered.get(dxl_id, probed)
             if shared:
                 out.shared[dxl_id] = number
@@ -97,20 +97,20 @@ def _answered(bus: ServoBus, wanted: list[int], broadcast: bool, protocol: int) 
     """{ID: model number} of the first pings: the bus's scan, or a ping per ID in a protocol without a
     broadcast ping (1.0)."""
     if not FRAMERS[protocol].broadcast_ping:
-        return {i: n for i in wanted if (n := _ping(bus, i, 0.0, protocol)) is not None}
+        return {i: n for i in wanted if (n := _ping(bus, i, 0.0, protocol=protocol)) is not None}
     return bus.scan(wanted, broadcast)
 
 
-def rounds(bus: ServoBus, dxl_id: int, protocol: int = 2) -> tuple[int | None, bool]:
+def rounds(bus: ServoBus, dxl_id: int, *, protocol: int) -> tuple[int | None, bool]:
     """``probe`` in up to ``SHARED_ROUNDS`` rounds: (a model number it gave, whether every round
     looked shared)."""
     # the last ping's input flush is the next one's: one more than needed counts doubled replies
-    probed, shared = probe(bus, dxl_id, CLEAN_PINGS + 2, protocol)
+    probed, shared = probe(bus, dxl_id, CLEAN_PINGS + 2, protocol=protocol)
     for _ in range(SHARED_ROUNDS - 1):
         if not shared:
             break
         time.sleep(SETTLE_S)
-        again, shared = probe(bus, dxl_id, CLEAN_PINGS + 2, protocol)
+        again, shared = probe(bus, dxl_id, CLEAN_PINGS + 2, protocol=protocol)
         probed = probed if probed is not None else again
     return probed, shared
 
@@ -121,7 +121,7 @@ def noise(bus: ServoBus) -> int:
     return bus.stats.crc_errors + bus.stats.discarded_bytes
 
 
-def _noisy(bus: ServoBus, dxl_id: int, protocol: int = 2) -> bool:
+def _noisy(bus: ServoBus, dxl_id: int, *, protocol: int) -> bool:
     """Whether an ID the garbled scan did not find answers a ping, or gives noise."""
-    quick, noisy = probe(bus, dxl_id, 1, protocol)
+    quick, noisy = probe(bus, dxl_id, 1, protocol=protocol)
     return quick is not None or noisy

@@ -156,12 +156,13 @@ class DynamixelBus:
         one servo frames itself (``Instructions.execute``), a group one goes to its part."""
         match instruction:
             case Ping():
-                return self._reads.ping(instruction.dxl_id, instruction.retries, FRAMERS[instruction.protocol])
+                return self._reads.ping(instruction.dxl_id, instruction.retries, framer=FRAMERS[instruction.protocol])
             case SyncRead():
                 op = instruction
-                return self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast, op.protocol))
+                return self._group(self._reads.start_sync_read(op.address, op.length, op.ids, op.fast, protocol=op.protocol))
             case BulkRead():
-                return self._group(self._reads.bulk_read(instruction.requests, instruction.fast))
+                return self._group(self._reads.bulk_read(instruction.requests, instruction.fast,
+                                                         framer=FRAMERS[instruction.protocol]))
             case BulkWrite():
                 return self._writes.bulk_write(instruction.data)
             case PreparedWrite():
@@ -178,15 +179,15 @@ class DynamixelBus:
         return self._reads.scan(ids, broadcast)
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
-                        protocol: int = 2) -> GroupRead:
+                        *, protocol: int) -> GroupRead:
         """Send a sync read and return at once; ``result()`` of the returned read waits for the
         replies (``failure`` then says why when nobody answered). Meanwhile the caller may do work
         that needs no bus; any other transaction first waits for this read to end. Protocol 1.0
         servos have no Sync Read: each is read on its own, and the read is done when it returns."""
-        return self._reads.start_sync_read(address, length, ids, fast, protocol)
+        return self._reads.start_sync_read(address, length, ids, fast, protocol=protocol)
 
-    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
+    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], *, protocol: int) -> PreparedWrite:
         """Check and build a sync write (in ``protocol``) now, to send it later with ``execute``
         (e.g. while a read is on the wire, so the packet is ready the moment the line is free).
         ValueError for invalid IDs or data lengths."""
-        return Writes.prepare_sync_write(address, length, data, protocol)
+        return Writes.prepare_sync_write(address, length, data, protocol=protocol)

@@ -33,11 +33,11 @@ class Instructions:
                 if t.broadcast(framer.instruction(op.dxl_id, frame.instruction, frame.params)):
                     tx.ok(1, 1)
                     return _ACKNOWLEDGED
-                return tx.failed(op.FAILED, f"{frame.name} broadcast", None, framer)
+                return tx.failed(op.FAILED, f"{frame.name} broadcast", None, framer=framer)
             dxl_id = check_id(op.dxl_id)
-            status = t.unicast(dxl_id, frame.instruction, frame.params, frame.reply_params, frame.retries, framer)
+            status = t.unicast(dxl_id, frame.instruction, frame.params, frame.reply_params, frame.retries, framer=framer)
             if status is None or status.refused:
-                return tx.failed(op.FAILED, f"{frame.name} ID {dxl_id}{frame.where}", status, framer)
+                return tx.failed(op.FAILED, f"{frame.name} ID {dxl_id}{frame.where}", status, framer=framer)
             tx.ok(1, 1)
             return Result(op.answer(status), error=status.error)
 

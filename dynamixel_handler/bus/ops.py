@@ -244,6 +244,8 @@ class BulkRead:
 
     requests: Mapping[int, tuple[int, int]]
     fast: bool = False
+    #: 1: Protocol 1.0 servos (MX, EX): each answers with a status of its own
+    protocol: int = 2
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "requests", {check_id(i): (int(a), int(n)) for i, (a, n) in self.requests.items()})

@@ -33,7 +33,7 @@ class Reads:
         # sync read packets and their (id, size) list by (address, length, ids as given, fast)
         self._packets: dict[tuple[int, int, tuple[int, ...], bool], tuple[bytes, tuple[tuple[int, int], ...]]] = {}
 
-    def ping(self, dxl_id: int, retries: int | None = None, framer: Framer = PROTOCOL2) -> Result[int | None]:
+    def ping(self, dxl_id: int, retries: int | None = None, *, framer: Framer) -> Result[int | None]:
         """Model number of ``dxl_id`` (None and why if it does not answer). A Protocol 1.0 ping's
         status carries nothing: the model number is read at address 0 after it. Its firmware is not
         recorded: where it lives depends on the model (address 2 on the Protocol 1.0 models, 6 on an
@@ -41,15 +41,15 @@ class Reads:
         dxl_id = check_id(dxl_id)
         t = self._t
         with t.transaction() as tx:
-            status = t.unicast(dxl_id, framer.PING, b"", framer.ping_params(), retries, framer)
+            status = t.unicast(dxl_id, framer.PING, b"", framer.ping_params(), retries, framer=framer)
             if status is None or status.refused:
-                return tx.failed(None, f"ping ID {dxl_id}", status, framer)
+                return tx.failed(None, f"ping ID {dxl_id}", status, framer=framer)
             identity = framer.identity(status.params)
             if identity is not None:
                 tx.ok(1, 1)
                 number, self.firmware_versions[dxl_id] = identity
                 return Result(number)
-            status = t.unicast(dxl_id, framer.READ, framer.read_params(0, 2), 2, retries, framer)
+            status = t.unicast(dxl_id, framer.READ, framer.read_params(0, 2), 2, retries, framer=framer)
             if status is None or status.refused:
                 return Result(None, Failure.ANSWERS_PING_ONLY, tx.fail(
                     f"ping ID {dxl_id}: answers a Protocol 1.0 ping but not a read of its model number "
@@ -58,7 +58,7 @@ class Reads:
             return Result(status.params[0] | (status.params[1] << 8))
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
-                        protocol: int = 2) -> GroupRead:
+                        *, protocol: int) -> GroupRead:
         """Send a sync read and return at once; ``result()`` of the returned read waits for the
         replies (same result as :meth:`sync_read`). Meanwhile the caller may do work that needs no
         bus; any other transaction first waits for this read to end, so none is ever lost.
@@ -83,7 +83,7 @@ class Reads:
                 self._packets[key] = cached
         packet, expected = cached
         return self._t.start_group_read(packet, list(expected), fast,
-                                        f"{'fast ' if fast else ''}sync read @{address}x{length}")
+                                        f"{'fast ' if fast else ''}sync read @{address}x{length}", framer=framer)
 
     def _read_without_sync_read(self, address: int, length: int, ids: Iterable[int], bulk: bool,
                                 framer: Framer) -> GroupRead:
@@ -103,7 +103,7 @@ class Reads:
         for dxl_id in unique_ids(ids):
             with t.transaction() as tx:
                 status = t.unicast(dxl_id, framer.READ, framer.read_params(address, length), length,
-                                   min(1, t.retry_num), framer)
+                                   min(1, t.retry_num), framer=framer)
                 if status is not None and not status.refused:
                     tx.ok(1, 1)
                     data[dxl_id], errors[dxl_id] = status.params, status.error
@@ -114,7 +114,7 @@ class Reads:
         return read
 
     def bulk_read(self, requests: Mapping[int, tuple[int, int]], fast: bool = False,
-                  framer: Framer = PROTOCOL2) -> GroupRead:
+                  *, framer: Framer) -> GroupRead:
         """Different ``(address, size)`` per servo (IDs checked) in one instruction, on the wire;
         in Protocol 1.0 (``framer``) each servo answers with a status of its own, after the one
         listed before it."""
@@ -122,7 +122,7 @@ class Reads:
         if not order:
             return GroupRead.finished({})
         packet, fast, what = framer.bulk_read([(i, requests[i][0], requests[i][1]) for i in order], fast)
-        return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], fast, what, framer)
+        return self._t.start_group_read(packet, [(i, requests[i][1]) for i in order], fast, what, framer=framer)
 
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
         """``{id: model_number}`` of the servos among ``ids`` that answer a ping.
@@ -143,7 +143,7 @@ class Reads:
         if garbled:
             for dxl_id in wanted:
                 if dxl_id not in found:
-                    model = self.ping(dxl_id, retries=0).value
+                    model = self.ping(dxl_id, retries=0, framer=PROTOCOL2).value  # a scan: Protocol 2.0
                     if model is not None:
                         found[dxl_id] = model
         return dict(sorted(found.items()))
@@ -156,7 +156,7 @@ class Reads:
             t.stats.discarded_bytes += p.STATUS_OVERHEAD + len(status.params)
             return True
         if len(status.params) == PING_REPLY_PARAMS and status.dxl_id in wanted:
-            t.rx.note_status(status)
+            t.rx.note_status(status, framer=PROTOCOL2)
             self.firmware_versions[status.dxl_id] = status.params[2]
             found[status.dxl_id] = status.params[0] | (status.params[1] << 8)
         return False

@@ -45,7 +45,7 @@ class Receiver:
                 + self.timeout_margin_ms)
 
     def gather(self, expected: list[tuple[int, int]], tx_bytes: int, fast: bool,
-               sent_at: float | None = None, framer: Framer = PROTOCOL2) -> dict[int, Any] | None:
+               sent_at: float | None = None, *, framer: Framer) -> dict[int, Any] | None:
         """The replies to a packet sent at ``sent_at`` (default: just now) in ``framer``'s protocol;
         None if the port is unusable."""
         if not expected:
@@ -62,7 +62,7 @@ class Receiver:
         try:
             if fast:
                 return self._receive_fast(expected, tx_bytes, sent_at, due)
-            return self._receive(expected, tx_bytes, sent_at, due, framer)
+            return self._receive(expected, tx_bytes, sent_at, due, framer=framer)
         except (OSError, serial.SerialException) as exc:
             self.lose(exc)
             return None
@@ -71,7 +71,7 @@ class Receiver:
             self.wire_free_at = min(self.wire_free_at, time.monotonic())
 
     def _receive(self, expected: list[tuple[int, int]], tx_bytes: int, sent_at: float,
-                 due: float | None = None, framer: Framer = PROTOCOL2) -> dict[int, Any]:
+                 due: float | None = None, *, framer: Framer) -> dict[int, Any]:
         """Collect stuffed status packets, one per expected ID, each with its own wait.
 
         The first reply gets the full timeout (our packet's wire time included); each
@@ -103,7 +103,7 @@ class Receiver:
                     continue
                 del pending[status.dxl_id]
                 got[status.dxl_id] = status
-                self.note_status(status, framer)
+                self.note_status(status, framer=framer)
                 answered = True
             if answered:  # each reply restarts the wait for the next
                 deadline = max(deadline, time.monotonic() + gap_s)
@@ -131,14 +131,14 @@ class Receiver:
             deadline = max(deadline, time.monotonic() + gap_s)
         got = reply.segments()
         for status in got.values():
-            self.note_status(status)
+            self.note_status(status, framer=PROTOCOL2)  # Fast Sync Read: Protocol 2.0 only
         if not reply.complete:
             self.stats.timeouts += 1
         self.stats.crc_errors += reply.crc_errors
         self.stats.discarded_bytes += reply.discarded_bytes
         return got
 
-    def note_status(self, status: Any, framer: Framer = PROTOCOL2) -> None:
+    def note_status(self, status: Any, *, framer: Framer) -> None:
         self.last_error_bytes[status.dxl_id] = status.error
         if status.refused:
             self.stats.servo_errors += 1

@@ -13,7 +13,7 @@ from typing import Any, Iterator, TypeVar
 
 import serial
 
-from ..protocol.framers import PROTOCOL2, Framer
+from ..protocol.framers import Framer
 from .errors import BusError
 from .group_read import GroupRead, reply_bytes
 from .line import Line
@@ -49,10 +49,11 @@ class Outcome:
             transport.log("warning", reason)
         return reason
 
-    def failed(self, value: T, what: str, status: Any = None, framer: Framer = PROTOCOL2) -> Result[T]:
+    def failed(self, value: T, what: str, status: Any = None, *, framer: Framer | None = None) -> Result[T]:
         """The result of a transaction that got ``status`` (None: no reply) instead of an answer:
-        ``value`` (the failure value), the kind and ``what`` with the reason."""
-        kind, reason = self._transport.why(status, framer)
+        ``value`` (the failure value), the kind and ``what`` with the reason. ``framer``: the
+        protocol of ``status``, needed when there is one."""
+        kind, reason = self._transport.why(status, framer=framer)
         return Result(value, kind, self.fail(f"{what}: {reason}"), None if status is None else status.error)
 
 
@@ -134,7 +135,7 @@ class Transport:
                 self.stats.time_s += time.monotonic() - start
 
     def unicast(self, dxl_id: int, instruction: int, params: bytes, reply_params: int,
-                retries: int | None = None, framer: Framer = PROTOCOL2) -> Any:
+                retries: int | None = None, *, framer: Framer) -> Any:
         """Send to one servo in ``framer``'s protocol and return its status (None: no reply);
         retried on silence, noise and a packet the servo got corrupted."""
         packet = framer.instruction(dxl_id, instruction, params)
@@ -143,7 +144,7 @@ class Transport:
         for attempt in range(attempts):
             if attempt:
                 self.pause_before_retry()
-            replies = self._exchange(packet, [(dxl_id, reply_params)], False, framer)
+            replies = self._exchange(packet, [(dxl_id, reply_params)], False, framer=framer)
             if replies is None:
                 return None
             status = replies.get(dxl_id)
@@ -182,7 +183,7 @@ class Transport:
         if self.retry_interval_ms:
             time.sleep(self.retry_interval_ms / 1000.0)
 
-    def why(self, status: Any, framer: Framer = PROTOCOL2) -> tuple[Failure, str]:
+    def why(self, status: Any, *, framer: Framer | None = None) -> tuple[Failure, str]:
         """Why a transaction got ``status`` (None: no reply) instead of an answer: the kind, in words."""
         if self.port.lost:
             return Failure.DEVICE_LOST, "device lost"
@@ -190,6 +191,7 @@ class Transport:
             return Failure.PORT_CLOSED, "port closed"
         if status is None:
             return Failure.NO_REPLY, f"no reply within {self.rx.last_timeout_ms:.1f} ms"
+        assert framer is not None, "a status is read in the framing of its protocol"
         return Failure.REFUSED, framer.error_text(status.error)
 
     def _nobody(self) -> tuple[Failure, str]:
@@ -197,7 +199,7 @@ class Transport:
         return self.why(None) if not self.port.is_open else (Failure.NOBODY_ANSWERED, "no servo answered")
 
     def _exchange(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
-                  framer: Framer = PROTOCOL2) -> dict[int, Any] | None:
+                  *, framer: Framer) -> dict[int, Any] | None:
         """Send ``packet`` and gather the expected replies; None if the port is unusable."""
         if not self.send(packet):
             return None
@@ -205,7 +207,7 @@ class Transport:
 
     # ------------------------------------------------------------ the group read on the wire
     def start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
-                         what: str, framer: Framer = PROTOCOL2) -> GroupRead:
+                         what: str, *, framer: Framer) -> GroupRead:
         """Send a group read and leave it on the wire; its ``result()`` gathers the replies (one
         status per servo in ``framer``'s protocol, or one fast-read reply)."""
         with self.lock:
@@ -263,7 +265,7 @@ class Transport:
         ``retry_num`` times) while nobody answers and the port is usable."""
         waited = read.sent and self.port.waiting() < read.reply_bytes
         framer = read.framer
-        replies = (self.rx.gather(read.expected, len(read.packet), read.fast, read.started, framer)
+        replies = (self.rx.gather(read.expected, len(read.packet), read.fast, read.started, framer=framer)
                    if read.sent else None)
         if replies is not None and len(replies) == len(read.expected):
             self._learn_lag(read, waited)
@@ -271,7 +273,7 @@ class Transport:
             if replies is None or replies:
                 break
             self.pause_before_retry()
-            replies = self._exchange(read.packet, read.expected, read.fast, framer)
+            replies = self._exchange(read.packet, read.expected, read.fast, framer=framer)
         return _taken(read, replies or {})
 
     def _learn_lag(self, read: GroupRead, waited: bool) -> None:

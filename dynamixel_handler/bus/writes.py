@@ -32,7 +32,7 @@ class Writes:
         self._t = transport
 
     @staticmethod
-    def prepare_sync_write(address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
+    def prepare_sync_write(address: int, length: int, data: Mapping[int, bytes], *, protocol: int) -> PreparedWrite:
         """Check and build a sync write in ``protocol`` now, to send it later with
         :meth:`send_prepared` (e.g. while a read is on the wire, so that the packet is ready the
         moment the line is free). ValueError for invalid IDs or data lengths."""

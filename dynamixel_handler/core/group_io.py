@@ -49,7 +49,7 @@ class GroupIO:
         """``item`` := ``values`` ({ID: pulses}), one sync write per layout; kept in the table."""
         for (address, size, protocol), members in self._layouts(item, values).items():
             data = {i: units.encode(self.table.model(i).item(item), [values[i]]) for i in members}
-            written = self.bus.execute(self.bus.prepare_sync_write(address, size, data, protocol))
+            written = self.bus.execute(self.bus.prepare_sync_write(address, size, data, protocol=protocol))
             if written:
                 for dxl_id in members:
                     self.table.set_value(item, dxl_id, values[dxl_id])

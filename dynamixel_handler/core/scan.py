@@ -106,7 +106,7 @@ class Scan:
     def _scan_once(self, dummies: Sequence[int], protocol1: bool, found: dict[int, Seen]) -> None:
         """One scan of the IDs (Protocol 2.0, then Protocol 1.0 where used) into ``found``."""
         ids = range(self.settings.min_id, self.settings.max_id + 1)
-        seen = census(self.bus, set(ids) | set(dummies))
+        seen = census(self.bus, set(ids) | set(dummies), protocol=2)
         found.update({i: (2, n) for i, n in seen.found.items()})
         self._shared(seen.shared, found)
         if protocol1:  # a Protocol 2.0 servo ignores Protocol 1.0 packets: each ID is pinged in 1.0 too

@@ -154,7 +154,7 @@ class Step:
         if items:
             for read in self.reads.plan(items, live):
                 report.reads.append([read, self.bus.start_sync_read(read.address, read.length, read.ids, read.fast,
-                                                                    read.protocol), None])
+                                                                    protocol=read.protocol), None])
             self.pacing.note_reads_sent()
         # servos that stopped answering are pinged now and then, not read every loop
         if report.loop % self.settings.recheck_loops == 0:

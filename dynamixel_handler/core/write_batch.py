@@ -69,7 +69,7 @@ class WriteBatch:
                   if (kept := {i: chunk for i, chunk in data.items() if i in index})}
         if not self.split_write:
             writes = _merge_adjacent_writes(writes)
-        self._prepared = [self.bus.prepare_sync_write(address, size, data, protocol)
+        self._prepared = [self.bus.prepare_sync_write(address, size, data, protocol=protocol)
                           for (address, size, protocol), data in sorted(writes.items())]
         self._built_for = self.table.version
 

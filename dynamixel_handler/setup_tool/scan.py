@@ -125,7 +125,7 @@ _SHARED_NOTE = ("two or more servos answer at this ID (garbled or doubled replie
 
 
 def _scan_protocol2(bus: DynamixelBus, ids: Sequence[int], result: ScanResult) -> None:
-    seen = census(bus, ids, broadcast=len(ids) >= 5, thorough=True)
+    seen = census(bus, ids, broadcast=len(ids) >= 5, thorough=True, protocol=2)
     for dxl_id in sorted({*seen.found, *seen.shared}):
         number = seen.found.get(dxl_id, seen.shared.get(dxl_id))
         found = _details(bus, dxl_id, number) if number is not None else Found(dxl_id, bus.baudrate, 2)

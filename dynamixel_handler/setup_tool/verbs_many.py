@@ -112,7 +112,7 @@ def _sync_write(ctx: Context, group: list[Want]) -> None:
     p0, item0, _ = group[0]
     ctx.at(p0)
     data = {p.dxl_id: encode(item, raw) for p, item, raw in group}
-    done = ctx.bus.execute(ctx.bus.prepare_sync_write(item0.address, item0.size, data, p0.servo.protocol))
+    done = ctx.bus.execute(ctx.bus.prepare_sync_write(item0.address, item0.size, data, protocol=p0.servo.protocol))
     if not done:
         raise StepFailed(f"sync write of {item0.name} to ID {', '.join(map(str, data))} failed: "
                          f"{done.why or 'not sent'}")

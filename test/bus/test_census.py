@@ -34,7 +34,7 @@ def line():
 @pytest.mark.parametrize("ids", [range(0, 10), range(1, 4)])   # a broadcast ping, and one ping per ID
 def test_a_shared_id_is_told_apart_from_the_servos_alone(line, ids):
     _, bus = line([(1, XM430), (3, XM430), (3, XM540), (5, XL330)])
-    seen = census(bus, ids)
+    seen = census(bus, ids, protocol=2)
     assert set(seen.shared) == {3}
     assert seen.found == {i: m for i, m in {1: XM430, 5: XL330}.items() if i in ids}
 
@@ -44,7 +44,7 @@ def test_two_replies_to_one_ping_are_a_shared_id(line):
     quick, slow = sim.servos_at(2)
     quick.write("return_delay_time", 0)
     slow.write("return_delay_time", 250)       # 500 us later: a whole second reply
-    seen = census(bus, range(0, 10))
+    seen = census(bus, range(0, 10), protocol=2)
     assert set(seen.shared) == {2} and seen.found == {1: XM430}
 
 
@@ -54,13 +54,13 @@ def test_late_replies_are_no_shared_id(line):
     looks shared in every round is."""
     sim, bus = line([(1, XM430), (2, XM430), (2, XM540), (5, XL330)])
     sim.latency_s = 0.05
-    seen = census(bus, range(0, 10))
+    seen = census(bus, range(0, 10), protocol=2)
     assert set(seen.shared) == {2} and seen.found == {1: XM430, 5: XL330}
 
 
 def test_a_clean_bus_costs_one_scan(line):
     _, bus = line([(1, XM430), (2, XM540), (7, XL330)])
-    seen = census(bus, range(0, 10))
+    seen = census(bus, range(0, 10), protocol=2)
     assert seen.found == {1: XM430, 2: XM540, 7: XL330} and not seen.shared
     assert bus.stats.packets_sent == 1          # the broadcast ping alone
 
@@ -71,4 +71,4 @@ def test_two_protocol_1_servos_at_one_id_are_a_shared_id(line):
     _, bus = line([(1, AX12A), (3, AX12A), (3, AX12A), (5, MX28)])
     seen = census(bus, range(0, 8), protocol=1)
     assert set(seen.shared) == {3} and seen.found == {1: AX12A, 5: MX28}
-    assert census(bus, range(0, 8)).found == {}  # none of them answers Protocol 2.0
+    assert census(bus, range(0, 8), protocol=2).found == {}  # none of them answers Protocol 2.0

@@ -5,6 +5,7 @@ from conftest import instruction, status
 
 from dynamixel_handler.bus.reads import Reads
 from dynamixel_handler.bus.result import Failure
+from dynamixel_handler.protocol.framers import PROTOCOL2
 
 
 def _answering(present: dict[int, bytes]):
@@ -18,7 +19,7 @@ def _answering(present: dict[int, bytes]):
 def test_a_ping_gives_the_model_and_notes_the_firmware(line):
     peer, transport = line(lambda packet: [status(1, b"\x14\x04\x2d")])
     reads = Reads(transport)
-    result = reads.ping(1)
+    result = reads.ping(1, framer=PROTOCOL2)
     assert result.value == 1044 and result.failure is None and result.why == ""
     assert reads.firmware_versions == {1: 0x2D}
     assert peer.received == [instruction(1, 0x01)]
@@ -26,13 +27,13 @@ def test_a_ping_gives_the_model_and_notes_the_firmware(line):
 
 def test_a_silent_ping_is_none_and_says_why(line):
     _, transport = line()
-    result = Reads(transport).ping(4, retries=0)
+    result = Reads(transport).ping(4, retries=0, framer=PROTOCOL2)
     assert result.value is None and result.failure is Failure.NO_REPLY and result.why.startswith("ping ID 4: no reply within")
 
 
 def test_a_sync_read_keeps_the_servos_that_answered(line):
     peer, transport = line(_answering({1: b"\x10\x00", 3: b"\x30\x00"}))
-    read = Reads(transport).start_sync_read(132, 2, (1, 2, 3))
+    read = Reads(transport).start_sync_read(132, 2, (1, 2, 3), protocol=2)
     assert read.result() == {1: b"\x10\x00", 3: b"\x30\x00"} and read.failure is None
     assert peer.received == [instruction(0xFE, 0x82, bytes([0x84, 0x00, 0x02, 0x00, 1, 2, 3]))]
 
@@ -40,15 +41,15 @@ def test_a_sync_read_keeps_the_servos_that_answered(line):
 def test_the_same_sync_read_reuses_its_packet_and_ids_are_checked_once(line):
     _, transport = line(_answering({1: b"\x01"}))
     reads = Reads(transport)
-    first = reads.start_sync_read(146, 1, (1, 1))
+    first = reads.start_sync_read(146, 1, (1, 1), protocol=2)
     assert first.result() == {1: b"\x01"}
-    second = reads.start_sync_read(146, 1, (1, 1))
+    second = reads.start_sync_read(146, 1, (1, 1), protocol=2)
     assert second.packet is first.packet and second.expected == [(1, 1)]
 
 
 def test_a_read_of_no_servo_sends_nothing(line):
     peer, transport = line()
-    read = Reads(transport).start_sync_read(132, 4, ())
+    read = Reads(transport).start_sync_read(132, 4, (), protocol=2)
     assert read.done and read.result() == {} and peer.received == []
 
 

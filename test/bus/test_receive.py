@@ -5,6 +5,7 @@ import pytest
 from conftest import Peer, status
 
 from dynamixel_handler.bus.transport import Transport
+from dynamixel_handler.protocol.framers import PROTOCOL2
 
 
 def test_the_reply_wait_is_two_latencies_the_wire_time_and_the_margin(line):
@@ -16,7 +17,7 @@ def test_the_reply_wait_is_two_latencies_the_wire_time_and_the_margin(line):
 def test_a_late_reply_of_another_servo_is_not_taken_as_the_answer(line):
     peer, transport = line(lambda packet: [status(2, b"\x01\x00"), status(1, b"\x05\x00")])
     transport.send(b"\xff\xff\xfd\x00\x01\x07\x00\x02\x84\x00\x02\x00\x00\x00")  # any packet
-    got = transport.rx.gather([(1, 2)], 14, False)
+    got = transport.rx.gather([(1, 2)], 14, False, framer=PROTOCOL2)
     assert got is not None and list(got) == [1] and got[1].params == b"\x05\x00"
     assert transport.stats.discarded_bytes >= 13
 
@@ -24,14 +25,14 @@ def test_a_late_reply_of_another_servo_is_not_taken_as_the_answer(line):
 def test_a_reply_of_the_wrong_length_is_not_taken_either(line):
     _, transport = line(lambda packet: [status(1, b"\x05")], retry_num=0)
     transport.send(b"\xff\xff\xfd\x00\x01\x03\x00\x01\x00\x00")
-    assert transport.rx.gather([(1, 2)], 10, False) == {}
+    assert transport.rx.gather([(1, 2)], 10, False, framer=PROTOCOL2) == {}
     assert transport.stats.timeouts == 1
 
 
 def test_the_error_byte_of_every_status_is_noted(line):
     _, transport = line(lambda packet: [status(1, b"\x00", error=0x80)])
     transport.send(b"\xff\xff\xfd\x00\x01\x03\x00\x01\x00\x00")
-    got = transport.rx.gather([(1, 1)], 10, False)
+    got = transport.rx.gather([(1, 1)], 10, False, framer=PROTOCOL2)
     assert got is not None and 1 in got  # the alert bit alone: the data is good
     assert transport.rx.last_error_bytes == {1: 0x80}
 
