@@ -1,8 +1,9 @@
 """The set-up tool on a port a running handler holds: the real node on the virtual bus, the real
-tool process. ``get``, ``set`` and ``info`` go through the node (values read back on the virtual
-servos, the line that says so, ``--json``, the checks' refusals and exit codes), a verb that
-changes the bus is refused with what to do, ``--direct`` is refused as before, a ``get`` while the
-adapter is gone is one clear line within seconds, and a stale owner record is ignored."""
+tool process. ``get``, ``set``, ``info``, ``backup``, ``monitor``, ``set-mode``, ``reboot`` and
+``restore`` go through the node (values read back on the virtual servos, the line that says so,
+``--json``, the checks' refusals and exit codes), a verb that changes the bus is refused with what
+to do, ``--direct`` is refused as before, a ``get`` while the adapter is gone is one clear line
+within seconds, and a stale owner record is ignored."""
 from __future__ import annotations
 
 import json
@@ -120,13 +121,67 @@ def test_set_mode_goes_through_the_node_s_own_mode_change_with_the_tool_s_torque
     assert "torque was turned off for the write and back on" in out.stderr
 
 
+def test_reboot_goes_through_the_node_with_the_tool_s_torque_rule(rig):
+    for dxl_id in (1, 2):
+        assert tool(rig, "set", str(dxl_id), "led", "1").returncode == 0
+    assert [rig.sim.servo(i).read("led") for i in (1, 2)] == [1, 1]
+    out = tool(rig, "reboot", "2", "--yes")  # torque on, no --torque-off: refused, nothing rebooted (exit 2)
+    assert out.returncode == 2 and "ID 2: torque is on and a reboot turns it off" in out.stderr, out.text
+    assert rig.sim.servo(2).read("led") == 1 and rig.sim.servo(2).read("torque_enable") == 1
+    out = tool(rig, "reboot", "2", "--torque-off", "--yes", "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 0 and doc["rebooted"] == [2] and doc["through_node"] == "/dynamixel_handler", out.text
+    assert "ID 2 (XM430-W350) rebooted and answers again, torque back on (goal := present position)" in out.stderr
+    assert rig.sim.servo(2).read("led") == 0 and rig.sim.servo(2).read("torque_enable") == 1  # RAM reset, torque back
+    assert rig.sim.servo(1).read("led") == 1  # not named: not rebooted
+    # an ID the node does not handle: named, the others rebooted (exit 1)
+    out = tool(rig, "reboot", "1,7", "--torque-off", "--yes")
+    assert out.returncode == 1 and "ID 7: not handled by this node" in out.stderr, out.text
+    assert "ID 1 (XM430-W350) rebooted and answers again" in out.stdout and rig.sim.servo(1).read("led") == 0
+    # more IDs than the node handles (the node refuses such a request whole): the one it does not is named
+    out = tool(rig, "get", "1,2,7", "led")
+    assert out.returncode == 1 and "ID 7: not handled by this node" in out.stderr, out.text
+    assert [line for line in out.stdout.splitlines() if " led = " in line] == \
+        ["ID 1 (XM430-W350) led = 0", "ID 2 (XM430-W350) led = 0"]
+
+
+def test_restore_goes_through_the_node_writing_only_what_differs(rig, tmp_path):
+    import yaml
+    path = tmp_path / "b.yaml"
+    assert tool(rig, "backup", str(path)).returncode == 0
+    backup = yaml.safe_load(path.read_text())
+    one, two = backup["servos"][1]["eeprom"], backup["servos"][2]["eeprom"]
+    limit = one["temperature_limit"] - 5
+    mode = 1 if two["operating_mode"] != 1 else 3
+    one["temperature_limit"], two["operating_mode"] = limit, mode
+    path.write_text(yaml.safe_dump(backup))
+    out = tool(rig, "restore", str(path), "--dry-run", "--torque-off")
+    assert out.returncode == 0 and "2 item(s) would be written" in out.stdout and THROUGH in out.stdout, out.text
+    out = tool(rig, "restore", str(path), "--yes")
+    assert out.returncode == 2 and "give --torque-off" in out.stderr, out.text
+    assert rig.sim.servo(1).read("temperature_limit") == limit + 5
+    # the baud rate and a servo the node does not handle: named as not done (exit 1), the rest written
+    backup["servos"][2]["eeprom"]["baud_rate"] = 1
+    backup["servos"][7] = yaml.safe_load(yaml.safe_dump(backup["servos"][1]))
+    path.write_text(yaml.safe_dump(backup))
+    out = tool(rig, "restore", str(path), "--yes", "--torque-off", "--json")
+    doc = json.loads(out.stdout)
+    assert out.returncode == 1 and "ID 7: not handled by this node" in out.stderr, out.text
+    assert "baud_rate 57,600 bps (1): it changes the bus under the running node" in out.stderr
+    assert [rig.sim.servo(i).read(n) for i, n in ((1, "temperature_limit"), (2, "operating_mode"), (2, "baud_rate"))] \
+        == [limit, mode, 3]
+    assert [rig.sim.servo(i).read("torque_enable") for i in (1, 2)] == [1, 1]
+    assert {s["id"]: len(s["written"]) for s in doc["servos"]} == {1: 1, 2: 1, 7: 0}
+
+
 def test_a_verb_that_changes_the_bus_is_refused_and_direct_is_refused_as_before(rig):
     out = tool(rig, "set-id", "1", "5", "--yes")
     assert out.returncode == 1 and rig.sim.servo(1).read("id") == 1
     assert len(out.stderr.strip().splitlines()) == 1
     assert "held by the running node /dynamixel_handler" in out.stderr and "changes the bus under it" in out.stderr
-    out = tool(rig, "restore", "backup.yaml", "--dry-run")
-    assert out.returncode == 1 and "does not go through the node yet" in out.stderr
+    out = tool(rig, "calibrate", "1", "--joints", "j.yaml")
+    assert out.returncode == 1 and "calibrate does not go through the node yet" in out.stderr, out.text
+    assert "reboot, restore do" in out.stderr
     out = tool(rig, "get", "1", "id", "--direct")
     assert out.returncode == 1 and "is busy" in out.stderr and THROUGH not in out.text
 

@@ -4,16 +4,21 @@ with its checks (``commands/items_job.py``: a job of the loop, a few transaction
 loop keeps its rate). A request is checked for its shape at once (IDs or joint names, items named,
 one value per item or per servo and item) and refused with one line, limited to one a second per
 cause; the answer has one entry per servo and item, each with its value in its unit and raw, or
-why it was not read or written."""
+why it was not read or written.
+
+``dynamixel/reboot_servos`` (RebootServos): the servos named rebooted by the loop, one a step
+(``commands/reboot_job.py``), a servo holding torque only with ``torque_off`` (its torque back on
+with goal := present after), every servo checked before the first reboot."""
 from __future__ import annotations
 
 import time
 
-from dynamixel_handler_msgs.srv import GetItems, SetItems
+from dynamixel_handler_msgs.srv import GetItems, RebootServos, SetItems
 
 from ..commands.items_job import ItemsJob, Writes
 from ..commands.move_checks import DONE
 from ..commands.moves import LOOP_TIMEOUT_S, MoveError
+from ..commands.reboot_job import RebootServosJob
 from ..logs import cut
 from .services import QOS, MotionServices
 
@@ -21,6 +26,8 @@ from .services import QOS, MotionServices
 MAX_PAIRS = 2000
 #: time allowed per servo-item pair beyond the loop's usual answer time [s]
 PER_PAIR_S = 0.05
+#: time allowed per servo rebooted (the core waits up to 1 s for it to answer, then sets it up) [s]
+PER_REBOOT_S = 2.0
 
 
 class ItemServices:
@@ -30,6 +37,8 @@ class ItemServices:
         node.create_service(GetItems, "dynamixel/get_items", self._on_get, qos_profile=QOS,
                             callback_group=motion.group)
         node.create_service(SetItems, "dynamixel/set_items", self._on_set, qos_profile=QOS,
+                            callback_group=motion.group)
+        node.create_service(RebootServos, "dynamixel/reboot_servos", self._on_reboot, qos_profile=QOS,
                             callback_group=motion.group)
 
     def _job(self, req, writes: Writes | None) -> ItemsJob:
@@ -72,6 +81,21 @@ class ItemServices:
         except MoveError as err:
             res.success, res.message = False, f"refused: {err}"
         (self.node.get_logger().info if res.success else self.motion.warn)(f"set_items: {res.message}")
+        return res
+
+    async def _on_reboot(self, req: RebootServos.Request, res: RebootServos.Response) -> RebootServos.Response:
+        try:
+            targets = self.motion.targets(req.ids, req.joint_names, moves=False, positions=False)
+            ids = list(dict.fromkeys(i for i, _ in targets))
+            job = RebootServosJob(ids, bool(req.torque_off), time.monotonic() + LOOP_TIMEOUT_S + PER_REBOOT_S * len(ids))
+            await self.motion.settle(job)
+            res.success, res.message = job.outcome == DONE, job.message
+            res.id_list = [r.dxl_id for r in job.results]
+            res.torque_on = [r.torque_on for r in job.results]
+            res.errors = [r.error for r in job.results]
+        except MoveError as err:
+            res.success, res.message = False, f"refused: {err}"
+        (self.node.get_logger().info if res.success else self.motion.warn)(f"reboot_servos: {res.message}")
         return res
 
     @staticmethod

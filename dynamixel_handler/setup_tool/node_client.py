@@ -13,7 +13,7 @@ from typing import Any, Sequence
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
-from dynamixel_handler_msgs.srv import GetItems, SetItems
+from dynamixel_handler_msgs.srv import GetItems, RebootServos, SetItems
 
 from ..bus.owner_record import Owner
 from .errors import StepFailed
@@ -24,6 +24,8 @@ __all__ = ["Entry", "NodeClient", "FIND_S"]
 FIND_S = 5.0
 #: time allowed beyond the node's own deadline for a request (its loop answers within 5 s, 50 ms a pair) [s]
 SLACK_S = 3.0
+#: the node's time per servo of a reboot (it waits up to 1 s for the servo, then sets it up) [s]
+REBOOT_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -58,7 +60,7 @@ class NodeClient:
     def service(self, name: str) -> str:
         return f"{self.owner.namespace.rstrip('/')}/dynamixel/{name}"
 
-    def _call(self, kind: Any, name: str, request: Any, pairs: int) -> Any:
+    def _call(self, kind: Any, name: str, request: Any, pairs: int, per_pair_s: float = 0.05) -> Any:
         full = self.service(name)
         client = self._clients.get(full)
         if client is None:
@@ -68,7 +70,7 @@ class NodeClient:
                              f"{FIND_S:g} s (another ROS domain or discovery range than this shell's? "
                              f"ROS_DOMAIN_ID {self.owner.domain_id} is the node's); stop it to use the port directly")
         future = client.call_async(request)
-        deadline = 5.0 + 0.05 * pairs + SLACK_S
+        deadline = 5.0 + per_pair_s * pairs + SLACK_S
         self.executor.spin_until_future_complete(future, timeout_sec=deadline)
         if not future.done():
             client.remove_pending_request(future)
@@ -122,6 +124,12 @@ class NodeClient:
                                force=force, torque_off=torque_off)
         res = self._call(SetItems, "set_items", req, len(ids) * len(items))
         return res, _entries(res)
+
+    def reboot(self, ids: Sequence[int], torque_off: bool) -> Any:
+        """The named servos rebooted by the node (``dynamixel/reboot_servos``): its answer, one entry
+        per servo (``id_list``, ``torque_on``, ``errors``)."""
+        req = RebootServos.Request(ids=list(ids), torque_off=torque_off)
+        return self._call(RebootServos, "reboot_servos", req, len(ids), REBOOT_S)
 
 
 def _entries(res: Any) -> list[Entry]:

@@ -17,7 +17,7 @@ from .node_verbs import NodeContext
 from .safety import refuse_torque
 from .servo import Servo
 
-__all__ = ["set_mode_verb"]
+__all__ = ["set_mode_verb", "wait_modes"]
 
 #: how long the node is given to switch (its mode_change_interval_sec, 1 s by default, and retries) [s]
 SWITCH_S = 8.0
@@ -46,7 +46,7 @@ def set_mode_verb(ctx: NodeContext, args: argparse.Namespace) -> None:
     torque = {s.dxl_id for s in changing if now[s.dxl_id]["torque_enable"] == 1}
     if changing:
         _switch(ctx, changing, changing[0].model.mode_name(target[changing[0].dxl_id]) or text, torque)
-    _report(ctx, args, servos, changing, target, now, torque, _wait(ctx, changing, target))
+    _report(ctx, args, servos, changing, target, now, torque, wait_modes(ctx, changing, target))
 
 
 def _switch(ctx: NodeContext, changing: list[Servo], name: str, torque: set[int]) -> None:
@@ -81,7 +81,7 @@ def _report(ctx: NodeContext, args: argparse.Namespace, servos: list[Servo], cha
     ctx.fail_if_missing("the others were switched")
 
 
-def _wait(ctx: NodeContext, changing: list[Servo], target: dict[int, int]) -> dict[int, int]:
+def wait_modes(ctx: NodeContext, changing: list[Servo], target: dict[int, int]) -> dict[int, int]:
     """The modes of ``changing`` once all read as asked, or as they read after SWITCH_S."""
     end = time.monotonic() + SWITCH_S
     got: dict[int, int] = {}

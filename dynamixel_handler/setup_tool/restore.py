@@ -13,13 +13,14 @@ from .context import Context
 from .errors import StepFailed
 from .find import Placed
 from .items import show_value
+from .output import Output
 from .protocol1 import protocol_of_type
 from .restore_file import load
 from .restore_plan import Plan, plan_all, plan_doc
 from .safety import JOURNAL, Interrupted, Touched, held
 from .servo import Servo, connect
 
-__all__ = ["restore"]
+__all__ = ["restore", "show_plans", "question", "finish", "restored_line", "dry_run"]
 
 
 def _rows(plans: list[Plan]) -> list[list[object]]:
@@ -94,6 +95,10 @@ def _apply(ctx: Context, plan: Plan, done: list[str]) -> None:
                 touched.torque = "on (as before)"
 
 
+def restored_line(plan: Plan, done: list[str]) -> str:
+    return f"{plan.entry.who}{' (replacement)' if plan.replacement else ''}: written and read back: {'; '.join(done)}"
+
+
 def _run(ctx: Context, plans: list[Plan]) -> tuple[list[dict[str, Any]], list[str]]:
     """Every servo's writes; (per servo: what was written and what not, the failures)."""
     report, failures = [], []
@@ -117,23 +122,22 @@ def _run(ctx: Context, plans: list[Plan]) -> tuple[list[dict[str, Any]], list[st
             failures.append(f"{exc} (written before it: {', '.join(done) or 'nothing'})")
             ctx.out.error(failures[-1])
             continue
-        ctx.out.say(f"{plan.entry.who}{' (replacement)' if plan.replacement else ''}: written and read back: "
-                    f"{'; '.join(done)}")
+        ctx.out.say(restored_line(plan, done))
     return report, failures
 
 
-def _show(ctx: Context, plans: list[Plan], args: argparse.Namespace) -> list[str]:
+def show_plans(out: Output, plans: list[Plan], args: argparse.Namespace) -> list[str]:
     """The table of every write (the dry run's answer); returns what will not be done."""
     rows = _rows(plans)
     if rows:
-        ctx.out.table(f"restore from {args.file}", ["ID", "item", "now", "from the file"], rows)
-    ctx.out.document.update(file=args.file, dry_run=bool(args.dry_run), servos=[plan_doc(p) for p in plans],
+        out.table(f"restore from {args.file}", ["ID", "item", "now", "from the file"], rows)
+    out.document.update(file=args.file, dry_run=bool(args.dry_run), servos=[plan_doc(p) for p in plans],
                             changes=[{"id": p.entry.dxl_id, "item": i, "now": n, "file": f}
                                      for p in plans for i, n, f in p.writes()])
     return [p.problem for p in plans if p.problem] + [w for p in plans for w in p.refused]
 
 
-def _question(plans: list[Plan], writes: int) -> str:
+def question(plans: list[Plan], writes: int) -> str:
     torque = any(p.torque and p.writes() for p in plans)
     moved = [f"ID {p.servo.dxl_id} at {p.baudrate} bps becomes ID {p.entry.dxl_id}" for p in plans
              if p.replacement and p.servo is not None]
@@ -144,24 +148,37 @@ def _question(plans: list[Plan], writes: int) -> str:
 
 def restore(ctx: Context, args: argparse.Namespace) -> None:
     plans = plan_all(ctx, load(args.file), args.file)
-    skipped = _show(ctx, plans, args)
+    skipped = show_plans(ctx.out, plans, args)
     writes = sum(len(p.writes()) for p in plans)
+    if dry_run(ctx.out, args, writes, skipped):
+        return
+    if writes:
+        ctx.confirm(question(plans, writes))
+    report, failures = _run(ctx, plans)
+    finish(ctx.out, report, failures, skipped, writes)
+
+
+def dry_run(out: Output, args: argparse.Namespace, writes: int, skipped: list[str]) -> bool:
+    """True when nothing is to be done: a dry run (StepFailed when the real run would be
+    incomplete), or every servo as in the file."""
     if args.dry_run:  # the exit code the real run would give: 1 when it would be incomplete
         if skipped:
             raise StepFailed(f"dry run: {writes} item(s) would be written, nothing written; the real run would be "
                              f"incomplete: {'; '.join(dict.fromkeys(skipped))}")
-        ctx.out.say(f"dry run: {writes} item(s) would be written, nothing written")
-        return
-    if writes:
-        ctx.confirm(_question(plans, writes))
-    elif not skipped:
-        ctx.out.say(f"every servo already matches {args.file}: nothing written")
-        return
-    report, failures = _run(ctx, plans)
-    ctx.out.document.update(servos=report)
+        out.say(f"dry run: {writes} item(s) would be written, nothing written")
+        return True
+    if not writes and not skipped:
+        out.say(f"every servo already matches {args.file}: nothing written")
+        return True
+    return False
+
+
+def finish(out: Output, report: list[dict[str, Any]], failures: list[str], skipped: list[str], writes: int) -> None:
+    """The report in the document, the last line; StepFailed when something was not done."""
+    out.document.update(servos=report)
     written = sum(len(r["written"]) for r in report)
     if failures or skipped:
         not_done = list(dict.fromkeys(failures + skipped))
         raise StepFailed(f"restore incomplete: {written} item(s) written and read back; not done: {'; '.join(not_done)}")
     if writes:
-        ctx.out.say(f"{written} item(s) written and read back")
+        out.say(f"{written} item(s) written and read back")

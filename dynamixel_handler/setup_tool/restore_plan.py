@@ -6,7 +6,7 @@ to be given the backup's ID and rate first; then the items that differ. Every va
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any, Iterable, Protocol
 
 from ..bus import BusError
 from ..bus.ops import Ping
@@ -15,13 +15,22 @@ from .checks import problems
 from .context import Context
 from .errors import BadArguments
 from .items import show_value
+from .output import Output
 from .protocol1 import protocol_of_type, type_1_warning
 from .restore_file import Entry, present
 from .safety import needs_torque_off, refuse_torque
 from .servo import Servo, connect
 from .values import servo_doc
 
-__all__ = ["Plan", "plan_all", "plan_doc"]
+__all__ = ["Plan", "Rules", "check_plan", "plan_all", "plan_doc"]
+
+
+class Rules(Protocol):
+    """What a plan's check asks of the verb: the owner's consents and where to warn."""
+
+    force: bool
+    torque_off: bool
+    out: Output
 
 
 @dataclass
@@ -174,7 +183,7 @@ def _baud_move(ctx: Context, plan: Plan, raw: int, seen: Iterable[tuple[int, int
         plan.move_baud = raw
 
 
-def _check(ctx: Context, plan: Plan, now: dict[str, int], ids: set[int]) -> list[str]:
+def check_plan(ctx: Rules, plan: Plan, now: dict[str, int], ids: set[int]) -> list[str]:
     """Every reason the plan may not be carried out (the dangerous ones unless --force)."""
     assert plan.servo is not None
     new = {item.name: raw for item, _, raw in plan.changes}
@@ -190,7 +199,7 @@ def _check(ctx: Context, plan: Plan, now: dict[str, int], ids: set[int]) -> list
     return found
 
 
-def _protocol_switch(ctx: Context, plan: Plan) -> list[str]:
+def _protocol_switch(ctx: Rules, plan: Plan) -> list[str]:
     """A Protocol Type of 1 in the file for a servo that answers Protocol 2.0: refused without
     --force (with it, the same warning as ``set``)."""
     assert plan.servo is not None
@@ -214,7 +223,7 @@ def plan_all(ctx: Context, entries: dict[int, Entry], path: str) -> list[Plan]:
     found: list[str] = []
     for plan in plans.values():
         if plan.servo is not None:
-            found += _check(ctx, plan, _changes(ctx, plan, seen), ids)
+            found += check_plan(ctx, plan, _changes(ctx, plan, seen), ids)
     if found:
         more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
         raise BadArguments(f"{found[0]}: refused, nothing written{more}")

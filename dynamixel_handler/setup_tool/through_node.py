@@ -1,6 +1,7 @@
 """The set-up tool on a port a running handler holds: the verbs that can go through the node do
 (``node_verbs.py``: ``get``, ``set``, ``info``, ``backup``; ``node_monitor.py``: ``monitor``;
-``node_mode.py``: ``set-mode``), the others are refused with what to do.
+``node_mode.py``: ``set-mode``; ``node_reboot.py``: ``reboot``; ``node_restore.py``: ``restore``),
+the others are refused with what to do.
 
 The node is found from the device with no flag: the port's lock names the pid that holds it
 (``bus/lock_holder.py``), the owner record the node keeps beside it names the node, its namespace
@@ -22,7 +23,7 @@ from .output import Output
 __all__ = ["THROUGH", "BUS_CHANGING", "owner_of", "run"]
 
 #: the verbs that go through the node
-THROUGH = ("get", "set", "info", "backup", "monitor", "set-mode")
+THROUGH = ("get", "set", "info", "backup", "monitor", "set-mode", "reboot", "restore")
 #: the verbs that change the bus under the node (IDs, baud rates, the servos it handles)
 BUS_CHANGING = ("scan", "set-id", "set-baud", "assign-ids", "factory-reset")
 
@@ -58,7 +59,7 @@ def run(owner: Owner, device: str, out: Output, args: argparse.Namespace) -> Non
     """``args``'s verb through ``owner``; StepFailed (exit 1) for a verb that cannot go through it."""
     if args.verb_name not in THROUGH:
         raise StepFailed(_refusal(owner, device, args.verb_name))
-    from . import node_client, node_mode, node_monitor, node_verbs  # rclpy: only here
+    from . import node_client, node_mode, node_monitor, node_reboot, node_restore, node_verbs  # rclpy
 
     out.say(f"through the running node {owner.node} (pid {owner.pid}, ROS_DOMAIN_ID {owner.domain_id}), which holds "
             f"{device}")
@@ -67,7 +68,8 @@ def run(owner: Owner, device: str, out: Output, args: argparse.Namespace) -> Non
     try:
         ctx = node_verbs.NodeContext(client, out, args.yes, device, torque_off=args.torque_off, force=args.force,
                                      raw=args.raw)
-        verbs = {**node_verbs.VERBS, "monitor": node_monitor.monitor_verb, "set-mode": node_mode.set_mode_verb}
+        verbs = {**node_verbs.VERBS, "monitor": node_monitor.monitor_verb, "set-mode": node_mode.set_mode_verb,
+                 "reboot": node_reboot.reboot_verb, "restore": node_restore.restore_verb}
         verbs[args.verb_name](ctx, args)
     finally:
         client.close()
