@@ -21,13 +21,14 @@ import threading
 import time
 from typing import Callable, Iterable, Mapping
 
+from dynamixel_handler.control_table import FAMILIES
+
 from ..protocol import servo as p
 from ..protocol.servo import LoggedInstruction
 from .faults import ReplyFaults
 from .instructions import InstructionSet, Refusal
 from .plugged import AnyServo, new_servo, pair, read_state, set_bps, state_of, write_state
 from .protocol1 import Protocol1Instructions
-from .protocol1_servo import turn_by_hand1
 from .serving import FACTORY_BAUDRATE, WireServer, WireSettings
 from .servo import VirtualServo, turn_by_hand
 from .transport import PtyPort
@@ -185,10 +186,11 @@ class VirtualBus(WireSettings):
         return self._lock
 
     def servo(self, servo_id: int) -> VirtualServo:
-        """The (first added) Protocol 2.0 servo at ``servo_id``; ``servos_at`` gives them all."""
+        """The (first added) servo of a Protocol 2.0 family at ``servo_id``; ``servos_at`` gives them
+        all."""
         with self._lock:
             for s in self._servos:
-                if s.id == servo_id and isinstance(s, VirtualServo):
+                if s.id == servo_id and s.model.family in FAMILIES:
                     return s
         raise KeyError(f"no virtual servo with ID {servo_id}")
 
@@ -199,10 +201,7 @@ class VirtualBus(WireSettings):
             servos = self.servos_at(servo_id)
             if not servos:
                 raise KeyError(f"no virtual servo with ID {servo_id}")
-            if isinstance(servos[0], VirtualServo):
-                turn_by_hand(servos[0], float(deg))
-            else:
-                turn_by_hand1(servos[0], float(deg))
+            turn_by_hand(servos[0], float(deg))
 
     def servos_at(self, servo_id: int) -> list[AnyServo]:
         """Every servo at ``servo_id`` (Protocol 1.0 ones included), in the order added: more
@@ -212,11 +211,11 @@ class VirtualBus(WireSettings):
 
     @property
     def servos(self) -> dict[int, VirtualServo]:
-        """The Protocol 2.0 servos by ID (the first added, where two share an ID)."""
+        """The servos of the Protocol 2.0 families by ID (the first added, where two share an ID)."""
         with self._lock:
             out: dict[int, VirtualServo] = {}
             for s in sorted(self._servos, key=lambda s: s.id):
-                if isinstance(s, VirtualServo):
+                if s.model.family in FAMILIES:
                     out.setdefault(s.id, s)
             return out
 

@@ -27,6 +27,8 @@ from .bus import AnyServo, VirtualBus
 from .protocol1 import PROTOCOL1_MODELS, protocol1_model
 
 SAVE_PERIOD_S = 0.5
+#: what ``list`` adds to a servo that answers another protocol than 2.0
+_PROTOCOL_MARKS = {1: " [Protocol 1.0]"}
 
 COMMANDS_HELP = """commands (one per line on stdin):
   silent ID | answer ID        an ID stops answering / comes back
@@ -157,7 +159,7 @@ def _servos_from(args: argparse.Namespace, ap: argparse.ArgumentParser) -> list[
 
 def describe_servo(bus: VirtualBus, servo: AnyServo) -> str:
     """One line per servo: ID, model, baud rate, protocol, and whether it collides or is silent."""
-    marks = " [Protocol 1.0]" if not servo.speaks_protocol_2 else ""
+    marks = _PROTOCOL_MARKS.get(servo.protocol, "")
     if len(_colliding(bus, servo)) > 1:
         marks += " [shares its ID: collides]"
     marks += " [silent]" if servo.silent else ""
@@ -167,7 +169,7 @@ def describe_servo(bus: VirtualBus, servo: AnyServo) -> str:
 def _colliding(bus: VirtualBus, servo: AnyServo) -> list[AnyServo]:
     """The servos that answer together with ``servo``: same ID, protocol and baud rate."""
     return [s for s in bus.servos_at(servo.id)
-            if s.speaks_protocol_2 == servo.speaks_protocol_2 and s.baudrate == servo.baudrate]
+            if s.protocol == servo.protocol and s.baudrate == servo.baudrate]
 
 
 def _finite(text: str) -> float:

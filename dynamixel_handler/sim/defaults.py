@@ -24,25 +24,35 @@ class Family:
     nominal_v: float
     firmware: int
     fast_read: bool
+    #: the first firmware version with Fast Sync/Bulk Read
+    fast_read_from: int
 
 
 # Firmware version per control-table layout: X330 v52 (Indirect Data at 208), X430/X540 v48,
 # P and PRO "-R(A)" v13 (Fast Read from v12), old PRO "-R" v25 (no fast read), Y v13 (a
 # representative number: the Y pages give none; Fast Read is part of its Protocol 2.0).
-_FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25, "Y": 13, "XL320": 23}
-# Layouts without Fast Sync/Bulk Read: old PRO "-R", XL-320 (v23 a representative number).
-_NO_FAST_READ = frozenset({"OLD_PRO", "XL320"})
+# Protocol 1.0 firmware (the pages leave it blank): representative numbers, MX from v41 (Realtime
+# Tick needs v40 / v41).
+_PROTOCOL1_LAYOUTS = ("P1_AX", "P1_RX", "P1_DX", "P1_EX", "P1_MX1")
+_FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25, "Y": 13, "XL320": 23,
+             **{layout: 24 for layout in _PROTOCOL1_LAYOUTS}, "P1_MX1": 41}
+# Layouts without Fast Sync/Bulk Read: old PRO "-R", XL-320 (v23 a representative number), and the
+# Protocol 1.0 ones (no such instruction in Protocol 1.0).
+_NO_FAST_READ = frozenset({"OLD_PRO", "XL320", *_PROTOCOL1_LAYOUTS})
 # The supply a servo runs on, from its factory Max Voltage Limit: 5 V parts (up to 7.0 V), the
-# XL-320 (9.0 V: 7.4 V recommended), 12 V parts (up to 16.0 V), 24 V parts.
+# XL-320 (9.0 V: 7.4 V recommended), 12 V parts (up to 16.0 V), 24 V parts; the Protocol 1.0
+# servos at a representative 12 V.
 _NOMINAL_V = ((70, 5.0), (90, 7.4), (160, 12.0))
+_SUPPLY_V = {layout: 12.0 for layout in _PROTOCOL1_LAYOUTS}
 
 
 def family(model: Model) -> Family:
     """The firmware, the Fast Read support and the supply voltage of a model."""
     max_v = model.factory.get("max_voltage_limit", 400)
-    nominal = next((volts for limit, volts in _NOMINAL_V if max_v <= limit), 24.0)
+    nominal = _SUPPLY_V.get(model.layout) or next((volts for limit, volts in _NOMINAL_V if max_v <= limit), 24.0)
     fast = model.layout not in _NO_FAST_READ and not model.name.startswith("2X")
-    return Family(nominal, _FIRMWARE[model.layout], fast)
+    fast_from = (46 if model.layout == "X330" else 45) if model.family.x_table else 12
+    return Family(nominal, _FIRMWARE[model.layout], fast, fast_from)
 
 
 def _pulses(value: float, per_pulse: float) -> int:

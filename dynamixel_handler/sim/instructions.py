@@ -20,6 +20,9 @@ READ_INSTRUCTIONS = (p.READ, p.SYNC_READ, p.FAST_SYNC_READ, p.BULK_READ, p.FAST_
 _BROADCAST_TO_ALL = (p.PING, p.ACTION, p.REBOOT, p.FACTORY_RESET, p.CLEAR)
 FACTORY_RESET_OPTIONS = (0x01, 0x02, 0xFF)
 
+#: the protocol these packets are (a servo hears them when it answers this protocol)
+PROTOCOL = 2
+
 Refusal = tuple[float, int, int, bytes, int]
 """A write a servo refused: (time, id, address, data, error code)."""
 
@@ -42,19 +45,15 @@ class InstructionSet:
 
     def _hearing(self, packet_id: int) -> list[VirtualServo]:
         """Servos that hear a packet for ``packet_id``, in ID order (broadcast: all). A servo
-        set to Protocol 1.0 (Protocol Type 1) ignores Protocol 2.0 packets."""
-        alive = [s for s in self._servos if not s.silent and self._on_line_speed(s) and s.speaks_protocol_2]
+        that answers Protocol 1.0 (its family's, or Protocol Type 1) ignores Protocol 2.0 packets."""
+        alive = [s for s in self._servos if not s.silent and s.protocol == PROTOCOL and s.hears(self.line_bps)]
         if packet_id == p.BROADCAST_ID:
             return sorted(alive, key=lambda s: s.id)
         return [s for s in alive if s.id == packet_id]
 
     def _secondary(self, packet_id: int) -> list[VirtualServo]:
-        return [s for s in self._servos if not s.silent and self._on_line_speed(s) and s.speaks_protocol_2
+        return [s for s in self._servos if not s.silent and s.protocol == PROTOCOL and s.hears(self.line_bps)
                 and s.model.has("secondary_id") and s.id != packet_id and s.registers.peek("secondary_id") == packet_id]
-
-    def _on_line_speed(self, servo: VirtualServo) -> bool:
-        """Whether ``servo`` can decode the packet at hand (always, unless check_baudrate)."""
-        return self.line_bps is None or servo.baudrate == self.line_bps
 
     def execute(self, packet: p.Packet) -> Replies:
         now = self.clock()

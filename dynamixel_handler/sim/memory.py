@@ -8,6 +8,7 @@ lie in RAM addresses on X models); RAM comes back at its factory values.
 from __future__ import annotations
 
 from ..protocol import servo as p
+from .defaults import MODE_RESET_ITEMS
 from .registers import Registers
 
 BACKUP_KEY = b"CTRL"  # Control Table Backup: 0x01 (store) or 0x02 (restore), then "CTRL"
@@ -36,9 +37,17 @@ class Memory:
         for eeprom, ram in r.model.ram_copies.items():  # XL-320: Torque Limit := Max Torque
             r.poke(ram, r.peek(eeprom))
 
+    def mode_changed(self) -> None:
+        """The e-Manual: a new operating mode puts gains and profiles back to their defaults (not
+        those Y keeps in its Hybrid area)."""
+        for name in MODE_RESET_ITEMS:
+            if name in self.defaults and name not in self._r.model.hybrid_items:
+                self._r.poke(name, self.defaults[name])
+
     def factory_values(self, option: int) -> None:
         """Factory Reset's values: 0x01 keeps the ID, 0x02 the ID and the Baud Rate, 0xFF nothing
-        (the ID becomes 1). The caller power-cycles the servo after it."""
+        (the ID becomes 1); bytes no item owns (which a Protocol 1.0 host may write) back to 0. The
+        caller power-cycles the servo after it."""
         keep = {}
         if option in (0x01, 0x02):
             keep["id"] = self._r.peek("id")
@@ -47,6 +56,7 @@ class Memory:
         for name, value in self.defaults.items():
             self._r.poke(name, keep.get(name, 1 if name == "id" else value))
         self._r.file.factory_indirect()
+        self._r.file.clear_loose_bytes()
 
     def backup(self, params: bytes) -> int:
         """Control Table Backup (0x20): 0x01 "CTRL" stores the EEPROM area, 0x02 "CTRL" puts it
@@ -72,7 +82,8 @@ class Memory:
 
     def state(self) -> dict:
         """What survives a power cycle, as JSON-ready values (the bus's ``--state`` file)."""
-        return {"model": self._r.model.number, "eeprom": self._r.file.eeprom_image().hex(),
+        return {"protocol": self._r.model.protocol, "model": self._r.model.number,
+                "eeprom": self._r.file.eeprom_image().hex(),
                 "backup": self._backup.hex() if self._backup is not None else None}
 
     def load(self, state: dict) -> None:

@@ -7,30 +7,31 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Callable, Iterable, Union
+from typing import Callable, Iterable
 
-from .protocol1 import PROTOCOL1_MODELS, Protocol1Servo
+from dynamixel_handler.control_table import model_by_number
+
+from .protocol1 import PROTOCOL1_MODELS
 from .servo import VirtualServo
 
-AnyServo = Union[VirtualServo, Protocol1Servo]
-"""A servo of the bus: a Protocol 2.0 ``VirtualServo`` or a Protocol 1.0 ``Protocol1Servo``."""
+AnyServo = VirtualServo
+"""A servo of the bus, of any family (one engine: ``VirtualServo``)."""
 
 
 def new_servo(model_number: int, servo_id: int, clock: Callable[[], float]) -> AnyServo:
-    """A factory-fresh servo of the model at ``servo_id``."""
-    if model_number in PROTOCOL1_MODELS:
-        return Protocol1Servo(PROTOCOL1_MODELS[model_number], servo_id, clock)
-    return VirtualServo(model_number, servo_id, clock)
+    """A factory-fresh servo of the model at ``servo_id`` (the model numbers of the Protocol 1.0
+    families and of the others do not overlap)."""
+    model = PROTOCOL1_MODELS.get(model_number) or model_by_number(model_number)
+    return VirtualServo(model, servo_id, clock)
 
 
 def pair(servo: AnyServo, servos: Iterable[AnyServo]) -> None:
     """A dual servo (2XL430, 2XC430) is two IDs sharing one Baud Rate: each one added is
     paired with the first unpaired one of its model, in the order they were added."""
-    if not isinstance(servo, VirtualServo) or not servo.model.name.startswith("2X"):
+    if not servo.model.name.startswith("2X"):
         return
     for other in servos:
-        if isinstance(other, VirtualServo) and other.model.number == servo.model.number \
-                and other.partner is None:
+        if other.model.number == servo.model.number and other.partner is None:
             servo.partner, other.partner = other, servo
             servo.write("baud_rate", other.read("baud_rate"))
             return
@@ -68,12 +69,8 @@ def read_state(path: str, clock: Callable[[], float]) -> list[AnyServo]:
         data = json.load(f)
     servos: list[AnyServo] = []
     for entry in data["servos"]:
-        servo: AnyServo
-        if entry.get("protocol") == 1:
-            servo = Protocol1Servo.from_state(entry, clock)
-        else:
-            servo = VirtualServo(int(entry["model"]), 1, clock)
-            servo.load_state(entry, clock())
+        servo = new_servo(int(entry["model"]), 1, clock)
+        servo.load_state(entry, clock())
         pair(servo, servos)
         servos.append(servo)
     return servos

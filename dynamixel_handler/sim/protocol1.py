@@ -1,8 +1,9 @@
 """Protocol 1.0 on the virtual bus: packets, and what its Protocol 1.0 servos do with them.
 
 The servos are the AX, RX, DX, EX and MX (Protocol 1.0 firmware) models of ``control_table``
-(``protocol1_models()``: their tables, units and factory values), each a ``Protocol1Servo``
-(``protocol1_servo``, its shaft in ``protocol1_motion``). They answer Protocol 1.0 packets
+(``protocol1_models()``: their tables, units and factory values), each a ``VirtualServo`` as every
+other, with the Protocol 1.0 firmware (``firmware.PROTOCOL1``: its write rules, error bits and baud
+rates). They answer Protocol 1.0 packets
 (``FF FF ID LEN INST PARAMS CHK``, the checksum being the inverted low byte of the sum from ID on)
 and ignore Protocol 2.0 ones, as the 2.0 servos ignore theirs, so a 2.0 and a 1.0 servo on one ID
 do not collide: each hears only its own protocol.
@@ -31,20 +32,23 @@ from dynamixel_handler.control_table import Model, protocol1_models
 
 from ..protocol import protocol1 as p1
 from ..protocol import servo as p2
-from ..protocol.protocol1 import ERR_CHECKSUM, ERR_INSTRUCTION, ERR_RANGE, checksum
+from ..protocol.protocol1 import ERR_CHECKSUM, ERR_RANGE, checksum
+from ..protocol.servo import ERR_DATA_RANGE
+from ..protocol.servo import ERR_INSTRUCTION as ERR_UNKNOWN
 from .faults import Replies
-from .protocol1_servo import Protocol1Servo
 from .servo import VirtualServo
 
-__all__ = ["PROTOCOL1_MODELS", "Protocol1Servo", "Protocol1Instructions", "Protocol1Parser", "build_instruction1",
+__all__ = ["PROTOCOL1_MODELS", "PROTOCOL", "Protocol1Instructions", "Protocol1Parser", "build_instruction1",
            "build_status1", "checksum", "protocol1_model"]
+
+#: the protocol these packets are (a servo hears them when it answers this protocol)
+PROTOCOL = 1
 
 HEADER1 = p1.HEADER
 BROADCAST_ID1 = p1.BROADCAST_ID
 PING1, READ1, WRITE1, REG_WRITE1, ACTION1, RESET1 = p1.PING, p1.READ, p1.WRITE, p1.REG_WRITE, p1.ACTION, p1.RESET
 SYNC_WRITE1, BULK_READ1 = p1.SYNC_WRITE, p1.BULK_READ
 KNOWN_INSTRUCTIONS1 = p1.INSTRUCTIONS
-ERR_RANGE1, ERR_INSTRUCTION1 = ERR_RANGE, ERR_INSTRUCTION
 _MAX_LENGTH = p1.MAX_LENGTH  # the longest instruction packet an AX/MX buffer takes (143 bytes of parameters)
 
 PROTOCOL1_MODELS: dict[int, Model] = {m.number: m for m in protocol1_models()}
@@ -122,94 +126,53 @@ class Protocol1Parser:
 BAD_CHECKSUM = 0x100
 
 
-class _SwitchedTo1:
-    """A Protocol 2.0 servo set to Protocol Type 1, seen through the 1.0 servo interface: its
-    control table, any refused access answered with the Range Error bit."""
-
-    bulk_read = False
-
-    def __init__(self, servo: VirtualServo, now: float) -> None:
-        self.servo, self.now = servo, now
-
-    @property
-    def id(self) -> int:
-        return self.servo.id
-
-    @property
-    def return_delay_s(self) -> float:
-        return self.servo.return_delay_s
-
-    @property
-    def status_return_level(self) -> int:
-        return self.servo.status_return_level
-
-    def error_flags(self, error: int) -> int:
-        return error
-
-    def host_read(self, address: int, length: int) -> tuple[int, bytes]:
-        error, data = self.servo.host_read(address, length, self.now)
-        return (ERR_RANGE1, b"") if error else (0, data)
-
-    def host_write(self, address: int, data: bytes) -> int:
-        return ERR_RANGE1 if self.servo.host_write(address, data, self.now) & 0x7F else 0
-
-    def reg_write(self, address: int, data: bytes) -> int:
-        return ERR_RANGE1 if self.servo.reg_write(address, data, self.now) & 0x7F else 0
-
-    def action(self) -> int:
-        return ERR_INSTRUCTION1 if self.servo.action(self.now) & 0x7F else 0
-
-    def factory_reset(self) -> None:
-        self.servo.factory_reset(0xFF, self.now)
-
-
-Listener = Protocol1Servo | _SwitchedTo1
-
-
 class Protocol1Instructions:
-    """What the Protocol 1.0 servos of the bus do with a 1.0 packet (see the module). ``servos``
-    is the bus's list: its Protocol 2.0 servos hear a 1.0 packet only when set to Protocol Type 1."""
+    """What the servos of the bus that answer Protocol 1.0 do with a 1.0 packet (see the module):
+    the Protocol 1.0 families' servos, and a Protocol 2.0 servo set to Protocol Type 1. ``servos`` is
+    the bus's list. A servo's refusal comes back as the status bit its firmware gives it
+    (``Firmware.protocol1_bits``)."""
 
-    def __init__(self, servos: list, stats: collections.Counter[str], clock: Callable[[], float]) -> None:
+    def __init__(self, servos: list[VirtualServo], stats: collections.Counter[str], clock: Callable[[], float]) -> None:
         self._servos = servos
         self.stats = stats
         self.clock = clock
         self.line_bps: int | None = None
 
-    def _hearing(self, packet_id: int) -> list[Listener]:
-        alive = [_one_point_o(s, self.line_bps, self.clock) for s in self._servos if not s.silent]
-        hearing = [s for s in alive if s is not None]
+    def _hearing(self, packet_id: int) -> list[VirtualServo]:
+        hearing = [s for s in self._servos if not s.silent and s.protocol == PROTOCOL and s.hears(self.line_bps)]
         if packet_id == BROADCAST_ID1:
             return hearing
         return [s for s in hearing if s.id == packet_id]
 
     def execute(self, packet: p2.Packet) -> Replies:
         self.stats["protocol1_instructions"] += 1
+        now = self.clock()
         if packet.instruction == SYNC_WRITE1:
-            self._sync_write(packet.params)
+            self._sync_write(packet.params, now)
             return []
         if packet.instruction == BULK_READ1:
-            return self._bulk_read(packet.params)
+            return self._bulk_read(packet.params, now)
         out: Replies = []
         for servo in self._hearing(packet.packet_id):
             before = (servo.id, servo.status_return_level)
             if packet.instruction & BAD_CHECKSUM:
-                error, data = ERR_CHECKSUM, b""
+                bits, data = ERR_CHECKSUM | _status_bits(servo, 0), b""
             else:
-                error, data = _ONE.get(packet.instruction, _unknown)(servo, packet.params)
+                error, data = _ONE.get(packet.instruction, _unknown)(servo, packet.params, now)
+                bits = _status_bits(servo, error)
             if _answers(packet, before[1]):
-                out.append((servo.return_delay_s, build_status1(before[0], servo.error_flags(error), data)))
+                out.append((servo.return_delay_s, build_status1(before[0], bits, data)))
         return out
 
-    def _sync_write(self, prm: bytes) -> None:
+    def _sync_write(self, prm: bytes, now: float) -> None:
         if len(prm) < 2:
             return
         address, length = prm[0], prm[1]
         for k in range(2, len(prm) - length, 1 + length):
             for servo in self._hearing(prm[k]):
-                servo.host_write(address, prm[k + 1:k + 1 + length])
+                servo.host_write(address, prm[k + 1:k + 1 + length], now)
 
-    def _bulk_read(self, prm: bytes) -> Replies:
+    def _bulk_read(self, prm: bytes, now: float) -> Replies:
         """Each listed servo in turn, right after the one before it (the first after its Return
         Delay Time); the replies stop at a listed ID that does not answer."""
         out: Replies = []
@@ -219,24 +182,27 @@ class Protocol1Instructions:
             if servo_id in seen:
                 continue
             seen.add(servo_id)
-            servos = [s for s in self._hearing(servo_id) if s.bulk_read] if servo_id != BROADCAST_ID1 else []
+            servos = [s for s in self._hearing(servo_id) if _bulk_read(s)] if servo_id != BROADCAST_ID1 else []
             if not servos:
                 break
             for servo in servos:
-                error, data = servo.host_read(address, length)
+                error, data = servo.host_read(address, length, now)
                 delay = servo.return_delay_s if not out else 0.0
-                out.append((delay, build_status1(servo.id, servo.error_flags(error), data)))
+                out.append((delay, build_status1(servo.id, _status_bits(servo, error), data)))
         return out
 
 
-def _one_point_o(servo: Protocol1Servo | VirtualServo, line_bps: int | None,
-                 clock: Callable[[], float]) -> Listener | None:
-    """The servo as a Protocol 1.0 listener at ``line_bps`` (None: it does not hear the packet)."""
-    if isinstance(servo, Protocol1Servo):
-        return servo if servo.hears(line_bps) else None
-    if servo.speaks_protocol_2 or not (line_bps is None or servo.baudrate == line_bps):
-        return None
-    return _SwitchedTo1(servo, clock())
+def _bulk_read(servo: VirtualServo) -> bool:
+    """It answers a Bulk Read (MX and EX; AX, RX and DX do not know the instruction)."""
+    return servo.firmware.bulk_read1 and servo.model.family.bulk_read
+
+
+def _status_bits(servo: VirtualServo, error: int) -> int:
+    """A status packet's error byte: the refusal ``error`` (an engine code) as the bit the servo's
+    firmware gives it, plus the conditions of the moment where its family reports them there."""
+    servo.refresh()
+    bit = servo.firmware.protocol1_bits.get(error, ERR_RANGE) if error else 0
+    return bit | servo.errors.in_status()
 
 
 def _answers(packet: p2.Packet, level: int) -> bool:
@@ -247,32 +213,35 @@ def _answers(packet: p2.Packet, level: int) -> bool:
     return instruction == PING1 or level == 2 or (level == 1 and instruction == READ1)
 
 
-def _read(servo: Listener, prm: bytes) -> tuple[int, bytes]:
-    return servo.host_read(prm[0], prm[1]) if len(prm) == 2 else (ERR_RANGE1, b"")
+Done = tuple[int, bytes]
 
 
-def _write(servo: Listener, prm: bytes) -> tuple[int, bytes]:
-    return (servo.host_write(prm[0], prm[1:]) if len(prm) >= 2 else ERR_RANGE1), b""
+def _read(servo: VirtualServo, prm: bytes, now: float) -> Done:
+    return servo.host_read(prm[0], prm[1], now) if len(prm) == 2 else (ERR_DATA_RANGE, b"")
 
 
-def _reg_write(servo: Listener, prm: bytes) -> tuple[int, bytes]:
-    return (servo.reg_write(prm[0], prm[1:]) if len(prm) >= 2 else ERR_RANGE1), b""
+def _write(servo: VirtualServo, prm: bytes, now: float) -> Done:
+    return (servo.host_write(prm[0], prm[1:], now) if len(prm) >= 2 else ERR_DATA_RANGE), b""
 
 
-def _action(servo: Listener, prm: bytes) -> tuple[int, bytes]:
-    return servo.action(), b""
+def _reg_write(servo: VirtualServo, prm: bytes, now: float) -> Done:
+    return (servo.reg_write(prm[0], prm[1:], now) if len(prm) >= 2 else ERR_DATA_RANGE), b""
 
 
-def _reset(servo: Listener, prm: bytes) -> tuple[int, bytes]:
-    servo.factory_reset()
+def _action(servo: VirtualServo, prm: bytes, now: float) -> Done:
+    return servo.action(now), b""
+
+
+def _reset(servo: VirtualServo, prm: bytes, now: float) -> Done:
+    servo.factory_reset(0xFF, now)
     return 0, b""
 
 
-def _unknown(servo: Listener, prm: bytes) -> tuple[int, bytes]:
-    return ERR_INSTRUCTION1, b""
+def _unknown(servo: VirtualServo, prm: bytes, now: float) -> Done:
+    return ERR_UNKNOWN, b""
 
 
-_ONE: dict[int, Callable[[Listener, bytes], tuple[int, bytes]]] = {
-    PING1: lambda servo, prm: (0, b""), READ1: _read, WRITE1: _write, REG_WRITE1: _reg_write,
+_ONE: dict[int, Callable[[VirtualServo, bytes, float], Done]] = {
+    PING1: lambda servo, prm, now: (0, b""), READ1: _read, WRITE1: _write, REG_WRITE1: _reg_write,
     ACTION1: _action, RESET1: _reset,
 }

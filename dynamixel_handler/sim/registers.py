@@ -55,6 +55,12 @@ class RegisterFile:
         for data, entry in self._map.items():
             self.poke(entry, data)
 
+    def clear_loose_bytes(self) -> None:
+        """Every byte that no item owns and that is no Indirect Data byte back to 0."""
+        for a, owner in enumerate(self.owner):
+            if owner is None and a not in self._map:
+                self.regs[a] = 0
+
     def eeprom_image(self) -> bytes:
         """The bytes a backup (and a state file) keeps: the EEPROM area and the Indirect
         Address entries that lie beyond it."""
