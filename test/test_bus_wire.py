@@ -297,14 +297,14 @@ def test_retries_then_success_and_servo_errors(peer):
 
     far = peer(answer)
     bus = open_bus(far.path, retry_num=5, retry_interval_ms=1.0)
-    assert bus.execute(Read(1, 126, 2)).value == b"\x2a\x00"  # alert bit alone: data still valid
+    got = bus.execute(Read(1, 126, 2))
+    assert got.value == b"\x2a\x00" and got.error == 0x80  # alert bit alone: data still valid
     assert bus.stats.retries == 2
-    assert bus.last_error_bytes[1] == 0x80
     sent_before = bus.stats.packets_sent
     refused = bus.execute(Write(1, 116, b"\x00\x00\x00\x00"))
     assert refused.value is False and refused.failure is Failure.REFUSED
     assert bus.stats.packets_sent == sent_before + 1  # a refusal is not retried
-    assert bus.last_error_bytes[1] == 0x06 and "limit" in refused.why
+    assert refused.error == 0x06 and "limit" in refused.why
     assert bus.stats.servo_errors == 1
     bus.close()
 

@@ -99,8 +99,6 @@ class DynamixelBus:
         #: the line's timing: the reply wait of a transaction (``reply_timeout_ms``), the one computed
         #: for the latest (``last_timeout_ms``), the margin, how late replies come
         self.timing: Receiver = self._t.rx
-        #: the status error byte last reported by each servo (0x80 = hardware error present)
-        self.last_error_bytes: dict[int, int] = self._t.rx.last_error_bytes
         #: the firmware version seen in Protocol 2.0 ping replies (a Protocol 1.0 status has none)
         self.firmware_versions: dict[int, int] = self._reads.firmware_versions
 

@@ -28,8 +28,6 @@ class Receiver:
         self.verbose = verbose
         #: the reply wait (ms) computed for the latest transaction
         self.last_timeout_ms = 0.0
-        #: status error byte last reported by each servo (0x80 = hardware error present)
-        self.last_error_bytes: dict[int, int] = {}
         #: how much later than their wire time replies arrive (learnt, seconds)
         self.reply_lag_s = 0.0
         #: ``time.monotonic()`` when the line is free of what was sent (packets queue behind each other)
@@ -139,7 +137,6 @@ class Receiver:
         return got
 
     def note_status(self, status: Any, *, framer: Framer) -> None:
-        self.last_error_bytes[status.dxl_id] = status.error
         if status.refused:
             self.stats.servo_errors += 1
             if self.verbose:

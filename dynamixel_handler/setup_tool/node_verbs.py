@@ -49,7 +49,6 @@ class _NoBus:
         self.baudrate = baudrate
         self.device = device
         self.firmware_versions: dict[int, int] = {}
-        self.last_error_bytes: dict[int, int] = {}
 
 
 @dataclass

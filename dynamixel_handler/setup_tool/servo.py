@@ -6,11 +6,11 @@ restored where the model needs it; read back and verified; a failure says which 
 is left in)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
-from ..bus import DynamixelBus, Failure
-from ..bus.ops import Ping, Read, Write
+from ..bus import DynamixelBus, Failure, Result
+from ..bus.ops import Instruction, Ping, Read, Write
 from ..control_table import Item, Model
 from ..units import decode, encode
 from .errors import StepFailed
@@ -32,6 +32,15 @@ class Servo:
     model: Model
     #: the protocol it answers: 2, or 1 (a Protocol 1.0 model, or a 2.0 model set to Protocol Type 1)
     protocol: int = 2
+    #: the error byte of the latest status it answered (in Protocol 1.0: its state, the error bits)
+    status_error: int = field(default=0, compare=False)
+
+    def execute(self, op: Instruction) -> Result[Any]:
+        """``op`` on its bus; the error byte of the status that came back is kept (``status_error``)."""
+        got = self.bus.execute(op)
+        if got.error is not None:
+            self.status_error = got.error
+        return got
 
     @property
     def who(self) -> str:
@@ -52,7 +61,7 @@ class Servo:
 
     def read(self, name: str) -> int:
         item = self.item(name)
-        got = self.bus.execute(Read(self.dxl_id, item.address, item.size, self.protocol))
+        got = self.execute(Read(self.dxl_id, item.address, item.size, self.protocol))
         if got.value is None:
             raise StepFailed(f"{self.who}: reading {item.name} failed: {_cause(got.why)}")
         return int(decode(item, got.value)[0])
@@ -60,14 +69,14 @@ class Servo:
     def read_block(self, first: Item, last: Item) -> bytes:
         """The bytes from ``first`` to the end of ``last`` in one read."""
         size = last.address + last.size - first.address
-        got = self.bus.execute(Read(self.dxl_id, first.address, size, self.protocol))
+        got = self.execute(Read(self.dxl_id, first.address, size, self.protocol))
         if got.value is None:
             raise StepFailed(f"{self.who}: reading {first.name}..{last.name} failed: {_cause(got.why)}")
         return bytes(got.value)
 
     def write(self, name: str, raw: int) -> None:
         item = self.item(name)
-        done = self.bus.execute(Write(self.dxl_id, item.address, encode(item, raw), self.protocol))
+        done = self.execute(Write(self.dxl_id, item.address, encode(item, raw), self.protocol))
         if not done and not self._answers_reads_only(done.failure):
             raise StepFailed(f"{self.who}: writing {item.name} = {show_value(self.model, item, raw)} "
                              f"failed: {_cause(done.why)}")
@@ -79,7 +88,7 @@ class Servo:
         if not self.over_protocol1 or failure is not Failure.NO_REPLY or not self.model.has("status_return_level"):
             return False
         item = self.model.item("status_return_level")
-        got = self.bus.execute(Read(self.dxl_id, item.address, item.size, 1))
+        got = self.execute(Read(self.dxl_id, item.address, item.size, 1))
         return got.value is not None and got.value[0] < 2
 
     def torque_on(self) -> bool:
@@ -102,7 +111,7 @@ class Servo:
         whose servos report them in Hardware Error Status)."""
         if not self.over_protocol1:
             return []
-        return error_names1(self.bus.last_error_bytes.get(self.dxl_id, 0))
+        return error_names1(self.status_error)
 
     def set_checked(self, name: str, raw: int, after: Callable[[], Servo] | None = None,
                     torque_off: bool = False) -> bool:

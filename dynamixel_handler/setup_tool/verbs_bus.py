@@ -95,7 +95,7 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
     failed ("" when it answers again)."""
     with held():
         entry = JOURNAL.touch(servo.dxl_id, servo.model.name, baudrate, "on" if torque else "off")
-        done = ctx.bus.execute(Reboot(servo.dxl_id, servo.protocol))
+        done = servo.execute(Reboot(servo.dxl_id, servo.protocol))
         if not done:
             return _no_reboot(ctx, servo, entry, torque) or done.why or "no reply"
         if _wait_back(ctx.bus, servo.dxl_id, servo.protocol) is None:
@@ -111,7 +111,7 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
 def _no_reboot(ctx: Context, servo: Servo, entry: Touched, torque: bool) -> str:
     """Why a Protocol 1.0 servo did not reboot when it answered the Reboot instruction with the
     Instruction Error bit (AX, RX and the other models without it): "" for any other failure."""
-    if servo.protocol != 1 or not ctx.bus.last_error_bytes.get(servo.dxl_id, 0) & ERR_INSTRUCTION:
+    if servo.protocol != 1 or not servo.status_error & ERR_INSTRUCTION:
         return ""
     entry.torque = "on (as before: not rebooted)" if torque else "off"
     return (f"the {servo.model.name} has no reboot instruction (Protocol 1.0: it answers Instruction Error); "

@@ -29,12 +29,12 @@ def test_a_reply_of_the_wrong_length_is_not_taken_either(line):
     assert transport.stats.timeouts == 1
 
 
-def test_the_error_byte_of_every_status_is_noted(line):
+def test_the_error_byte_of_every_status_is_kept_with_it(line):
     _, transport = line(lambda packet: [status(1, b"\x00", error=0x80)])
     transport.send(b"\xff\xff\xfd\x00\x01\x03\x00\x01\x00\x00")
     got = transport.rx.gather([(1, 1)], 10, False, framer=PROTOCOL2)
     assert got is not None and 1 in got  # the alert bit alone: the data is good
-    assert transport.rx.last_error_bytes == {1: 0x80}
+    assert got[1].error == 0x80
 
 
 def test_a_device_lost_mid_run_is_counted_once_and_fails_fast():
