@@ -69,7 +69,7 @@ def ours(path: str, ids: list[int], baudrate: int, fast: bool, latency_ms: float
     bus.open()
 
     def step() -> bool:
-        return len(bus.execute(SyncRead(PRESENT_ADDRESS, PRESENT_LENGTH, ids, fast)).value) == len(ids)
+        return len(bus.execute(SyncRead(PRESENT_ADDRESS, PRESENT_LENGTH, ids, fast, protocol=2)).value) == len(ids)
     return step, bus.close
 
 

@@ -142,8 +142,8 @@ class BusWithDummies:
             return self._sync_read(op)
         if isinstance(op, BulkRead):
             real, dummy = self._split_map(op.requests)
-            return _joined(self._on_wire(BulkRead(real, op.fast, op.protocol), {}) if real else Result({}),
-                           self._dummy_bus.execute(BulkRead(dummy)) if dummy else Result({}), "bulk read")
+            return _joined(self._on_wire(BulkRead(real, op.fast, protocol=op.protocol), {}) if real else Result({}),
+                           self._dummy_bus.execute(BulkRead(dummy, protocol=2)) if dummy else Result({}), "bulk read")
         if isinstance(op, BulkWrite):
             real, dummy = self._split_map(op.data)
             done = self._dummy_bus.execute(BulkWrite(dummy)) if dummy else _DONE
@@ -180,8 +180,8 @@ class BusWithDummies:
         real, dummy = self._split(op.ids)
         wire_part: Result[Any] = Result({})
         if real:
-            wire_part = self._on_wire(SyncRead(op.address, op.length, tuple(real), op.fast, op.protocol), {})
-        dummy_part = self._dummy_bus.execute(SyncRead(op.address, op.length, tuple(dummy))) if dummy else Result({})
+            wire_part = self._on_wire(SyncRead(op.address, op.length, tuple(real), op.fast, protocol=op.protocol), {})
+        dummy_part = self._dummy_bus.execute(SyncRead(op.address, op.length, tuple(dummy), protocol=2)) if dummy else Result({})
         return _joined(wire_part, dummy_part, f"sync read @{op.address}x{op.length}")
 
     def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
@@ -191,7 +191,7 @@ class BusWithDummies:
         real, dummy = self._split(ids)
         if not dummy and self._bus.is_open:
             return self._bus.start_sync_read(address, length, real, fast, protocol=protocol)
-        done = self._sync_read(SyncRead(address, length, tuple(ids), fast, protocol))
+        done = self._sync_read(SyncRead(address, length, tuple(ids), fast, protocol=protocol))
         read = GroupRead.finished(done.value)
         read.failure, read.why = done.failure, done.why
         return read

@@ -79,7 +79,7 @@ def _run(script: list, fast: bool, direct_io: bool, leftover: bytes = b"") -> tu
         if leftover:
             peer.send(leftover)
             time.sleep(0.05)  # let them land in the input before the first instruction goes out
-        results = [bus.execute(SyncRead(126, 10, [1, 2, 3], fast)).value for _ in range(2)]
+        results = [bus.execute(SyncRead(126, 10, [1, 2, 3], fast, protocol=2)).value for _ in range(2)]
         s = bus.stats
         return results, s.crc_errors, s.discarded_bytes, s.timeouts, s.bytes_rx, s.bytes_tx, log.lines
     finally:
@@ -117,7 +117,7 @@ def _vanish_mid_run(direct_io: bool) -> tuple:
     bus = DynamixelBus(peer.path, 1_000_000, **BUS, logger=log, direct_io=direct_io)
     try:
         bus.open()
-        first = bus.execute(SyncRead(126, 10, [1, 2, 3])).value
+        first = bus.execute(SyncRead(126, 10, [1, 2, 3], protocol=2)).value
         read = bus.start_sync_read(126, 10, [1, 2, 3], protocol=2)
         peer.vanish()
         return first, read.result(), bus.is_open, bus.stats.disconnects, [line for line in log.lines if "stopped" in line]
@@ -146,7 +146,7 @@ def _stale_before_a_write(direct_io: bool) -> tuple:
         time.sleep(0.05)
         assert bus.execute(bus.prepare_sync_write(116, 4, {1: bytes(4), 2: bytes(4)}, protocol=2)).value
         time.sleep(0.02)  # the write is answered by nothing
-        return bus.execute(SyncRead(126, 10, [1, 2, 3])).value, bus.stats.discarded_bytes, len(stale), peer.received
+        return bus.execute(SyncRead(126, 10, [1, 2, 3], protocol=2)).value, bus.stats.discarded_bytes, len(stale), peer.received
     finally:
         bus.close()
         peer.close()

@@ -68,10 +68,10 @@ def mixed():
 def test_each_servo_answers_in_its_own_protocol_on_one_line(mixed):
     sim, bus = mixed
     assert bus.execute(Ping(7, protocol=1)).value == AX12A
-    assert bus.execute(Ping(1)).value == XM430
+    assert bus.execute(Ping(1, protocol=2)).value == XM430
     # the firmware comes with a 2.0 status; a 1.0 servo's is an item of its model, not guessed
     assert bus.firmware_versions == {1: sim.servos_at(1)[0].read("firmware_version")}
-    silent = bus.execute(Ping(7, retries=0))           # the AX ignores Protocol 2.0
+    silent = bus.execute(Ping(7, retries=0, protocol=2))           # the AX ignores Protocol 2.0
     assert silent.value is None and silent.failure is Failure.NO_REPLY
     assert bus.execute(Ping(1, retries=0, protocol=1)).failure is Failure.NO_REPLY  # and the XM 1.0
     assert bus.execute(Read(7, MODEL_NUMBER1, 2, protocol=1)).value == AX12A.to_bytes(2, "little")

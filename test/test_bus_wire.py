@@ -64,7 +64,7 @@ def test_goal_with_ff_ff_fd_is_stuffed_on_the_wire(peer):
     """A P-series goal of -131073 pulses is FF FF FD FF little endian: it must go out stuffed."""
     far = peer(lambda packet: [status(1)])
     bus = open_bus(far.path)
-    assert bus.execute(Write(1, 564, (-131073).to_bytes(4, "little", signed=True))).value is True
+    assert bus.execute(Write(1, 564, (-131073).to_bytes(4, "little", signed=True), protocol=2)).value is True
 
     sent = far.received[0]
     body = bytes([0x03, 0x34, 0x02, 0xFF, 0xFF, 0xFD, 0xFD, 0xFF])  # INST, addr, stuffed data
@@ -102,7 +102,7 @@ def test_fast_bulk_read_ids_equal_to_address_and_length_bytes(peer):
 
     far = peer(answer)
     bus = open_bus(far.path)
-    got = bus.execute(BulkRead({1: (132, 4), 4: (146, 1)}, fast=True)).value
+    got = bus.execute(BulkRead({1: (132, 4), 4: (146, 1)}, fast=True, protocol=2)).value
     assert got == {1: data_1, 4: data_4}
     assert far.received[0][8:-2] == bytes([1, 132, 0, 4, 0, 4, 146, 0, 1, 0])
     assert bus.stats.full_successes == 1
@@ -118,7 +118,7 @@ def test_fast_sync_read_data_bytes_equal_to_ids(peer):
 
     far = peer(answer)
     bus = open_bus(far.path)
-    assert bus.execute(SyncRead(132, 4, [3, 7, 4], fast=True)).value == data
+    assert bus.execute(SyncRead(132, 4, [3, 7, 4], fast=True, protocol=2)).value == data
     bus.close()
 
 
@@ -131,7 +131,7 @@ def test_fast_sync_read_with_silent_last_servo_keeps_the_others(peer):
 
     far = peer(answer)
     bus = open_bus(far.path, retry_num=0)
-    assert bus.execute(SyncRead(132, 4, [1, 2, 3], fast=True)).value == data
+    assert bus.execute(SyncRead(132, 4, [1, 2, 3], fast=True, protocol=2)).value == data
     assert bus.stats.successes == 1 and bus.stats.full_successes == 0
     bus.close()
 
@@ -149,8 +149,8 @@ def test_unicast_action_consumes_its_reply_so_the_next_read_is_right(peer):
 
     far = peer(answer)
     bus = open_bus(far.path)
-    assert bus.execute(Action(1)).value is True
-    assert bus.execute(Read(1, 132, 4)).value == position
+    assert bus.execute(Action(1, protocol=2)).value is True
+    assert bus.execute(Read(1, 132, 4, protocol=2)).value == position
     assert [packet[7] for packet in far.received] == [0x05, 0x02]
     bus.close()
 
@@ -158,7 +158,7 @@ def test_unicast_action_consumes_its_reply_so_the_next_read_is_right(peer):
 def test_broadcast_action_waits_for_nothing(peer):
     far = peer()
     bus = open_bus(far.path)
-    assert bus.execute(Action()).value is True
+    assert bus.execute(Action(protocol=2)).value is True
     time.sleep(0.05)
     assert far.received[0][4] == 0xFE and far.received[0][7] == 0x05
     bus.close()
@@ -170,7 +170,7 @@ def test_stale_reply_and_noise_never_become_the_answer(peer):
     position = (1234).to_bytes(4, "little")
     far = peer(lambda packet: [status(1) + b"\x00\xff\x13" + status(1, position)])
     bus = open_bus(far.path)
-    assert bus.execute(Read(1, 132, 4)).value == position
+    assert bus.execute(Read(1, 132, 4, protocol=2)).value == position
     assert bus.stats.discarded_bytes > 0
     bus.close()
 
@@ -181,7 +181,7 @@ def test_bytes_left_from_before_are_flushed_before_sending(peer):
     bus = open_bus(far.path)
     far.send(status(1, (999).to_bytes(4, "little")))  # unsolicited, earlier than our instruction
     time.sleep(0.05)
-    assert bus.execute(Read(1, 132, 4)).value == position
+    assert bus.execute(Read(1, 132, 4, protocol=2)).value == position
     bus.close()
 
 
@@ -197,7 +197,7 @@ def test_sync_read_keeps_servos_that_answered(peer, silent):
 
     far = peer(answer)
     bus = open_bus(far.path)
-    got = bus.execute(SyncRead(132, 4, [1, 2, 3])).value
+    got = bus.execute(SyncRead(132, 4, [1, 2, 3], protocol=2)).value
     assert got == {i: values[i] for i in (1, 2, 3) if i != silent}
     assert bus.stats.packets_sent == 1  # partial answers are not retried
     assert (bus.stats.successes, bus.stats.full_successes) == (1, 0)
@@ -213,7 +213,7 @@ def test_sync_read_retries_when_nobody_answered(peer):
 
     far = peer(answer)
     bus = open_bus(far.path, retry_num=5, retry_interval_ms=1.0)
-    assert bus.execute(SyncRead(146, 1, [1])).value == {1: b"\x05"}
+    assert bus.execute(SyncRead(146, 1, [1], protocol=2)).value == {1: b"\x05"}
     assert bus.stats.retries == 2
     bus.close()
 
@@ -224,7 +224,7 @@ def test_waiting_for_a_silent_servo_does_not_spin(peer):
     bus = open_bus(far.path, latency_timer_ms=200.0, retry_num=0)
     wall0 = time.monotonic()
     cpu0 = resource.getrusage(resource.RUSAGE_THREAD)
-    assert bus.execute(Ping(9)).value is None
+    assert bus.execute(Ping(9, protocol=2)).value is None
     cpu1 = resource.getrusage(resource.RUSAGE_THREAD)
     wall = time.monotonic() - wall0
     cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
@@ -237,7 +237,7 @@ def test_waiting_for_a_silent_servo_does_not_spin(peer):
 def test_timeout_follows_configured_latency_timer(peer):
     far = peer()
     bus = open_bus(far.path, baudrate=1000000, latency_timer_ms=1.0, retry_num=0)
-    assert bus.execute(Ping(9)).value is None
+    assert bus.execute(Ping(9, protocol=2)).value is None
     ping_bytes = 10 + 14  # instruction + reply
     assert bus.timing.last_timeout_ms == pytest.approx(2 * 1.0 + ping_bytes * 0.01 + bus.timing.timeout_margin_ms)
     assert bus.timing.last_timeout_ms < 2 * 16 + 2  # the SDK's floor for any adapter
@@ -258,8 +258,8 @@ def test_ping_scan_and_firmware(peer):
 
     far = peer(answer)
     bus = open_bus(far.path)
-    assert bus.execute(Ping(3)).value == 2020
-    assert bus.execute(Ping(4, retries=0)).value is None
+    assert bus.execute(Ping(3, protocol=2)).value == 2020
+    assert bus.execute(Ping(4, retries=0, protocol=2)).value is None
     assert bus.scan(range(0, 20)) == models
     assert far.received[-1][4] == 0xFE  # one broadcast ping for the wide range
     assert bus.scan([1, 2]) == {1: 1020}  # narrow range: unicast
@@ -297,11 +297,11 @@ def test_retries_then_success_and_servo_errors(peer):
 
     far = peer(answer)
     bus = open_bus(far.path, retry_num=5, retry_interval_ms=1.0)
-    got = bus.execute(Read(1, 126, 2))
+    got = bus.execute(Read(1, 126, 2, protocol=2))
     assert got.value == b"\x2a\x00" and got.error == 0x80  # alert bit alone: data still valid
     assert bus.stats.retries == 2
     sent_before = bus.stats.packets_sent
-    refused = bus.execute(Write(1, 116, b"\x00\x00\x00\x00"))
+    refused = bus.execute(Write(1, 116, b"\x00\x00\x00\x00", protocol=2))
     assert refused.value is False and refused.failure is Failure.REFUSED
     assert bus.stats.packets_sent == sent_before + 1  # a refusal is not retried
     assert refused.error == 0x06 and "limit" in refused.why
@@ -312,7 +312,7 @@ def test_retries_then_success_and_servo_errors(peer):
 def test_stats_count_bytes_and_success(peer):
     far = peer(lambda packet: [status(packet[4], b"\x01")] if packet[7] == 0x02 else [])
     bus = open_bus(far.path)
-    bus.execute(Read(1, 146, 1)).value
+    bus.execute(Read(1, 146, 1, protocol=2)).value
     assert bus.stats.transactions == 1 and bus.stats.success_rate == 1.0
     assert bus.stats.bytes_tx == 14 and bus.stats.bytes_rx == 12
     bus.close()
@@ -356,13 +356,13 @@ def test_device_vanishing_mid_run_then_reopen(peer, tmp_path):
     far = peer(answer)
     link.symlink_to(far.path)
     bus = open_bus(str(link))
-    assert bus.execute(Read(1, 146, 1)).value == b"\x21"
+    assert bus.execute(Read(1, 146, 1, protocol=2)).value == b"\x21"
 
     far.vanish()
     link.unlink()
-    assert bus.execute(Read(1, 146, 1)).value is None  # no exception escapes
-    assert bus.execute(SyncRead(146, 1, [1, 2])).value == {}
-    assert bus.execute(Write(1, 64, b"\x01")).value is False
+    assert bus.execute(Read(1, 146, 1, protocol=2)).value is None  # no exception escapes
+    assert bus.execute(SyncRead(146, 1, [1, 2], protocol=2)).value == {}
+    assert bus.execute(Write(1, 64, b"\x01", protocol=2)).value is False
     assert not bus.is_open and bus.stats.disconnects == 1
     with pytest.raises(BusError, match="does not exist"):
         bus.reopen()
@@ -371,17 +371,17 @@ def test_device_vanishing_mid_run_then_reopen(peer, tmp_path):
     link.symlink_to(back.path)
     bus.reopen()
     assert bus.is_open
-    assert bus.execute(Read(1, 146, 1)).value == b"\x21"
+    assert bus.execute(Read(1, 146, 1, protocol=2)).value == b"\x21"
     bus.close()
 
 
 def test_stats_delta_gives_the_rates_of_one_period(peer):
     far = peer(lambda packet: [status(1, b"\x01")])  # only ID 1 exists
     bus = open_bus(far.path, retry_num=0)
-    bus.execute(Read(1, 146, 1)).value
+    bus.execute(Read(1, 146, 1, protocol=2)).value
     before = bus.stats.copy()
-    bus.execute(Read(1, 146, 1)).value
-    bus.execute(SyncRead(146, 1, [1, 2])).value
+    bus.execute(Read(1, 146, 1, protocol=2)).value
+    bus.execute(SyncRead(146, 1, [1, 2], protocol=2)).value
     period = bus.stats.delta(before)
     assert period.transactions == 2
     assert period.success_rate == 1.0 and period.full_success_rate == 0.5

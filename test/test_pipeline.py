@@ -61,7 +61,7 @@ def test_a_read_left_on_the_wire_is_gathered_before_any_other_transaction(timed_
     assert not read.done and bus.inflight_eta is not None and bus.inflight_eta > time.monotonic() - 0.001
     # a unicast read issued while the sync read is on the wire: it must get its own reply, and the
     # sync read must keep all four of its replies (the input flush before a packet would drop them)
-    mode = bus.execute(Read(2, OPERATING_MODE, 1)).value
+    mode = bus.execute(Read(2, OPERATING_MODE, 1, protocol=2)).value
     assert read.done and bus.inflight_eta is None
     assert mode == bytes([3])
     assert {i: int.from_bytes(d, "little") for i, d in read.result().items()} == {i: 1000 + i for i in range(1, 5)}
@@ -124,7 +124,7 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
         handler.steps.send_writes(following)
         handler.steps.send_writes(following)          # sent once only
         handler.steps.finish_step(report)
-        bus.execute(Read(1, OPERATING_MODE, 1)).value          # answered only after the servos took the writes
+        bus.execute(Read(1, OPERATING_MODE, 1, protocol=2)).value          # answered only after the servos took the writes
         return [w for _, w in goals_written(sim.log)]
 
     # a servo removed after the packet was built is left out of it
@@ -148,7 +148,7 @@ def test_goals_built_ahead_go_out_with_later_values_and_without_removed_servos(t
     handler.steps.finish_step(report)                 # the loop is given up here; the next one:
     sim.clear_log()
     handler.step()
-    bus.execute(Read(1, OPERATING_MODE, 1)).value
+    bus.execute(Read(1, OPERATING_MODE, 1, protocol=2)).value
     assert [w for _, w in goals_written(sim.log)] == [{2: 3002}]
     assert sim.servo(2).read("goal_position") == 3002 and not handler.writes.writes_ready
 

@@ -37,7 +37,7 @@ def test_an_open_bus_holds_the_device_lock_and_a_second_opener_is_told_who():
             assert f"is busy: {_program} (pid {os.getpid()}) holds it" in out.stderr and f"kill {os.getpid()}" in out.stderr
         assert lock_holder(sim.path) is None  # closed: the lock went with it
         with DynamixelBus(sim.path, 57600, latency_timer_ms=1.0) as bus:
-            assert bus.execute(Ping(1)).value == XM430
+            assert bus.execute(Ping(1, protocol=2)).value == XM430
 
 
 def test_ros2_run_finds_the_setup_executable_and_the_console_script_runs():

@@ -53,8 +53,8 @@ def test_virtual_servo_answers_only_at_its_baud_rate_and_switches_after_the_repl
         assert answering(sim.path, 4_500_000) == {}
         with DynamixelBus(sim.path, 57600, latency_timer_ms=LATENCY_MS, retry_num=0) as bus:
             # the status reply of the Baud Rate write still comes at the old rate
-            assert bus.execute(Write(1, model_by_number(X).item("baud_rate").address, bytes([3]))).value
-            assert bus.execute(Ping(1)).value is None
+            assert bus.execute(Write(1, model_by_number(X).item("baud_rate").address, bytes([3]), protocol=2)).value
+            assert bus.execute(Ping(1, protocol=2)).value is None
         assert answering(sim.path, 1_000_000) == {1: X}
 
 

@@ -1,4 +1,4 @@
-"""The instructions a bus executes, as values: ``bus.execute(Read(1, 132, 4))`` gives a
+"""The instructions a bus executes, as values: ``bus.execute(Read(1, 132, 4, protocol=2))`` gives a
 ``Result`` (the data, or None and why). Each value is checked when it is made (an ID out of
 range raises ValueError there, not on the wire), can be logged, compared and kept, and says by
 its type what its result holds:
@@ -10,7 +10,9 @@ its type what its result holds:
   acknowledged (a broadcast: when sent), else False
 - ``SyncRead``, ``BulkRead`` -> ``{id: bytes}`` of the servos that answered ({} and why when none)
 
-``protocol`` says which framing the servo speaks (2: Protocol 2.0; 1: Protocol 1.0).
+``protocol`` says which framing the servo speaks (2: Protocol 2.0; 1: Protocol 1.0): a keyword every
+instruction must be given (``Read(1, 132, 4, protocol=2)``), never a default a Protocol 1.0 servo
+would be sent in the wrong framing by.
 
 An instruction to one servo frames itself (``frame(framer)``: the instruction code, its parameters,
 the reply it waits for, how often it is sent again, its name in a log line) and reads its answer
@@ -66,7 +68,7 @@ class Ping:
     dxl_id: int
     #: how often it is sent again without an answer (None: the bus's retry count)
     retries: int | None = None
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", check_id(self.dxl_id))
@@ -78,7 +80,7 @@ class ErrorByte:
     there (Protocol 1.0: input voltage, overheating, overload ...). Result: the byte, or None."""
 
     dxl_id: int
-    protocol: int = 1
+    protocol: int = field(kw_only=True)
     FAILED = None
 
     def __post_init__(self) -> None:
@@ -97,7 +99,7 @@ class Read:
     dxl_id: int
     address: int
     size: int
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
     FAILED = None
 
     def __post_init__(self) -> None:
@@ -117,7 +119,7 @@ class Write(_Acknowledged):
     dxl_id: int
     address: int
     data: bytes
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -134,7 +136,7 @@ class RegWrite(_Acknowledged):
     dxl_id: int
     address: int
     data: bytes
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -149,7 +151,7 @@ class Action(_Acknowledged):
     """Execute registered writes (a unicast action's status is read and consumed)."""
 
     dxl_id: int = BROADCAST_ID
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -164,7 +166,7 @@ class Reboot(_Acknowledged):
     already, and a reboot sent again would reboot it a second time."""
 
     dxl_id: int
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -178,7 +180,7 @@ class ClearMultiTurn(_Acknowledged):
     """Reset the present position to within one turn (Clear instruction; the servo must be stopped)."""
 
     dxl_id: int
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -193,7 +195,7 @@ class ClearError(_Acknowledged):
 
     dxl_id: int
     params: bytes
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -210,7 +212,7 @@ class FactoryReset(_Acknowledged):
 
     dxl_id: int
     option: int = 0x02
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "dxl_id", _target(self.dxl_id))
@@ -232,7 +234,7 @@ class SyncRead:
     ids: tuple[int, ...]
     fast: bool = False
     #: 1: Protocol 1.0 servos, which have no Sync Read: each is read on its own
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "ids", tuple(unique_ids(self.ids)))
@@ -245,7 +247,7 @@ class BulkRead:
     requests: Mapping[int, tuple[int, int]]
     fast: bool = False
     #: 1: Protocol 1.0 servos (MX, EX): each answers with a status of its own
-    protocol: int = 2
+    protocol: int = field(kw_only=True)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "requests", {check_id(i): (int(a), int(n)) for i, (a, n) in self.requests.items()})

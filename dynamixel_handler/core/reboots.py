@@ -43,11 +43,11 @@ class Reboots:
         # a reboot resets the RAM area: what the handler had set there comes back afterwards
         kept = {item: self.table.value(item, dxl_id) for item in ("profile_acceleration", "profile_velocity")}
         protocol = self.table.model(dxl_id).protocol
-        rebooted = self.bus.execute(Reboot(dxl_id, protocol))  # sent once (a late acknowledgement: rebooted all the same)
+        rebooted = self.bus.execute(Reboot(dxl_id, protocol=protocol))  # sent once (a late acknowledgement: rebooted all the same)
         if rebooted or self.bus.is_open:  # unacknowledged, it may be booting: wait for it all the same
             deadline = time.monotonic() + REBOOT_WAIT_S
             time.sleep(0.02)
-            while self.bus.execute(Ping(dxl_id, 0, protocol)).value is None:
+            while self.bus.execute(Ping(dxl_id, 0, protocol=protocol)).value is None:
                 if time.monotonic() > deadline:
                     self.log.warning(f"ID {dxl_id}: no answer {REBOOT_WAIT_S:g}s after reboot")
                     break
@@ -63,8 +63,8 @@ class Reboots:
     def clear_error(self, dxl_id: int, params: bytes) -> Result[bool]:
         """The error clear of a servo that has one (Y: the Clear instruction with ``params``): no
         reboot; the error item and torque are read again afterwards."""
-        cleared = self.bus.execute(ClearError(dxl_id, params))
         model = self.table.model(dxl_id)
+        cleared = self.bus.execute(ClearError(dxl_id, params, protocol=model.protocol))
         codes = model.family.error_codes
         for item in ("torque_enable", codes.item if codes is not None else ""):
             if model.has(item):

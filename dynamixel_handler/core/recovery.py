@@ -97,7 +97,7 @@ class Recovery:
         as it answers (``set_up_returned``)."""
         answered, silent = [], []
         for dxl_id in ids:
-            if self.bus.execute(Ping(dxl_id, 1, self.table.model(dxl_id).protocol)).value is None:
+            if self.bus.execute(Ping(dxl_id, 1, protocol=self.table.model(dxl_id).protocol)).value is None:
                 silent.append(dxl_id)
                 continue
             pos = self.table.index[dxl_id]

@@ -40,7 +40,7 @@ class ServoIO:
         if not model.has(item):
             return None
         spec = model.item(item)
-        data = self.bus.execute(Read(dxl_id, spec.address, spec.size, model.protocol)).value
+        data = self.bus.execute(Read(dxl_id, spec.address, spec.size, protocol=model.protocol)).value
         if data is None:
             return None
         value = int(units.decode(spec, data)[0])
@@ -57,7 +57,7 @@ class ServoIO:
         if item in model.hybrid_items and self.value(dxl_id, item) == pulses:
             return Result(True)  # Y's Hybrid area, stored when torque is off: not written again
         spec = model.item(item)
-        written = self.bus.execute(Write(dxl_id, spec.address, units.encode(spec, [pulses]), model.protocol))
+        written = self.bus.execute(Write(dxl_id, spec.address, units.encode(spec, [pulses]), protocol=model.protocol))
         if written:
             self.table.set_value(item, dxl_id, pulses)
         return written
@@ -65,7 +65,7 @@ class ServoIO:
     def _read_status_error(self, dxl_id: int, model: Model) -> int | None:
         """The error state of a servo that reports it in its status (Protocol 1.0): a ping's error
         byte, its state bits kept in the table as the servo's ``hardware_error_status``."""
-        error: int | None = self.bus.execute(ErrorByte(dxl_id, model.protocol)).value
+        error: int | None = self.bus.execute(ErrorByte(dxl_id, protocol=model.protocol)).value
         if error is None:
             return None
         self.table.set_value(HARDWARE_ERROR, dxl_id, error & STATE_BITS)

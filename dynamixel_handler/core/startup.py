@@ -111,7 +111,7 @@ class Startup:
         """Ping ``dxl_id`` and handle it if it answers with a model of a used series (in Protocol
         1.0 too where a Protocol 1.0 family is used)."""
         seen: Seen | None = None
-        number = self.bus.execute(Ping(dxl_id)).value
+        number = self.bus.execute(Ping(dxl_id, protocol=2)).value
         if number is not None:
             seen = (2, number)
         elif self.scanning.protocol1():

@@ -191,7 +191,7 @@ class Step:
                 mark(answered, data)
         for dxl_id in report.recheck:
             mark(addressed, [dxl_id])
-            if dxl_id in index and self.bus.execute(Ping(dxl_id, 0, table.model(dxl_id).protocol)).value is not None:
+            if dxl_id in index and self.bus.execute(Ping(dxl_id, 0, protocol=table.model(dxl_id).protocol)).value is not None:
                 mark(answered, [dxl_id])
         report.silent = [table.ids[pos] for pos in np.flatnonzero(addressed & ~answered)]
         self.recovery.update_ping(addressed, answered)

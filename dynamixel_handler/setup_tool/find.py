@@ -109,7 +109,7 @@ class Search:
             return self.bus.scan(ids, broadcast=True)
         answered = {}
         for dxl_id in ids:
-            model = self.bus.execute(Ping(dxl_id)).value  # retried as --retries says
+            model = self.bus.execute(Ping(dxl_id, protocol=2)).value  # retried as --retries says
             if model is not None:
                 answered[dxl_id] = model
         return answered

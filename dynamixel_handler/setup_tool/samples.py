@@ -34,7 +34,7 @@ def sample(servo: Servo, baudrate: int, mode: str) -> dict[str, Any]:
     if not items:
         return doc
     first = items[0].address
-    got = servo.execute(Read(servo.dxl_id, first, items[-1].address + items[-1].size - first, servo.protocol))
+    got = servo.execute(Read(servo.dxl_id, first, items[-1].address + items[-1].size - first, protocol=servo.protocol))
     if got.value is None:
         return doc
     return filled(servo, doc, {i.name: i.from_bytes(bytes(got.value[i.address - first:][:i.size])) for i in items})

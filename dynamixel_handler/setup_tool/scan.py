@@ -110,7 +110,7 @@ def _details(bus: DynamixelBus, dxl_id: int, number: int) -> Found:
 
 def _read_into(servo: Servo, name: str, setter: Callable[[int], None]) -> None:
     item = servo.model.item(name)
-    got = servo.bus.execute(Read(servo.dxl_id, item.address, item.size))
+    got = servo.execute(Read(servo.dxl_id, item.address, item.size, protocol=servo.protocol))
     if got.value is not None:
         setter(int.from_bytes(got.value[:item.size], "little"))
 

@@ -61,7 +61,7 @@ class Servo:
 
     def read(self, name: str) -> int:
         item = self.item(name)
-        got = self.execute(Read(self.dxl_id, item.address, item.size, self.protocol))
+        got = self.execute(Read(self.dxl_id, item.address, item.size, protocol=self.protocol))
         if got.value is None:
             raise StepFailed(f"{self.who}: reading {item.name} failed: {_cause(got.why)}")
         return int(decode(item, got.value)[0])
@@ -69,14 +69,14 @@ class Servo:
     def read_block(self, first: Item, last: Item) -> bytes:
         """The bytes from ``first`` to the end of ``last`` in one read."""
         size = last.address + last.size - first.address
-        got = self.execute(Read(self.dxl_id, first.address, size, self.protocol))
+        got = self.execute(Read(self.dxl_id, first.address, size, protocol=self.protocol))
         if got.value is None:
             raise StepFailed(f"{self.who}: reading {first.name}..{last.name} failed: {_cause(got.why)}")
         return bytes(got.value)
 
     def write(self, name: str, raw: int) -> None:
         item = self.item(name)
-        done = self.execute(Write(self.dxl_id, item.address, encode(item, raw), self.protocol))
+        done = self.execute(Write(self.dxl_id, item.address, encode(item, raw), protocol=self.protocol))
         if not done and not self._answers_reads_only(done.failure):
             raise StepFailed(f"{self.who}: writing {item.name} = {show_value(self.model, item, raw)} "
                              f"failed: {_cause(done.why)}")
@@ -88,7 +88,7 @@ class Servo:
         if not self.over_protocol1 or failure is not Failure.NO_REPLY or not self.model.has("status_return_level"):
             return False
         item = self.model.item("status_return_level")
-        got = self.execute(Read(self.dxl_id, item.address, item.size, 1))
+        got = self.execute(Read(self.dxl_id, item.address, item.size, protocol=1))
         return got.value is not None and got.value[0] < 2
 
     def torque_on(self) -> bool:

@@ -95,7 +95,7 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
     failed ("" when it answers again)."""
     with held():
         entry = JOURNAL.touch(servo.dxl_id, servo.model.name, baudrate, "on" if torque else "off")
-        done = servo.execute(Reboot(servo.dxl_id, servo.protocol))
+        done = servo.execute(Reboot(servo.dxl_id, protocol=servo.protocol))
         if not done:
             return _no_reboot(ctx, servo, entry, torque) or done.why or "no reply"
         if _wait_back(ctx.bus, servo.dxl_id, servo.protocol) is None:
@@ -142,7 +142,7 @@ def _check_free_after_reset(ctx: Context, servo: Servo, level: str) -> None:
         return
     here = ctx.bus.baudrate
     ctx.bus.set_baudrate(where_bps)
-    other = ctx.bus.execute(Ping(where_id, retries=1)).value
+    other = ctx.bus.execute(Ping(where_id, retries=1, protocol=2)).value
     ctx.bus.set_baudrate(here)
     if other is not None:
         raise StepFailed(f"{servo.who}: after this reset it would answer at ID {where_id}, {where_bps} bps, where another "
@@ -157,7 +157,7 @@ def _reset(ctx: Context, servo: Servo, level: str, torque: bool, where: tuple[in
         if torque:
             servo.write("torque_enable", 0)
             entry.torque = "off (it was on)"
-        reset = ctx.bus.execute(FactoryReset(servo.dxl_id, _RESET_OPTION[level]))
+        reset = ctx.bus.execute(FactoryReset(servo.dxl_id, _RESET_OPTION[level], protocol=servo.protocol))
         if not reset:
             raise StepFailed(f"{servo.who}: factory reset refused: {reset.why or 'no reply'}; nothing was "
                              f"reset (torque {entry.torque})")

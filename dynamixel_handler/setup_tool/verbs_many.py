@@ -56,9 +56,9 @@ def _read(ctx: Context, placed: list[Placed], item_of: Callable[[Placed], Item])
         ctx.at(group[0])
         if protocol == 1:
             got = {p.dxl_id: bytes(r.value) for p in group
-                   if (r := ctx.bus.execute(Read(p.dxl_id, address, size, 1))).value is not None}
+                   if (r := ctx.bus.execute(Read(p.dxl_id, address, size, protocol=1))).value is not None}
         else:
-            got = ctx.bus.execute(SyncRead(address, size, tuple(p.dxl_id for p in group))).value
+            got = ctx.bus.execute(SyncRead(address, size, tuple(p.dxl_id for p in group), protocol=protocol)).value
         for p in group:
             if p.dxl_id in got:
                 values[p.dxl_id] = int(decode(item_of(p), got[p.dxl_id])[0])

@@ -165,20 +165,20 @@ def _move(bus: DynamixelBus, dxl_id: int, number: int, rate: int, target: int, r
         log.error(f"ID {dxl_id} not moved: {outcome.reason}")
         return
     item, torque = model.item("baud_rate"), model.item("torque_enable")
-    state = bus.execute(Read(dxl_id, torque.address, torque.size))
+    state = bus.execute(Read(dxl_id, torque.address, torque.size, protocol=2))
     if state.value is None:
         outcome.reason = f"no reply reading Torque Enable at {rate} bps ({state.why})"
         log.error(f"ID {dxl_id} not moved: {outcome.reason}")
         return
     if state.value[0]:
         log.warning(f"ID {dxl_id} ({model.name}): torque off to change its baud rate (EEPROM)")
-        off = bus.execute(Write(dxl_id, torque.address, bytes([0])))
+        off = bus.execute(Write(dxl_id, torque.address, bytes([0]), protocol=2))
         if not off:
             outcome.reason = f"torque off refused ({off.why})"
             log.error(f"ID {dxl_id} not moved: {outcome.reason}")
             return
     value = values[target]
-    written = bus.execute(Write(dxl_id, item.address, value.to_bytes(item.size, "little")))
+    written = bus.execute(Write(dxl_id, item.address, value.to_bytes(item.size, "little"), protocol=2))
     if not written:
         # The servo may have switched before its reply got through; verification decides.
         log.warning(f"ID {dxl_id}: no acknowledgement of Baud Rate = {value} ({written.why}); "
@@ -195,7 +195,7 @@ def _verify(bus: DynamixelBus, report: UnifyReport, log: Any) -> None:
     report.verified = bus.scan(sorted(expected))
     # a scan pings each ID once; a servo expected here is asked again before it is called failed
     for dxl_id in sorted(set(expected) - set(report.verified)):
-        number = bus.execute(Ping(dxl_id, retries=VERIFY_PINGS - 1)).value
+        number = bus.execute(Ping(dxl_id, retries=VERIFY_PINGS - 1, protocol=2)).value
         if number is not None:
             report.verified[dxl_id] = number
     report.verified = dict(sorted(report.verified.items()))

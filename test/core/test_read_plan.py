@@ -89,7 +89,7 @@ def test_a_servo_that_never_answers_fast_sync_read_is_read_plainly_after_three_m
         (read,) = plan.plan(plan.due(1)[3], np.ones(3, dtype=bool))
         assert read.fast
         bus.calls.clear()
-        data = plan.gather(read, bus.execute(SyncRead(read.address, read.length, read.ids, read.fast)).value)
+        data = plan.gather(read, bus.execute(SyncRead(read.address, read.length, read.ids, read.fast, protocol=2)).value)
         assert sorted(data) == [1, 2, 3]  # servos 2 and 3 completed by a plain Sync Read
         assert bus.calls[-1] == ("sync_read", 132, 4, (2, 3), False)
     reads = plan.plan(plan.due(1)[3], np.ones(3, dtype=bool))
@@ -103,7 +103,8 @@ def test_replies_are_stored_decoded_and_a_value_the_host_set_after_the_read_went
     bus.set(1, "goal_position", 10)
     bus.set(2, "goal_position", 20)
     seq = table.seq
-    sent = [(r, bus.execute(SyncRead(r.address, r.length, r.ids)).value) for r in plan.plan(plan.due(1)[3], np.ones(2, dtype=bool))]
+    sent = [(r, bus.execute(SyncRead(r.address, r.length, r.ids, protocol=2)).value)
+            for r in plan.plan(plan.due(1)[3], np.ones(2, dtype=bool))]
     table.set_value("goal_position", 2, 99)  # the host's own value, newer than the read
     table.note_set("goal_position", [2])
     for read, data in sent:
