@@ -45,8 +45,9 @@ def _item_of(model: Model, field: str, mode: Any = None) -> str | None:
         return led_item(model, field.split(".")[1].split("_")[0])
     if spec.kind == MODE:
         return spec.item if model.has(spec.item) or model.mode_select is not None else None
-    if spec.item == "profile_velocity" and not model.has(spec.item) and model.family.fastest_at_zero:
-        return model.family.speed_item(False) if mode in POSITION_MODES else None
+    behaviour = model.family.behaviour
+    if spec.item == "profile_velocity" and behaviour.speed_in_position_only(model):
+        return behaviour.speed_item(model) if mode in POSITION_MODES else None
     return spec.item if model.has(spec.item) else None
 
 
@@ -119,7 +120,7 @@ def to_pulses(model: Model, field: str, value: Any) -> int:
 
 def _speed_hint(model: Model, field: str) -> str:
     """What to do where the speed of a move is Moving Speed, set in Joint Mode only."""
-    if FIELDS[field].item == "profile_velocity" and model.family.fastest_at_zero:
+    if FIELDS[field].item == "profile_velocity" and model.family.behaviour.speed_in_position_only(model):
         return (": its speed of a move is Moving Speed, which is also the velocity goal in Wheel Mode; give "
                 "'mode: position' (or another position mode) in the entry to set it")
     return ""

@@ -20,7 +20,7 @@ import math
 from typing import Any, Callable, ClassVar, Iterable, Mapping, Sequence, assert_never, get_args
 
 from .. import units
-from ..control_table import POSITION_MODES, ServoFamily, family_named
+from ..control_table import ServoFamily, family_named
 from ..core.api import ServoAccess
 from ..core.request_types import Answer, Outcome
 from ..logs import Throttle, cut, some_ids
@@ -257,10 +257,8 @@ class Commander(SettingsCommands):
 
         def item_of(field: str, dxl_id: int) -> str | None:
             model = self.h.model(dxl_id)  # its own family: XL-320 servos on the X topics take their speed item
-            if field == model.family.move_speed_field and mode in POSITION_MODES:
-                # the speed of the move (old Pro, XL-320: goal velocity; where the model has it, profile velocity)
-                return model.family.speed_item(model.has("profile_velocity"))
-            return GOAL_FIELDS.get(field)
+            # the speed of the move (old Pro, XL-320: goal velocity; where the model has it, profile velocity)
+            return model.family.behaviour.control_speed_item(model, field, mode) or GOAL_FIELDS.get(field)
         self._goal_writes(what, targets, fields, item_of, self._checked_rotation(what, targets, fields))
 
     def _in_mode(self, family: ServoFamily, control: str, targets: list[tuple[int, int]],

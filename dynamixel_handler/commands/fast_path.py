@@ -17,7 +17,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .. import units
-from ..control_table import POSITION_MODES, ServoFamily
+from ..control_table import ServoFamily
 from ..core.api import ServoAccess
 from ..servo.table import ServoTable
 from .goal_bounds import Targets
@@ -110,8 +110,7 @@ class FastGoals:
 
 def _speed_per_model(family: ServoFamily | None, field: str, mode: str | None) -> bool:
     """True where ``field`` is the speed of a move whose item depends on each servo's model."""
-    return family is not None and family.speed_item_is_per_model and field == family.move_speed_field \
-        and mode in POSITION_MODES
+    return family is not None and family.behaviour.speed_per_model(field, mode)
 
 
 def _work(plan: Targets, fields: Mapping[str, Sequence[Any]], family: ServoFamily | None, mode: str | None) -> Work | None:

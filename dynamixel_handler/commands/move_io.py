@@ -37,7 +37,7 @@ class MoveIO:
         for (kind, series), (batch_ids, degs) in batches.items():
             fields: dict[str, list] = {"position_deg": degs}
             if velocity > 0:
-                speed_field = series.move_speed_field if kind == "position_control" else "profile_vel_deg_s"
+                speed_field = series.behaviour.speed_field if kind == "position_control" else "profile_vel_deg_s"
                 fields[speed_field] = [velocity] * len(batch_ids)
             if kind == "goal":
                 self.commander.goal(batch_ids, fields, what="move")

@@ -25,7 +25,7 @@ def fits(h: ServoAccess, dxl_id: int, family: ServoFamily | None) -> bool:
     if not h.handles(dxl_id):
         return False
     own = h.model(dxl_id).family
-    return family is None or own is family or own.commanded_as is family
+    return family is None or own is family or own.topics is family
 
 
 def all_finite(values: list[float]) -> bool:

@@ -37,10 +37,7 @@ from ._facts import (
 )
 from ._family import (
     FAMILIES,
-    KEPT_POSITION_MODES,
     MAX_ROTATION,
-    POSITION_LIMITED_MODES,
-    POSITION_MODES,
     PRO,
     PROTOCOL1_FAMILIES,
     P,
@@ -50,6 +47,7 @@ from ._family import (
     family_titled,
 )
 from ._item import Item
+from ._modes import KEPT_POSITION_MODES, POSITION_LIMITED_MODES, POSITION_MODES
 from ._ranges import LISTED as RANGED_ITEMS
 from ._ranges import ranges_of
 from ._sdk_files import load_sdk_table

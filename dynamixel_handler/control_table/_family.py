@@ -1,9 +1,11 @@
-"""A servo family (series): what every model of it shares and the handler acts on, as data.
+"""A servo family (series): what every model of it shares and the handler acts on, as data, and
+how it behaves where families differ (``behaviour``, one ``FamilyBehaviour`` per family).
 
 The X, P and PRO families differ in the modes their command topics offer, in how a goal is
 bounded, in which item carries the speed of a move in position modes, and in how parameters and
-messages spell them. Everything that depends on the family reads one of these attributes; a new
-family (MX, XL-320, Y) is one more value here, not a new branch in the code.
+messages spell them. Everything that depends on the family reads one of these attributes or asks
+its behaviour; a new family (MX, XL-320, Y) is one more value here, with the behaviour it shares
+with others or one of its own, not a new branch in the code.
 """
 from __future__ import annotations
 
@@ -11,16 +13,11 @@ from dataclasses import dataclass
 from typing import FrozenSet, Mapping, Optional, Tuple
 
 from ._error_codes import Y_ERROR_CODES, ErrorCodes
+from .behaviour import ErrorCodeBehaviour, FamilyBehaviour, MovingSpeedBehaviour, Protocol1Behaviour
 
 #: turns a goal may hold (rotation field; a goal of a family without a multi-turn goal range is
 #: bounded to as many turns)
 MAX_ROTATION = 256.0
-#: the modes in which a goal position stays within the position limits (the others are multi-turn)
-POSITION_LIMITED_MODES = ("position",)
-#: modes whose goal is a position: the speed of the move is a goal field of its own there
-POSITION_MODES = ("position", "ex_position")
-#: modes whose goal is a position that a move keeps (multi-turn); others switch to position mode
-KEPT_POSITION_MODES = ("ex_position", "cur_position")
 
 _ALL_MODES = frozenset({"current", "velocity", "position", "ex_position", "cur_position", "pwm"})
 
@@ -48,10 +45,9 @@ class ServoFamily:
     #: multi-turn goal positions take ±this many pulses; None: ±``MAX_ROTATION`` turns, also in
     #: position mode when the position limits are not known
     multi_turn_goal: Optional[int]
-    #: in position modes, the message field that gives the speed of the move and the item it goes
-    #: to ("profile_velocity" where the model has it, else the item named here)
-    move_speed_field: str
-    move_speed_item: str
+    #: how it behaves where families differ: its error state and how it is cleared, where the speed
+    #: of a move goes (``behaviour.py``)
+    behaviour: FamilyBehaviour
     #: the family has a Protocol Type register (False: it speaks Protocol 2.0 only, reported as 2)
     has_protocol_type: bool = True
     #: ``init/used_servo_series.<title>`` when no parameter sets it (the original handler's defaults
@@ -60,21 +56,9 @@ class ServoFamily:
     #: the family has command topics of its own (``commands/<suffix>``, ``command/<suffix>/...``);
     #: False: it is driven through the series-independent topics only (Y)
     series_topics: bool = True
-    #: the family reports one error code instead of Hardware Error Status bits (None: the bits)
-    error_codes: Optional[ErrorCodes] = None
     #: the family whose command topics and messages drive this one (XL-320: the X ones, where an
     #: item exists); None: its own
     commanded_as: Optional["ServoFamily"] = None
-    #: Hardware Error Status / Shutdown bits where they differ from the X and P layout: (cause,
-    #: bit) pairs; (): that layout
-    error_bits: Tuple[Tuple[str, int], ...] = ()
-    #: the servo reports its error state in the error byte of every status (no Hardware Error
-    #: Status item: Protocol 1.0), and an overload or overheating is cleared by writing its Torque
-    #: Limit again (the e-Manual's way; the servo set it to 0), not by a reboot
-    error_in_status: bool = False
-    #: Moving Speed 0 in Joint Mode means "as fast as the motor goes" (Protocol 1.0, XL-320): a
-    #: speed of 0 from a command is written as the slowest the servo takes (1) there, never as 0
-    fastest_at_zero: bool = False
     #: the Dynamixel protocol its servos speak (the framer a bus uses for them): 2, or 1 (AX, RX, DX,
     #: EX, MX with the Protocol 1.0 firmware)
     protocol: int = 2
@@ -90,10 +74,38 @@ class ServoFamily:
         return self.commanded_as or self
 
     @property
+    def command_family(self) -> Optional["ServoFamily"]:
+        """The family whose series topics (``commands/<suffix>``, ``command/<suffix>/...``) drive this
+        one: itself, the one it is commanded as (XL-320: X); None: the series-independent topics only."""
+        return self.topics if self.topics.series_topics else None
+
+    @property
+    def move_speed_field(self) -> str:
+        """In position modes, the message field that gives the speed of a move."""
+        return self.behaviour.speed_field
+
+    @property
+    def move_speed_item(self) -> str:
+        """The item the speed of a move goes to on a model without Profile Velocity."""
+        return self.behaviour.move_speed_item
+
+    @property
+    def error_codes(self) -> Optional[ErrorCodes]:
+        """The codes of a family that reports one error code instead of Hardware Error Status bits
+        (None: the bits)."""
+        return self.behaviour.error_codes
+
+    @property
+    def error_bits(self) -> Tuple[Tuple[str, int], ...]:
+        """Hardware Error Status / Shutdown bits where they differ from the X and P layout: (cause,
+        bit) pairs; (): that layout."""
+        return self.behaviour.error_bits
+
+    @property
     def speed_item_is_per_model(self) -> bool:
         """True when the speed field of a move maps to an item that depends on the model (not the
         field's own goal item)."""
-        return self.move_speed_field == "velocity_deg_s"
+        return self.behaviour.speed_item_is_per_model
 
     @property
     def protocol_note(self) -> str:
@@ -108,7 +120,7 @@ class ServoFamily:
     def speed_item(self, has_profile_velocity: bool) -> str:
         """The item the speed of a move in position modes goes to, on a model with or without
         Profile Velocity."""
-        return "profile_velocity" if has_profile_velocity else self.move_speed_item
+        return "profile_velocity" if has_profile_velocity else self.behaviour.move_speed_item
 
     def goal_position_bounds(self, lo: int, hi: int, deg_per_pulse: float) -> Tuple[int, int, int, int]:
         """The goal position bounds from the register range (lo, hi) and the model's scale: in
@@ -127,19 +139,17 @@ X = ServoFamily(
     name="X", title="X", suffix="x", modes=_ALL_MODES, dummy_model=1020, x_table=True,
     profile_max=32767,  # e-Manual: 0..32767 whatever the limits
     multi_turn_goal=1_048_575,  # e-Manual: -1,048,575..1,048,575 pulses (±256 turns)
-    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity", used_by_default=True,
+    behaviour=FamilyBehaviour(), used_by_default=True,
 )
 P = ServoFamily(
     name="P", title="P", suffix="p", modes=_ALL_MODES - {"cur_position"}, dummy_model=2020, x_table=False,
-    profile_max=None, multi_turn_goal=None,
-    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity",
+    profile_max=None, multi_turn_goal=None, behaviour=FamilyBehaviour(),
 )
 PRO = ServoFamily(
     name="PRO", title="Pro", suffix="pro", modes=frozenset({"current", "velocity", "position", "ex_position"}),
     dummy_model=54024, x_table=False, profile_max=None, multi_turn_goal=None,
     # the old PRO has no Profile Velocity: its position control's velocity_deg_s is Goal Velocity
-    move_speed_field="velocity_deg_s", move_speed_item="goal_velocity",
-    has_protocol_type=False,
+    behaviour=FamilyBehaviour("velocity_deg_s", "goal_velocity"), has_protocol_type=False,
 )
 
 # DYNAMIXEL-Y (e-Manual docs/en/dxl/y/...): current, velocity and position control only; Profile
@@ -147,8 +157,7 @@ PRO = ServoFamily(
 Y = ServoFamily(
     name="Y", title="Y", suffix="y", modes=frozenset({"current", "velocity", "position"}),
     dummy_model=4170, x_table=False, profile_max=None, multi_turn_goal=None,
-    move_speed_field="profile_vel_deg_s", move_speed_item="profile_velocity",
-    series_topics=False, error_codes=Y_ERROR_CODES,
+    behaviour=ErrorCodeBehaviour(Y_ERROR_CODES), series_topics=False,
 )
 
 # XL-320 (e-Manual docs/en/dxl/x/xl320): a small table of its own, Joint (position) and Wheel
@@ -156,9 +165,9 @@ Y = ServoFamily(
 XL320 = ServoFamily(
     name="XL320", title="XL320", suffix="x", modes=frozenset({"velocity", "position"}),
     dummy_model=350, x_table=False, profile_max=None, multi_turn_goal=None,
-    move_speed_field="profile_vel_deg_s", move_speed_item="goal_velocity",
+    behaviour=MovingSpeedBehaviour(speed_item="goal_velocity",
+                                   error_bits=(("overload", 0), ("overheating", 1), ("input_voltage", 2))),
     has_protocol_type=False, commanded_as=X,
-    error_bits=(("overload", 0), ("overheating", 1), ("input_voltage", 2)), fastest_at_zero=True,
 )
 
 # Protocol 1.0 families (``_protocol1``): no Operating Mode register (the Angle Limits select Joint,
@@ -172,9 +181,9 @@ def _protocol1_family(title: str, modes: FrozenSet[str], dummy: int, bulk_read: 
                       multi_turn_goal: Optional[int] = None) -> ServoFamily:
     return ServoFamily(
         name=title, title=title, suffix=title.lower(), modes=modes, dummy_model=dummy, x_table=False,
-        profile_max=None, multi_turn_goal=multi_turn_goal, move_speed_field="profile_vel_deg_s",
-        move_speed_item="goal_velocity", has_protocol_type=False, series_topics=False,
-        error_bits=_P1_BITS, protocol=1, bulk_read=bulk_read, error_in_status=True, fastest_at_zero=True,
+        profile_max=None, multi_turn_goal=multi_turn_goal,
+        behaviour=Protocol1Behaviour(speed_item="goal_velocity", error_bits=_P1_BITS), has_protocol_type=False,
+        series_topics=False, protocol=1, bulk_read=bulk_read,
     )
 
 

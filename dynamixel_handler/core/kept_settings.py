@@ -196,8 +196,8 @@ class KeptSettings:
         """Whether ``item`` is the Moving Speed that carries the entry's speed of a move (Protocol
         1.0, XL-320) while the servo is out of the position modes: there it is the velocity goal,
         and writing the speed would turn the shaft."""
-        family = model.family
-        return (family.fastest_at_zero and not model.has("profile_velocity") and item == family.speed_item(False)
+        behaviour = model.family.behaviour
+        return (behaviour.speed_in_position_only(model) and item == behaviour.speed_item(model)
                 and self.io.mode(dxl_id) not in POSITION_MODES)
 
     def _read_back(self, dxl_id: int, model: Model, entry: ServoSetting) -> list[str]:

@@ -65,8 +65,7 @@ class Reboots:
         reboot; the error item and torque are read again afterwards."""
         model = self.table.model(dxl_id)
         cleared = self.bus.execute(ClearError(dxl_id, params, protocol=model.protocol))
-        codes = model.family.error_codes
-        for item in ("torque_enable", codes.item if codes is not None else ""):
+        for item in ("torque_enable", model.family.behaviour.error_item):
             if model.has(item):
                 self.io.read_item(dxl_id, item)
         return cleared

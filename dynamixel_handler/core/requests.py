@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import Mapping
+from typing import Mapping, assert_never
 
 from ..bus import Failure, Result
 from ..control_table import Model
+from ..control_table.behaviour import ByClearInstruction, ByReboot, ByWritingAgain
 from ..servo import error_state
 from ..servo.table import PendingWrites, ServoTable
 from ..settings import LoopSettings
@@ -162,12 +163,12 @@ class Requests:
 
     # ---------------------------------------------------------------- error clear
     def clear_error(self, dxl_id: int, keep_rotation: bool, what: str) -> Answer:
-        """Reboot to clear a hardware error (a servo without one is not rebooted); with
-        ``keep_rotation`` the multi-turn position survives through the homing offset. Torque comes
-        back on if it was on, or if the error's shutdown switched it off (then the error, not the
-        user, turned it off). At most once per clear_error_interval_sec per servo (else REFUSED). A
-        servo with an error code (Y) is cleared by its error clear instruction instead, not
-        rebooted. ``failure``: the warning for the user."""
+        """Clear a hardware error (a servo without one is left alone) the way its family's behaviour
+        says (``clearing``): a reboot, where ``keep_rotation`` keeps the multi-turn position through
+        the homing offset; the error clear instruction (Y); an item written again (Protocol 1.0:
+        Torque Limit). Torque comes back on if it was on, or if the error switched it off (then the
+        error, not the user, turned it off). At most once per clear_error_interval_sec per servo
+        (else REFUSED). ``failure``: the warning for the user."""
         model = self.table.model(dxl_id)
         error = self.io.read_item(dxl_id, error_state.error_item(model))
         if error is None:
@@ -178,31 +179,35 @@ class Requests:
         refused = self._clear_refused(dxl_id, what)
         if refused is not None:
             return refused
-        codes = model.family.error_codes
-        if codes is not None and codes.clear_params is not None:
-            return self._clear_code(dxl_id, error, codes.clear_params, what)
-        if model.family.error_in_status:
-            return self._clear_by_torque_limit(dxl_id, error, what)
-        return self._clear_by_reboot(dxl_id, error, keep_rotation, what)
+        match model.family.behaviour.clearing:
+            case ByClearInstruction(params=params):
+                return self._clear_code(dxl_id, error, params, what)
+            case ByWritingAgain() as again:
+                return self._clear_by_writing_again(dxl_id, error, again, what)
+            case ByReboot():
+                return self._clear_by_reboot(dxl_id, error, keep_rotation, what)
+            case other:
+                assert_never(other)
 
     def _to_clear(self, dxl_id: int, model: Model, error: int) -> bool:
-        """Whether there is an error to clear: an error state, or (Protocol 1.0, whose status
-        reports the conditions of the moment) an output its shutdown cut (Torque Limit 0) after
-        the cause went away."""
+        """Whether there is an error to clear: an error state, or (an error cleared by writing an
+        item again: Protocol 1.0, whose status reports the conditions of the moment) an output its
+        shutdown cut (that item at 0: Torque Limit) after the cause went away."""
         if error_state.is_error(model, error):
             return True
-        return model.family.error_in_status and self.io.read_item(dxl_id, "torque_limit") == 0
+        clearing = model.family.behaviour.clearing
+        return isinstance(clearing, ByWritingAgain) and self.io.read_item(dxl_id, clearing.item) == 0
 
-    def _clear_by_torque_limit(self, dxl_id: int, error: int, what: str) -> Answer:
+    def _clear_by_writing_again(self, dxl_id: int, error: int, again: ByWritingAgain, what: str) -> Answer:
         """Protocol 1.0 (e-Manual, Alarm Shutdown): an overload or overheating the Shutdown bits
         cover set Torque Limit to 0; writing it again (to Max Torque, its power-on value) gives the
         servo its output back once the cause is gone; no reboot. Torque back on as after a reboot."""
         model = self.table.model(dxl_id)
-        limit = self.io.read_item(dxl_id, "pwm_limit")
+        limit = self.io.read_item(dxl_id, again.source)
         if limit is None:
             return answer(False, f"{what}: ID {dxl_id} did not answer the Max Torque read: error not cleared")
-        torque = bool(self.io.value(dxl_id, "torque_enable")) or bool(error)
-        written = self.io.write_item(dxl_id, "torque_limit", limit)
+        torque = bool(self.io.value(dxl_id, "torque_enable")) or model.family.behaviour.torque_cut(error)
+        written = self.io.write_item(dxl_id, again.item, limit)
         if not written:
             return answer(False, f"{what}: ID {dxl_id} Torque Limit not written back: {written.why}")
         if torque:
@@ -216,7 +221,7 @@ class Requests:
     def _clear_by_reboot(self, dxl_id: int, error: int, keep_rotation: bool, what: str) -> Answer:
         torque_was = self.io.value(dxl_id, "torque_enable")
         shutdown = self.io.value(dxl_id, "shutdown")
-        torque = bool(torque_was) or bool(error & (0xFF if shutdown is None else shutdown))
+        torque = bool(torque_was) or self.table.model(dxl_id).family.behaviour.torque_cut(error, shutdown)
         before = self.io.read_item(dxl_id, "present_position")
         rebooted = self.reboots.reboot(dxl_id)
         if not rebooted:
@@ -236,9 +241,7 @@ class Requests:
         """An error code cleared by the servo's error clear; torque back on if it was on or the
         error switched it off (as after a reboot that clears hardware error bits)."""
         model = self.table.model(dxl_id)
-        codes = model.family.error_codes
-        code = codes.code(error) if codes is not None else None
-        torque = bool(self.io.value(dxl_id, "torque_enable")) or (code is None or code.torque_off)
+        torque = bool(self.io.value(dxl_id, "torque_enable")) or model.family.behaviour.torque_cut(error)
         name = error_state.describe(model, error)
         cleared = self.reboots.clear_error(dxl_id, params)
         if not cleared:

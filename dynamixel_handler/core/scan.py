@@ -8,7 +8,7 @@ from typing import Callable, Sequence
 from ..bus import ServoBus
 from ..bus.census import census
 from ..bus.ops import Ping
-from ..control_table import Model, family_named, model_by_number
+from ..control_table import PROTOCOL1_FAMILIES, Model, family_named, model_by_number
 from ..errors import Interrupted, StartupError
 from ..settings import ScanSettings
 from .servo_io import Log
@@ -68,7 +68,7 @@ class Scan:
 
     def protocol1(self) -> bool:
         """Whether a Protocol 1.0 family is used (then Protocol 1.0 servos are looked for too)."""
-        return any(family_named(s).protocol == 1 for s in self.settings.used_series)
+        return any(family_named(s) in PROTOCOL1_FAMILIES for s in self.settings.used_series)
 
     def _enough(self, found: dict[int, Seen], dummies: Sequence[int], expected: int) -> bool:
         return len(self._usable(found, dummies)) >= expected if expected > 0 else len(found) >= 1

@@ -8,17 +8,12 @@ from .. import units
 from ..bus import Failure, Result, ServoBus
 from ..bus.ops import ErrorByte, Read, Write
 from ..control_table import Model
-from ..protocol import protocol1 as p1
+from ..servo import error_state
 from ..servo.table import ServoTable
 
 Log = logging.Logger | logging.LoggerAdapter[Any]
 #: the item that holds the mode (Protocol 1.0 servos: the Angle Limits stand for it)
 MODE = "operating_mode"
-#: the item that holds the error state (Protocol 1.0 servos: the error byte of their status)
-HARDWARE_ERROR = "hardware_error_status"
-#: the status error bits that are a servo's state (input voltage, overheating, overload), not an
-#: instruction's fault (angle limit, range, checksum, instruction)
-STATE_BITS = p1.ERR_VOLTAGE | p1.ERR_OVERHEATING | p1.ERR_OVERLOAD
 
 
 class ServoIO:
@@ -35,7 +30,7 @@ class ServoIO:
         model = self.table.model(dxl_id)
         if item == MODE and model.mode_select is not None:
             return self._read_mode(dxl_id, model)
-        if item == HARDWARE_ERROR and model.family.error_in_status:
+        if item == model.family.behaviour.status_error_item:  # Protocol 1.0: the status's error byte
             return self._read_status_error(dxl_id, model)
         if not model.has(item):
             return None
@@ -64,12 +59,10 @@ class ServoIO:
 
     def _read_status_error(self, dxl_id: int, model: Model) -> int | None:
         """The error state of a servo that reports it in its status (Protocol 1.0): a ping's error
-        byte, its state bits kept in the table as the servo's ``hardware_error_status``."""
+        byte, the bits of it that are the servo's state (its family's behaviour says which) kept in
+        the table as its error item."""
         error: int | None = self.bus.execute(ErrorByte(dxl_id, protocol=model.protocol)).value
-        if error is None:
-            return None
-        self.table.set_value(HARDWARE_ERROR, dxl_id, error & STATE_BITS)
-        return error & STATE_BITS
+        return None if error is None else error_state.keep_status_error(self.table, dxl_id, error)
 
     def _read_mode(self, dxl_id: int, model: Model) -> int | None:
         """The mode code of a servo whose mode the Angle Limits select (Protocol 1.0), kept in the

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 from .. import units
 from ..control_table import KEPT_POSITION_MODES, POSITION_MODES
+from ..control_table.behaviour import ByClearInstruction
 from ..servo import error_state
 from ..servo.table import ServoTable
 from ..settings import ScanSettings, StartValues
@@ -70,15 +71,16 @@ class ServoSetup:
             self.log.warning(line)
 
     def _clear_error(self, dxl_id: int) -> None:
-        """A hardware error at start-up cleared by reboot; an error code (Y) by its error clear."""
+        """A hardware error at start-up cleared by its family's clear instruction where it has one (Y),
+        else by a reboot (which also gives a Protocol 1.0 servo the Torque Limit its shutdown cut)."""
         model = self.table.model(dxl_id)
         err = self.io.read_item(dxl_id, error_state.error_item(model))
         if not error_state.is_error(model, err):
             return
-        codes = model.family.error_codes
-        if codes is not None and codes.clear_params is not None:
+        clearing = model.family.behaviour.clearing
+        if isinstance(clearing, ByClearInstruction):
             self.log.warning(f"ID {dxl_id}: {error_state.describe(model, err or 0)} at start-up: clearing it")
-            cleared = self.reboots.clear_error(dxl_id, params=codes.clear_params)
+            cleared = self.reboots.clear_error(dxl_id, params=clearing.params)
             if not cleared:
                 self.log.warning(f"ID {dxl_id}: error not cleared: {cleared.why}")
             return
@@ -106,9 +108,10 @@ class ServoSetup:
         means "as fast as the motor goes" (Protocol 1.0, XL-320) Moving Speed in Joint Mode (left
         at 0, the first goal would be reached at full speed)."""
         model = self.table.model(dxl_id)
-        if model.has("profile_velocity") or not model.family.fastest_at_zero:
+        behaviour = model.family.behaviour
+        if not behaviour.speed_in_position_only(model):
             return "profile_velocity"
-        return model.family.speed_item(False) if self.io.mode(dxl_id) in POSITION_MODES else "profile_velocity"
+        return behaviour.speed_item(model) if self.io.mode(dxl_id) in POSITION_MODES else "profile_velocity"
 
     def _within(self, dxl_id: int, item: str, limit: str, param: str, value: float) -> int:
         """A default profile in pulses, within what this servo takes: its e-Manual range and, where

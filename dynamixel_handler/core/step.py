@@ -21,7 +21,7 @@ from .led_status import LedStatus
 from .pacing import Pacing
 from .read_plan import ReadPlan
 from .recovery import Recovery
-from .servo_io import HARDWARE_ERROR, STATE_BITS, Log
+from .servo_io import Log
 from .startup import Startup
 from .state import RECHECK_LOOPS, StepReport
 from .watchdog import Watchdog
@@ -205,9 +205,9 @@ class Step:
         for read, pending, data in report.reads:
             if data:
                 self.reads.store(read, data, report.stamp, report.seq)
-            for dxl_id, error in pending.errors.items():  # Protocol 1.0: the state in each status
+            for dxl_id, error in pending.errors.items():  # Protocol 1.0 reads: the state in each status
                 if dxl_id in self.table:
-                    self.table.set_value(HARDWARE_ERROR, dxl_id, error & STATE_BITS)
+                    error_state.keep_status_error(self.table, dxl_id, error)
         if len(self.table):
             self._log_reads(report, report.silent)
         self.e_stop.watch()  # hold_all: a new hardware error engages the E-stop

@@ -95,7 +95,7 @@ class CommandTopics:
             intake.subscribe(typ, topic, callback, depth)
         # a family driven through another's topics (XL-320: the X ones) subscribes those, once
         # a family without series topics (Y) is driven through the series-independent ones only
-        families = [f for f in dict.fromkeys(family_named(s).topics for s in series) if f.series_topics]
+        families = [f for f in dict.fromkeys(family_named(s).command_family for s in series) if f is not None]
         for f in families:
             sub(COMMANDS_TYPES[f], f"dynamixel/commands/{f.suffix}",
                 self._guard(f"commands/{f.suffix}", lambda m, f=f: self._bundle(f, m)), 10)

@@ -1,5 +1,6 @@
 """A servo's error state whichever way its family reports it: Hardware Error Status bits (X, P,
-PRO) or one error code (Y, ``ServoFamily.error_codes``).
+PRO, XL-320 in its own order), one error code (Y) or the error byte of its status (Protocol 1.0),
+decoded by the family's behaviour (``control_table.behaviour``).
 
 The error state the handler publishes is in hardware error bits: a Y error code shows as the bits
 it stands for (``control_table._error_codes``: over/low voltage -> input voltage, overheating ->
@@ -12,18 +13,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import units
 from ..control_table import Model
-from ..protocol import protocol1
+from ..control_table.behaviour import HARDWARE_ERROR
 from .table import ServoTable
 
-HARDWARE_ERROR = "hardware_error_status"
+__all__ = ["HARDWARE_ERROR", "codes_by_position", "common_array", "common_bits", "describe", "error_item",
+           "error_items", "hardware_bits", "in_error", "is_error", "keep_status_error", "own_bits"]
 
 
 def error_item(model: Model) -> str:
     """The item that holds the model's error state."""
-    codes = model.family.error_codes
-    return codes.item if codes is not None else HARDWARE_ERROR
+    return model.family.behaviour.error_item
 
 
 def error_items(models: list[Model]) -> set[str]:
@@ -43,30 +43,24 @@ def _codes_of(table: ServoTable) -> list[tuple[int, int, Model]]:
 
 def common_bits(model: Model, bits: int) -> int:
     """Hardware Error Status (or Shutdown) bits in the X and P layout the handler decodes: the
-    XL-320 has its own order (``ServoFamily.error_bits``: overload 0, overheating 1, input voltage 2)."""
-    layout = model.family.error_bits
-    if not layout or not bits:
-        return bits
-    return units.encode_shutdown(**{f"{name}_error": bool(bits >> bit & 1) for name, bit in layout})
+    XL-320 has its own order (overload 0, overheating 1, input voltage 2), Protocol 1.0 another."""
+    return model.family.behaviour.common_bits(bits)
 
 
 def own_bits(model: Model, common: int) -> int:
     """``common_bits`` the other way: bits of the X and P layout as the model's register holds them."""
-    layout = model.family.error_bits
-    if not layout:
-        return common
-    flags = units.decode_shutdown([common])
-    return sum(1 << bit for name, bit in layout if flags[f"{name}_error"][0])
+    return model.family.behaviour.own_bits(common)
 
 
 def common_array(models: list[Model], values: np.ndarray) -> np.ndarray:
-    """``common_bits`` for a table's array of bits (a copy where a model has its own layout)."""
-    own = [pos for pos, m in enumerate(models) if m.family.error_bits]
-    if not own:
-        return values
-    out = np.array(values, dtype=np.int64)
-    for pos in own:
-        out[pos] = common_bits(models[pos], int(out[pos]))
+    """``common_bits`` for a table's array of bits (a copy where a model's layout moves a bit)."""
+    out = values
+    for pos in np.flatnonzero(values):
+        bits = models[pos].family.behaviour.common_bits(int(values[pos]))
+        if bits != values[pos]:
+            if out is values:
+                out = np.array(values, dtype=np.int64)
+            out[pos] = bits
     return out
 
 
@@ -76,9 +70,7 @@ def hardware_bits(table: ServoTable) -> np.ndarray:
     bits = np.where(table.known(HARDWARE_ERROR), table.pulses(HARDWARE_ERROR), 0).astype(np.int64)
     bits = common_array(table.models, bits)
     for pos, code, model in _codes_of(table):
-        codes = model.family.error_codes
-        if codes is not None:
-            bits[pos] |= codes.bits(code)
+        bits[pos] |= model.family.behaviour.hardware_bits(code)
     return bits
 
 
@@ -86,28 +78,28 @@ def in_error(table: ServoTable) -> np.ndarray:
     """Per servo: a hardware error bit is set or an error code (not a warning) is held."""
     flags: np.ndarray = np.asarray(hardware_bits(table) != 0)
     for pos, code, model in _codes_of(table):
-        codes = model.family.error_codes
-        if codes is not None and codes.is_error(code):
+        if model.family.behaviour.is_error(code):
             flags[pos] = True
     return flags
 
 
 def is_error(model: Model, value: int | None) -> bool:
     """An error item's value is an error (bits set, or an error code other than a warning)."""
-    if not value:
-        return False
-    codes = model.family.error_codes
-    return codes.is_error(value) if codes is not None else True
+    return model.family.behaviour.is_error(value)
 
 
 def describe(model: Model, value: int) -> str:
     """The value of the model's error item, named: "error code 5 (Overload Error)" or "0x24"."""
-    codes = model.family.error_codes
-    if model.family.error_in_status:
-        return protocol1.error_text(value)
-    if codes is None:
-        return f"0x{value:02X}"
-    return f"error code {value} ({codes.name(value)})"
+    return model.family.behaviour.describe(value)
+
+
+def keep_status_error(table: ServoTable, dxl_id: int, error: int) -> int:
+    """A status error byte that came with a read (Protocol 1.0), kept as the servo's error state: the
+    bits of it its family's behaviour says are the servo's state (``status_state``); those bits."""
+    behaviour = table.model(dxl_id).family.behaviour
+    state = behaviour.status_state(error)
+    table.set_value(behaviour.error_item, dxl_id, state)
+    return state
 
 
 def codes_by_position(table: ServoTable) -> dict[int, str]:

@@ -75,8 +75,7 @@ def _check_hardware_error(h: Health, table: ServoTable, dxl_id: int) -> None:
     value = table.value(error_state.error_item(model), dxl_id)  # bits, or a Y error code
     what = "unknown" if value is None else error_state.describe(model, value)
     h.values.append(("hardware error", what))
-    codes = model.family.error_codes
-    bits = codes.bits(value) if codes is not None and value else error_state.common_bits(model, value or 0)
+    bits = model.family.behaviour.hardware_bits(value or 0)
     if error_state.is_error(model, value):
         causes = [name for name, flag in units.decode_hardware_error([bits or 0]).items() if flag[0]]
         h.raise_to(ERROR, f"hardware error: {', '.join(causes) or what} (clear it with clear_error)")

@@ -57,7 +57,7 @@ def test_a_value_under_one_step_is_written_as_one_step_not_as_no_limit(name, ite
     assert parse_value(model, spec, f"{tiny:.9g}{own}", "test") == 1
 
 
-MOVING_SPEED = [name for name, m in MODELS.items() if m.family.fastest_at_zero and not m.has("profile_velocity")]
+MOVING_SPEED = [name for name, m in MODELS.items() if m.family.behaviour.speed_in_position_only(m)]
 
 
 @pytest.mark.parametrize("name", MOVING_SPEED)
