@@ -15,7 +15,8 @@ others change what differs:
   byte of every status (no Hardware Error Status item); an overload or overheating is cleared by
   writing Torque Limit again (the e-Manual's way: the shutdown set it to 0), not by a reboot.
 
-A new family is its data (``ServoFamily``) and one of these, or one more subclass here.
+A new family is its data (``ServoFamily``) and one of these, or one more subclass (here, or in the
+module of a family plug-in, ``_plugins.FamilyPlugin``).
 """
 from __future__ import annotations
 
