@@ -206,7 +206,6 @@ def _build_protocol1(number: int, spec: _protocol1.Spec) -> Model:
         ram_copies=MappingProxyType(dict(_protocol1.RAM_COPIES)),
         read_only=frozenset(r[0] for r in spec.rows if r[4]),
         item_zero=MappingProxyType({"present_current": spec.current_zero} if "present_current" in items else {}),
-        mode_select=_protocol1.LimitModes(spec.top, _protocol1.TORQUE_CONTROL_ITEM in items),
     )
 
 

@@ -3,6 +3,7 @@ the facts the handler, the baud tool and the simulator read; built by ``control_
 (and by a family plug-in's, ``FamilyPlugin``)."""
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -14,7 +15,7 @@ from ._item import Item
 from ._modes import POSITION_LIMITED_MODES
 
 if TYPE_CHECKING:
-    from . import _protocol1
+    from ._protocol1 import LimitModes
 
 OPERATING_MODES: Mapping[str, int] = MappingProxyType({
     "current": 0, "velocity": 1, "position": 3, "ex_position": 4, "cur_position": 5, "pwm": 16,
@@ -94,9 +95,12 @@ class Model:
     #: the raw value that reads 0 where an item is offset (MX Current: 2048 = 0 mA; EX Sensed
     #: Current: 512 = 0 mA)
     item_zero: Mapping[str, int] = field(default_factory=dict, repr=False)
-    #: how the mode is read and set where no Operating Mode register holds it (Protocol 1.0: the
-    #: Angle Limits, ``_protocol1.LimitModes``); None: the Operating Mode register
-    mode_select: Optional["_protocol1.LimitModes"] = field(default=None, repr=False)
+
+    @functools.cached_property
+    def mode_select(self) -> Optional["LimitModes"]:
+        """How the mode is read and set where no Operating Mode register holds it (Protocol 1.0: the
+        Angle Limits); None: the Operating Mode register. Its family's behaviour says which."""
+        return self.family.behaviour.mode_select(self)
 
     @property
     def protocol(self) -> int:
