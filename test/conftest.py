@@ -65,7 +65,7 @@ SLOW_MODULES = frozenset({
     "test_fast_paths_commands", "test_commands_topics", "test_commands_bad_input", "test_commands_status",
     "test_core_faults", "test_joint_commands", "test_core_ratios", "test_services_load", "test_params_file_limits",
     "test_e_stop", "test_e_stop_rigs", "test_reboot_service", "test_manifest", "test_joints_node",
-    "test_joints_calibration_node", "test_item_services",
+    "test_joints_calibration_node", "test_item_services", "test_family_plugin",
 })
 #: ROS-free modules outside test/sim that drive the bus layer or the virtual bus
 SIM_MODULES = frozenset({"test_bus_sim", "test_bus_wire", "test_bus_protocol"})

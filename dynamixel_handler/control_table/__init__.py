@@ -17,11 +17,10 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Tuple
 
-from . import _protocol1, _xl320, _y
+from . import _plugins, _protocol1, _xl320, _y
 from ._factory import FACTORY
 from ._facts import (
     BAUD_RATES,
@@ -32,171 +31,22 @@ from ._facts import (
     OPERATING_MODES_OF,
     SIGNED_ITEMS,
     TABLE_SIZE,
-    X330_INDIRECT_DATA_BEFORE_FW52,
     ModelFacts,
 )
-from ._family import (
-    FAMILIES,
-    MAX_ROTATION,
-    PRO,
-    PROTOCOL1_FAMILIES,
-    P,
-    ServoFamily,
-    X,
-    family_named,
-    family_titled,
-)
+from ._family import BUILT_IN, BUILT_IN_NAMED, BUILT_IN_PROTOCOL1, MAX_ROTATION, PRO, P, ServoFamily, X
 from ._item import Item
+from ._model import OPERATING_MODES, Model
 from ._modes import KEPT_POSITION_MODES, POSITION_LIMITED_MODES, POSITION_MODES
+from ._plugins import FamilyPlugin
 from ._ranges import LISTED as RANGED_ITEMS
 from ._ranges import ranges_of
 from ._sdk_files import load_sdk_table
 from ._torque import TORQUE, TorqueFigures, torque_figures
 
 __all__ = ["FAMILIES", "KEPT_POSITION_MODES", "MAX_ROTATION", "OPERATING_MODES", "POSITION_LIMITED_MODES",
-           "POSITION_MODES", "PROTOCOL1_FAMILIES", "PRO", "P", "RANGED_ITEMS", "SERIES", "TORQUE", "X", "Item", "Model",
-           "ServoFamily", "TorqueFigures", "family_named", "family_titled", "known_models", "model_by_number",
-           "protocol1_model_by_number", "protocol1_models", "torque_figures"]
-
-SERIES: Tuple[str, ...] = tuple(f.name for f in FAMILIES)
-
-OPERATING_MODES: Mapping[str, int] = MappingProxyType({
-    "current": 0, "velocity": 1, "position": 3, "ex_position": 4, "cur_position": 5, "pwm": 16,
-})
-
-
-@dataclass(frozen=True)
-class Model:
-    """A servo model: its items and the physical unit per pulse of each quantity.
-
-    Scales are NaN where the model lacks the quantity (no current sensor on XL430, no PWM on the
-    old PRO). Models compare and hash by number and name so they can key caches.
-    """
-
-    number: int
-    name: str
-    #: its family: modes, goal ranges, how topics and parameters name it (``ServoFamily``)
-    family: ServoFamily
-    items: Mapping[str, Item] = field(repr=False)
-    position_deg_per_pulse: float = math.nan
-    position_zero_pulse: int = 0
-    velocity_deg_s_per_pulse: float = math.nan
-    acceleration_deg_ss_per_pulse: float = math.nan
-    current_ma_per_pulse: float = math.nan
-    pwm_percent_per_pulse: float = math.nan
-    voltage_v_per_pulse: float = 0.1
-    temperature_degc_per_pulse: float = 1.0
-    return_delay_us_per_pulse: float = 2.0
-    bus_watchdog_ms_per_pulse: float = 20.0
-    realtime_tick_s_per_pulse: float = 0.001
-    position_max_pulse: int = 0
-    position_min_pulse: int = 0
-    external_ports: Tuple[int, ...] = ()
-    #: control-table family: "X" (X430/X540), "X330" (X330, XM335), "P" (P and PRO "-RA"), "OLD_PRO"
-    layout: str = "X"
-    #: Baud Rate register value -> bps
-    baud_rates: Mapping[int, int] = field(default_factory=dict, repr=False)
-    #: Operating Mode register values the firmware accepts
-    operating_modes: Tuple[int, ...] = ()
-    #: indirect blocks as (first Indirect Address, first Indirect Data, entries)
-    indirect: Tuple[Tuple[int, int, int], ...] = ()
-    #: the addresses an Indirect Address may hold (lowest, highest)
-    indirect_targets: Tuple[int, int] = (0, 0)
-    #: bytes of control table (last address + 1)
-    table_size: int = 0
-    #: factory (initial) values the e-Manual gives for this model, by item name (limits, gains,
-    #: thresholds, shutdown mask...); items it leaves blank are absent
-    factory: Mapping[str, int] = field(default_factory=dict, repr=False)
-    #: the values the e-Manual allows each item, raw (lowest, highest): its page's ranges (``_ranges``)
-    #: and, for an item of ``RANGED_ITEMS`` the manual gives none, the register's byte range
-    ranges: Mapping[str, Tuple[int, int]] = field(default_factory=dict, repr=False)
-    #: the items of ``ranges`` that keep the register's byte range (the e-Manual gives them none)
-    byte_range_items: FrozenSet[str] = frozenset()
-    #: operating mode name -> the value of its Operating Mode register (the XL-320's Control
-    #: Mode has its own values); a mode a model lacks is absent
-    mode_values: Mapping[str, int] = field(default_factory=lambda: OPERATING_MODES, repr=False)
-    #: the inverse: register value -> mode name
-    mode_names: Mapping[int, str] = field(init=False, repr=False)
-    #: the handler switches it only to its own modes (``mode_values``), not to every mode of its
-    #: family (MX-28(2.0): no current modes; RH-P12-RN(A): current and current-based position only)
-    own_modes: bool = False
-    #: the modes whose goal positions stay within the position limits (a gripper's stroke: every
-    #: position mode it has)
-    position_limited_modes: Tuple[str, ...] = POSITION_LIMITED_MODES
-    #: unit per pulse of an item whose scale differs from its quantity's (Y: Present Input Voltage
-    #: in 0.01 V, the voltage limits in 0.1 V); NaN: the item has no physical unit
-    item_scales: Mapping[str, float] = field(default_factory=dict, repr=False)
-    #: EEPROM item -> the RAM item the servo copies it into at power on (XL-320: Max Torque ->
-    #: Torque Limit): the handler writes the RAM item too, so a new limit holds at once
-    ram_copies: Mapping[str, str] = field(default_factory=dict, repr=False)
-    #: items kept in non-volatile memory when written with torque off although writable with torque
-    #: on (Y's Hybrid area): the handler writes them only when the value differs
-    hybrid_items: FrozenSet[str] = frozenset()
-    #: items the host may read but not write (Protocol 1.0 tables say so per item; empty: the
-    #: handler's own list of read-only items applies)
-    read_only: FrozenSet[str] = frozenset()
-    #: the raw value that reads 0 where an item is offset (MX Current: 2048 = 0 mA; EX Sensed
-    #: Current: 512 = 0 mA)
-    item_zero: Mapping[str, int] = field(default_factory=dict, repr=False)
-    #: how the mode is read and set where no Operating Mode register holds it (Protocol 1.0: the
-    #: Angle Limits, ``_protocol1.LimitModes``); None: the Operating Mode register
-    mode_select: Optional["_protocol1.LimitModes"] = field(default=None, repr=False)
-
-    @property
-    def protocol(self) -> int:
-        """The Dynamixel protocol the model speaks (its family's): 2, or 1."""
-        return self.family.protocol
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "mode_names", MappingProxyType({v: k for k, v in self.mode_values.items()}))
-
-    @property
-    def modes(self) -> FrozenSet[str]:
-        """The operating modes (by name) a command may switch it to."""
-        return frozenset(self.mode_values) if self.own_modes else self.family.modes
-
-    def mode_name(self, value: Optional[int]) -> Optional[str]:
-        """The mode an Operating Mode register value means on this model (None: none or unknown)."""
-        return self.mode_names.get(value) if value is not None else None
-
-    def indirect_blocks(self, firmware: int) -> Tuple[Tuple[int, int, int], ...]:
-        """The indirect blocks for a firmware version: X330 firmware before v52 had its
-        Indirect Data at 224 instead of 208."""
-        if self.layout == "X330" and firmware < 52 and self.indirect and self.indirect[0][1] == 208:
-            address, _, count = self.indirect[0]
-            return ((address, X330_INDIRECT_DATA_BEFORE_FW52, count),)
-        return self.indirect
-
-    @property
-    def series(self) -> str:
-        """The family's name: "X", "P" or "PRO"."""
-        return self.family.name
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Model):
-            return NotImplemented
-        return self.number == other.number and self.name == other.name
-
-    def __hash__(self) -> int:
-        return self.number  # cheap: unit conversions hash a tuple of models on every call
-
-    def has(self, name: str) -> bool:
-        """True if this model's control table has the item."""
-        return name in self.items
-
-    def value_range(self, name: str) -> Tuple[int, int]:
-        """The lowest and highest raw value the e-Manual allows item ``name`` on this model (the
-        register's bytes where it gives none); KeyError naming the model if it has no such item."""
-        item = self.item(name)
-        return self.ranges.get(name, (item.min_raw, item.max_raw))
-
-    def item(self, name: str) -> Item:
-        """The item by canonical name; KeyError naming the model if it has no such item."""
-        try:
-            return self.items[name]
-        except KeyError:
-            raise KeyError(f"{self.name} (model {self.number}) has no control-table item {name!r}") from None
-
+           "POSITION_MODES", "PROTOCOL1_FAMILIES", "PRO", "P", "RANGED_ITEMS", "SERIES", "TORQUE", "X", "FamilyPlugin",
+           "Item", "Model", "ServoFamily", "TorqueFigures", "family_named", "family_titled", "known_models",
+           "model_by_number", "protocol1_model_by_number", "protocol1_models", "torque_figures"]
 
 def _ranges(number: int, items: Mapping[str, Item]) -> Dict[str, Any]:
     """``ranges`` and ``byte_range_items`` of a model: its e-Manual ranges (within its registers'
@@ -244,7 +94,7 @@ def _build(number: int, facts: ModelFacts) -> Model:
         name: Item(name, address, size, name in SIGNED_ITEMS, address < eeprom_end)
         for name, (address, size) in sorted(rows.items(), key=lambda kv: kv[1][0])
     }
-    family = family_named(facts.series)
+    family = BUILT_IN_NAMED[facts.series]
     if family.x_table:
         position_scale = 360.0 / 4096.0
         zero, pmin, pmax = 2048, 0, 4095
@@ -300,7 +150,7 @@ def _build_y(number: int) -> Model:
     items = {n: Item(n, address, size, signed, eeprom)
              for n, (address, size, signed, eeprom) in sorted(rows.items(), key=lambda kv: kv[1][0])}
     return Model(
-        number=number, name=name, family=family_named("Y"), items=MappingProxyType(items),
+        number=number, name=name, family=BUILT_IN_NAMED["Y"], items=MappingProxyType(items),
         position_deg_per_pulse=180.0 / _y.HALF_TURN, position_zero_pulse=0,
         velocity_deg_s_per_pulse=_y.VELOCITY_RPM * 6.0, acceleration_deg_ss_per_pulse=_y.ACCELERATION_RPM2 / 10.0,
         current_ma_per_pulse=_y.CURRENT_MA, pwm_percent_per_pulse=100.0 / _y.PWM_FULL_SCALE,
@@ -319,7 +169,7 @@ def _build_xl320() -> Model:
     items = {n: Item(n, address, size, False, address < _xl320.EEPROM_END, bit, span)
              for n, (address, size, bit, span) in sorted(rows.items(), key=lambda kv: kv[1][0])}
     return Model(
-        number=_xl320.NUMBER, name=_xl320.NAME, family=family_named("XL320"), items=MappingProxyType(items),
+        number=_xl320.NUMBER, name=_xl320.NAME, family=BUILT_IN_NAMED["XL320"], items=MappingProxyType(items),
         position_deg_per_pulse=_xl320.POSITION_DEG_PER_PULSE, position_zero_pulse=_xl320.POSITION_ZERO_PULSE,
         velocity_deg_s_per_pulse=_xl320.VELOCITY_RPM * 6.0, pwm_percent_per_pulse=100.0 / _xl320.OUTPUT_FULL_SCALE,
         position_max_pulse=1023, position_min_pulse=0, layout="XL320",
@@ -331,11 +181,8 @@ def _build_xl320() -> Model:
 
 
 @functools.lru_cache(maxsize=None)
-def _registry() -> Mapping[int, Model]:
-    models = {number: _build(number, facts) for number, facts in MODEL_FACTS.items()}
-    models.update({number: _build_y(number) for number in _y.SDK_FILES})
-    models[_xl320.NUMBER] = _build_xl320()
-    return MappingProxyType(dict(sorted(models.items())))
+def _built_in_registry() -> Mapping[int, Model]:
+    return MappingProxyType({number: build() for number, build in sorted(_BUILDERS.items())})
 
 
 def _build_protocol1(number: int, spec: _protocol1.Spec) -> Model:
@@ -345,7 +192,7 @@ def _build_protocol1(number: int, spec: _protocol1.Spec) -> Model:
     modes = {m: _protocol1.MODE_CODES[m] for m in spec.modes}
     spans = _protocol1.ranges(spec)
     return Model(
-        number=number, name=spec.name, family=family_named(spec.family), items=MappingProxyType(items),
+        number=number, name=spec.name, family=BUILT_IN_NAMED[spec.family], items=MappingProxyType(items),
         position_deg_per_pulse=spec.deg_per_pulse, position_zero_pulse=spec.zero,
         velocity_deg_s_per_pulse=spec.rpm * 6.0,
         acceleration_deg_ss_per_pulse=_protocol1.ACCELERATION_DEG_SS if "profile_acceleration" in items else math.nan,
@@ -359,13 +206,69 @@ def _build_protocol1(number: int, spec: _protocol1.Spec) -> Model:
         ram_copies=MappingProxyType(dict(_protocol1.RAM_COPIES)),
         read_only=frozenset(r[0] for r in spec.rows if r[4]),
         item_zero=MappingProxyType({"present_current": spec.current_zero} if "present_current" in items else {}),
-        mode_select=_protocol1.LimitModes(spec.top, _protocol1.TORQUE_CONTROL_ITEM in items),
     )
 
 
 @functools.lru_cache(maxsize=None)
+def _built_in_protocol1() -> Mapping[int, Model]:
+    return MappingProxyType({number: build() for number, build in sorted(_PROTOCOL1_BUILDERS.items())})
+
+
+#: every built-in model number, Protocol 2.0 and 1.0 -> how its model is built (when first asked)
+_BUILDERS: Mapping[int, Callable[[], Model]] = {
+    **{number: functools.partial(_build, number, facts) for number, facts in MODEL_FACTS.items()},
+    **{number: functools.partial(_build_y, number) for number in _y.SDK_FILES}, _xl320.NUMBER: _build_xl320}
+_PROTOCOL1_BUILDERS: Mapping[int, Callable[[], Model]] = {
+    number: functools.partial(_build_protocol1, number, spec) for number, spec in _protocol1.SPECS.items()}
+
+
+def _built_in_model(number: int, protocol: int = 2) -> Model:
+    """A built-in model by its number and protocol (what a plug-in's table may be derived from)."""
+    return (_built_in_protocol1() if protocol == 1 else _built_in_registry())[int(number)]
+
+
+# ------------------------------------------------------------ the tables, with the installed plug-ins
+#: the families installed packages add (``_plugins``, entry-point group ``dynamixel_handler.families``)
+_ADDED = _plugins.installed(
+    BUILT_IN + BUILT_IN_PROTOCOL1,
+    {2: set(_BUILDERS), 1: set(_PROTOCOL1_BUILDERS)}, _built_in_model)
+_ADDED_MODELS = {protocol: {m.number: m for f, models in _ADDED if f.protocol == protocol for m in models}
+                 for protocol in (1, 2)}
+#: every Protocol 2.0 family, in the order parameters, topics and logs list them: the built-in ones,
+#: then those of installed plug-ins
+FAMILIES: Tuple[ServoFamily, ...] = BUILT_IN + tuple(f for f, _ in _ADDED if f.protocol == 2)
+#: the Protocol 1.0 families: known by name (``family_named``) and to ``protocol1_models()``, kept out
+#: of ``FAMILIES`` (whose models the Protocol 2.0 scan looks up); ``config.USED_FAMILIES`` gives them
+#: their ``init/used_servo_series`` keys, and the node drives them
+PROTOCOL1_FAMILIES: Tuple[ServoFamily, ...] = BUILT_IN_PROTOCOL1 + tuple(f for f, _ in _ADDED if f.protocol == 1)
+SERIES: Tuple[str, ...] = tuple(f.name for f in FAMILIES)
+_BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES + PROTOCOL1_FAMILIES}
+_BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
+
+
+def family_named(name: "str | ServoFamily") -> ServoFamily:
+    """The family by its name ("X", "P", "PRO"); a family is returned as is. KeyError if unknown."""
+    if isinstance(name, ServoFamily):
+        return name
+    try:
+        return _BY_NAME[name]
+    except KeyError:
+        raise KeyError(f"unknown servo series {name!r} (known: {', '.join(_BY_NAME)})") from None
+
+
+def family_titled(title: str) -> "ServoFamily | None":
+    """The family a parameter value names ("x", "P", "Pro", any case); None if none is."""
+    return _BY_TITLE.get(title.strip().lower())
+
+
+@functools.lru_cache(maxsize=None)
+def _registry() -> Mapping[int, Model]:
+    return MappingProxyType(dict(sorted({**_built_in_registry(), **_ADDED_MODELS[2]}.items())))
+
+
+@functools.lru_cache(maxsize=None)
 def _protocol1_registry() -> Mapping[int, Model]:
-    return MappingProxyType({n: _build_protocol1(n, spec) for n, spec in sorted(_protocol1.SPECS.items())})
+    return MappingProxyType(dict(sorted({**_built_in_protocol1(), **_ADDED_MODELS[1]}.items())))
 
 
 def protocol1_models() -> List[Model]:

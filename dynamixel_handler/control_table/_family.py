@@ -5,7 +5,8 @@ The X, P and PRO families differ in the modes their command topics offer, in how
 bounded, in which item carries the speed of a move in position modes, and in how parameters and
 messages spell them. Everything that depends on the family reads one of these attributes or asks
 its behaviour; a new family (MX, XL-320, Y) is one more value here, with the behaviour it shares
-with others or one of its own, not a new branch in the code.
+with others or one of its own, not a new branch in the code; a family from outside the package is
+such a value too, named by an installed plug-in (``_plugins.FamilyPlugin``).
 """
 from __future__ import annotations
 
@@ -197,26 +198,10 @@ EX = _protocol1_family("EX", _JOINT_WHEEL, 107, bulk_read=True)
 MX1 = _protocol1_family("MX1", frozenset({"position", "velocity", "ex_position", "current"}), 29,
                         bulk_read=True, multi_turn_goal=28_672)
 
-#: every family, in the order parameters, topics and logs list them
-FAMILIES: Tuple[ServoFamily, ...] = (X, P, PRO, Y, XL320)
-#: the Protocol 1.0 families: known by name (``family_named``) and to ``protocol1_models()``, kept out
-#: of ``FAMILIES`` (whose models the Protocol 2.0 scan looks up); ``config.USED_FAMILIES`` gives them
-#: their ``init/used_servo_series`` keys, and the node drives them
-PROTOCOL1_FAMILIES: Tuple[ServoFamily, ...] = (AX, RX, DX, EX, MX1)
-_BY_NAME: Mapping[str, ServoFamily] = {f.name: f for f in FAMILIES + PROTOCOL1_FAMILIES}
-_BY_TITLE: Mapping[str, ServoFamily] = {f.title.lower(): f for f in FAMILIES}
-
-
-def family_named(name: "str | ServoFamily") -> ServoFamily:
-    """The family by its name ("X", "P", "PRO"); a family is returned as is. KeyError if unknown."""
-    if isinstance(name, ServoFamily):
-        return name
-    try:
-        return _BY_NAME[name]
-    except KeyError:
-        raise KeyError(f"unknown servo series {name!r} (known: {', '.join(_BY_NAME)})") from None
-
-
-def family_titled(title: str) -> Optional[ServoFamily]:
-    """The family a parameter value names ("x", "P", "Pro", any case); None if none is."""
-    return _BY_TITLE.get(title.strip().lower())
+#: the families this package defines, in the order parameters, topics and logs list them (``FAMILIES``
+#: of ``control_table`` adds those of installed plug-ins, ``FamilyPlugin``)
+BUILT_IN: Tuple[ServoFamily, ...] = (X, P, PRO, Y, XL320)
+#: the Protocol 1.0 families this package defines (``PROTOCOL1_FAMILIES``: with the plug-ins' ones)
+BUILT_IN_PROTOCOL1: Tuple[ServoFamily, ...] = (AX, RX, DX, EX, MX1)
+#: a built-in family by its name, for the builders of its models
+BUILT_IN_NAMED: Mapping[str, ServoFamily] = {f.name: f for f in BUILT_IN + BUILT_IN_PROTOCOL1}

@@ -3,19 +3,22 @@
 The handler asks it, never the family's name or protocol: how the family's error state is read
 and decoded into the X layout of hardware error bits, whether an error value is an error and how
 it reads in words, what torque the error cut, how an error is cleared (a reboot, the Clear
-instruction with its key, or an item written again), and where the speed of a move goes (which
-message field, which item, what 0 means). ``FamilyBehaviour`` is the X, P and PRO behaviour; the
+instruction with its key, or an item written again), how its mode is selected (the Operating
+Mode register, or the Angle Limits) and where the speed of a move goes (which message field, which
+item, what 0 means). ``FamilyBehaviour`` is the X, P and PRO behaviour; the
 others change what differs:
 
 - ``ErrorCodeBehaviour`` (Y): one error code instead of the bits (``_error_codes``), cleared by
   the Clear instruction with its key;
 - ``MovingSpeedBehaviour`` (XL-320): the speed of a move is Moving Speed, the velocity goal
   outside the position modes, where 0 means "as fast as the motor goes";
-- ``Protocol1Behaviour`` (AX, RX, DX, EX, MX 1.0): that speed too, and the error state in the error
-  byte of every status (no Hardware Error Status item); an overload or overheating is cleared by
-  writing Torque Limit again (the e-Manual's way: the shutdown set it to 0), not by a reboot.
+- ``Protocol1Behaviour`` (AX, RX, DX, EX, MX 1.0): that speed too, its mode selected by the Angle
+  Limits (``mode_select``: no Operating Mode register), and the error state in the error byte of
+  every status (no Hardware Error Status item); an overload or overheating is cleared by writing
+  Torque Limit again (the e-Manual's way: the shutdown set it to 0), not by a reboot.
 
-A new family is its data (``ServoFamily``) and one of these, or one more subclass here.
+A new family is its data (``ServoFamily``) and one of these, or one more subclass (here, or in the
+module of a family plug-in, ``_plugins.FamilyPlugin``).
 """
 from __future__ import annotations
 
@@ -25,6 +28,7 @@ from typing import Callable, Optional, Protocol, Tuple, Union
 from ..protocol import protocol1
 from ._error_codes import ErrorCodes
 from ._modes import POSITION_MODES
+from ._protocol1 import TORQUE_CONTROL_ITEM, LimitModes
 
 #: the item that holds the X, P and PRO error state
 HARDWARE_ERROR = "hardware_error_status"
@@ -39,7 +43,10 @@ BitLayout = Tuple[Tuple[str, int], ...]
 
 
 class HasItems(Protocol):
-    """A model, as far as a behaviour asks it: which items its control table has."""
+    """A model, as far as a behaviour asks it: which items its control table has, its position range."""
+
+    @property
+    def position_max_pulse(self) -> int: ...
 
     def has(self, name: str) -> bool: ...
 
@@ -135,6 +142,12 @@ class FamilyBehaviour:
         """How an error is cleared on command (``clear_error``)."""
         return ByReboot()
 
+    # ------------------------------------------------------------ the mode
+    def mode_select(self, model: HasItems) -> Optional[LimitModes]:
+        """How ``model``'s mode is read and set where no Operating Mode register holds it; None: that
+        register (``Model.mode_select`` asks this once per model)."""
+        return None
+
     # ------------------------------------------------------------ the speed of a move
     def speed_item(self, model: HasItems) -> str:
         """The item the speed of a move in position modes goes to on ``model``."""
@@ -221,6 +234,11 @@ class Protocol1Behaviour(MovingSpeedBehaviour):
     power-on value), once the cause is gone."""
 
     status_error_item: Optional[str] = HARDWARE_ERROR
+
+    def mode_select(self, model: HasItems) -> Optional[LimitModes]:
+        """The Angle Limits select the mode (no Operating Mode register), and Torque Control Mode
+        Enable where the model has it (MX-64/106)."""
+        return LimitModes(model.position_max_pulse, model.has(TORQUE_CONTROL_ITEM))
 
     def status_state(self, error_byte: int) -> int:
         return error_byte & sum(1 << bit for _, bit in self.error_bits)

@@ -36,6 +36,9 @@ class Family:
 _PROTOCOL1_LAYOUTS = ("P1_AX", "P1_RX", "P1_DX", "P1_EX", "P1_MX1")
 _FIRMWARE = {"X": 48, "X330": 52, "P": 13, "OLD_PRO": 25, "Y": 13, "XL320": 23,
              **{layout: 24 for layout in _PROTOCOL1_LAYOUTS}, "P1_MX1": 41}
+# A layout of a family an installed plug-in adds (``control_table.FamilyPlugin``): a version recent
+# enough for Fast Sync/Bulk Read.
+_PLUGIN_FIRMWARE = 50
 # Layouts without Fast Sync/Bulk Read: old PRO "-R", XL-320 (v23 a representative number), and the
 # Protocol 1.0 ones (no such instruction in Protocol 1.0).
 _NO_FAST_READ = frozenset({"OLD_PRO", "XL320", *_PROTOCOL1_LAYOUTS})
@@ -52,7 +55,7 @@ def family(model: Model) -> Family:
     nominal = _SUPPLY_V.get(model.layout) or next((volts for limit, volts in _NOMINAL_V if max_v <= limit), 24.0)
     fast = model.layout not in _NO_FAST_READ and not model.name.startswith("2X")
     fast_from = (46 if model.layout == "X330" else 45) if model.family.x_table else 12
-    return Family(nominal, _FIRMWARE[model.layout], fast, fast_from)
+    return Family(nominal, _FIRMWARE.get(model.layout, _PLUGIN_FIRMWARE), fast, fast_from)
 
 
 def _pulses(value: float, per_pulse: float) -> int:

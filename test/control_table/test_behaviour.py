@@ -114,3 +114,16 @@ def test_the_command_topics_each_family_takes():
     assert (X.command_family, P.command_family, PRO.command_family) == (X, P, PRO)
     assert XL320.family.command_family is X  # the X topics and messages
     assert YM080.family.command_family is None and AX12.family.command_family is None  # series-independent only
+
+
+def test_the_behaviour_says_how_a_mode_is_selected():
+    """The Operating Mode register (X, P, PRO, Y, XL-320), or the Angle Limits and, where the model
+    has it, Torque Control Mode Enable (Protocol 1.0): ``Model.mode_select`` is its family's answer."""
+    from dynamixel_handler.control_table import known_models, protocol1_models
+
+    assert all(m.mode_select is None for m in known_models())
+    for model in protocol1_models():
+        select = model.mode_select
+        assert select is not None and select is model.mode_select  # asked once per model
+        assert select.top == model.position_max_pulse
+        assert select.torque_control == model.has("torque_control_mode_enable")

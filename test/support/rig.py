@@ -32,6 +32,7 @@ from dynamixel_handler_msgs.msg import (
 )
 
 from .ros import PATIENT_SCAN, NodeProcess, TopicClient, node_command
+from .sim_process import SimProcess
 
 __all__ = ["BASE_PARAMS", "FAST_SYNC_READ", "FOUR_SERVOS", "H54", "P", "PH54", "PING", "PRO", "READ", "Received",
            "Rig", "STATE_TOPICS", "SYNC_READ", "SYNC_WRITE", "WRITE", "X", "X540", "XM430", "XM540"]
@@ -138,6 +139,9 @@ class Rig(TopicClient):
     ``before_start``: called with the bus before the node starts; ``env``: extra environment of the
     node process; ``state_topics``: also keep ``/dynamixel/state/<group>`` (``topics["state/..."]``);
     ``start_node``: False to start the node later with :meth:`start_node`.
+    ``sim_env``: serve the bus from a ``dynamixel_handler_sim`` process with this environment added
+    (a family plug-in on its path, ``support.sim_process``): ``rig.sim`` is then a ``SimProcess``
+    (its run-time commands), not a ``VirtualBus`` (no registers, no instruction log here).
 
     The node opens the bus through a link in a folder of the rig's own (unless ``sim_kwargs`` names
     one): a node that lost a bare ``/dev/pts/N`` (``sim.vanish()``) opens it again as soon as the
@@ -147,7 +151,7 @@ class Rig(TopicClient):
     def __init__(self, servos: dict[int, int] | None = None, *params: str, base: Sequence[str] | None = None,
                  sim_kwargs: dict | None = None, expect: int | None = None, wait_ids: Iterable[int] | None = None,
                  before_start: Callable[[VirtualBus], None] | None = None, env: dict[str, str] | None = None,
-                 state_topics: bool = False, start_node: bool = True) -> None:
+                 state_topics: bool = False, start_node: bool = True, sim_env: dict[str, str] | None = None) -> None:
         self.env = env
         # the servos as unboxed (57600 bps, the node's default; answering only at that rate), but
         # untimed replies: wire timing is opted into per test (``sim_kwargs``)
@@ -155,7 +159,10 @@ class Rig(TopicClient):
         self.servo_ids = sorted(servos)
         self._link_dir = None if "link" in (sim_kwargs or {}) else tempfile.mkdtemp(prefix="dxl-rig-")
         link = {} if self._link_dir is None else {"link": f"{self._link_dir}/ttyDXL"}
-        self.sim = VirtualBus(servos=servos, **{"wire_timing": False, **link, **(sim_kwargs or {})})
+        if sim_env is None:
+            self.sim = VirtualBus(servos=servos, **{"wire_timing": False, **link, **(sim_kwargs or {})})
+        else:
+            self.sim = SimProcess(servos, link["link"], sim_env)
         self.device = self.sim.start()
         self._base = base
         self.node_proc: NodeProcess | None = None
