@@ -44,7 +44,7 @@ def rig(tmp_path_factory):
 
 def test_found_at_start_up_by_its_name_and_driven_without_topics_of_its_own(rig):
     assert f"ID 1: {NAME}" in rig.output, rig.output
-    assert rig.state_of("status", "torque", 1) is True
+    rig.wait(lambda: rig.state_of("status", "torque", 1) is True, what="torque on in the status")  # pub_ratio 3
     names = [name for name, _ in rig.node.get_topic_names_and_types()]
     assert not any(n.startswith(("/dynamixel/commands/z", "/dynamixel/command/z/")) for n in names), names
 
