@@ -41,6 +41,11 @@ class Framer(Protocol):
     #: each status's error byte carries the servo's state of the moment (overload, heat, ...),
     #: kept with the replies of a group read
     state_in_error_byte: bool
+    #: a ping's status carries the servo's model number and firmware version (else: the model number
+    #: is read at address 0 and the firmware is an item of its model)
+    ping_identity: bool
+    #: Factory Reset takes what to keep (its ID, its baud rate); else it resets everything
+    reset_option: bool
     #: bytes of a status packet without parameters
     status_overhead: int
     #: instruction codes
@@ -78,6 +83,8 @@ class Protocol2:
     broadcast_ping = True
     sync_read = True
     state_in_error_byte = False
+    ping_identity = True
+    reset_option = True
     status_overhead = p2.STATUS_OVERHEAD
     PING, READ, WRITE, REG_WRITE, ACTION = p2.PING, p2.READ, p2.WRITE, p2.REG_WRITE, p2.ACTION
     REBOOT, FACTORY_RESET, SYNC_WRITE = p2.REBOOT, p2.FACTORY_RESET, p2.SYNC_WRITE
@@ -143,6 +150,8 @@ class Protocol1:
     broadcast_ping = False
     sync_read = False
     state_in_error_byte = True
+    ping_identity = False
+    reset_option = False
     status_overhead = p1.STATUS_OVERHEAD
     PING, READ, WRITE, REG_WRITE, ACTION = p1.PING, p1.READ, p1.WRITE, p1.REG_WRITE, p1.ACTION
     REBOOT, FACTORY_RESET, SYNC_WRITE = p1.REBOOT, p1.RESET, p1.SYNC_WRITE

@@ -8,6 +8,7 @@ import argparse
 import datetime
 from typing import Any, Callable, Iterable
 
+from ..protocol.framers import FRAMERS
 from ..servo.snapshot import entry_of, servos_yaml
 from .context import Context
 from .errors import StepFailed
@@ -22,9 +23,9 @@ __all__ = ["backup", "check_paths", "save"]
 
 
 def _firmware(servo: Servo) -> int | None:
-    """Its firmware: from the Protocol 2.0 ping, else its model's item (a Protocol 1.0 status has
-    none, and the item's address depends on the model)."""
-    if servo.protocol == 2 and servo.dxl_id in servo.bus.firmware_versions:
+    """Its firmware: from the ping where its protocol's ping carries it (Protocol 2.0), else its
+    model's item (a Protocol 1.0 status has none, and the item's address depends on the model)."""
+    if FRAMERS[servo.protocol].ping_identity and servo.dxl_id in servo.bus.firmware_versions:
         return servo.bus.firmware_versions[servo.dxl_id]
     return servo.read("firmware_version") if servo.model.has("firmware_version") else None
 

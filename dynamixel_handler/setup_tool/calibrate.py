@@ -34,6 +34,7 @@ from .find import Found, Placed
 from .items import show_value, to_unit
 from .joints_file import Calibrated, check_parsed, check_target, joints_yaml, write_atomically
 from .output import rich_table
+from .per_protocol import tool_protocol
 from .safety import JOURNAL, Interrupted, TorqueOn, held, stopped
 from .servo import Servo
 from .values import number, servo_doc
@@ -351,8 +352,9 @@ def _check_models(joints: list[_Joint], homing: bool) -> None:
         servo = joint.servo
         if not servo.model.has("present_position"):
             raise BadArguments(f"{servo.who}: the model reports no position: it cannot be calibrated")
-        if homing and (servo.over_protocol1 or not servo.model.has("homing_offset")):
-            why = "it answers Protocol 1.0" if servo.over_protocol1 else "the model has no Homing Offset"
+        refused = tool_protocol(servo.protocol).homing_refused
+        if homing and (refused or not servo.model.has("homing_offset")):
+            why = refused or "the model has no Homing Offset"
             raise BadArguments(f"{servo.who}: {why}: --homing-offset refused, nothing done (without it the offsets go "
                                "in the file)")
 

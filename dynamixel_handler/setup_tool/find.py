@@ -11,12 +11,13 @@ Protocol 1.0 servo has no broadcast ping: each of the 253 IDs is pinged, about 3
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Collection, Sequence
 
 from ..bus import BusError, DynamixelBus
 from ..bus.ops import Ping
 from .errors import StepFailed
-from .protocol1 import model_for, ping1, rates1
+from .per_protocol import tool_protocol
+from .protocol1 import ping1, rates1
 from .servo import SEARCH_ORDER, Servo
 
 __all__ = ["Placed", "Search", "Found"]
@@ -56,7 +57,7 @@ def _servo(bus: DynamixelBus, dxl_id: int, number: int, protocol: int = 2) -> Se
     """The servo whose ping in ``protocol`` gave model ``number``; StepFailed when the control table
     lacks it."""
     try:
-        return Servo(bus, dxl_id, model_for(number, protocol), protocol)
+        return Servo(bus, dxl_id, tool_protocol(protocol).model_for(number), protocol)
     except KeyError:
         raise StepFailed(f"ID {dxl_id}: model number {number} (Protocol {protocol}.0) is not in the control table; "
                          "the tool only sets up models the handler knows") from None
@@ -158,15 +159,16 @@ class Search:
                 continue
         return placed
 
-    def everywhere(self, protocol1: bool = False) -> list[tuple[int, int, int]]:
+    def everywhere(self, also: Collection[int] = ()) -> list[tuple[int, int, int]]:
         """(ID, rate, model number) of every servo answering at every rate looked at, one ID at
         two rates listed twice (restore looks there for a replacement); the bus at the first rate.
-        ``protocol1``: Protocol 1.0 servos too (an ID answering both is listed once, in 2.0)."""
+        Protocol 2.0 servos, and those of the protocols ``also`` names (an ID answering both is
+        listed once, in 2.0)."""
         seen = []
         for bps in self.rates():
             if self._at(bps):
                 seen += [(dxl_id, bps, number) for dxl_id, (number, _) in
-                         self._answering(range(253), (2, 1) if protocol1 else (2,)).items()]
+                         self._answering(range(253), (2, *also)).items()]
         self._at(self.first)
         return seen
 

@@ -12,7 +12,7 @@ from ..control_table import Item
 from .checks import check, needed
 from .context import Context
 from .errors import StepFailed
-from .protocol1 import rates1
+from .per_protocol import tool_protocol
 from .safety import TorqueOn, needs_torque_off, refuse_torque
 from .servo import Servo
 
@@ -76,7 +76,7 @@ def only_one(ctx: Context, servo: Servo) -> None:
                 ctx.bus.set_baudrate(bps)
             except BusError:
                 continue
-            if servo.protocol == 1 and bps not in rates1():
+            if not tool_protocol(servo.protocol).may_be_at(bps):
                 continue
             if ctx.bus.execute(Ping(servo.dxl_id, retries=0, protocol=servo.protocol)).value is not None:
                 raise StepFailed(f"ID {servo.dxl_id} answers at {here} and at {bps} bps: two servos have it; refused, "

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from ..control_table._protocol1 import MULTI_TURN_LIMIT
+from ..protocol.framers import FRAMERS
 from .context import Context
 from .errors import BadArguments
 from .items import show_value
@@ -33,11 +34,11 @@ def summary(servo: Servo, values: Mapping[str, int]) -> dict[str, Any]:
     model = servo.model
     if model.has("operating_mode") and "operating_mode" in values:
         mode = model.mode_name(values["operating_mode"])
-    elif servo.protocol1_model and all(n in values for n in _LIMITS):
+    elif servo.modes_by_limits and all(n in values for n in _LIMITS):
         mode = mode1(model, values[_LIMITS[0]], values[_LIMITS[1]], values.get("torque_control_mode_enable", 0))
     else:
         mode = None
-    if servo.protocol == 1:
+    if FRAMERS[servo.protocol].state_in_error_byte:
         errors = servo.status_errors()
     else:
         errors = _errors(values.get("hardware_error_status", 0))

@@ -25,7 +25,7 @@ SWITCH_S = 8.0
 
 def _mode_of(servo: Servo, text: str) -> int:
     """The register value of mode ``text`` (a name, or a register value of a mode the model takes)."""
-    if servo.protocol1_model:
+    if servo.modes_by_limits:
         raise BadArguments(f"{servo.who}: a Protocol 1.0 model's mode (its Angle Limits) is not set through the "
                            "running node: stop the node first, then set-mode")
     modes = servo.model.mode_values

@@ -14,7 +14,7 @@ from ..control_table import Model, known_models, model_by_number, protocol1_mode
 from ..control_table._protocol1 import MODE_CODES, mode_of
 from ..protocol import protocol1 as p1
 
-__all__ = ["ping1", "model_name1", "switch_to_2", "protocol_of_type", "type_1_warning", "statuses1", "error_text1", "model_for", "rates1",
+__all__ = ["ping1", "model_name1", "switch_to_2", "protocol_of_type", "type_1_warning", "statuses1", "error_text1", "rates1",
            "mode1", "MODE_CODES", "error_names1"]
 
 
@@ -47,18 +47,6 @@ def switch_to_2(number: int) -> str | None:
     """The name of the Protocol 1.0 model whose Protocol 2.0 firmware exists (``MX-28`` for model
     29: its 2.0 firmware makes it an MX-28(2.0)); None for the others."""
     return _twins().get(number)
-
-
-def model_for(number: int, protocol: int) -> Model:
-    """The model of a servo that answered ``protocol`` with ``number``: a Protocol 1.0 model, or a
-    Protocol 2.0 model (a 2.0 servo set to Protocol Type 1 answers Protocol 1.0 with its own number);
-    KeyError when the control table has neither."""
-    if protocol == 1:
-        try:
-            return protocol1_model_by_number(number)
-        except KeyError:
-            pass
-    return model_by_number(number)
 
 
 def any_model(number: int) -> Model:

@@ -16,7 +16,8 @@ from .context import Context
 from .errors import BadArguments
 from .items import show_value
 from .output import Output
-from .protocol1 import protocol_of_type, type_1_warning
+from .per_protocol import tool_protocol
+from .protocol1 import protocol_of_type
 from .restore_file import Entry, present
 from .safety import needs_torque_off, refuse_torque
 from .servo import Servo, connect
@@ -108,7 +109,7 @@ def _in_place(ctx: Context, plans: dict[int, Plan], path: str) -> None:
 def _replacements(ctx: Context, plans: dict[int, Plan]) -> list[tuple[int, int, int]]:
     """The one unassigned servo of its model for each servo that answers nowhere; returns every
     servo seen (ID, rate, model number)."""
-    seen = ctx.search.everywhere(protocol1=any(p.servo is None and p.entry.model.protocol == 1 for p in plans.values()))
+    seen = ctx.search.everywhere(also={p.entry.model.protocol for p in plans.values() if p.servo is None})
     free = _unassigned(seen, plans.values())
     missing = [p for p in plans.values() if p.servo is None]
     for plan in missing:
@@ -200,12 +201,16 @@ def check_plan(ctx: Rules, plan: Plan, now: dict[str, int], ids: set[int]) -> li
 
 
 def _protocol_switch(ctx: Rules, plan: Plan) -> list[str]:
-    """A Protocol Type of 1 in the file for a servo that answers Protocol 2.0: refused without
-    --force (with it, the same warning as ``set``)."""
+    """A Protocol Type in the file that switches a servo to a protocol ``set`` warns about (1, for a
+    servo that answers Protocol 2.0): refused without --force (with it, the same warning as ``set``)."""
     assert plan.servo is not None
     for item, now, raw in plan.changes:
-        if item.name == "protocol_type" and protocol_of_type(raw) == 1 != plan.servo.protocol:
-            warning = type_1_warning(plan.entry.who, plan.entry.dxl_id)
+        if item.name != "protocol_type":
+            continue
+        new = protocol_of_type(raw)
+        switch_warning = tool_protocol(new).switch_warning
+        if new != plan.servo.protocol and switch_warning is not None:
+            warning = switch_warning(plan.entry.who, plan.entry.dxl_id)
             if not ctx.force:
                 return [f"{warning} (protocol_type {now} -> {raw} in the file); --force writes it anyway"]
             ctx.out.warn(warning)

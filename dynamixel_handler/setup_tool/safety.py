@@ -29,6 +29,7 @@ from typing import Any, Callable, Iterator, Protocol, TypeVar
 from ..control_table import Item, Model
 from .errors import BadArguments, StepFailed
 from .items import show_value
+from .per_protocol import tool_protocol
 
 __all__ = ["Interrupted", "TorqueOn", "Journal", "JOURNAL", "install", "held", "checked_write", "stopped"]
 
@@ -204,28 +205,19 @@ def held() -> Iterator[None]:
         raise Interrupted(f"interrupted ({_name(came)}) during a step that was then finished; {JOURNAL.state()}")
 
 
-#: the items of a Protocol 1.0 model written with torque off although it takes them with torque on:
-#: the Angle Limits select its mode (both 0: it turns at Moving Speed)
-MODE_ITEMS_1 = ("min_position_limit", "max_position_limit")
-
-
 def needs_torque_off(item: Item, model: Model | None = None) -> bool:
-    """Items a servo takes only with torque off: its EEPROM area. A Protocol 1.0 model takes EEPROM
-    writes with torque on (it keeps holding its load), but its Angle Limits switch its mode: those
-    are written with torque off like an Operating Mode."""
-    if model is not None and model.protocol == 1:
-        return item.name in MODE_ITEMS_1
-    return item.eeprom
+    """Items a servo takes only with torque off: its EEPROM area, or those its model's protocol
+    names (``ToolProtocol.torque_off_items``: a Protocol 1.0 model takes EEPROM writes with torque
+    on, but its Angle Limits switch its mode and are written with torque off like an Operating Mode)."""
+    if model is None:
+        return item.eeprom
+    return tool_protocol(model.protocol).needs_torque_off(item)
 
 
 def refuse_torque(servo: _Servo, item: Item) -> TorqueOn:
-    if servo.model.protocol == 1:
-        return TorqueOn(f"{servo.who}: torque is on and {item.name} switches its mode (wheel, joint, multi-turn), "
-                        "which it would do holding its load: refused, nothing written (give --torque-off to turn it "
-                        "off, write, set the goal to where it is and turn it back on)")
-    return TorqueOn(f"{servo.who}: torque is on and {item.name} (EEPROM) is written only with torque off, which "
-                    "lets go of the load it holds: refused, nothing written (give --torque-off to turn it off, "
-                    "write, set the goal to where it is and turn it back on)")
+    rule = tool_protocol(servo.model.protocol).torque_rule.format(item=item.name)
+    return TorqueOn(f"{servo.who}: torque is on and {rule}: refused, nothing written (give --torque-off to turn it "
+                    "off, write, set the goal to where it is and turn it back on)")
 
 
 def checked_write(servo: S, name: str, raw: int, torque_off: bool = False,

@@ -13,7 +13,8 @@ from ..bus.ops import Read
 from ..control_table import FAMILIES, PROTOCOL1_FAMILIES, model_by_number, protocol1_model_by_number
 from ..units import decode_hardware_error
 from .errors import StepFailed
-from .protocol1 import model_for, model_name1, ping1, switch_to_2
+from .per_protocol import tool_protocol
+from .protocol1 import model_name1, ping1, switch_to_2
 from .servo import Servo
 
 __all__ = ["Found", "ScanResult", "scan_bus", "scan_steps"]
@@ -167,7 +168,7 @@ def _scan_protocol1(bus: DynamixelBus, ids: Sequence[int], result: ScanResult, t
 def _details1(bus: DynamixelBus, found: Found) -> None:
     """Mode (a Protocol 1.0 model's from its Angle Limits), torque and the status's error bits."""
     try:
-        servo = Servo(bus, found.dxl_id, model_for(found.model_number or 0, 1), 1)
+        servo = Servo(bus, found.dxl_id, tool_protocol(1).model_for(found.model_number or 0), 1)
     except KeyError:
         return
     try:

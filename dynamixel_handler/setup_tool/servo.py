@@ -12,10 +12,12 @@ from typing import Any, Callable
 from ..bus import DynamixelBus, Failure, Result
 from ..bus.ops import Instruction, Ping, Read, Write
 from ..control_table import Item, Model
+from ..protocol.framers import FRAMERS
 from ..units import decode, encode
 from .errors import StepFailed
 from .items import find_item, show_value
-from .protocol1 import error_names1, mode1, model_for
+from .per_protocol import tool_protocol
+from .protocol1 import error_names1, mode1
 from .safety import checked_write
 
 __all__ = ["Servo", "connect", "SEARCH_ORDER"]
@@ -47,14 +49,10 @@ class Servo:
         return f"ID {self.dxl_id} ({self.model.name})"
 
     @property
-    def protocol1_model(self) -> bool:
-        """An AX, RX, DX, EX or MX (1.0) model: no Operating Mode register, modes by Angle Limits."""
-        return self.model.protocol == 1
-
-    @property
-    def over_protocol1(self) -> bool:
-        """It answers Protocol 1.0 (a Protocol 1.0 model, or a 2.0 model set to Protocol Type 1)."""
-        return self.protocol == 1
+    def modes_by_limits(self) -> bool:
+        """No Operating Mode register: its Angle Limits select its mode (an AX, RX, DX, EX or MX (1.0)
+        model, ``Model.mode_select``)."""
+        return self.model.mode_select is not None
 
     def item(self, name: str) -> Item:
         return find_item(self.model, name)
@@ -82,13 +80,14 @@ class Servo:
                              f"failed: {_cause(done.why)}")
 
     def _answers_reads_only(self, failure: Failure | None) -> bool:
-        """Whether a write that got no status went to a Protocol 1.0 servo at Status Return Level 1
-        (it answers reads and pings only): then the write is taken as sent; every checked write
-        reads it back."""
-        if not self.over_protocol1 or failure is not Failure.NO_REPLY or not self.model.has("status_return_level"):
+        """Whether a write that got no status went to a servo at Status Return Level 1 (it answers
+        reads and pings only) of a protocol whose writes are then taken as sent (Protocol 1.0,
+        ``ToolProtocol.quiet_writes``); every checked write reads it back."""
+        if not tool_protocol(self.protocol).quiet_writes or failure is not Failure.NO_REPLY \
+                or not self.model.has("status_return_level"):
             return False
         item = self.model.item("status_return_level")
-        got = self.execute(Read(self.dxl_id, item.address, item.size, protocol=1))
+        got = self.execute(Read(self.dxl_id, item.address, item.size, protocol=self.protocol))
         return got.value is not None and got.value[0] < 2
 
     def torque_on(self) -> bool:
@@ -101,15 +100,16 @@ class Servo:
         model = self.model
         if model.has("operating_mode"):
             return model.mode_name(self.read("operating_mode"))
-        if not (self.protocol1_model and model.has("min_position_limit")):
+        if not (self.modes_by_limits and model.has("min_position_limit")):
             return None
         control = self.read("torque_control_mode_enable") if model.has("torque_control_mode_enable") else 0
         return mode1(model, self.read("min_position_limit"), self.read("max_position_limit"), control)
 
     def status_errors(self) -> list[str]:
-        """The error bits of its latest Protocol 1.0 status packet by name ([] in Protocol 2.0,
-        whose servos report them in Hardware Error Status)."""
-        if not self.over_protocol1:
+        """The error bits of its latest status packet by name where its protocol's status error byte
+        carries its state (Protocol 1.0); [] in Protocol 2.0, whose servos report them in Hardware
+        Error Status."""
+        if not FRAMERS[self.protocol].state_in_error_byte:
             return []
         return error_names1(self.status_error)
 
@@ -147,10 +147,10 @@ def connect(bus: DynamixelBus, dxl_id: int, protocol: int = 2) -> Servo:
     does not answer or its model is not one the control table knows."""
     got = bus.execute(Ping(dxl_id, protocol=protocol))
     if got.value is None:
-        raise StepFailed(f"ID {dxl_id}: no servo answers{' Protocol 1.0' if protocol == 1 else ''} at "
+        raise StepFailed(f"ID {dxl_id}: no servo answers{tool_protocol(protocol).note} at "
                          f"{bus.baudrate} bps ({_cause(got.why)})")
     try:
-        return Servo(bus, dxl_id, model_for(got.value, protocol), protocol)
+        return Servo(bus, dxl_id, tool_protocol(protocol).model_for(got.value), protocol)
     except KeyError:
         raise StepFailed(f"ID {dxl_id}: model number {got.value} is not in the control table; "
                          "the tool only sets up models the handler knows") from None

@@ -18,7 +18,8 @@ from ..control_table import Model, model_by_number
 from ..protocol import HEADER, INSTRUCTION_NAMES, FrameReader
 from ..protocol import host as p
 from ..protocol import protocol1 as p1
-from .protocol1 import error_text1, model_for, statuses1
+from .per_protocol import tool_protocol
+from .protocol1 import error_text1, statuses1
 
 __all__ = ["install", "Tracer"]
 
@@ -55,6 +56,8 @@ class Tracer:
         self.read1: tuple[int, int] | None = None
         #: models of the servos that answered Protocol 1.0 (an X set to Protocol Type 1 has its own table)
         self.models1: dict[int, Model] = {}
+        #: those of each protocol
+        self.models_of: dict[int, dict[int, Model]] = {2: self.models, 1: self.models1}
 
     def line(self, arrow: str, data: bytes, meaning: str) -> None:
         print(f"{self.clock() - self.start:9.4f} {arrow} {_hex(data):<50} {meaning}", file=self.stream, flush=True)
@@ -63,7 +66,7 @@ class Tracer:
         print(f"{self.clock() - self.start:9.4f}   {text}", file=self.stream, flush=True)
 
     def _item(self, dxl_id: int, address: int, size: int, protocol: int = 2) -> str:
-        model = (self.models1 if protocol == 1 else self.models).get(dxl_id)
+        model = self.models_of[protocol].get(dxl_id)
         if model is None:
             return ""
         names = [i.name for i in model.items.values() if i.address == address and (i.size == size or not size)]
@@ -157,7 +160,7 @@ class Tracer:
         if self.read1 == (0, 2) and len(params) == 2:
             number = _u16(params, 0)
             try:
-                self.models1[dxl_id] = model = model_for(number, 1)
+                self.models1[dxl_id] = model = tool_protocol(1).model_for(number)
             except KeyError:
                 return f": model {number} (not in the control table)"
             return f": model {number} ({model.name})"

@@ -5,17 +5,17 @@ in every verb's JSON (``id``, ``model``, ``model_number``, ``baudrate``)."""
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable
 
 from ..control_table import Item, Model
 from ..protocol import protocol1 as p1
+from ..protocol.framers import FRAMERS, PROTOCOL1, PROTOCOL2, Framer
 
 __all__ = ["number", "coded", "named", "servo_doc"]
 
 #: Hardware Error Status and Shutdown bits (ROBOTIS e-Manual), the highest first
 _ERROR_BITS = ((5, "overload"), (4, "electrical_shock"), (3, "motor_encoder"), (2, "overheating"),
                (1, "motor_hall_sensor"), (0, "input_voltage"))
-_BIT_ITEMS = ("hardware_error_status", "shutdown")
 
 
 def number(value: float, digits: int = 4) -> str:
@@ -52,15 +52,8 @@ def coded(model: Model, item: Item, raw: int) -> str | None:
         return f"{bps:,} bps ({raw})" if bps is not None else f"{raw} (no baud rate of {model.name})"
     if item.name == "operating_mode" and model.mode_name(raw):
         return f"{model.mode_name(raw)} ({raw})"
-    if model.protocol == 1 and item.name in _BIT_ITEMS_1:
-        return bits1(raw)
-    if item.name in _BIT_ITEMS:
-        return bits(raw)
-    return None
-
-
-#: a Protocol 1.0 model's items whose bits are the status error bits (Alarm LED, Shutdown)
-_BIT_ITEMS_1 = ("shutdown", "alarm_led")
+    shown = _BIT_ITEMS[FRAMERS[model.protocol]].get(item.name)
+    return shown(raw) if shown is not None else None
 
 
 def bits1(raw: int) -> str:
@@ -70,6 +63,15 @@ def bits1(raw: int) -> str:
     if other:
         names.append(f"other bits 0x{other:02X}")
     return f"{', '.join(names) or 'none'} (0x{raw:02X})"
+
+
+#: the bit mask items of a model, by its protocol's framer, and how their bits read: Hardware Error
+#: Status and Shutdown in the X layout; a Protocol 1.0 model's Shutdown and Alarm LED hold the
+#: status error bits
+_BIT_ITEMS: dict[Framer, dict[str, Callable[[int], str]]] = {
+    PROTOCOL2: {"hardware_error_status": bits, "shutdown": bits},
+    PROTOCOL1: {"hardware_error_status": bits, "shutdown": bits1, "alarm_led": bits1},
+}
 
 
 def named(model: Model, item: Item, raw: int) -> str:

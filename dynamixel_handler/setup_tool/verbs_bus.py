@@ -6,11 +6,12 @@ import time
 
 from ..bus import DynamixelBus
 from ..bus.ops import FactoryReset, Ping, Reboot
-from ..protocol.protocol1 import ERR_INSTRUCTION
+from ..protocol.framers import FRAMERS
 from . import guard
 from .context import Context
 from .errors import BadArguments, StepFailed
 from .find import Placed
+from .per_protocol import tool_protocol
 from .reset1 import reset_all_then_keep
 from .safety import JOURNAL, TorqueOn, Touched, held, stopped
 from .scan import COLUMNS, Found, scan_bus, scan_steps
@@ -37,7 +38,7 @@ def scan(ctx: Context, args: argparse.Namespace) -> None:
     with ctx.out.progress(scan_steps(rates, args.ids, protocols, ctx.bus.latency_timer_ms), "scanning") as tick:
         result = scan_bus(ctx.bus, rates, args.ids, protocols, tick)
     took = time.monotonic() - started
-    styles = ["red" if f.collision or f.hardware_error else ("yellow" if f.protocol == 1 else None) for f in result.found]
+    styles = ["red" if f.collision or f.hardware_error else tool_protocol(f.protocol).row_style for f in result.found]
     ctx.out.table("", COLUMNS, [f.row() for f in result.found], styles)
     for bps, why in result.skipped.items():
         ctx.out.say(f"{bps} bps skipped: {why}")
@@ -110,8 +111,9 @@ def _reboot_one(ctx: Context, servo: Servo, baudrate: int, torque: bool) -> str:
 
 def _no_reboot(ctx: Context, servo: Servo, entry: Touched, torque: bool) -> str:
     """Why a Protocol 1.0 servo did not reboot when it answered the Reboot instruction with the
-    Instruction Error bit (AX, RX and the other models without it): "" for any other failure."""
-    if servo.protocol != 1 or not servo.status_error & ERR_INSTRUCTION:
+    Instruction Error bit (AX, RX and the other models without it; ``ToolProtocol.no_reboot``): ""
+    for any other failure."""
+    if not tool_protocol(servo.protocol).no_reboot(servo.status_error):
         return ""
     entry.torque = "on (as before: not rebooted)" if torque else "off"
     return (f"the {servo.model.name} has no reboot instruction (Protocol 1.0: it answers Instruction Error); "
@@ -172,7 +174,7 @@ def _reset(ctx: Context, servo: Servo, level: str, torque: bool, where: tuple[in
 def factory_reset(ctx: Context, args: argparse.Namespace) -> None:
     level = "all" if args.all else args.keep
     servo = ctx.servo(args.id)
-    if servo.protocol == 1:  # no option in Protocol 1.0: everything is reset, ID and baud rate too
+    if not FRAMERS[servo.protocol].reset_option:  # Protocol 1.0: everything is reset, ID and baud rate too
         reset_all_then_keep(ctx, servo, level, _wait_back)
         return
     keeps = {"all": "nothing: it comes back as ID 1 at 57600 bps", "id": "its ID (baud rate back to 57600)",

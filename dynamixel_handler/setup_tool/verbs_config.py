@@ -20,7 +20,8 @@ from .errors import BadArguments, StepFailed
 from .items import parse_value, show_value, to_unit, unit_of
 from .mode1 import set_mode1, state_line, summary
 from .output import Output
-from .protocol1 import protocol_of_type, type_1_warning
+from .per_protocol import rates_text, tool_protocol
+from .protocol1 import protocol_of_type
 from .safety import held
 from .servo import Servo, connect
 from .values import named, number
@@ -84,8 +85,7 @@ def show_info(out: Output, servo: Servo, baudrate: int, items: list[Item], value
     state = summary(servo, values)
     out.say(state_line(state))
     columns = ["addr", "item", "value", "unit", "raw", "factory", "differs"]
-    out.table("EEPROM (written with torque off)" if model.protocol == 2 else
-              "EEPROM (a Protocol 1.0 model takes it with torque on)", columns, rows[True], styles[True])
+    out.table(tool_protocol(model.protocol).eeprom_caption, columns, rows[True], styles[True])
     out.table("RAM", columns, rows[False], styles[False])
     out.say("* differs from the factory value of the model (ROBOTIS e-Manual)")
     out.document.update(id=servo.dxl_id, model=model.name, model_number=model.number,
@@ -150,8 +150,9 @@ def _switch_protocol(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
         ctx.out.say(f"{servo.who} protocol_type is already {raw}: nothing written")
         ctx.out.document.update(item=item.name, raw=raw, written=False)
         return
-    if new == 1:
-        ctx.out.warn(type_1_warning(servo.who, servo.dxl_id))
+    switch_warning = tool_protocol(new).switch_warning
+    if switch_warning is not None:
+        ctx.out.warn(switch_warning(servo.who, servo.dxl_id))
     torque = guard.torque_gate(ctx, servo, [item])
     ctx.confirm(f"{servo.who}: write protocol_type (EEPROM) {servo.read(item.name)} -> {raw}: it then answers "
                 f"Protocol {new}.0 only?" + guard.torque_question(torque))
@@ -163,7 +164,7 @@ def _switch_protocol(ctx: Context, servo: Servo, item: Item, raw: int) -> None:
 
 def set_mode(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
-    if servo.protocol1_model:
+    if servo.modes_by_limits:
         guard.only_one(ctx, servo)
         set_mode1(ctx, servo, str(args.mode))
         return
@@ -206,14 +207,12 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
     servo = ctx.servo(args.id)
     by_bps = {bps: value for value, bps in servo.model.baud_rates.items()}
     if args.bps not in by_bps:
-        takes = _rates(by_bps) if servo.model.protocol == 2 else (
-            f"2,000,000/(n+1) bps at Baud Rate n, {min(by_bps):,} .. {max(by_bps):,} bps; those this tool reaches: "
-            f"{_rates(b for b in by_bps if b in DYNAMIXEL_BAUDRATES)}")
+        takes = tool_protocol(servo.model.protocol).baud_text(by_bps)
         raise BadArguments(f"{servo.who} cannot use {args.bps} bps (it takes {takes})")
     if args.bps not in DYNAMIXEL_BAUDRATES:
         raise BadArguments(f"{servo.who}: {args.bps} bps (Baud Rate {by_bps[args.bps]}) is in its table but this tool's "
                            f"bus cannot open that rate, so it could not find the servo there: not written (rates both "
-                           f"can use: {_rates([b for b in by_bps if b in DYNAMIXEL_BAUDRATES])})")
+                           f"can use: {rates_text([b for b in by_bps if b in DYNAMIXEL_BAUDRATES])})")
     old = ctx.bus.baudrate
     if old == args.bps:
         ctx.out.say(f"{servo.who} is already at {old} bps: nothing written")
@@ -242,7 +241,3 @@ def set_baud(ctx: Context, args: argparse.Namespace) -> None:
     servo.set_checked("baud_rate", by_bps[args.bps], after=found_again, torque_off=ctx.torque_off)
     ctx.out.say(f"{servo.who}: {old} -> {args.bps} bps, found again at {args.bps} bps" + guard.torque_done(torque))
     ctx.out.document.update(id=servo.dxl_id, baudrate=args.bps, was=old, written=True)
-
-
-def _rates(rates: Any) -> str:
-    return ", ".join(f"{bps:,}" for bps in sorted(rates))

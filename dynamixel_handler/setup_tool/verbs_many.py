@@ -11,6 +11,7 @@ from typing import Any, Callable, Iterable
 
 from ..bus.ops import Read, SyncRead
 from ..control_table import Item
+from ..protocol.framers import FRAMERS
 from ..units import decode, encode
 from . import guard
 from .context import Context
@@ -49,16 +50,16 @@ def _groups(placed: Iterable[Placed], item_of: Callable[[Placed], Item]) -> dict
 
 
 def _read(ctx: Context, placed: list[Placed], item_of: Callable[[Placed], Item]) -> dict[int, int]:
-    """ID -> raw value of its item, one sync read per group (Protocol 1.0 has none: a read per
-    servo there); a silent servo is left out."""
+    """ID -> raw value of its item, one sync read per group where its protocol has Sync Read (Protocol
+    1.0 has none: a read per servo there); a silent servo is left out."""
     values: dict[int, int] = {}
     for (bps, address, size, protocol), group in _groups(placed, item_of).items():
         ctx.at(group[0])
-        if protocol == 1:
-            got = {p.dxl_id: bytes(r.value) for p in group
-                   if (r := ctx.bus.execute(Read(p.dxl_id, address, size, protocol=1))).value is not None}
-        else:
+        if FRAMERS[protocol].sync_read:
             got = ctx.bus.execute(SyncRead(address, size, tuple(p.dxl_id for p in group), protocol=protocol)).value
+        else:
+            got = {p.dxl_id: bytes(r.value) for p in group
+                   if (r := ctx.bus.execute(Read(p.dxl_id, address, size, protocol=protocol))).value is not None}
         for p in group:
             if p.dxl_id in got:
                 values[p.dxl_id] = int(decode(item_of(p), got[p.dxl_id])[0])
@@ -207,12 +208,12 @@ def mode_many(ctx: Context, args: argparse.Namespace) -> None:
     """Several servos' modes: Protocol 2.0 ones in one sync write per group; a Protocol 1.0 model
     (no Operating Mode: its Angle Limits) one at a time, each as ``set-mode ID``."""
     found = ctx.servos(args.id)
-    old = [p for p in found.placed if p.servo.protocol1_model]
+    old = [p for p in found.placed if p.servo.modes_by_limits]
     for p in old:
         ctx.at(p)
         guard.only_one(ctx, p.servo)
         set_mode1(ctx, p.servo, str(args.mode))
-    rest = Found([p for p in found.placed if not p.servo.protocol1_model], found.missing, found.rates)
+    rest = Found([p for p in found.placed if not p.servo.modes_by_limits], found.missing, found.rates)
     _set(ctx, args, "operating_mode", _mode_value(args), rest)
 
 
