@@ -13,7 +13,7 @@ import argparse
 from .context import confirm
 from .errors import StepFailed
 from .node_verbs import NodeContext
-from .safety import TorqueOn
+from .safety import reboot_consent
 from .servo import Servo
 
 __all__ = ["reboot_verb"]
@@ -25,15 +25,7 @@ def _holding(ctx: NodeContext, servos: list[Servo]) -> set[int]:
     with_torque = [s for s in servos if s.model.has("torque_enable")]
     now = ctx.read(with_torque, ["torque_enable"])
     holding = {s.dxl_id for s in with_torque if now[s.dxl_id]["torque_enable"]}
-    if not holding:
-        return holding
-    ids = ", ".join(map(str, sorted(holding)))
-    if not ctx.torque_off:
-        raise TorqueOn(f"ID {ids}: torque is on and a reboot turns it off, which lets go of the load it holds: refused, "
-                       "nothing rebooted (give --torque-off to reboot and turn torque back on with the goal where the "
-                       "servo is)")
-    confirm(ctx.out, ctx.stdin, ctx.yes, f"reboot {len(servos)} servo(s); ID {ids} hold their load (torque on): torque "
-            "goes off for the reboot and comes back on with the goal where each one is?")
+    reboot_consent(holding, len(servos), ctx.torque_off, lambda question: confirm(ctx.out, ctx.stdin, ctx.yes, question))
     return holding
 
 

@@ -49,6 +49,21 @@ class TorqueOn(BadArguments):
     """An item that needs torque off, on a servo whose torque is on, without ``--torque-off``."""
 
 
+def reboot_consent(holding: set[int], count: int, torque_off: bool, confirm: Callable[[str], None]) -> None:
+    """The owner's word for a reboot of ``count`` servos of which ``holding`` hold their load:
+    TorqueOn (nothing rebooted) without ``torque_off``, else asked (``confirm``, which returns
+    when the answer is yes). On the bus and through a running node alike."""
+    if not holding:
+        return
+    ids = ", ".join(map(str, sorted(holding)))
+    if not torque_off:
+        raise TorqueOn(f"ID {ids}: torque is on and a reboot turns it off, which lets go of the load it holds: refused, "
+                       "nothing rebooted (give --torque-off to reboot and turn torque back on with the goal where the "
+                       "servo is)")
+    confirm(f"reboot {count} servo(s); ID {ids} hold their load (torque on): torque goes off for the reboot and comes "
+            "back on with the goal where each one is?")
+
+
 class _Servo(Protocol):
     dxl_id: int
     model: Model

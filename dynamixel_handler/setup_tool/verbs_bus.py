@@ -13,7 +13,7 @@ from .errors import BadArguments, StepFailed
 from .find import Placed
 from .per_protocol import tool_protocol
 from .reset1 import reset_all_then_keep
-from .safety import JOURNAL, TorqueOn, Touched, held, stopped
+from .safety import JOURNAL, Touched, held, reboot_consent, stopped
 from .scan import COLUMNS, Found, scan_bus, scan_steps
 from .servo import SEARCH_ORDER, Servo, connect
 from .values import servo_doc
@@ -124,15 +124,7 @@ def _holding(ctx: Context, placed: list[Placed]) -> set[int]:
     """The IDs of ``placed`` whose torque is on; refused (TorqueOn, nothing rebooted) unless
     --torque-off, and asked about without --yes."""
     holding = {p.dxl_id for p in placed if ctx.at(p).model.has("torque_enable") and ctx.at(p).torque_on()}
-    if not holding:
-        return holding
-    ids = ", ".join(map(str, sorted(holding)))
-    if not ctx.torque_off:
-        raise TorqueOn(f"ID {ids}: torque is on and a reboot turns it off, which lets go of the load it holds: refused, "
-                       "nothing rebooted (give --torque-off to reboot and turn torque back on with the goal where the "
-                       "servo is)")
-    ctx.confirm(f"reboot {len(placed)} servo(s); ID {ids} hold their load (torque on): torque goes off for the reboot "
-                "and comes back on with the goal where each one is?")
+    reboot_consent(holding, len(placed), ctx.torque_off, ctx.confirm)
     return holding
 
 
