@@ -59,7 +59,17 @@ def test_garbage_and_truncated_replies(rig):
     assert not any(math.isnan(v) for v in rig.debug[-1].position_deg.present)
 
 
+def _answering_for(rig, seconds: float) -> None:
+    """Wait until every servo has answered in every debug message of the last ``seconds`` (the
+    truncated replies queued by an earlier test are used up)."""
+    def steady() -> bool:
+        recent = rig.debug.since(time.monotonic() - seconds)
+        return len(recent) >= 3 and all(all(m.status.ping) for m in recent)
+    rig.wait(steady, timeout=30, what=f"every servo answering for {seconds} s")
+
+
 def test_hardware_error_mid_run_is_reported_and_cleared(rig):
+    _answering_for(rig, 1.0)
     rig.sim.set_hardware_error(2, 0x20)  # overload: the shutdown mask drops torque
     rig.wait(lambda: rig.debug_of(2)["error"], timeout=10, what="error flag of ID 2")
     rig.node_proc.wait_for("ID 2: hardware error overload (0x20)")

@@ -107,13 +107,19 @@ def _changed_eeprom(io: ServoIO, dxl_id: int, before: Remembered) -> list[str]:
 
 def booted(io: ServoIO, dxl_id: int, before: Remembered) -> bool | None:
     """Whether a servo that went silent and answers again lost its power meanwhile: its torque was
-    on and is off, or a profile the handler had written reads 0 (RAM at its defaults); None when a
-    read that would tell got no answer (ask again later)."""
+    on and is off with no hardware error to explain it (a shutdown turns torque off, a power loss
+    clears the error), or a profile the handler had written reads 0 (RAM at its defaults); None when
+    a read that would tell got no answer (ask again later)."""
     torque = io.read_item(dxl_id, "torque_enable")
     profiles = [io.read_item(dxl_id, item) for item, value in before.profiles.items() if value]
     if torque is None or None in profiles:
         return None
-    return bool(before.torque and torque == 0) or 0 in profiles
+    if 0 in profiles:
+        return True
+    if not (before.torque and torque == 0):
+        return False
+    behaviour = io.table.model(dxl_id).family.behaviour
+    return not behaviour.is_error(io.read_item(dxl_id, behaviour.status_error_item or behaviour.error_item))
 
 
 __all__ = ["Remembered", "booted", "differences", "remember", "restore"]

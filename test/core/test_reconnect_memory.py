@@ -84,6 +84,9 @@ def test_a_servo_booted_while_silent_is_told_from_one_that_kept_its_power():
     assert not booted(parts.io, 1, before)               # torque on, its profile as written: no boot
     bus.set(1, "torque_enable", 0)
     assert booted(parts.io, 1, before)                   # torque dropped
+    bus.set(1, "hardware_error_status", 0x20)
+    assert not booted(parts.io, 1, before)               # torque dropped by an overload shutdown: no boot
+    bus.set(1, "hardware_error_status", 0)
     bus.set(1, "profile_velocity", 0)
     assert booted(parts.io, 1, Remembered(mode="velocity", profiles={"profile_velocity": 15}, torque=0))  # RAM reset
     assert not booted(parts.io, 1, Remembered(mode="velocity", profiles={"profile_velocity": 0}, torque=0))
