@@ -152,14 +152,16 @@ class ItemsJob(Job):
         return [_refused(self.ids[k], name, why.get(name, others)) for name in self.items]
 
     def _write_servo(self, h: ServoAccess, k: int, asked: dict[str, int]) -> list[ItemResult]:
-        """One servo's items (all checked) written and read back."""
+        """One servo's items (all checked) written and read back: its EEPROM items in one torque-off
+        window (a load held sags once, not once an item), then its RAM items."""
         dxl_id = self.ids[k]
         model = h.model(dxl_id)
         why: dict[str, str] = {}
+        eeprom = {name: raw for name, raw in asked.items() if model.items[name].eeprom}
+        if eeprom and not (done := h.core.write_eeprom_many(dxl_id, eeprom)):
+            why.update({name: f"not written: {done.failure}" for name in eeprom})
         for name, raw in asked.items():
-            done = h.core.write_eeprom(dxl_id, name, raw) if model.items[name].eeprom else \
-                h.core.write_item(dxl_id, name, raw, what="set_items")
-            if not done:
+            if name not in eeprom and not (done := h.core.write_item(dxl_id, name, raw, what="set_items")):
                 why[name] = f"not written: {done.failure}"
         return [_written(h, dxl_id, name, asked[name], why.get(name, "")) for name in self.items]
 

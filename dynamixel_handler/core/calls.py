@@ -82,6 +82,11 @@ class CoreCalls:
         """One EEPROM item of one servo, spared and coalesced (``Deferred.write_eeprom``)."""
         return answer(self._work.write_eeprom(dxl_id, item, pulses))
 
+    def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> Answer:
+        """EEPROM items of one servo in one torque-off window (a load held sags once, not once an
+        item), each spared and coalesced as ``write_eeprom``'s (``Deferred.write_eeprom_many``)."""
+        return answer(self._work.write_eeprom_many(dxl_id, values))
+
     def reboot(self, dxl_id: int) -> Answer:
         """A reboot, at most once per clear_error_interval_sec per servo."""
         return answer(self._reboots.reboot(dxl_id))

@@ -33,7 +33,7 @@ def _steps(book, job, most=50) -> int:
 
 
 def _writes(access):
-    return [c for c in access.calls if c[0] in ("write_item", "write_eeprom")]
+    return [c for c in access.calls if c[0] in ("write_item", "write_eeprom", "write_eeprom_many")]
 
 
 def test_reads_are_spread_over_steps_and_give_units_and_raw():
@@ -60,14 +60,14 @@ def test_a_write_in_units_goes_to_the_register_and_an_eeprom_item_waits_for_torq
     access, book = _book()
     job = ItemsJob([2], ["temperature_limit", "led"], Writes((70.0, 1.0)), answer_by=1e12)
     _steps(book, job)  # servo 2: torque off, so the EEPROM item is written
-    assert ("write_eeprom", 2, "temperature_limit", 70) in _writes(access) and ("write_item", 2, "led", 1) in _writes(access)
+    assert _writes(access) == [("write_eeprom_many", 2, {"temperature_limit": 70}), ("write_item", 2, "led", 1)]
     access, book = _book()
     job = ItemsJob([1], ["temperature_limit"], Writes((70.0,)), answer_by=1e12)
     _steps(book, job)  # servo 1 holds torque
     assert job.outcome == ERROR and "give torque_off" in job.results[0].error and _writes(access) == []
     job = ItemsJob([1], ["temperature_limit"], Writes((70.0,), torque_off=True), answer_by=1e12)
     _steps(book, job)
-    assert _writes(access) == [("write_eeprom", 1, "temperature_limit", 70)]
+    assert _writes(access) == [("write_eeprom_many", 1, {"temperature_limit": 70})]
 
 
 def test_one_refused_item_keeps_every_item_of_its_servo_unwritten():
@@ -83,7 +83,7 @@ def test_one_refused_item_keeps_every_item_of_its_servo_unwritten():
     assert _writes(access) == []
     job = ItemsJob([2], ["temperature_limit"], Writes((95.0,), force=True), answer_by=1e12)
     _steps(book, job)
-    assert _writes(access) == [("write_eeprom", 2, "temperature_limit", 95)]
+    assert _writes(access) == [("write_eeprom_many", 2, {"temperature_limit": 95})]
 
 
 def test_one_value_per_servo_and_item():
@@ -103,3 +103,15 @@ def test_a_refusal_on_one_servo_writes_nothing_to_any_and_a_slow_profile_is_neve
     job = ItemsJob([2], ["profile_velocity"], Writes((0.05,)), answer_by=1e12)  # deg/s: under one step
     _steps(book, job)
     assert _writes(access) == [("write_item", 2, "profile_velocity", 1)]  # the smallest step, not 0
+
+
+def test_the_eeprom_items_of_one_servo_are_written_in_one_torque_off_window():
+    """A restore of several EEPROM items of a servo holding its load turns torque off once, not
+    once an item (each time the load sags a little)."""
+    access, book = _book()
+    job = ItemsJob([1], ["temperature_limit", "max_voltage_limit", "led"], Writes((70.0, 14.0, 1.0), torque_off=True),
+                   answer_by=1e12)
+    _steps(book, job)
+    writes = _writes(access)
+    assert [w[0] for w in writes] == ["write_eeprom_many", "write_item"], writes
+    assert writes[0][1] == 1 and set(writes[0][2]) == {"temperature_limit", "max_voltage_limit"}

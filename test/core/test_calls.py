@@ -36,6 +36,12 @@ def test_a_failure_is_an_answer_with_the_reason_not_an_exception():
     bus, _, core, _ = started("failure")
     missing = core.write_eeprom(1, "no_such_item", 1)
     assert missing.outcome is Outcome.FAILED and missing.failure == "ID 1 (XM430-W350) has no no_such_item"
+    bus.set(2, "torque_enable", 1)  # holding its load
+    both = core.write_eeprom_many(2, {"temperature_limit": 70, "max_voltage_limit": 140})
+    assert both.outcome is Outcome.DONE
+    torque = [w[2] for w in bus.item_writes() if w[1] == "torque_enable"]
+    assert torque == [(2, 0), (2, 1)]  # one torque-off window for both items
+    assert bus.get(2, "temperature_limit") == 70 and bus.get(2, "max_voltage_limit") == 140
     bus.silent.add(3)
     added = core.add_servo(3)
     assert added.outcome is Outcome.FAILED and added.failure == "ID 3 not added"

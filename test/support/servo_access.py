@@ -107,6 +107,9 @@ class FakeAccess:
     def write_eeprom(self, dxl_id: int, item: str, pulses: int) -> Answer:
         return self._did("write_eeprom", dxl_id, item, pulses)
 
+    def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> Answer:
+        return self._did("write_eeprom_many", dxl_id, dict(values))
+
     def reboot(self, dxl_id: int) -> Answer:
         return self._did("reboot", dxl_id)
 
