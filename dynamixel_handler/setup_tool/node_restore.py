@@ -20,7 +20,7 @@ from .items import show_value
 from .node_client import Entry as Answered
 from .node_mode import wait_modes
 from .node_verbs import NodeContext, NodeServo
-from .restore import dry_run, finish, question, restored_line, show_plans
+from .restore import carry_out, restored_line
 from .restore_file import Entry, kept, load
 from .restore_plan import Plan, check_plan, plan_doc
 from .servo import Servo
@@ -191,12 +191,5 @@ def _said(ctx: NodeContext, plan: Plan, done: list[str], failed: str) -> str:
 
 
 def restore_verb(ctx: NodeContext, args: argparse.Namespace) -> None:
-    plans = _plans(ctx, load(args.file), args.file)
-    skipped = show_plans(ctx.out, plans, args)
-    writes = sum(len(p.writes()) for p in plans)
-    if dry_run(ctx.out, args, writes, skipped):
-        return
-    if writes:
-        confirm(ctx.out, ctx.stdin, ctx.yes, question(plans, writes))
-    report, failures = _run(ctx, plans)
-    finish(ctx.out, report, failures, skipped, writes)
+    carry_out(ctx.out, args, _plans(ctx, load(args.file), args.file),
+              lambda question: confirm(ctx.out, ctx.stdin, ctx.yes, question), lambda plans: _run(ctx, plans))

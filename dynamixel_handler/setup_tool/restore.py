@@ -7,7 +7,7 @@ fails is reported and the others are restored; the report says what was written 
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import Any, Callable
 
 from .context import Context
 from .errors import StepFailed
@@ -146,16 +146,22 @@ def question(plans: list[Plan], writes: int) -> str:
             (" Servos with torque on have it turned off for their writes and back on after." if torque else ""))
 
 
-def restore(ctx: Context, args: argparse.Namespace) -> None:
-    plans = plan_all(ctx, load(args.file), args.file)
-    skipped = show_plans(ctx.out, plans, args)
+def carry_out(out: Output, args: argparse.Namespace, plans: list[Plan], confirm: Callable[[str], None],
+              run: Callable[[list[Plan]], tuple[list[dict[str, Any]], list[str]]]) -> None:
+    """A restore's plans shown, stopped there on ``--dry-run``, asked (``confirm``) when anything is
+    to be written, carried out (``run``: on the bus, or through a running node) and summed up."""
+    skipped = show_plans(out, plans, args)
     writes = sum(len(p.writes()) for p in plans)
-    if dry_run(ctx.out, args, writes, skipped):
+    if dry_run(out, args, writes, skipped):
         return
     if writes:
-        ctx.confirm(question(plans, writes))
-    report, failures = _run(ctx, plans)
-    finish(ctx.out, report, failures, skipped, writes)
+        confirm(question(plans, writes))
+    report, failures = run(plans)
+    finish(out, report, failures, skipped, writes)
+
+
+def restore(ctx: Context, args: argparse.Namespace) -> None:
+    carry_out(ctx.out, args, plan_all(ctx, load(args.file), args.file), ctx.confirm, lambda plans: _run(ctx, plans))
 
 
 def dry_run(out: Output, args: argparse.Namespace, writes: int, skipped: list[str]) -> bool:
