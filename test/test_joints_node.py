@@ -1,6 +1,6 @@
 """The ``joints`` block through the real node on the virtual bus: a joint with a reduction of 2, a
 gripper in metres and a finger that mimics it, on every joint-level door (joint_commands,
-joint_states, follow_joint_trajectory, move_to), soft limits on each, and a block that cannot be
+joint_states, follow_joint_trajectory, move_to, move_joints), soft limits on each, and a block that cannot be
 right stopping the node with one line. Goals are read back from the simulated servos' registers."""
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from dynamixel_handler_msgs.action import MoveJoints
 from dynamixel_handler_msgs.msg import DynamixelGoal
 from dynamixel_handler_msgs.srv import MoveTo
 
@@ -164,6 +165,34 @@ def test_move_to_by_joint_name_speaks_the_joint_s_degrees_and_refuses_the_prisma
     goals_at(rig, {1: math.degrees(2.4)}, "shoulder at its limit")
     res = rig.call(MoveTo, "/dynamixel/move_to", MoveTo.Request(joint_names=["gripper"], positions_deg=[1.0]))
     assert not res.success and "joint gripper is prismatic" in res.message
+
+
+def test_move_joints_by_joint_name_moves_and_reports_in_the_joint_s_degrees(rig):
+    with rig._lock:
+        client = ActionClient(rig.node, MoveJoints, "/dynamixel/move_joints")
+    assert client.wait_for_server(timeout_sec=10)
+    feedback: list[MoveJoints.Feedback] = []
+
+    def result_of(goal: MoveJoints.Goal) -> MoveJoints.Result:
+        fut = rig.locked(client.send_goal_async, goal, feedback_callback=lambda m: feedback.append(m.feedback))
+        rig.wait(fut.done, what="the goal accepted")
+        assert fut.result().accepted
+        done = rig.locked(fut.result().get_result_async)
+        rig.wait(done.done, timeout=25, what="the result")
+        return done.result().result
+
+    result = result_of(MoveJoints.Goal(joint_names=["shoulder"], positions_deg=[-15.0], velocity_limit_deg_s=100.0,
+                                       tolerance_deg=1.0, timeout_s=20.0))
+    assert result.status == MoveJoints.Result.REACHED, result.message
+    goals_at(rig, {1: -30.0}, "shoulder at -15 deg of joint (reduction 2)")
+    assert abs(result.positions_deg[0] + 15.0) <= 1.0, result.positions_deg  # the joint's degrees, not the servo's
+    assert feedback and abs(feedback[-1].positions_deg[0]) < 40.0
+    # beyond the soft limit: moved to the limit (-1.0 rad) and said so
+    result = result_of(MoveJoints.Goal(joint_names=["shoulder"], positions_deg=[-80.0], velocity_limit_deg_s=200.0,
+                                       tolerance_deg=1.0, timeout_s=20.0))
+    assert result.status == MoveJoints.Result.REACHED and "beyond its limits" in result.message, result.message
+    goals_at(rig, {1: math.degrees(-2.0)}, "shoulder at its lower limit")
+    assert abs(result.positions_deg[0] - math.degrees(-1.0)) <= 1.0, result.positions_deg
 
 
 def _goal_writes_of(rig: Rig, since: float, ids: set[int]) -> list[dict[int, int]]:
