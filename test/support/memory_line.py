@@ -41,7 +41,8 @@ _P2_HEADER = p2.HEADER
 class MemoryServo:
     """One servo as the virtual bus's instruction sets see a servo (the members of
     ``sim.servo.VirtualServo`` they use), its registers a raw image: ``host_read`` gives the bytes,
-    ``host_write`` takes them as they come and never refuses."""
+    ``host_write`` takes them as they come and never refuses. The image is zeros but for its Secondary
+    ID (255: none)."""
 
     return_delay_s = 0.0
     status_return_level = 2
@@ -56,6 +57,8 @@ class MemoryServo:
         self.errors = self
         self._line = line
         self._registered: tuple[int, bytes] | None = None
+        if model.has("secondary_id"):  # none (255, its factory value): a write to ID 0 is not for it
+            self.host_write(model.item("secondary_id").address, b"\xff")
 
     # ------------------------------------------------------------ what the instruction sets ask
     @property
