@@ -30,7 +30,7 @@ def _switch(name: str, doc: str) -> property:
 class FakeBus(DynamixelBus):
     """Servos ``{ID: model number}`` (``protocol1``: Protocol 1.0 servos, which answer Protocol 1.0
     instructions only) on a ``DynamixelBus`` over a ``MemoryLine``. ``calls`` lists one tuple per
-    instruction packet (``memory_line.call_of``): ``("ping", id)`` (``"ping1"`` in Protocol 1.0; a
+    instruction packet (as ``memory_line`` decodes it): ``("ping", id)`` (``"ping1"`` in Protocol 1.0; a
     broadcast ping is ``("ping", 254)``), ``("read", id, address, size)``,
     ``("write", id, address, data)``, ``("reboot", id)``, ``("sync_read", address, length, ids, fast)``,
     ``("sync_write", address, length, {id: data})``, ``("bulk_read", {id: (address, size)}, fast)``;

@@ -9,8 +9,8 @@ writes is parsed by the product's parsers (Protocol 2.0: ``protocol.servo.Packet
 instruction sets (``sim.instructions.InstructionSet``, ``sim.protocol1.Protocol1Instructions``); the
 status packets wait to be read at once, as ``dummy.InProcessLine``'s do.
 
-Every packet handed to ``write`` is also noted in ``calls`` as one tuple (``call_of``), so a test
-sees the instructions that reached the line. Switches for the faults a part must survive:
+Every packet handed to ``write`` is also noted in ``calls`` as one tuple (``_call2``, ``_call1``), so a
+test sees the instructions that reached the line. Switches for the faults a part must survive:
 ``silent`` (IDs that answer nothing), ``no_fast`` (IDs that do not answer Fast Sync/Bulk Read: old
 firmware), ``errors`` (Protocol 1.0: the error bits of an ID's statuses), ``fail_sync_writes`` (a
 sync write fails in ``write`` as the serial port's write does when the adapter is gone), ``lost``
@@ -35,7 +35,6 @@ from dynamixel_handler.sim.protocol1 import Protocol1Instructions, Protocol1Pars
 
 #: bytes of each servo's register image
 MEMORY = 1024
-_P2_HEADER = p2.HEADER
 
 
 class MemoryServo:
@@ -141,15 +140,18 @@ class MemoryLine:
         self.no_fast: set[int] = set()
         self.errors: dict[int, int] = {}
         self.fail_sync_writes = False
-        #: one tuple per packet handed to ``write`` (``call_of``)
+        #: one tuple per packet handed to ``write`` (``_call2``, ``_call1``)
         self.calls: list[tuple[Any, ...]] = []
         self.servos = {i: MemoryServo(self, model, i) for i, model in models.items()}
         listed: list[Any] = list(self.servos.values())
-        self._protocol2 = InstructionSet(listed, time.monotonic, collections.deque(maxlen=64), collections.Counter(),
-                                         collections.deque(maxlen=64))
-        self._protocol1 = Protocol1Instructions(listed, collections.Counter(), time.monotonic)
-        self._parse2 = p2.PacketParser()
-        self._parse1 = Protocol1Parser()
+        protocol2 = InstructionSet(listed, time.monotonic, collections.deque(maxlen=64), collections.Counter(),
+                                   collections.deque(maxlen=64))
+        protocol1 = Protocol1Instructions(listed, collections.Counter(), time.monotonic)
+        #: per protocol, by the header its packets start with (Protocol 2.0's first: 1.0's is its prefix):
+        #: the parser, the instruction set, the call tuples and the sync write's code
+        self._protocols: list[tuple[bytes, Any, Any, Any, int]] = [
+            (p2.HEADER, p2.PacketParser(), protocol2, _call2, p2.SYNC_WRITE),
+            (p1.HEADER, Protocol1Parser(), protocol1, _call1, p1.SYNC_WRITE)]
         self._open = False
         self._input = bytearray()
 
@@ -180,12 +182,13 @@ class MemoryLine:
     def write(self, packet: bytes) -> None:
         """Note each whole packet in ``calls`` and let the servos execute it; a sync write with
         ``fail_sync_writes`` raises what the serial port's write raises when the adapter is gone."""
-        protocol2 = packet.startswith(_P2_HEADER)
-        for instruction in (self._parse2 if protocol2 else self._parse1).feed(packet):
-            self.calls.append(call_of(instruction, 2 if protocol2 else 1))
-            if self.fail_sync_writes and instruction.instruction == (p2.SYNC_WRITE if protocol2 else p1.SYNC_WRITE):
+        _, parser, instructions, call_of, sync_write = next(side for side in self._protocols
+                                                            if packet.startswith(side[0]))
+        for instruction in parser.feed(packet):
+            self.calls.append(call_of(instruction))
+            if self.fail_sync_writes and instruction.instruction == sync_write:
                 raise serial.SerialException("write failed: [Errno 5] Input/output error")
-            for _delay, status in (self._protocol2 if protocol2 else self._protocol1).execute(instruction):
+            for _delay, status in instructions.execute(instruction):
                 self._input += status
 
     def read_until(self, deadline: float, expect: int = 0, due: float | None = None) -> bytes:
@@ -195,14 +198,12 @@ class MemoryLine:
         return data
 
 
-def call_of(packet: p2.Packet, protocol: int) -> tuple[Any, ...]:
-    """An instruction packet as a call tuple: ``("ping", id)`` (Protocol 1.0: ``("ping1", id)``),
+def _call2(packet: p2.Packet) -> tuple[Any, ...]:
+    """A Protocol 2.0 instruction packet as a call tuple: ``("ping", id)`` (a broadcast one: ID 254),
     ``("read", id, address, size)``, ``("write", id, address, data)``, ``("reboot", id)``,
     ``("sync_read", address, length, ids, fast)``, ``("sync_write", address, length, {id: data})``,
     ``("bulk_read", {id: (address, size)}, fast)``, ``("bulk_write", {id: (address, data)})``; any
     other ``(name, id)`` and its parameters if it has any."""
-    if protocol == 1:
-        return _call1(packet.packet_id, packet.instruction, packet.params)
     inst, dxl_id, prm = packet.instruction, packet.packet_id, packet.params
     if inst in (p2.READ, p2.WRITE, p2.REG_WRITE):
         address = p2.u16(prm)
@@ -228,8 +229,10 @@ def call_of(packet: p2.Packet, protocol: int) -> tuple[Any, ...]:
     return (name, dxl_id) + ((bytes(prm),) if prm and inst != p2.PING else ())
 
 
-def _call1(dxl_id: int, inst: int, prm: bytes) -> tuple[Any, ...]:
-    """A Protocol 1.0 instruction packet as a call tuple (the shapes of ``call_of``)."""
+def _call1(packet: p2.Packet) -> tuple[Any, ...]:
+    """A Protocol 1.0 instruction packet as a call tuple, in the shapes of ``_call2`` but for its ping:
+    ``("ping1", id)``."""
+    inst, dxl_id, prm = packet.instruction, packet.packet_id, packet.params
     if inst == p1.PING:
         return ("ping1", dxl_id)
     if inst == p1.READ:
