@@ -1,5 +1,6 @@
 """``ServoBus``: what the handler needs of a bus. ``DynamixelBus`` (the serial bus) and
-``dummy.BusWithDummies`` (the serial bus plus in-process dummy servos) both implement it; which
+``dummy.BusWithDummies`` (the serial bus plus in-process dummy servos) both implement it (the tests'
+fake bus is a ``DynamixelBus`` over a line in memory); which
 IDs a bus serves in-process is not part of it (``dummy_ids``)."""
 from __future__ import annotations
 

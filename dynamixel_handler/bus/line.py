@@ -7,7 +7,9 @@ packet and hands back the bytes that came in, as python-can's backends ``send`` 
 - ``port.SerialPort``: the serial adapter (an exclusive lock on the device, the adapter's latency
   timer, bytes with a deadline in ``select()``);
 - ``dummy.InProcessLine``: servos that answer in this process (the dummy servos of
-  ``init/dummy_servo_list``), executed by the virtual bus's instruction set with no wire time.
+  ``init/dummy_servo_list``), executed by the virtual bus's instruction set with no wire time;
+- the tests' ``test/support/memory_line.py`` ``MemoryLine``: servos that are raw register images,
+  answered at once by the same instruction sets (``FakeBus`` is a ``DynamixelBus`` over it).
 
 ROS-free.
 """

@@ -77,14 +77,14 @@ def test_a_mode_change_the_servo_does_not_answer_is_tried_again_then_fails_with_
         assert requests.mode_change_wait(2) == 0.0  # a change not made does not hold the next one back
     retries = [line for line in lines if "tried again in" in line]
     assert len(retries) == 1  # one line a second
-    assert retries[0] == (f"x/velocity_control: ID 2 mode change to 'velocity' failed (no reply): tried again in "
+    assert retries[0] == (f"x/velocity_control: ID 2 mode change to 'velocity' failed (write ID 2: no reply within 4.0 ms): tried again in "
                           f"{MODE_RETRY_S:g}s with its goals (attempt 2 of {MODE_ATTEMPTS})")
     requests.defer_mode_change(2, Later.RETRY, Again(2, "velocity", "x"), "x")
     assert parts.work.deferred[2][0] == pytest.approx(time.monotonic() + MODE_RETRY_S, abs=0.05)
     failed = requests.change_mode(2, "velocity", "x/velocity_control")
     assert failed.outcome is Outcome.FAILED
     assert failed.failure == (f"x/velocity_control: ID 2 mode change to 'velocity' failed after {MODE_ATTEMPTS} "
-                              "attempt(s): no reply; the goals that came with it are not written")
+                              "attempt(s): write ID 2: no reply within 4.0 ms; the goals that came with it are not written")
     assert not any("operating mode ->" in line for line in lines)  # no line that it changed
 
 

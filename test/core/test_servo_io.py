@@ -75,8 +75,8 @@ def test_a_group_write_that_fails_is_one_warning_naming_the_ids_and_keeps_no_val
     bus.fail_sync_writes = True
     with caplog.at_level(logging.WARNING, logger=LOG.name):
         group.write_group("goal_position", {1: 10, 2: 20}, what="shutdown")
-    assert [r.getMessage() for r in caplog.records] == [
-        "shutdown: writing goal_position to IDs [1, 2] failed: the adapter is gone"]
+    assert [r.getMessage() for r in caplog.records if r.name == LOG.name] == [
+        "shutdown: writing goal_position to IDs [1, 2] failed: sync write @116x4: device lost"]
     assert table.value("goal_position", 1) is None and table.value("goal_position", 2) is None
 
 
@@ -121,8 +121,10 @@ def test_a_protocol1_servos_hardware_error_is_the_state_bits_of_its_status_error
     bus = FakeBus({}, protocol1={4: AX12A})
     table = table_of(bus)
     io = ServoIO(bus, table, LOG)
-    bus.errors[4] = 0x04 | 0x08  # overheating, and an angle error: an error of the instruction, not a state
-    assert io.read_item(4, "hardware_error_status") == 0x04 and table.value("hardware_error_status", 4) == 0x04
+    bus.errors[4] = 0x04 | 0x20  # overheating and overload: the servo's state, in each of its statuses
+    assert io.read_item(4, "hardware_error_status") == 0x24 and table.value("hardware_error_status", 4) == 0x24
+    bus.errors[4] = 0x04 | 0x08  # and a range error: the bus takes the status as a refusal, no state read
+    assert io.read_item(4, "hardware_error_status") is None and table.value("hardware_error_status", 4) == 0x24
     bus.silent.add(4)
     assert io.read_item(4, "hardware_error_status") is None
 

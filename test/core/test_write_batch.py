@@ -74,6 +74,7 @@ def test_a_failed_sync_write_is_reported_once_a_second_per_item_and_reason():
     for value in (1, 2, 3):
         pending.put("goal_position", {1: value})
         writes.send()
-    assert len(bus.of("sync_write")) == 3
-    assert lines == ["sync write @116x4 to IDs [1] failed: the adapter is gone"]
+    # the first write failed on the line: the bus takes the device as lost and sends nothing more
+    assert len(bus.of("sync_write")) == 1 and not bus.is_open
+    assert lines == ["sync write @116x4 to IDs [1] failed: sync write @116x4: device lost"]
     assert table.value("goal_position", 1) == 3  # the table keeps what the host asked for

@@ -1,59 +1,75 @@
-"""A bus in memory for unit tests of the core's parts (``test/core``): each servo a register image
-of its model, every call the core makes recorded in order, and switches for the faults a part
-must survive (silent servos, firmware without Fast Sync Read, failing sync writes, a device gone).
+"""A bus in memory for unit tests of the core's parts (``test/core``): the real ``DynamixelBus``
+over a ``support.memory_line.MemoryLine``, each servo a raw register image of its model, every
+instruction that reaches the line recorded in order, and switches for the faults a part must survive
+(silent servos, firmware without Fast Sync Read, failing sync writes, a device gone).
 
-It answers as the servos would (values written are read back; a silent servo answers nothing)
-but has no timing, no wire and no physics: the virtual bus (``dynamixel_handler.sim``) is the
-real peer for those."""
+The servos answer as servos would (values written are read back; a silent servo answers nothing)
+and the bus frames, parses and counts every instruction as on the wire, with no retries (the
+bus's ``retry_num`` is 0: one packet per instruction), no timing and no physics: the virtual bus
+(``dynamixel_handler.sim``) is the real peer for those."""
 from __future__ import annotations
 
-import dataclasses
 from typing import Any, Iterable, Mapping
 
 from dynamixel_handler import units
-from dynamixel_handler.bus import GroupRead, PreparedWrite
-from dynamixel_handler.bus.ops import ErrorByte, Ping, Read, Reboot, SyncRead, Write
-from dynamixel_handler.bus.result import Failure, Result
-from dynamixel_handler.bus.stats import BusStats
+from dynamixel_handler.bus import DynamixelBus
 from dynamixel_handler.control_table import Model, model_by_number, protocol1_model_by_number
 from dynamixel_handler.servo.table import ServoTable
 
+from .memory_line import MemoryLine
+
 XM430, XM540, PH54, H54 = 1020, 1130, 2020, 54024
-MEMORY = 1024
 
 
-@dataclasses.dataclass(frozen=True)
-class FakePrepared(PreparedWrite):
-    data: Mapping[int, bytes] = dataclasses.field(default_factory=dict)
+def _switch(name: str, doc: str) -> property:
+    """A switch of the line, read and set on the bus as the tests always have."""
+    return property(lambda self: getattr(self.memory_line, name),
+                    lambda self, value: setattr(self.memory_line, name, value), doc=doc)
 
 
-class FakeBus:
-    """Servos ``{ID: model number}``; ``calls`` lists ``(kind, ...)`` tuples:
-    ``("ping", id)``, ``("read", id, address, size)``, ``("write", id, address, data)``,
-    ``("reboot", id)``, ``("sync_read", address, length, ids, fast)``,
-    ``("sync_write", address, length, {id: data})``."""
+class FakeBus(DynamixelBus):
+    """Servos ``{ID: model number}`` (``protocol1``: Protocol 1.0 servos, which answer Protocol 1.0
+    instructions only) on a ``DynamixelBus`` over a ``MemoryLine``. ``calls`` lists one tuple per
+    instruction packet (as ``memory_line`` decodes it): ``("ping", id)`` (``"ping1"`` in Protocol 1.0; a
+    broadcast ping is ``("ping", 254)``), ``("read", id, address, size)``,
+    ``("write", id, address, data)``, ``("reboot", id)``, ``("sync_read", address, length, ids, fast)``,
+    ``("sync_write", address, length, {id: data})``, ``("bulk_read", {id: (address, size)}, fast)``;
+    and ``("scan", ids)`` for each scan the bus was asked for, before its pings."""
+
+    silent = _switch("silent", "IDs that answer nothing")
+    no_fast = _switch("no_fast", "IDs that answer Sync Read, not Fast Sync Read (old firmware)")
+    fail_sync_writes = _switch("fail_sync_writes", "sync writes fail as the serial port's write does "
+                                                   "when the adapter is gone (the bus then takes the device as lost)")
+    errors = _switch("errors", "Protocol 1.0: the error bits of an ID's statuses")
+    can_reopen = _switch("can_reopen", "False: opening the line fails as for a missing device")
+    calls = _switch("calls", "one tuple per instruction that reached the line")
 
     def __init__(self, servos: Mapping[int, int], baudrate: int = 57600, latency_timer_ms: float = 1.0,
                  protocol1: Mapping[int, int] | None = None) -> None:
         self.models: dict[int, Model] = {i: model_by_number(n) for i, n in servos.items()}
-        #: Protocol 1.0 servos ``{ID: model number}``: they answer Protocol 1.0 instructions only
         self.models.update({i: protocol1_model_by_number(n) for i, n in (protocol1 or {}).items()})
-        self.memory = {i: bytearray(MEMORY) for i in self.models}
-        self.baudrate = baudrate
-        self.latency_timer_ms = latency_timer_ms
-        self.device = "fake"
-        self.stats = BusStats()
-        self.dummies: dict[int, object] = {}
-        self.inflight_eta: float | None = None
-        self.is_open = True
-        self.can_reopen = True
-        self.calls: list[tuple[Any, ...]] = []
-        self.silent: set[int] = set()          # answer nothing
-        self.no_fast: set[int] = set()         # answer Sync Read, not Fast Sync Read (old firmware)
-        self.fail_sync_writes = False          # sync writes are not sent ("no adapter")
-        self.errors: dict[int, int] = {}       # Protocol 1.0: the error byte of a servo's statuses
+        self.memory_line = MemoryLine(self.models, baudrate, latency_timer_ms)
+        #: each servo's register image
+        self.memory = {i: servo.memory for i, servo in self.memory_line.servos.items()}
+        super().__init__(self.memory_line.device, baudrate, latency_timer_ms, retry_num=0, retry_interval_ms=0.0,
+                         line=self.memory_line)
+        self.open()
         for i, model in self.models.items():
             self.set(i, "model_number", model.number)
+
+    @property  # type: ignore[override]
+    def is_open(self) -> bool:
+        """True while the line is open and the device has not gone; set False, the device is gone
+        (as the bus leaves its line when a transaction found it so); set True, it is back."""
+        return self.memory_line.is_open
+
+    @is_open.setter
+    def is_open(self, value: bool) -> None:
+        if value:
+            self.memory_line.open()
+        else:
+            self.memory_line.lost = True
+            self.memory_line.close()
 
     # ---------------------------------------------------------------- the test's side
     def set(self, dxl_id: int, item: str, value: int) -> None:
@@ -87,95 +103,19 @@ class FakeBus:
         return out
 
     def _item_at(self, dxl_id: int, address: int, size: int) -> str | None:
+        if dxl_id not in self.models:
+            return None
         for name, spec in self.models[dxl_id].items.items():
             if spec.address == address and spec.size == size:
                 return name
         return None
 
-    # ---------------------------------------------------------------- ServoBus
-    def _answers(self, dxl_id: int, protocol: int = 2) -> bool:
-        return (self.is_open and dxl_id in self.memory and dxl_id not in self.silent
-                and self.models[dxl_id].protocol == protocol)
-
-    def open(self) -> None:
-        self.is_open = True
-
-    def close(self) -> None:
-        self.is_open = False
-
-    def reopen(self) -> None:
-        self.calls.append(("reopen",))
-        if not self.can_reopen:
-            raise OSError("still gone")
-        self.is_open = True
-
-    def execute(self, op: Any) -> Result[Any]:
-        """The one door of ``ServoBus``: each instruction value recorded and answered."""
-        kind = type(op)
-        if kind is FakePrepared:
-            return self._sync_write(op)
-        if kind is SyncRead:
-            data = self._sync_read(op.address, op.length, op.ids, op.fast)
-            return Result(data) if data or not op.ids else Result(data, Failure.NOBODY_ANSWERED, "no servo answered")
-        dxl_id = op.dxl_id
-        if kind is Ping:
-            self.calls.append(("ping", dxl_id) if op.protocol == 2 else ("ping1", dxl_id))
-            return Result(self.models[dxl_id].number) if self._answers(dxl_id, op.protocol) else _no_reply(None)
-        if kind is Read:
-            self.calls.append(("read", dxl_id, op.address, op.size))
-            if not self._answers(dxl_id, op.protocol):
-                return _no_reply(None)
-            return Result(bytes(self.memory[dxl_id][op.address:op.address + op.size]))
-        if kind is Write:
-            self.calls.append(("write", dxl_id, op.address, op.data))
-            if not self._answers(dxl_id, op.protocol):
-                return _no_reply(False)
-            self.memory[dxl_id][op.address:op.address + len(op.data)] = op.data
-            return Result(True)
-        if kind is ErrorByte:
-            self.calls.append(("error_byte", dxl_id))
-            return Result(self.errors.get(dxl_id, 0)) if self._answers(dxl_id, op.protocol) else _no_reply(None)
-        if kind is Reboot:
-            self.calls.append(("reboot", dxl_id))
-            return Result(True) if self._answers(dxl_id, op.protocol) else _no_reply(False)
-        raise AssertionError(f"the fake bus does not take {op!r}")
-
+    # ---------------------------------------------------------------- the bus
     def scan(self, ids: Iterable[int], broadcast: bool | None = None) -> dict[int, int]:
+        """The bus's scan, noted as ``("scan", ids)`` before the pings it sends."""
         ids = list(ids)
         self.calls.append(("scan", tuple(ids)))
-        return {i: self.models[i].number for i in ids if self._answers(i)}  # a broadcast ping: Protocol 2.0
-
-    def _sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False) -> dict[int, bytes]:
-        ids = tuple(ids)
-        self.calls.append(("sync_read", address, length, ids, fast))
-        out = {}
-        for dxl_id in ids:
-            if not self._answers(dxl_id) or (fast and dxl_id in self.no_fast):
-                if fast:
-                    break  # a fast read's chain stops at the first servo that does not answer
-                continue
-            out[dxl_id] = bytes(self.memory[dxl_id][address:address + length])
-        return out
-
-    def start_sync_read(self, address: int, length: int, ids: Iterable[int], fast: bool = False,
-                        protocol: int = 2) -> GroupRead:
-        return GroupRead.finished(self._sync_read(address, length, ids, fast))
-
-    def prepare_sync_write(self, address: int, length: int, data: Mapping[int, bytes], protocol: int = 2) -> PreparedWrite:
-        return FakePrepared(address, length, tuple(sorted(data)), b"", {}, dict(data))
-
-    def _sync_write(self, prepared: FakePrepared) -> Result[bool]:
-        self.calls.append(("sync_write", prepared.address, prepared.length, dict(prepared.data)))
-        if self.fail_sync_writes or not self.is_open:
-            return Result(False, Failure.DEVICE_LOST, "the adapter is gone")
-        for dxl_id, chunk in prepared.data.items():
-            if self._answers(dxl_id):
-                self.memory[dxl_id][prepared.address:prepared.address + len(chunk)] = chunk
-        return Result(True)
-
-
-def _no_reply(value: Any) -> Result[Any]:
-    return Result(value, Failure.NO_REPLY, "no reply")
+        return super().scan(ids, broadcast)
 
 
 def table_of(bus: FakeBus, ids: Iterable[int] | None = None) -> ServoTable:
