@@ -45,6 +45,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = "dynamixel_handler"
+# the package from this tree, also when env.sh was not sourced: which module a name a test imports
+# comes from is asked of the package itself (``_defined_in``)
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
 #: package folder -> the test folder whose files are its unit tests
 UNIT_DIRS = {"core": "test/core", "commands": "test/commands"}
 #: the front: the unit tests build no Handler (its parts are measured, ``core/parts.py`` included)

@@ -41,7 +41,7 @@ class WriteBatch:
         for write in prepared:
             sent = self.bus.execute(write)
             if not sent:
-                reason = sent.why
+                reason = str(sent.failure) if sent.failure else sent.why  # the bus's why names the write again
                 self._write_failures(f"sync write @{write.address}x{write.length} to IDs "
                                      f"{sorted((*write.ids, *write.dummies))} failed: {reason}",
                                      key=f"{write.address}x{write.length} {reason}")

@@ -76,5 +76,5 @@ def test_a_failed_sync_write_is_reported_once_a_second_per_item_and_reason():
         writes.send()
     # the first write failed on the line: the bus takes the device as lost and sends nothing more
     assert len(bus.of("sync_write")) == 1 and not bus.is_open
-    assert lines == ["sync write @116x4 to IDs [1] failed: sync write @116x4: device lost"]
+    assert lines == ["sync write @116x4 to IDs [1] failed: device lost"]
     assert table.value("goal_position", 1) == 3  # the table keeps what the host asked for
