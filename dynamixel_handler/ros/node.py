@@ -35,7 +35,7 @@ from . import calibration, diagnostics, e_stop, fastpath, item_services, joint_c
 from .command_topics import COMMAND_TYPES, CommandTopics
 from .intake import CommandIntake
 from .lean import lean_publisher, lean_subscription
-from .outbox import Outbox
+from .outbox import Loop, Outbox
 from .params import declare_and_load, describe
 from .process import NODE_NAME, _logger_of, run
 from .publishers import STATE_TYPES, Batch, StatePublishers
@@ -197,7 +197,7 @@ class DynamixelHandlerNode(Node):
         # until the first loops are measured, the bus watchdog time follows the wire time of a loop
         self.handler.watchdog.note_loop_period(self.handler.reads.wire_s_per_loop())
         if self.outbox is None:
-            self.outbox = Outbox(self.get_logger())
+            self.outbox = Outbox(self.get_logger(), self._loop_messages)
         hooks = Hooks(before_step=self._before_step, take_commands=self.intake.poll, wait_commands=self.intake.wait,
                       states_ready=self._end_step, external_read=self._publish_external, report=self._report,
                       gave_up=self._gave_up)
@@ -292,7 +292,7 @@ class DynamixelHandlerNode(Node):
         if (report.groups or report.present) and self.outbox is not None:
             snapshot = self.handler.table.snapshot()
             stamp = self._states_stamp(report.stamp)
-            self.outbox.put(lambda: self._messages(report, snapshot, stamp))
+            self.outbox.put(Loop(report, snapshot, stamp))
 
     def ros_time(self, wall: float) -> float:
         """A wall-clock time (``time.time()``, as the loop stamps its reads) on the node's clock, so
@@ -307,6 +307,10 @@ class DynamixelHandlerNode(Node):
         if isinstance(clock, ROSClock) and not clock.ros_time_is_active:
             return max(0.0, wall)
         return self.ros_time(wall)
+
+    def _loop_messages(self, loop: Loop) -> Batch:
+        """A loop's messages, on the publishing thread."""
+        return self.state_pubs.messages(loop.report, loop.table, loop.stamp)
 
     def _messages(self, report: StepReport, table: Any = None, stamp: float | None = None) -> Batch:
         """What this loop read, per topic (``publishers.py``); by default the table as it is now."""

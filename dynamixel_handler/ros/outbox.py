@@ -1,19 +1,31 @@
 """Publishing on a thread of its own, so a loop's messages are built and go out while the next
 loop's instruction is on the wire (the loop thread then waits in ``select`` with the interpreter
-lock released). The loop thread hands over a job (a snapshot of the servo table and what the loop
-read); building the messages, encoding them and the middleware's write happen here, in loop order.
+lock released). The loop thread hands over a ``Loop`` (what the loop read, a snapshot of the servo
+table, the stamp): a value, not a call; the builder given at construction turns it into messages
+here, where encoding them and the middleware's write happen too, in loop order.
 """
 from __future__ import annotations
 
 import collections
 import threading
 import time
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 from .lean import TreePublisher
 
 Batch = Sequence[tuple[TreePublisher, Any]]  # a message as a nested dict or as CDR bytes
-Job = Callable[[], Batch]  # builds one loop's messages
+
+
+@dataclass(frozen=True)
+class Loop:
+    """One loop's publishing, as the loop thread hands it over."""
+    report: Any     #: the loop's ``StepReport``
+    table: Any      #: a snapshot of the servo table after the loop
+    stamp: float    #: the states' stamp [s]
+
+
+Build = Callable[[Loop], Batch]  # one loop's messages
 
 #: loops' worth of messages held when the publishing thread falls behind; older ones are dropped
 DEPTH = 8
@@ -22,9 +34,10 @@ WARN_EVERY_S = 10.0
 
 
 class Outbox:
-    def __init__(self, log, depth: int = DEPTH) -> None:
+    def __init__(self, log, build: Build, depth: int = DEPTH) -> None:
         self.log = log
-        self._queue: collections.deque[Job] = collections.deque()
+        self._build = build
+        self._queue: collections.deque[Loop] = collections.deque()
         self._depth = depth
         self._cond = threading.Condition()
         self._closing = False
@@ -35,12 +48,12 @@ class Outbox:
         self._thread = threading.Thread(target=self._run, name="dynamixel_publish", daemon=True)
         self._thread.start()
 
-    def put(self, job: Job) -> None:
+    def put(self, loop: Loop) -> None:
         with self._cond:
             if len(self._queue) >= self._depth:
                 self._queue.popleft()
                 self.dropped += 1
-            self._queue.append(job)
+            self._queue.append(loop)
             self._cond.notify()
         if self.dropped != self._dropped_reported and time.monotonic() >= self._next_warning:
             self._next_warning = time.monotonic() + WARN_EVERY_S
@@ -55,9 +68,9 @@ class Outbox:
                     self._cond.wait()
                 if not self._queue:
                     return
-                job = self._queue.popleft()
+                loop = self._queue.popleft()
             try:
-                batch = job()
+                batch = self._build(loop)
             except Exception as exc:  # a loop whose messages cannot be built: say so, go on
                 self.log.error(f"building this loop's messages: {type(exc).__name__}: {exc}")
                 continue
