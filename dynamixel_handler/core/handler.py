@@ -67,14 +67,12 @@ class Handler:
     settings, or the validated parameters (``config.validate``) they are taken from."""
 
     def __init__(self, bus: ServoBus, settings: Settings | Config, logger: Log | None = None, *,
-                 tripped_once: bool = True) -> None:
+                 tripped_once: bool = True, interrupted: Callable[[], bool] = lambda: False) -> None:
         self._log: Log = logger or logging.getLogger("dynamixel_handler")
         self._settings = settings.settings if isinstance(settings, Config) else settings
         #: why operations are not taken now (a lifecycle node that is not active); None: they are
         self.refuse_ops: str | None = None
-        #: true once the node is asked to exit: start-up (scan, set-up) stops between two steps
-        self.interrupted: Callable[[], bool] = lambda: False
-        p = self._parts = build_parts(bus, self._settings, self._log, self._stopping, tripped_once)
+        p = self._parts = build_parts(bus, self._settings, self._log, interrupted, tripped_once)
         self.bus, self.table, self.pending = p.bus, p.table, p.pending
         self.io, self.group, self.pacing, self.reads, self.writes = p.io, p.group, p.pacing, p.reads, p.writes
         self.watchdog, self.work, self.intake, self.recovery = p.watchdog, p.work, p.intake, p.recovery
@@ -84,9 +82,6 @@ class Handler:
         self.core = p.core
         self._limited = LogLimits(lambda level, msg: self._log.log(level, msg))
         self.table.watch_removals(self._say_removed)  # after the parts forgot it: one line says so
-
-    def _stopping(self) -> bool:
-        return self.interrupted()
 
     # ---------------------------------------------------------------- what every part shares
     @property

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import Callable
 
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
@@ -42,8 +43,8 @@ DROP_WARN_INTERVAL_S = 1.0
 class DynamixelHandlerLifecycleNode(DynamixelHandlerNode, LifecycleNode):
     """DynamixelHandlerNode whose bus work follows the lifecycle transitions."""
 
-    def __init__(self) -> None:
-        super().__init__()  # parameters, publishers, subscriptions, services; no bus access
+    def __init__(self, interrupted: Callable[[], bool] = lambda: False) -> None:
+        super().__init__(interrupted)  # parameters, publishers, subscriptions, services; no bus access
         # torque comes on at activate, not during the configure scan
         self.handler.settings = self.settings.but(scan__torque_auto_enable=False)
         # a transition the state machine does not have from the current state (activate while

@@ -75,7 +75,9 @@ class _LoggerAdapter:
 
 
 class DynamixelHandlerNode(Node):
-    def __init__(self) -> None:
+    def __init__(self, interrupted: Callable[[], bool] = lambda: False) -> None:
+        """``interrupted``: true once the process is asked to exit (a scan or set-up in progress
+        stops between two steps)."""
         super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True)
         self.config = declare_and_load(self)  # by parameter name; typed: self.settings
         self.settings = cfg = self.config.settings
@@ -93,7 +95,8 @@ class DynamixelHandlerNode(Node):
         if cfg.scan.ignored_dummy_ids:
             log.warning(f"init/dummy_servo_list: IDs {list(cfg.scan.ignored_dummy_ids)} are outside 0..252: ignored")
         self.bus = BusWithDummies(self.wire, make_dummies(list(cfg.scan.dummy_ids), list(cfg.scan.dummy_series)))
-        self.handler = Handler(self.bus, self.config, cast(logging.Logger, self.adapter))  # logging.Logger-like
+        self.handler = Handler(self.bus, self.config, cast(logging.Logger, self.adapter),  # logging.Logger-like
+                               interrupted=interrupted)
         self.runner: Runner | None = None  # the loop, while it runs
         #: the loop was asked to stop (or gave up) and was not started again
         self.loop_stopped = False

@@ -149,6 +149,10 @@ class _Process:
         # (callbacks still only queue work for the loop thread)
         self.executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
 
+    def asked_to_stop(self) -> bool:
+        """A signal came or the stop began: the node's start-up (scan, set-up) ends between two steps."""
+        return self.signalled.came or self.stopping.is_set()
+
     def on_signal(self, *_: object) -> None:
         """Stop (never from a signal handler: this takes locks)."""
         self.stopping.set()
@@ -159,8 +163,6 @@ class _Process:
         """Spin until a signal (or a loop that gave up); the exit code."""
         log = node.get_logger()
         node.on_failure = self.on_signal
-        # a signal during the scan or set-up ends it
-        node.handler.interrupted = lambda: self.signalled.came or self.stopping.is_set()
         self.waker.append(node.create_guard_condition(lambda: None))
         ready(node)
         self.executor.add_node(node)
@@ -192,7 +194,7 @@ class _Process:
             rclpy.try_shutdown()
 
 
-def run(make_node: Callable[[], Any], ready: Callable[[Any], None], args: list[str] | None = None) -> int:
+def run(make_node: Callable[[Callable[[], bool]], Any], ready: Callable[[Any], None], args: list[str] | None = None) -> int:
     """Run a handler node until SIGINT/SIGTERM (or a loop that gave up), then make the servos safe."""
     # the ROS environment (discovery range, domain, RMW) is the user's: the node changes none of it
     # the loop thread must get the interpreter lock back soon after the bus answers, even while
@@ -206,7 +208,7 @@ def run(make_node: Callable[[], Any], ready: Callable[[Any], None], args: list[s
     proc = _Process(came)
     try:
         try:
-            proc.node = make_node()
+            proc.node = make_node(proc.asked_to_stop)  # a signal during the scan or set-up ends it
         except Exception as exc:
             log = _logger_of(exc, log)  # the node's own (namespaced) logger if it got that far
             raise
