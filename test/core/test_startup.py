@@ -48,8 +48,8 @@ def test_fewer_servos_than_expected_end_the_start_up_unless_debug():
 
 
 def test_a_stop_asked_for_during_the_scan_ends_the_start_up():
-    _, h = handler({1: XM430})
-    h.interrupted = lambda: True
+    bus = FakeBus({1: XM430})
+    h = Handler(bus, validate({**defaults(), "init/servo_auto_search.max_id": 6}), LOG, interrupted=lambda: True)
     with pytest.raises(Interrupted):
         h.start()
 
