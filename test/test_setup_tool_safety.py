@@ -18,7 +18,7 @@ from typing import Iterator
 
 import pytest
 import test_setup_tool
-from dynamixel_sdk import COMM_SUCCESS, PacketHandler
+from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 from test_setup_tool import ENV, ROOT, TOOL, XM430, one_error_line
 
 from support.sdk import PatientPort
@@ -31,64 +31,77 @@ def tool(sim, *args: str, stdin: str = "") -> subprocess.CompletedProcess:
     return test_setup_tool.tool(sim, *args, "--latency", "100", stdin=stdin)
 
 
+def _settle(port: PatientPort) -> None:
+    """Drop the input after a short settle: on a loaded host a reply to an earlier request (the
+    tool's, or an SDK request that timed out) may still arrive, and must not be taken for the next
+    request's."""
+    time.sleep(0.05)
+    port.ser.reset_input_buffer()
+
+
 @contextlib.contextmanager
-def _port(path: str, bps: int) -> Iterator[PatientPort]:
-    """dynamixel_sdk's port at ``bps``, its input dropped after a short settle: on a loaded host a
-    reply to an earlier request (the tool's, or an SDK request that timed out) may still arrive, and
-    must not be taken for this request's."""
-    port = PatientPort(path)
+def _port(path: str, bps: int, patient: bool = True) -> Iterator[PortHandler]:
+    """dynamixel_sdk's port at ``bps``, settled (``_settle``) when opened and after each request
+    that failed; requests that succeed follow each other on it without a wait. ``patient`` False:
+    the SDK's own reply wait (for a first look, where a late reply only means asking again)."""
+    port = PatientPort(path) if patient else PortHandler(path)
     assert port.openPort() and port.setBaudRate(bps)
     try:
-        time.sleep(0.05)
-        port.ser.reset_input_buffer()
+        _settle(port)
         yield port
     finally:
         port.closePort()
 
 
-def _tries(request):
-    """``request(port_packet)`` up to three times until dynamixel_sdk reports success; its result
-    (None when it never succeeded)."""
+def _tries(port: PatientPort, request):
+    """``request(packets)`` up to three times until dynamixel_sdk reports success, the port settled
+    after each failure; its result (None when it never succeeded)."""
     for _ in range(3):
         ok, got = request(PacketHandler(2.0))
         if ok:
             return got
+        _settle(port)
     return None
 
 
-def sdk_read(path: str, bps: int, dxl_id: int, address: int, size: int) -> int | None:
+def port_read(port: PatientPort, dxl_id: int, address: int, size: int) -> int | None:
     def request(packets):
-        with _port(path, bps) as port:
-            data, comm, _err = packets.readTxRx(port, dxl_id, address, size)
+        data, comm, _err = packets.readTxRx(port, dxl_id, address, size)
         return comm == COMM_SUCCESS, int.from_bytes(bytes(data), "little", signed=size == 4)
-    return _tries(request)
+    return _tries(port, request)
+
+
+def port_write(port: PatientPort, dxl_id: int, address: int, value: int, size: int) -> None:
+    def request(packets):
+        if size == 1:
+            comm, err = packets.write1ByteTxRx(port, dxl_id, address, value)
+        else:
+            comm, err = packets.write4ByteTxRx(port, dxl_id, address, value & 0xFFFFFFFF)
+        return comm == COMM_SUCCESS and err == 0, True
+    assert _tries(port, request), (dxl_id, address, value)
+
+
+def sdk_read(path: str, bps: int, dxl_id: int, address: int, size: int) -> int | None:
+    with _port(path, bps) as port:
+        return port_read(port, dxl_id, address, size)
 
 
 def sdk_ping(path: str, bps: int, dxl_id: int) -> int | None:
-    def request(packets):
-        with _port(path, bps) as port:
+    with _port(path, bps) as port:
+        def request(packets):
             model, comm, _err = packets.ping(port, dxl_id)
-        return comm == COMM_SUCCESS, model
-    return _tries(request)
-
-
-def _write(path: str, bps: int, dxl_id: int, address: int, value: int, size: int) -> None:
-    def request(packets):
-        with _port(path, bps) as port:
-            if size == 1:
-                comm, err = packets.write1ByteTxRx(port, dxl_id, address, value)
-            else:
-                comm, err = packets.write4ByteTxRx(port, dxl_id, address, value & 0xFFFFFFFF)
-        return comm == COMM_SUCCESS and err == 0, True
-    assert _tries(request), (dxl_id, address, value)
+            return comm == COMM_SUCCESS, model
+        return _tries(port, request)
 
 
 def sdk_write1(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
-    _write(path, bps, dxl_id, address, value, 1)
+    with _port(path, bps) as port:
+        port_write(port, dxl_id, address, value, 1)
 
 
 def sdk_write4(path: str, bps: int, dxl_id: int, address: int, value: int) -> None:
-    _write(path, bps, dxl_id, address, value, 4)
+    with _port(path, bps) as port:
+        port_write(port, dxl_id, address, value, 4)
 
 
 TORQUE, BAUD, ID_ADDR, DRIVE, SECONDARY, PROTOCOL, TEMP_LIMIT, SHUTDOWN = 64, 8, 7, 10, 12, 13, 31, 63
@@ -99,8 +112,9 @@ PAUSE = "DXL_SETUP_TEST_PAUSE_AFTER"
 
 def hold(sim, dxl_id: int = 1, bps: int = 57600) -> None:
     """Torque on where the servo is, as an arm holding its weight."""
-    sdk_write4(sim.path, bps, dxl_id, GOAL_POS, sdk_read(sim.path, bps, dxl_id, PRESENT_POS, 4))
-    sdk_write1(sim.path, bps, dxl_id, TORQUE, 1)
+    with _port(sim.path, bps) as port:
+        port_write(port, dxl_id, GOAL_POS, port_read(port, dxl_id, PRESENT_POS, 4), 4)
+        port_write(port, dxl_id, TORQUE, 1, 1)
 
 
 # ---------------------------------------------------------------------- item 1: torque
@@ -202,15 +216,16 @@ class Paused:
 def _where(sim) -> int:
     """The rate ID 1 answers at (exactly one of 57600 and 1 Mbps): both rates asked once a round,
     up to three rounds until it answers at one (a loaded host can make a reply late, never make an
-    absent servo answer, so a rate is not asked again once the other answered)."""
-    def answers(bps: int) -> bool:
-        with _port(sim.path, bps) as port:
+    absent servo answer, so a rate is not asked again once the other answered). The first round
+    waits as the SDK does, the later ones as a loaded host needs."""
+    def answers(bps: int, patient: bool) -> bool:
+        with _port(sim.path, bps, patient) as port:
             model, comm, _err = PacketHandler(2.0).ping(port, 1)
         return comm == COMM_SUCCESS and model == XM430
 
     at: list[int] = []
-    for _ in range(3):
-        at = [bps for bps in (57600, 1_000_000) if answers(bps)]
+    for round_ in range(3):
+        at = [bps for bps in (57600, 1_000_000) if answers(bps, patient=round_ > 0)]
         if at:
             break
     assert len(at) == 1, at
@@ -220,11 +235,14 @@ def _where(sim) -> int:
 def _back_to_start(sim, bps: int) -> None:
     """ID 1 at 57600 bps, max position limit 4095, holding its position (torque on); ``bps``: the
     rate it answers at now (the last ``_where``)."""
-    sdk_write1(sim.path, bps, 1, TORQUE, 0)
-    if bps != 57600:
-        sdk_write1(sim.path, bps, 1, BAUD, 1)
-    sdk_write4(sim.path, 57600, 1, MAX_POS, 4095)
-    hold(sim)
+    with _port(sim.path, bps) as port:
+        port_write(port, 1, TORQUE, 0, 1)
+        if bps != 57600:
+            port_write(port, 1, BAUD, 1, 1)
+    with _port(sim.path, 57600) as port:
+        port_write(port, 1, MAX_POS, 4095, 4)
+        port_write(port, 1, GOAL_POS, port_read(port, 1, PRESENT_POS, 4), 4)  # hold(): torque on where it is
+        port_write(port, 1, TORQUE, 1, 1)
 
 
 @pytest.mark.parametrize("verb", ["set", "set-baud"])
@@ -247,8 +265,9 @@ def test_a_signal_after_each_bus_instruction_leaves_the_servo_in_a_named_state(s
         assert code == 130, (after, text)
         assert "Traceback" not in text and f"interrupted ({name})" in text, (after, text)
         bps = _where(sim)
-        assert sdk_read(sim.path, bps, 1, TORQUE, 1) == 1, (after, text)  # torque as before: on
-        limit = sdk_read(sim.path, bps, 1, MAX_POS, 4)
+        with _port(sim.path, bps) as port:
+            assert port_read(port, 1, TORQUE, 1) == 1, (after, text)  # torque as before: on
+            limit = port_read(port, 1, MAX_POS, 4)
         if verb == "set":
             assert bps == 57600, (after, text)
             if limit != 4095:  # written: the output says so
