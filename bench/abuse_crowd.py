@@ -19,7 +19,9 @@ over 50 ms (from the simulator's log of the node's reads), the CPU and run-queue
 the node's threads, the simulator's and the client processes' CPU (crowd_probe.py); the node's RSS
 / threads / FDs before, at the peak, AFTER_S after, and what malloc_trim(0) gives back then.
 ``--nice 0,19`` runs each crowd with the client processes at each nice value; ``--stalls FILE``
-has the node write where its threads were whenever a thread of its own woke over 50 ms late. The
+has the node write where its threads were whenever a thread of its own woke over 50 ms late;
+``--hardware-priority`` runs the simulator's thread at SCHED_FIFO, ``--loop-fifo`` (an experiment)
+the node's loop thread, both set from outside (root). The
 figures go to docs/reliability.md by hand. Not part of the test suite.
 """
 from __future__ import annotations
@@ -283,12 +285,18 @@ def torque_on(ids: list[int]) -> None:
 
 
 def run(VirtualBus, seconds: float, doors: tuple[str, ...] = DOORS, depths: tuple[int, ...] = DEPTHS,
-        count: int = CLIENTS, nices: tuple[int, ...] = (0,), params: tuple[str, ...] = (), stalls: str = "") -> None:
+        count: int = CLIENTS, nices: tuple[int, ...] = (0,), params: tuple[str, ...] = (), stalls: str = "",
+        hardware: bool = False, loop_fifo: bool = False) -> None:
     sim = VirtualBus(servos={1: abuse.X, 2: abuse.X}, wire_timing=False)
     node = abuse.Node(sim, "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", *JOINTS, *params,
                       env={"PYTHONPATH": os.pathsep.join([crowd_probe.THREAD_NAMES, os.environ.get("PYTHONPATH", "")]),
                            "DXL_BENCH_TRIM": TRIM, **({"DXL_BENCH_STALLS": stalls} if stalls else {})})
     node.wait_for("handled")
+    if hardware:  # the simulator answers on time as servos would, whatever the crowd takes
+        from common import hardware_priority
+        print(hardware_priority(), flush=True)
+    if loop_fifo:  # an experiment: the node's loop thread never waits for a core (its lock it may)
+        print(crowd_probe.loop_fifo(node.proc.pid), flush=True)
     time.sleep(2.0)
     torque_on([1, 2])
     t0 = time.monotonic()
@@ -323,10 +331,15 @@ def main() -> int:
     ap.add_argument("-p", dest="params", action="append", default=[], help="a node parameter (name:=value)")
     ap.add_argument("--stalls", default="", help="a file: the node writes where its threads were whenever a "
                     "thread of its own woke over 50 ms late (bench/thread_names/sitecustomize.py)")
+    ap.add_argument("--hardware-priority", action="store_true",
+                    help="the simulator's thread at SCHED_FIFO (root): it answers on time as servos do")
+    ap.add_argument("--loop-fifo", action="store_true",
+                    help="an experiment: the node's loop thread at SCHED_FIFO 5 (root), set from outside")
     args = ap.parse_args()
     from dynamixel_handler.sim import VirtualBus
     run(VirtualBus, args.seconds, tuple(args.doors.split(",")), tuple(int(d) for d in args.depths.split(",")),
-        args.clients, tuple(int(n) for n in args.nice.split(",")), tuple(args.params), args.stalls)
+        args.clients, tuple(int(n) for n in args.nice.split(",")), tuple(args.params), args.stalls,
+        args.hardware_priority, args.loop_fifo)
     return 0
 
 

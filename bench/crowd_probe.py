@@ -144,6 +144,18 @@ def sim_thread_id() -> int | None:
     return None
 
 
+def loop_fifo(pid: int) -> str:
+    """The node's loop thread (by its name) at SCHED_FIFO 5; what was applied."""
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        if Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip() == "dynamixel_loop":
+            try:
+                os.sched_setscheduler(int(tid), os.SCHED_FIFO, os.sched_param(5))
+                return "the node's loop thread at SCHED_FIFO 5"
+            except OSError as exc:
+                return f"the node's loop thread at normal priority ({exc.strerror or exc})"
+    return "the node's loop thread not found"
+
+
 def line(figures: dict) -> str:
     """One line: wall, each group's CPU % / run-queue %, the clients' and machine's CPU, peak RSS."""
     order = ("loop", "spin", "pool", "publish", "other", "sim")
