@@ -260,10 +260,11 @@ def _trimmed() -> str:
         time.sleep(0.05)
     time.sleep(0.05)
     try:
-        before, after, blocks, took = Path(TRIM).read_text().split()
+        before, after, blocks, took, arenas = Path(TRIM).read_text().split()
     except (OSError, ValueError):
         return "malloc_trim: no answer"
-    return f"malloc_trim(0): RSS {before} -> {after} MiB in {took} ms (Python blocks in use {int(blocks):,})"
+    return (f"malloc_trim(0): RSS {before} -> {after} MiB in {took} ms (Python blocks in use {int(blocks):,}; "
+            f"MiB in Python's arenas / in its blocks {arenas})")
 
 
 def torque_on(ids: list[int]) -> None:

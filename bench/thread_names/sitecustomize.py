@@ -86,7 +86,33 @@ def _trim(path: str) -> None:
         c.CDLL("libc.so.6").malloc_trim(0)
         took = time.perf_counter() - t
         with open(path, "w") as out:
-            out.write(f"{before:.0f} {rss():.0f} {blocks} {1000 * took:.1f}\n")
+            out.write(f"{before:.0f} {rss():.0f} {blocks} {1000 * took:.1f} {_arenas_mib(path)}\n")
+
+
+def _arenas_mib(path: str) -> str:
+    """MiB in the Python allocator's arenas now (sys._debugmallocstats, which writes to fd 2:
+    sent to a file for the moment), or '-'."""
+    import os
+    import re
+    import sys
+    try:
+        with open(path + ".stats", "w+b") as tmp:
+            saved = os.dup(2)
+            try:
+                os.dup2(tmp.fileno(), 2)
+                sys._debugmallocstats()
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+            tmp.seek(0)
+            text = tmp.read().decode(errors="replace")
+        os.remove(path + ".stats")
+        arenas = re.search(r"# arenas allocated current\s*=\s*([\d,]+)", text)
+        size = re.search(r"# bytes in allocated blocks\s*=\s*([\d,]+)", text)
+        return (f"{int(arenas.group(1).replace(',', ''))}/"  # an arena is 1 MiB (64-bit CPython 3.10+)
+                f"{int(size.group(1).replace(',', '')) / 2**20:.0f}") if arenas and size else "-"
+    except OSError:
+        return "-"
 
 
 if __import__("os").environ.get("DXL_BENCH_TRIM"):
