@@ -128,11 +128,11 @@ def publisher(kind: str, rate: float, seconds: float) -> subprocess.Popen:
 
 # ---------------------------------------------------------------------------- the node under test
 class Node:
-    def __init__(self, sim, *params: str) -> None:
+    def __init__(self, sim, *params: str, env: dict[str, str] | None = None) -> None:
         args = ["dynamixel_handler", "--ros-args", "--params-file", str(CONFIG)]
         for p in (f"device_name:={sim.start()}", "latency_timer:=1", *params):
             args += ["-p", p]
-        env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_LOGGING_BUFFERED_STREAM="0")
+        env = dict(os.environ, PYTHONUNBUFFERED="1", RCUTILS_LOGGING_BUFFERED_STREAM="0", **(env or {}))
         self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                                      preexec_fn=_die_with_parent)
         self.lines: list[tuple[float, str]] = []

@@ -13,14 +13,23 @@ until every server is there, and sends its requests at an instant the parent giv
 
 Per case: answers received / sent (for the actions: goal responses, accepted / rejected, then the
 results of the accepted goals), latency median / longest from each request's send and how many came
-within the callers' 3 s, the longest loop gap while the crowd was served (from the simulator's log
-of the node's reads), the node's RSS / threads / FDs before and after. The figures go to
-docs/reliability.md by hand. Not part of the test suite.
+within the callers' 3 s; in two phases, the clients being made and finding the node (discovery)
+and the requests from the send instant until every answer is in: the longest loop gap and the gaps
+over 50 ms (from the simulator's log of the node's reads), the CPU and run-queue wait of each of
+the node's threads, the simulator's and the client processes' CPU (crowd_probe.py); the node's RSS
+/ threads / FDs before, at the peak, AFTER_S after, and what malloc_trim(0) gives back then.
+``--nice 0,19`` runs each crowd with the client processes at each nice value; ``--stalls FILE``
+has the node write where its threads were whenever a thread of its own woke over 50 ms late;
+``--hardware-priority`` runs the simulator's thread at SCHED_FIFO, ``--loop-fifo`` (an experiment)
+the node's loop thread, both set from outside (root). The
+figures go to docs/reliability.md by hand. Not part of the test suite.
 """
 from __future__ import annotations
 
 import argparse
+import functools
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -31,6 +40,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import abuse  # noqa: E402  (sets the ROS environment of the bench: localhost, a domain of its own)
+import crowd_probe  # noqa: E402
 from abuse_trajectory import ACTION, JOINTS  # noqa: E402
 
 PROCESSES, CLIENTS = 4, 250
@@ -38,6 +48,8 @@ DOORS = ("set_torque", "move_to", "move_joints", "follow_joint_trajectory")
 DEPTHS = (1000, 10)
 TIMEOUT_S = 3.0     # the callers' own timeout (move_to, move_joints)
 LIMIT_S = 60.0      # a client process stops waiting for answers after this long
+AFTER_S = 5.0       # the node's RSS is read again this long after the clients have gone
+TRIM = f"/tmp/dxl_crowd_trim_{os.getpid()}"  # the node's answer to "trim now" (bench/thread_names)
 
 
 # ---------------------------------------------------------------------------- a client process
@@ -175,25 +187,51 @@ def _ms(values: list[float]) -> str:
             f"{sum(v <= TIMEOUT_S for v in values)} within {TIMEOUT_S:g} s")
 
 
-def crowd(node: abuse.Node, sim, door: str, depth: int, count: int = CLIENTS) -> None:
+def _gaps(sim, t0: float, t1: float) -> str:
+    """The longest loop gap in [t0, t1] and how many gaps were over 50 ms (the simulator's log)."""
+    times = [e.time for e in list(sim.log) if e.name.endswith("sync_read") and t0 <= e.time <= t1
+             and e.address <= abuse.PRESENT_POSITION < e.address + (e.length or 0)]
+    gaps = [b - a for a, b in zip(times, times[1:])]
+    if not gaps:
+        return "no loop"
+    return f"{1000 * max(gaps):.0f} ms ({sum(g > 0.05 for g in gaps)} over 50 ms)"
+
+
+def _child(nice: int) -> None:
+    abuse._die_with_parent()
+    if nice:
+        os.nice(nice)
+
+
+def crowd(node: abuse.Node, sim, door: str, depth: int, count: int = CLIENTS, nice: int = 0) -> None:
+    """One crowd: the clients are made and find the node (discovery, measured apart), then all
+    send at one instant (the requests, measured from that instant until every answer is in)."""
+    sim_tid = crowd_probe.sim_thread_id()
+    t_spawn = time.monotonic()
     procs = [subprocess.Popen([sys.executable, __file__, "--publish", f"{door}/{depth}", str(count), "0"],
                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                              preexec_fn=abuse._die_with_parent) for _ in range(PROCESSES)]
+                              preexec_fn=functools.partial(_child, nice)) for _ in range(PROCESSES)]
+    probe = crowd_probe.Probe(node.proc.pid, sim_tid, [p.pid for p in procs])
     found = [int(p.stdout.readline().split()[-1] or 0) for p in procs]  # type: ignore[union-attr]
+    discovery = probe.stop()
+    t_ready = time.monotonic()
     before = node.resources()
-    t0 = time.monotonic()
     start_at = time.time() + 1.0
     for p in procs:
         p.stdin.write(f"{start_at}\n")  # type: ignore[union-attr]
         p.stdin.flush()  # type: ignore[union-attr]
+    time.sleep(max(0.0, start_at - time.time()))
+    t0 = time.monotonic()
+    probe = crowd_probe.Probe(node.proc.pid, sim_tid, [p.pid for p in procs])
     outs = [json.loads(p.stdout.readline() or "{}") for p in procs]  # type: ignore[union-attr]
+    requests = probe.stop()
+    t1 = time.monotonic()
     for p in procs:  # 250 action clients take a while to shut down
         try:
             p.wait(120)
         except subprocess.TimeoutExpired:
             p.kill()
-    t1 = time.monotonic()
-    _, gap = abuse.loop_figures(sim, t0 + 1.0, t1)
+    time.sleep(AFTER_S)
     sent = sum(o.get("sent", 0) for o in outs)
     answered = [v for o in outs for v in o.get("answered", [])]
     results = [v for o in outs for v in o.get("results", [])]
@@ -202,12 +240,31 @@ def crowd(node: abuse.Node, sim, door: str, depth: int, count: int = CLIENTS) ->
         ends.update(o.get("ends", {}))
     rejected = sum(o.get("rejected", 0) for o in outs)
     action = door in ("move_joints", "follow_joint_trajectory")
-    line = (f"{door:24s} depth {depth:<4d} servers found {sum(found)}/{sent}; answers {len(answered)}/{sent} "
-            f"({_ms(answered)})")
+    line = (f"{door:24s} depth {depth:<4d} nice {nice}; servers found {sum(found)}/{sent}; answers "
+            f"{len(answered)}/{sent} ({_ms(answered)})")
     if action:
         line += f"; accepted {len(answered) - rejected}, rejected {rejected}; results {len(results)} ({_ms(results)})"
-    print(f"{line}; ends {dict(ends.most_common(4))}; loop gap {gap:.0f} ms; rss/threads/fds {before} -> "
-          f"{node.resources()}", flush=True)
+    print(f"{line}; ends {dict(ends.most_common(4))}", flush=True)
+    print(f"    discovery: loop gap {_gaps(sim, t_spawn, t_ready)}; {crowd_probe.line(discovery)}", flush=True)
+    print(f"    requests:  loop gap {_gaps(sim, t0, t1)}; {crowd_probe.line(requests)}", flush=True)
+    print(f"    rss/threads/fds before {before}, peak {requests['rss_peak']:.0f} MiB, {AFTER_S:g} s after "
+          f"{node.resources()}; {_trimmed()}", flush=True)
+
+
+def _trimmed() -> str:
+    """Asks the node to call malloc_trim(0) (bench/thread_names): RSS before and after it."""
+    Path(TRIM).unlink(missing_ok=True)
+    Path(TRIM + ".go").touch()
+    end = time.monotonic() + 5.0
+    while time.monotonic() < end and not Path(TRIM).exists():
+        time.sleep(0.05)
+    time.sleep(0.05)
+    try:
+        before, after, blocks, took, arenas = Path(TRIM).read_text().split()
+    except (OSError, ValueError):
+        return "malloc_trim: no answer"
+    return (f"malloc_trim(0): RSS {before} -> {after} MiB in {took} ms (Python blocks in use {int(blocks):,}; "
+            f"MiB in Python's arenas / in its blocks {arenas})")
 
 
 def torque_on(ids: list[int]) -> None:
@@ -229,20 +286,33 @@ def torque_on(ids: list[int]) -> None:
 
 
 def run(VirtualBus, seconds: float, doors: tuple[str, ...] = DOORS, depths: tuple[int, ...] = DEPTHS,
-        count: int = CLIENTS) -> None:
+        count: int = CLIENTS, nices: tuple[int, ...] = (0,), params: tuple[str, ...] = (), stalls: str = "",
+        hardware: bool = False, loop_fifo: bool = False) -> None:
     sim = VirtualBus(servos={1: abuse.X, 2: abuse.X}, wire_timing=False)
-    node = abuse.Node(sim, "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", *JOINTS)
+    node = abuse.Node(sim, "init/servo_auto_search.max_id:=2", "init/expected_servo_num:=2", *JOINTS, *params,
+                      env={"PYTHONPATH": os.pathsep.join([crowd_probe.THREAD_NAMES, os.environ.get("PYTHONPATH", "")]),
+                           "DXL_BENCH_TRIM": TRIM, **({"DXL_BENCH_STALLS": stalls} if stalls else {})})
     node.wait_for("handled")
+    if hardware:  # the simulator answers on time as servos would, whatever the crowd takes
+        from common import hardware_priority
+        print(hardware_priority(), flush=True)
+    if loop_fifo:  # an experiment: the node's loop thread never waits for a core (its lock it may)
+        print(crowd_probe.loop_fifo(node.proc.pid), flush=True)
     time.sleep(2.0)
     torque_on([1, 2])
     t0 = time.monotonic()
     time.sleep(seconds)
     rate, gap = abuse.loop_figures(sim, t0, time.monotonic())
     print(f"{'idle':24s} loop {rate:.1f} Hz, gap {gap:.0f} ms; rss/threads/fds {node.resources()}", flush=True)
+    probe = crowd_probe.Probe(node.proc.pid, crowd_probe.sim_thread_id(), [])
+    time.sleep(seconds)
+    print(f"    idle: loop gap {_gaps(sim, time.monotonic() - seconds, time.monotonic())}; "
+          f"{crowd_probe.line(probe.stop())}; {_trimmed()}", flush=True)
     try:
         for door in doors:
             for depth in depths:
-                crowd(node, sim, door, depth, count)
+                for nice in nices:
+                    crowd(node, sim, door, depth, count, nice)
                 time.sleep(3.0)  # the last goals end before the next crowd
     finally:
         code, exit_s = node.stop()
@@ -258,10 +328,19 @@ def main() -> int:
     ap.add_argument("--doors", default=",".join(DOORS))
     ap.add_argument("--depths", default=",".join(map(str, DEPTHS)))
     ap.add_argument("--clients", type=int, default=CLIENTS, help="clients per process (4 processes)")
+    ap.add_argument("--nice", default="0", help="nice values of the client processes, each a crowd (e.g. 0,19)")
+    ap.add_argument("-p", dest="params", action="append", default=[], help="a node parameter (name:=value)")
+    ap.add_argument("--stalls", default="", help="a file: the node writes where its threads were whenever a "
+                    "thread of its own woke over 50 ms late (bench/thread_names/sitecustomize.py)")
+    ap.add_argument("--hardware-priority", action="store_true",
+                    help="the simulator's thread at SCHED_FIFO (root): it answers on time as servos do")
+    ap.add_argument("--loop-fifo", action="store_true",
+                    help="an experiment: the node's loop thread at SCHED_FIFO 5 (root), set from outside")
     args = ap.parse_args()
     from dynamixel_handler.sim import VirtualBus
     run(VirtualBus, args.seconds, tuple(args.doors.split(",")), tuple(int(d) for d in args.depths.split(",")),
-        args.clients)
+        args.clients, tuple(int(n) for n in args.nice.split(",")), tuple(args.params), args.stalls,
+        args.hardware_priority, args.loop_fifo)
     return 0
 
 
