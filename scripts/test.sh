@@ -14,11 +14,12 @@ paths=(test)
 for arg in "$@"; do
   case "$arg" in -*) ;; *) [ -e "${arg%%::*}" ] && paths=() ;; esac  # a file, folder or file::test
 done
-# the whole folder on one worker per core (at most 2: the tests' nodes and virtual buses need the
-# rest), a file's tests together on one worker; DXL_TEST_WORKERS=1 runs them one after another
+# the whole folder on one worker more than there are cores, 3 at most (a node test mostly waits for
+# its node and virtual bus: two workers on two cores kept them about half busy), a file's tests
+# together on one worker; DXL_TEST_WORKERS=1 runs them one after another
 workers=()
 if [ ${#paths[@]} -gt 0 ]; then
-  n="${DXL_TEST_WORKERS:-$(python -c 'import os; print(min(2, len(os.sched_getaffinity(0))))')}"
+  n="${DXL_TEST_WORKERS:-$(python -c 'import os; print(min(3, len(os.sched_getaffinity(0)) + 1))')}"
   [ "$n" -gt 1 ] && workers=(-n "$n" --dist loadfile)
 fi
 # the 15 slowest tests are listed at the end: the suite is kept under ten minutes

@@ -73,7 +73,7 @@ _ROS_NAMES = ("rclpy", "Rig", "NodeProcess", "TopicClient")
 
 
 #: the modules that take longest (a minute or more of a worker's time): collected first, so that the
-#: two workers (a file each at a time, ``--dist loadfile``) do not end with one of them alone on one
+#: workers (a file each at a time, ``--dist loadfile``) do not end with one of them alone on one
 LONG_FIRST = ("test_setup_tool_safety", "test_setup_tool_restore", "test_setup_tool_reach", "test_commands_topics",
               "test_docs_run", "test_setup_tool", "test_loop_report", "test_parity", "test_setup_tool_protocol1",
               "test_watchdog_pacing", "test_floods", "test_load", "test_servo_block_checks", "test_setup_tool_node",
