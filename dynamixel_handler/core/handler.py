@@ -106,7 +106,7 @@ class Handler:
     # ---------------------------------------------------------------- life on the bus
     def start(self) -> None:
         """Scan, keep the servos of the used series, and set each up as the parameters say."""
-        self.recovery.had_device = self.bus.is_open
+        self.recovery.watch_device()
         self.startup.start()
 
     def shutdown(self) -> None:

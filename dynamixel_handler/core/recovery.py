@@ -41,7 +41,7 @@ class Recovery:
         self.limited = LogLimits(lambda level, msg: self.log.log(level, msg))
         #: the ping false / answers again lines, at most one a second per servo
         self.ping_log = PingLog(lambda level, msg: self.log.log(level, msg))
-        self.had_device = False  # the device was open at start-up: its loss is watched for
+        self.had_device = False  # the device was open at start-up (watch_device): its loss is watched for
         self.reconnects = 0
         self.device_lost = False
         self.device_lost_since: float | None = None  # time.time() when the device was found gone
@@ -57,6 +57,10 @@ class Recovery:
         #: servos that answer again: whether they booted meanwhile looked at before the next step
         #: (ID -> the times it may still be asked)
         self._back: dict[int, int] = {}
+
+    def watch_device(self) -> None:
+        """At start-up: the device is open now, so its loss is watched for from here on."""
+        self.had_device = self.bus.is_open
 
     def reconnect(self, report: StepReport) -> None:
         """The device vanished: servos on it read ping false; try to reopen it once a second. Nothing

@@ -17,7 +17,7 @@ from support.parts import build, lines_of
 
 def gone_and_back(bus: FakeBus, parts, while_gone=lambda: None) -> None:
     """The device vanishes for a while (``while_gone`` happens to the servos meanwhile) and comes back."""
-    parts.recovery.had_device = True
+    parts.recovery.watch_device()  # the device open at start-up
     bus.is_open, bus.can_reopen = False, False
     parts.recovery.reconnect(StepReport(loop=0))
     while_gone()

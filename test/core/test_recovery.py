@@ -96,7 +96,7 @@ def test_a_reboot_waits_for_the_servo_restores_its_profiles_and_a_second_one_too
 
 def test_a_vanished_device_marks_every_servo_silent_without_counting_and_sets_them_up_once_back():
     bus, table, part, lines, removed, set_up = recovery({1: XM430, 2: XM430}, remove_after=1)
-    part.had_device = True
+    part.watch_device()  # the device open at start-up
     bus.is_open, bus.can_reopen = False, False
     assert part.device_gone
     report = StepReport(loop=0)
