@@ -27,6 +27,7 @@ import serial
 from dynamixel_handler import units
 from dynamixel_handler.bus.errors import BusError
 from dynamixel_handler.control_table import Model
+from dynamixel_handler.dummy import InProcessLine
 from dynamixel_handler.protocol import protocol1 as p1
 from dynamixel_handler.protocol import servo as p2
 from dynamixel_handler.sim.firmware import firmware_of
@@ -123,15 +124,16 @@ class MemoryServo:
         pass
 
 
-class MemoryLine:
-    """A ``bus.line.Line`` of ``MemoryServo`` s that answer at once: no wire time, no waiting."""
+class MemoryLine(InProcessLine):
+    """A ``bus.line.Line`` of ``MemoryServo`` s that answer at once: no wire time, no waiting (the
+    input kept, read and dropped as ``dummy.InProcessLine`` does)."""
 
     tx_ms_per_byte = 0.0
 
     def __init__(self, models: Mapping[int, Model], baudrate: int = 57600, latency_ms: float = 1.0,
                  device: str = "fake") -> None:
+        super().__init__((), baudrate)
         self.device = device
-        self.baudrate = baudrate
         #: the latency the bus computes its waits with (nothing waits: every reply is in at once)
         self.effective_latency_ms = latency_ms
         self.lost = False
@@ -152,8 +154,6 @@ class MemoryLine:
         self._protocols: list[tuple[bytes, Any, Any, Any, int]] = [
             (p2.HEADER, p2.PacketParser(), protocol2, _call2, p2.SYNC_WRITE),
             (p1.HEADER, Protocol1Parser(), protocol1, _call1, p1.SYNC_WRITE)]
-        self._open = False
-        self._input = bytearray()
 
     @property
     def is_open(self) -> bool:
@@ -164,20 +164,6 @@ class MemoryLine:
             raise BusError(f"{self.device} not found: the device is gone (the test's can_reopen)")
         self._open = True
         self.lost = False
-
-    def close(self) -> None:
-        self._open = False
-
-    def set_baudrate(self, baudrate: int) -> None:
-        self.baudrate = baudrate
-
-    def discard_input(self) -> int:
-        dropped = len(self._input)
-        self._input.clear()
-        return dropped
-
-    def waiting(self) -> int:
-        return len(self._input)
 
     def write(self, packet: bytes) -> None:
         """Note each whole packet in ``calls`` and let the servos execute it; a sync write with
@@ -190,12 +176,6 @@ class MemoryLine:
                 raise serial.SerialException("write failed: [Errno 5] Input/output error")
             for _delay, status in instructions.execute(instruction):
                 self._input += status
-
-    def read_until(self, deadline: float, expect: int = 0, due: float | None = None) -> bytes:
-        """What the servos answered (nothing more will come: b"" is the deadline reached)."""
-        data = bytes(self._input)
-        self._input.clear()
-        return data
 
 
 def _call2(packet: p2.Packet) -> tuple[Any, ...]:
