@@ -138,7 +138,7 @@ class RebootServosJob(Job):
         back on if it was on."""
         assert self._torque is not None
         h = book.h
-        done = h.core.reboot(dxl_id)
+        done = h.core.reboot(dxl_id, keep_turns=True)  # a multi-turn joint keeps its position
         error = "" if done else f"not rebooted: {done.failure}"
         torque = h.read_item(dxl_id, "torque_enable") if h.model(dxl_id).has("torque_enable") else 0
         if torque is None:

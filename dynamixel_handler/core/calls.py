@@ -17,6 +17,7 @@ from .reboots import Reboots
 from .request_types import DONE, Answer, Later, answer
 from .requests import Requests
 from .servo_io import ServoIO
+from .servo_setup import ServoSetup
 from .startup import Startup
 from .watchdog import Watchdog
 
@@ -25,9 +26,10 @@ class CoreCalls:
     """The core's typed surface for the command side (loop thread only)."""
 
     def __init__(self, table: ServoTable, io: ServoIO, work: Deferred, requests: Requests, reboots: Reboots,
-                 startup: Startup, watchdog: Watchdog, e_stop: EStop) -> None:
+                 startup: Startup, watchdog: Watchdog, e_stop: EStop, setup: ServoSetup) -> None:
         self._table, self._io, self._work, self._requests = table, io, work, requests
         self._reboots, self._startup, self._watchdog, self._e_stop = reboots, startup, watchdog, e_stop
+        self._setup = setup
 
     # ---------------------------------------------------------------- what moves a servo (gated)
     def set_goals(self, writes: Mapping[str, Mapping[int, int]], what: str = "goals") -> Answer:
@@ -87,9 +89,15 @@ class CoreCalls:
         item), each spared and coalesced as ``write_eeprom``'s (``Deferred.write_eeprom_many``)."""
         return answer(self._work.write_eeprom_many(dxl_id, values))
 
-    def reboot(self, dxl_id: int) -> Answer:
-        """A reboot, at most once per clear_error_interval_sec per servo."""
-        return answer(self._reboots.reboot(dxl_id))
+    def reboot(self, dxl_id: int, keep_turns: bool = False) -> Answer:
+        """A reboot, at most once per clear_error_interval_sec per servo. ``keep_turns``: a servo in a
+        multi-turn mode gets the whole turns the boot took back through its Homing Offset, as after
+        a power loss (``ServoSetup.give_back_turns``: not where its servos block sets the offset)."""
+        before = self._io.read_item(dxl_id, "present_position") if keep_turns else None
+        done = self._reboots.reboot(dxl_id)
+        if done and before is not None:
+            self._setup.give_back_turns(dxl_id, before)
+        return answer(done)
 
     def add_servo(self, dxl_id: int) -> Answer:
         """Ping the ID and handle it if it answers with a model of a used series."""

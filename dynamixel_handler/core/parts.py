@@ -150,7 +150,7 @@ def build_parts(bus: ServoBus, settings: Settings, log: Log, interrupted: Callab
     steps = Step(bus, table, log, Stepped(intake, startup, work, pacing, writes, reads, recovery, watchdog, e_stop,
                                           leds), s.step)
     ending = Shutdown(bus, table, log, io, group, s.term)
-    core = CoreCalls(table, io, work, requests, reboots, startup, watchdog, e_stop)
+    core = CoreCalls(table, io, work, requests, reboots, startup, watchdog, e_stop, setup)
     parts = Parts(bus, table, pending, io, group, pacing, reads, writes, watchdog, work, intake, recovery, startup,
                   requests, steps, ending, e_stop, leds, core, setup, reboots)
     # a servo removed (a remove_id request, silent too long, the lifecycle's cleanup): each part

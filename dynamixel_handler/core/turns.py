@@ -13,7 +13,7 @@ left alone, as is one whose ``servos`` block sets the Homing Offset (the block w
 from __future__ import annotations
 
 from ..control_table import Model
-from .deferred import Deferred
+from .deferred import EEPROM_WRITE_INTERVAL_S, Deferred
 from .servo_io import ServoIO
 
 __all__ = ["lost_turns", "give_back_turns"]
@@ -59,6 +59,10 @@ def give_back_turns(io: ServoIO, eeprom: Deferred, dxl_id: int, before: int, boo
     written = eeprom.write_eeprom(dxl_id, "homing_offset", new)
     if not written:
         return f"ID {dxl_id}: {turns:+d} turns lost at boot not given back: Homing Offset not written ({written.why})"
+    if _read(io, dxl_id, "homing_offset") != new:  # held back: the last write of it is too recent (EEPROM wear)
+        return (f"ID {dxl_id}: {turns:+d} whole turns lost at boot: its Homing Offset {offset} -> {new} is written "
+                f"once its last write is {EEPROM_WRITE_INTERVAL_S:g} s old (EEPROM wear); until then its position "
+                f"reads {after}, then as before ({before})")
     now = io.read_item(dxl_id, "present_position")
     return (f"ID {dxl_id}: {turns:+d} whole turns lost at boot given back through its Homing Offset "
             f"({offset} -> {new}): position {after} -> {now}, as before ({before})")

@@ -57,9 +57,9 @@ def test_a_servo_whose_error_is_gone_is_named_with_its_torque():
 class Booting(FakeAccess):
     """A stand-in whose reboot turns torque off, as a servo's does, and whose torque on turns it on."""
 
-    def reboot(self, dxl_id):
+    def reboot(self, dxl_id, keep_turns=False):
         self.table.set_value("torque_enable", dxl_id, 0)
-        return super().reboot(dxl_id)
+        return super().reboot(dxl_id, keep_turns)
 
     def torque_on(self, dxl_id, what=""):
         self.table.set_value("torque_enable", dxl_id, 1)
@@ -84,10 +84,11 @@ def test_named_servos_are_rebooted_one_a_step_healthy_ones_too_torque_back_as_it
     book.on_step()  # the checks
     assert not [c for c in access.calls if c[0] == "reboot"]
     book.on_step()
-    assert [c for c in access.calls if c[0] == "reboot"] == [("reboot", 2)]
+    assert [c for c in access.calls if c[0] == "reboot"] == [("reboot", 2, "keep_turns")]
     book.on_step()
     assert job.outcome == DONE, job.message
-    assert [c for c in access.calls if c[0] in ("reboot", "torque_on")] == [("reboot", 2), ("reboot", 1), ("torque_on", 1)]
+    assert [c for c in access.calls if c[0] in ("reboot", "torque_on")] == [("reboot", 2, "keep_turns"), ("reboot", 1, "keep_turns"),
+                                                                                 ("torque_on", 1)]
     assert job.results == [Rebooted(2, True, False), Rebooted(1, True, True)]
     assert job.message == "ID 2 (XM430-W350): rebooted, torque off; ID 1 (XM430-W350): rebooted, torque on"
     assert access.table.value("torque_enable", 3) == 1  # not named: untouched

@@ -69,3 +69,13 @@ def test_a_servo_that_does_not_answer_is_said_and_nothing_is_written():
     line = give_back_turns(io, eeprom, 1, 3 * 4096 + 100, booted=False)
     assert line == "ID 1: whole turns lost at boot not looked for: its position or Homing Offset did not answer"
     assert homing_writes(bus) == []
+
+
+def test_a_give_back_held_back_by_a_recent_write_of_the_offset_says_so_and_waits_to_be_written():
+    bus, io, eeprom = parts(present_position=100, homing_offset=0, torque_enable=0)
+    assert eeprom.write_eeprom(1, "homing_offset", 4096)  # an earlier give-back, a moment ago
+    bus.set(1, "present_position", 4096 + 100)
+    line = give_back_turns(io, eeprom, 1, 3 * 4096 + 100)  # booted again at once: 2 turns lost
+    assert "+2 whole turns lost at boot: its Homing Offset 4096 -> 12288 is written once its last write" in line
+    assert "given back" not in line and homing_writes(bus) == [("write", "homing_offset", (1, 4096))]
+    assert eeprom.waiting  # the new offset waits for its time (run_deferred writes it)

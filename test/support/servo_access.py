@@ -110,8 +110,8 @@ class FakeAccess:
     def write_eeprom_many(self, dxl_id: int, values: dict[str, int]) -> Answer:
         return self._did("write_eeprom_many", dxl_id, dict(values))
 
-    def reboot(self, dxl_id: int) -> Answer:
-        return self._did("reboot", dxl_id)
+    def reboot(self, dxl_id: int, keep_turns: bool = False) -> Answer:
+        return self._did("reboot", dxl_id, *(("keep_turns",) if keep_turns else ()))
 
     def add_servo(self, dxl_id: int) -> Answer:
         return self._did("add_servo", dxl_id)
