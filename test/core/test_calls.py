@@ -87,3 +87,24 @@ def test_the_e_stop_gate_refuses_only_what_would_move_a_servo():
     assert core.set_goals({"profile_velocity": {1: 10}}).outcome is Outcome.DONE
     assert core.set_goals({"goal_position": {1: 10}, "profile_velocity": {1: 10}}).outcome is Outcome.REFUSED
     assert "E-stop engaged (test): torque on refused" in lines
+
+
+def test_a_reboot_that_keeps_turns_gives_a_multi_turn_servo_its_turns_back():
+    bus, parts, core, lines = started("reboot_turns", loop__clear_error_interval_s=0.0)
+    assert parts.io.write_item(1, "operating_mode", 4)  # extended position
+    bus.set(1, "present_position", 3 * 4096 + 100)
+    servo = bus.memory_line.servos[1]
+    booted = servo.reboot
+
+    def boot(now=None):  # as the firmware does: the count starts again within one turn of the offset
+        booted(now)
+        bus.set(1, "present_position", 100)
+        bus.set(1, "torque_enable", 0)
+    servo.reboot = boot
+    assert core.reboot(1, keep_turns=True)
+    assert bus.get(1, "homing_offset") == 3 * 4096
+    assert any("ID 1: +3 whole turns lost at boot given back through its Homing Offset" in line for line in lines)
+    bus.set(1, "present_position", 100)  # a reboot that does not keep them: nothing read before, nothing written
+    bus.calls.clear()
+    assert core.reboot(1) and bus.get(1, "homing_offset") == 3 * 4096
+    assert [c for c in bus.calls if c[0] == "write" and c[2] == 20] == []  # Homing Offset (address 20) untouched
