@@ -175,6 +175,23 @@ def test_stale_reply_and_noise_never_become_the_answer(peer):
     bus.close()
 
 
+def test_a_late_reply_to_one_read_is_never_taken_for_the_next_read_of_the_same_servo(peer):
+    """A status names no address: a reply to a read of PWM Limit (2 bytes) that comes after its
+    timeout would pass for the reply to the next read of Current Limit (2 bytes) from the same
+    servo. The bus waits such a reply out before it asks that servo something else."""
+    def answer(packet):
+        address = packet[8] | (packet[9] << 8)
+        if address == 36:
+            return [0.05, status(1, (885).to_bytes(2, "little"))]  # after the bus gave up on it
+        return [status(1, (1193).to_bytes(2, "little"))]
+    far = peer(answer)
+    bus = open_bus(far.path, latency_timer_ms=16.0, retry_num=0)
+    first = bus.execute(Read(1, 36, 2, protocol=2))
+    assert first.value is None and first.failure is Failure.NO_REPLY and bus.timing.last_timeout_ms < 50
+    assert bus.execute(Read(1, 38, 2, protocol=2)).value == (1193).to_bytes(2, "little")
+    bus.close()
+
+
 def test_bytes_left_from_before_are_flushed_before_sending(peer):
     position = (77).to_bytes(4, "little")
     far = peer(lambda packet: [status(1, position)] if packet[7] == 0x02 else [])

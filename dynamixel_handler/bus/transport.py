@@ -93,6 +93,11 @@ class Transport:
         self.lock = threading.RLock()
         self._ever_opened = False
         self._inflight: GroupRead | None = None  # a sync read sent but not yet gathered
+        #: a servo whose reply did not come in time: ``(ID, time.monotonic() until which it may still
+        #: come, the packet)``. A status names no address, so a late reply to a read of one item would
+        #: be taken for the next read of another of the same size from that servo (``_exchange``
+        #: waits it out before another packet to it; the same packet again may take it as its answer)
+        self._late: tuple[int, float, bytes] | None = None
 
     def log(self, level: str, message: str) -> None:
         method = getattr(self._logger, level, None) or getattr(self._logger, "info")
@@ -141,6 +146,7 @@ class Transport:
         packet = framer.instruction(dxl_id, instruction, params)
         attempts = 1 + (self.retry_num if retries is None else max(0, retries))
         status = None
+        missed = False  # a reply that did not come in time may still come: waited out before another packet
         for attempt in range(attempts):
             if attempt:
                 self.pause_before_retry()
@@ -148,6 +154,9 @@ class Transport:
             if replies is None:
                 return None
             status = replies.get(dxl_id)
+            missed = missed or (status is None and dxl_id != framer.broadcast_id)
+            if missed:
+                self._late = (dxl_id, time.monotonic() + self.rx.last_timeout_ms / 1000.0, packet)
             if status is not None and not framer.corrupted(status.error):
                 return status
         return status
@@ -201,9 +210,24 @@ class Transport:
     def _exchange(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
                   *, framer: Framer) -> dict[int, Any] | None:
         """Send ``packet`` and gather the expected replies; None if the port is unusable."""
+        self._wait_out_late(expected, packet)
         if not self.send(packet):
             return None
         return self.rx.gather(expected, len(packet), fast, framer=framer)
+
+    def _wait_out_late(self, expected: list[tuple[int, int]], packet: bytes) -> None:
+        """Before another packet to a servo whose last reply did not come in time, wait until it
+        would have come (one timeout more) so that ``send`` drops it, rather than take it for this
+        packet's answer. The same packet again (a retry) takes it as its own answer: no wait."""
+        late = self._late
+        if late is None:
+            return
+        left = late[1] - time.monotonic()
+        if left <= 0:
+            self._late = None
+        elif packet != late[2] and any(dxl_id == late[0] for dxl_id, _ in expected):
+            self._late = None
+            time.sleep(left)
 
     # ------------------------------------------------------------ the group read on the wire
     def start_group_read(self, packet: bytes, expected: list[tuple[int, int]], fast: bool,
